@@ -1,0 +1,175 @@
+"""The library face: load a scene, render its frames, write them. The CLI and bench call this."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from .camera import camera_from_config
+from .config.load import load_config
+from .config.scene import SceneConfig
+from .errors import Problem, Problems
+from .frame import Frame
+from .output.exr import write_exr
+from .output.log import append_jsonl
+from .output.png import write_png
+from .provenance import cpu_name, versions
+from .scene.build import build_scene
+from .techniques.registry import TECHNIQUES
+
+
+@dataclass
+class RenderResult:
+    folder: str
+    written: list[str] = field(default_factory=list)
+    skipped: list[int] = field(default_factory=list)
+    compile_seconds: float = 0.0
+
+
+def parse_frames(spec: str | None, count: int) -> range:
+    """`None` -> all frames; `N` -> frame N; `A:B` -> frames A..B-1 (either end may be empty)."""
+    if spec is None:
+        return range(count)
+    try:
+        if ":" in spec:
+            a, b = spec.split(":", 1)
+            r = range(int(a) if a else 0, min(int(b), count) if b else count)
+        else:
+            r = range(int(spec), int(spec) + 1)
+    except ValueError:
+        raise Problems([Problem("--frames", "", f"expected N or A:B, got '{spec}'")]) from None
+    if len(r) == 0 or r.start < 0 or r.stop > count:
+        raise Problems([Problem("--frames", "", f"'{spec}' selects no frame of 0..{count - 1}")])
+    return r
+
+
+def prepare_output(folder: str, source: str, field: str) -> None:
+    """Create the frame folder and prove it writable before any rendering starts."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+        probe = os.path.join(folder, f".write-test-{os.getpid()}")
+        with open(probe, "w"):
+            pass
+        os.unlink(probe)
+    except OSError as e:
+        raise Problems([Problem(source, field, f"cannot write to '{folder}': {e.strerror}")]) from None
+
+
+def frame_channels(frame: Frame) -> dict:
+    channels = {
+        "R": frame.rgb[:, :, 0], "G": frame.rgb[:, :, 1], "B": frame.rgb[:, :, 2],
+        "A": frame.alpha, "Z": frame.depth, "mirror": frame.mirror_mask.astype("float32"),
+    }
+    channels.update(frame.extra)
+    return channels
+
+
+_warmed: dict[tuple, float] = {}
+
+
+def warm_up(technique_name: str, params_json: str, threads: int) -> float:
+    """Compile (or load from cache) the technique's numba kernels on a tiny scene; seconds."""
+    key = (technique_name, params_json)
+    if key in _warmed:
+        return 0.0
+    from .warmup import warm_scene
+
+    start = time.perf_counter()
+    scene, camera = warm_scene()
+    cls = TECHNIQUES[technique_name]
+    technique = cls(cls.Params.model_validate_json(params_json), threads)
+    technique.render(technique.prepare(scene), 0, camera)
+    _warmed[key] = time.perf_counter() - start
+    return _warmed[key]
+
+
+def render(
+    path: str,
+    *,
+    out: str | None = None,
+    frames: str | None = None,
+    technique: str | None = None,
+    overrides: tuple[str, ...] | list[str] = (),
+    preview: bool | None = None,
+    threads: int | None = None,
+    resume: bool = False,
+    on_frame: Callable[[int, str], None] | None = None,
+    config: SceneConfig | None = None,
+) -> RenderResult:
+    """Render the selected frames of a scene file into out/<scene>/<technique>/.
+
+    Raises Problems for bad input before anything is written.
+    """
+    import numba
+
+    display = os.path.relpath(path) if not os.path.relpath(path).startswith("..") else path
+    if config is None:
+        config, _ = load_config(path, overrides, technique)
+    selected = parse_frames(frames, config.camera.frame_count)
+    name = config.technique.name
+    folder = os.path.join(out if out is not None else config.output.dir, config.scene.name, name)
+    prepare_output(folder, "--out" if out is not None else display,
+                   "" if out is not None else "output.dir")
+    scene = build_scene(config, path)
+    if threads is not None:
+        if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
+            raise Problems([Problem("--threads", "",
+                                    f"must be 1..{numba.config.NUMBA_NUM_THREADS}")])
+        numba.set_num_threads(threads)
+    threads = numba.get_num_threads()
+    params = config.technique
+    params_json = params.model_dump_json()
+    result = RenderResult(folder)
+    result.compile_seconds = warm_up(name, params_json, threads)
+    cls = TECHNIQUES[name]
+    tech = cls(params, threads)
+    t0 = time.perf_counter()
+    state = tech.prepare(scene)
+    prepare_seconds = time.perf_counter() - t0
+    preview = config.output.preview if preview is None else preview
+    attributes = {
+        "reflect:technique": name,
+        "reflect:parameters": params_json,
+        "reflect:scene": config.scene.name,
+        "reflect:scene_hash": scene.scene_hash,
+        "reflect:version": versions()["reflect"],
+    }
+    log_path = os.path.join(folder, config.output.log)
+    for index in selected:
+        exr = os.path.join(folder, f"frame_{index:04d}.exr")
+        if resume and os.path.exists(exr):
+            result.skipped.append(index)
+            continue
+        camera = camera_from_config(config.camera, index)
+        start = time.perf_counter()
+        frame = tech.render(state, index, camera)
+        render_seconds = time.perf_counter() - start
+        t1 = time.perf_counter()
+        write_exr(exr, frame_channels(frame), {**attributes, "reflect:frame": str(index)})
+        if preview:
+            write_png(exr[:-4] + ".png", frame.rgb)
+        write_seconds = time.perf_counter() - t1
+        append_jsonl(log_path, {
+            "scene": config.scene.name,
+            "technique": name,
+            "parameters": json.loads(params_json),
+            "frame": index,
+            "file": os.path.basename(exr),
+            "frame_seconds": render_seconds,
+            "write_seconds": write_seconds,
+            "prepare_seconds": prepare_seconds,
+            "numba_compile_seconds": result.compile_seconds,
+            "stages": frame.timings,
+            **{k: v for k, v in frame.stats.items()},
+            "threads": threads,
+            "cpu": cpu_name(),
+            "versions": versions(),
+            "scene_hash": scene.scene_hash,
+        })
+        result.written.append(exr)
+        if on_frame is not None:
+            on_frame(index, exr)
+    return result

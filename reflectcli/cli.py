@@ -1,0 +1,131 @@
+"""Command line: parse arguments, call the api, print, set exit codes. Nothing else."""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import click
+
+from . import __version__
+from .errors import Problems
+
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+
+def _fail(problems: Problems, stream=None) -> None:
+    for p in problems.problems:
+        click.echo(str(p), err=stream is None)
+    sys.exit(EXIT_BAD_INPUT)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="reflect")
+def cli() -> None:
+    """Render mirror reflections with several techniques and compare them."""
+
+
+@cli.command()
+@click.argument("scene", type=click.Path(dir_okay=False))
+@click.option("--out", "out", type=click.Path(file_okay=False), help="output root (default: output.dir)")
+@click.option("--frames", help="frame N, or frames A:B (B excluded)")
+@click.option("--technique", help="render with this technique instead of the scene's")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+              help="override any config field, e.g. technique.max_depth=2 (repeatable)")
+@click.option("--preview/--no-preview", default=None, help="also write an sRGB PNG per frame")
+@click.option("--threads", type=int, help="worker threads (default: all cores)")
+@click.option("--resume", is_flag=True, help="skip frames whose EXR already exists")
+def render(scene, out, frames, technique, overrides, preview, threads, resume) -> None:
+    """Render SCENE (a TOML file) to out/<scene>/<technique>/frame_NNNN.exr."""
+    from . import api
+
+    progress = None
+    done: list[str] = []
+    try:
+        if technique is not None:
+            from .techniques.registry import TECHNIQUES
+
+            if technique not in TECHNIQUES:
+                raise Problems([_unknown_technique(technique, TECHNIQUES)])
+        config, _ = _load(scene, overrides, technique)
+        count = len(api.parse_frames(frames, config.camera.frame_count))
+        if sys.stderr.isatty() and count > 1:
+            progress = click.progressbar(length=count, label="frames", file=sys.stderr)
+            progress.__enter__()
+
+        def on_frame(index: int, path: str) -> None:
+            done.append(path)
+            if progress is not None:
+                progress.update(1)
+
+        result = api.render(scene, out=out, frames=frames, technique=technique,
+                            overrides=overrides, preview=preview, threads=threads,
+                            resume=resume, on_frame=on_frame, config=config)
+    except Problems as e:
+        _fail(e)
+    except KeyboardInterrupt:
+        if progress is not None:
+            progress.__exit__(None, None, None)
+        click.echo(f"\ninterrupted: {len(done)} completed frame(s) kept", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except OSError as e:
+        click.echo(f"error: {e}", err=True)
+        sys.exit(1)
+    if progress is not None:
+        progress.__exit__(None, None, None)
+    skipped = f", {len(result.skipped)} skipped (--resume)" if result.skipped else ""
+    click.echo(f"wrote {len(result.written)} frame(s) to {result.folder}{skipped}")
+
+
+def _unknown_technique(name, techniques):
+    from .errors import Problem
+
+    return Problem("--technique", "", f"unknown technique '{name}' "
+                   f"(known: {', '.join(sorted(techniques))})")
+
+
+def _load(path, overrides=(), technique=None):
+    from .config.load import load_config
+
+    return load_config(path, overrides, technique)
+
+
+@cli.command()
+@click.argument("file", type=click.Path(dir_okay=False))
+def validate(file) -> None:
+    """Check a scene or config FILE; print `ok` or one line per problem."""
+    from .validate import validate_file
+
+    try:
+        validate_file(file)
+    except Problems as e:
+        _fail(e, stream=sys.stdout)
+    click.echo("ok")
+
+
+@cli.command()
+def techniques() -> None:
+    """List the techniques with their parameters and defaults."""
+    from .techniques.base import parameter_table
+    from .techniques.registry import TECHNIQUES
+
+    for name, cls in TECHNIQUES.items():
+        summary = (sys.modules[cls.__module__].__doc__ or "").strip().splitlines()[0]
+        click.echo(f"{name}: {summary}")
+        rows = parameter_table(cls.Params)
+        if not rows:
+            click.echo("    (no parameters)")
+        for pname, ptype, default, desc in rows:
+            click.echo(f"    {pname:<14} {ptype:<10} default {default:<8} {desc}")
+        click.echo("")
+
+
+def main() -> None:
+    # keep numba's threads to the cores we have unless the user says otherwise
+    os.environ.setdefault("NUMBA_THREADING_LAYER", "omp")
+    cli(prog_name="reflect")
+
+
+if __name__ == "__main__":
+    main()

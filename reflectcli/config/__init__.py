@@ -1,0 +1,1 @@
+"""Scene configuration: pydantic models and TOML loading."""

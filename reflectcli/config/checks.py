@@ -1,0 +1,93 @@
+"""Checks a schema cannot express: references, files, degenerate mirrors, cameras on mirrors."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..errors import Problem
+from .scene import SceneConfig
+
+
+def _resolve(source: str, path: str) -> str:
+    return os.path.join(os.path.dirname(os.path.abspath(source)), path)
+
+
+def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -> list[Problem]:
+    from ..camera import camera_from_config
+    from ..scene.build import mirror_corners
+
+    problems: list[Problem] = []
+
+    def add(loc: tuple, message: str) -> None:
+        file = display
+        for n in range(len(loc), -1, -1):
+            if loc[:n] in prov:
+                file = prov[loc[:n]]
+                break
+        problems.append(Problem(file, ".".join(str(p) for p in loc), message))
+
+    names: dict[str, str] = {}
+    for section, items in (("objects", cfg.objects), ("mirrors", cfg.mirrors)):
+        for i, item in enumerate(items):
+            if item.name in names:
+                add((section, i, "name"), f"'{item.name}' is already used by {names[item.name]}")
+            names[item.name] = f"{section}.{i}"
+    for i, obj in enumerate(cfg.objects):
+        if obj.material not in cfg.materials:
+            known = ", ".join(sorted(cfg.materials)) or "none defined"
+            add(("objects", i, "material"), f"unknown material '{obj.material}' (known: {known})")
+        if obj.shape == "mesh" and not os.path.isfile(_resolve(source, obj.path)):
+            add(("objects", i, "path"), f"file not found: {obj.path}")
+        if obj.shape in ("box", "room", "clutter") and not all(
+            a < b for a, b in zip(obj.min, obj.max, strict=True)
+        ):
+            add(("objects", i, "max"), "must exceed min on every axis")
+    for name, mat in cfg.materials.items():
+        if mat.kind == "texture" and not os.path.isfile(_resolve(source, mat.path)):
+            add(("materials", name, "path"), f"file not found: {mat.path}")
+    planes = []
+    for j, m in enumerate(cfg.mirrors):
+        if m.shape == "mesh" and not os.path.isfile(_resolve(source, m.path)):
+            add(("mirrors", j, "path"), f"file not found: {m.path}")
+        if m.shape == "cylinder" and np.linalg.norm(m.axis) == 0:
+            add(("mirrors", j, "axis"), "must not be zero")
+        if m.shape == "rectangle":
+            n, up = np.array(m.normal, float), np.array(m.up, float)
+            if np.linalg.norm(n) == 0:
+                add(("mirrors", j, "normal"), "must not be zero")
+                continue
+            if np.linalg.norm(np.cross(n, up)) <= 1e-9 * np.linalg.norm(n) * np.linalg.norm(up):
+                add(("mirrors", j, "up"), "must not be parallel to the normal")
+                continue
+        if not m.planar:
+            continue
+        c = mirror_corners(m)
+        n = np.cross(c[1] - c[0], c[3] - c[0])
+        n2 = np.cross(c[3] - c[2], c[1] - c[2])
+        scale = max(np.ptp(c, axis=0).max(), 1e-30)
+        field = "corners" if m.shape == "quad" else "size"
+        if np.linalg.norm(n) <= 1e-9 * scale**2 or np.linalg.norm(n2) <= 1e-9 * scale**2:
+            add(("mirrors", j, field), "mirror has zero area")
+            continue
+        unit = n / np.linalg.norm(n)
+        if abs(unit @ (c[2] - c[0])) > 1e-6 * scale:
+            add(("mirrors", j, field), "corners are not coplanar")
+            continue
+        planes.append((j, m.name, unit, float(-unit @ c[0]), scale))
+    eye, target, up = map(np.array, (cfg.camera.eye, cfg.camera.target, cfg.camera.up))
+    if np.linalg.norm(eye - target) == 0:
+        add(("camera", "target"), "must differ from camera.eye")
+    elif np.linalg.norm(np.cross(target - eye, up)) == 0:
+        add(("camera", "up"), "must not be parallel to the viewing direction")
+    elif planes:
+        field = ("camera", "path") if cfg.camera.path else ("camera", "eye")
+        for frame in range(cfg.camera.frame_count):
+            cam = camera_from_config(cfg.camera, frame)
+            hit = [p for p in planes if abs(p[2] @ cam.eye + p[3]) <= 1e-6 * max(1.0, p[4])]
+            if hit:
+                where = f" at frame {frame}" if cfg.camera.path else ""
+                add(field, f"eye lies on the plane of mirror '{hit[0][1]}'{where}")
+                break
+    return problems

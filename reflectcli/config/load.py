@@ -1,0 +1,239 @@
+"""TOML -> SceneConfig: includes, section files, --set overrides, and errors naming the file.
+
+A scene may `include = ["../configs/x.toml", ...]`: those files are merged first (in order),
+then the including file on top. A section may be a string naming a TOML file instead of a
+table (`camera = "cameras/walk.toml"`); that file holds the section either under its own
+name (`[camera]`, `[[mirrors]]`) or at its top level. Paths are relative to the file that
+writes them. Every value remembers the file it came from, so an error names that file.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import tomli
+from pydantic import ValidationError
+
+from ..errors import Problem, Problems
+from .scene import SceneConfig
+
+SECTION_FILES = ("camera", "mirrors", "technique", "materials", "lights", "objects", "output")
+
+Provenance = dict[tuple, str]
+
+
+def read_toml(path: str, field: str = "", referrer: str | None = None) -> dict:
+    try:
+        with open(path, "rb") as f:
+            return tomli.load(f)
+    except FileNotFoundError:
+        raise Problems([Problem(referrer or path, field, f"file not found: {path}")]) from None
+    except OSError as e:
+        raise Problems([Problem(referrer or path, field, f"cannot read {path}: {e.strerror}")]) from None
+    except tomli.TOMLDecodeError as e:
+        raise Problems([Problem(path, "", f"TOML syntax error: {e}")]) from None
+
+
+def _mark(data: Any, source: str, prefix: tuple, prov: Provenance) -> None:
+    prov[prefix] = source
+    if isinstance(data, dict):
+        for k, v in data.items():
+            _mark(v, source, (*prefix, k), prov)
+    elif isinstance(data, list):
+        for i, v in enumerate(data):
+            _mark(v, source, (*prefix, i), prov)
+
+
+def _merge(base: dict, top: dict) -> dict:
+    """Deep merge: tables merge key by key, anything else in `top` replaces `base`."""
+    out = dict(base)
+    for k, v in top.items():
+        out[k] = _merge(out[k], v) if isinstance(out.get(k), dict) and isinstance(v, dict) else v
+    return out
+
+
+def load_raw(path: str, prov: Provenance, stack: tuple = ()) -> dict:
+    """Read a config file with its includes and section files resolved."""
+    path = os.path.normpath(os.path.abspath(path))
+    display = os.path.relpath(path) if not os.path.relpath(path).startswith("..") else path
+    if path in stack:
+        raise Problems([Problem(display, "include", "include cycle")])
+    data = read_toml(path)
+    here = os.path.dirname(path)
+    merged: dict = {}
+    local: Provenance = {}
+    includes = data.pop("include", [])
+    if isinstance(includes, str):
+        includes = [includes]
+    if not isinstance(includes, list) or not all(isinstance(i, str) for i in includes):
+        raise Problems([Problem(display, "include", "must be a list of file paths")])
+    for inc in includes:
+        sub: Provenance = {}
+        inc_path = os.path.join(here, inc)
+        if not os.path.exists(inc_path):
+            raise Problems([Problem(display, "include", f"file not found: {inc}")])
+        included = load_raw(inc_path, sub, (*stack, path))
+        _rebase(included, os.path.dirname(os.path.abspath(inc_path)), here)
+        merged = _merge(merged, included)
+        local.update(sub)
+    for key in SECTION_FILES:
+        if isinstance(data.get(key), str):
+            ref = os.path.join(here, data[key])
+            section = read_toml(ref, key, display)
+            data[key] = section.get(key, section) if isinstance(section, dict) else section
+            ref_display = os.path.relpath(os.path.normpath(ref))
+            _mark(data[key], ref_display, (key,), local)
+            _rebase({key: data[key]}, os.path.dirname(os.path.abspath(ref)), here)
+    for k, v in data.items():
+        if not (k in SECTION_FILES and (k,) in local and local[(k,)] != display):
+            _mark(v, display, (k,), local)
+    merged = _merge(merged, data)
+    prov.update(local)
+    return merged
+
+
+def _rebase(data: dict, from_dir: str, to_dir: str) -> None:
+    """File paths in objects, mirrors and materials are relative to the file that wrote them;
+    rewrite those read from another directory relative to the including file."""
+    if os.path.samefile(from_dir, to_dir):
+        return
+    items = []
+    for key in ("objects", "mirrors"):
+        if isinstance(data.get(key), list):
+            items += data[key]
+    if isinstance(data.get("materials"), dict):
+        items += list(data["materials"].values())
+    for item in items:
+        if isinstance(item, dict) and isinstance(item.get("path"), str):
+            item["path"] = os.path.relpath(os.path.join(from_dir, item["path"]), to_dir)
+
+
+def parse_value(text: str) -> Any:
+    """A --set value as TOML (numbers, booleans, arrays, quoted strings), else a bare string."""
+    try:
+        return tomli.loads(f"v = {text}")["v"]
+    except tomli.TOMLDecodeError:
+        return text
+
+
+def apply_override(data: dict, assignment: str, prov: Provenance) -> None:
+    """`a.b.c=value`: list items are addressed by index or by their `name`."""
+    if "=" not in assignment:
+        raise Problems([Problem("--set", assignment, "expected key=value")])
+    key, text = assignment.split("=", 1)
+    parts = key.strip().split(".")
+    node: Any = data
+    path: list = []
+    for i, part in enumerate(parts):
+        last = i == len(parts) - 1
+        if isinstance(node, list):
+            idx = _list_index(node, part)
+            if idx is None:
+                raise Problems([Problem("--set", key, f"no list item '{part}'")])
+            part = idx
+        elif not isinstance(node, dict):
+            raise Problems([Problem("--set", key, "not a table")])
+        path.append(part)
+        if last:
+            node[part] = parse_value(text.strip())
+            _mark(node[part], "--set", tuple(path), prov)
+        else:
+            if isinstance(node, dict) and part not in node:
+                node[part] = {}
+            node = node[part]
+
+
+def _list_index(items: list, part: str) -> int | None:
+    if part.lstrip("-").isdigit():
+        i = int(part)
+        return i if -len(items) <= i < len(items) else None
+    for i, item in enumerate(items):
+        if isinstance(item, dict) and item.get("name") == part:
+            return i
+    return None
+
+
+_TAG_KEYS = ("shape", "kind", "name")
+
+
+def field_path(loc: tuple, data: Any) -> tuple:
+    """Drop the discriminator tags pydantic puts into locations of tagged-union errors."""
+    out: list = []
+    node = data
+    for part in loc:
+        if isinstance(node, dict) and part not in node and any(
+            node.get(k) == part for k in _TAG_KEYS
+        ):
+            continue
+        if isinstance(part, str) and part.startswith("function-"):
+            continue
+        out.append(part)
+        if isinstance(node, dict):
+            node = node.get(part)
+        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+            node = node[part]
+        else:
+            node = None
+    return tuple(out)
+
+
+def _message(err: dict) -> str:
+    ctx = err.get("ctx") or {}
+    kind = err["type"]
+    simple = {
+        "greater_than": "must be > {gt}",
+        "greater_than_equal": "must be >= {ge}",
+        "less_than": "must be < {lt}",
+        "less_than_equal": "must be <= {le}",
+    }
+    if kind in simple:
+        return simple[kind].format(**ctx)
+    if kind == "extra_forbidden":
+        return "unknown key"
+    if kind == "missing":
+        return "required"
+    msg = err["msg"]
+    return msg[len("Value error, "):] if msg.startswith("Value error, ") else msg
+
+
+def origin(prov: Provenance, loc: tuple, default: str) -> str:
+    for n in range(len(loc), -1, -1):
+        if loc[:n] in prov:
+            return prov[loc[:n]]
+    return default
+
+
+def validation_problems(e: ValidationError, data: dict, prov: Provenance, default: str):
+    problems = []
+    for err in e.errors():
+        loc = field_path(tuple(err["loc"]), data)
+        field = ".".join(str(p) for p in loc)
+        problems.append(Problem(origin(prov, loc, default), field, _message(err)))
+    return problems
+
+
+def load_config(
+    path: str, overrides: list[str] | tuple = (), technique: str | None = None
+) -> tuple[SceneConfig, Provenance]:
+    """Read, merge, override and validate a scene file. Raises Problems."""
+    prov: Provenance = {}
+    display = os.path.relpath(path) if not os.path.relpath(path).startswith("..") else path
+    data = load_raw(path, prov)
+    if technique is not None:
+        current = data.get("technique")
+        if not (isinstance(current, dict) and current.get("name") == technique):
+            data["technique"] = {"name": technique}
+            _mark(data["technique"], "--technique", ("technique",), prov)
+    for assignment in overrides:
+        apply_override(data, assignment, prov)
+    try:
+        cfg = SceneConfig.model_validate(data)
+    except ValidationError as e:
+        raise Problems(validation_problems(e, data, prov, display)) from None
+    from .checks import semantic_problems
+
+    problems = semantic_problems(cfg, path, prov, display)
+    if problems:
+        raise Problems(problems)
+    return cfg, prov

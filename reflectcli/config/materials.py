@@ -1,0 +1,36 @@
+"""Materials: solid color, checker in UV space, image texture (sRGB decoded on load)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field
+
+from .base import Color, Strict
+
+
+class SolidMaterial(Strict):
+    kind: Literal["solid"] = "solid"
+    color: Color = (0.8, 0.8, 0.8)
+
+
+class CheckerMaterial(Strict):
+    """Square (floor(u*su), floor(v*sv)); color0 where i+j is even."""
+
+    kind: Literal["checker"]
+    color0: Color = (0.0, 0.0, 0.0)
+    color1: Color = (1.0, 1.0, 1.0)
+    scale: tuple[Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]] = (8.0, 8.0)
+
+
+class TextureMaterial(Strict):
+    """An image read with OpenImageIO, relative to the scene file; repeats outside [0, 1]."""
+
+    kind: Literal["texture"]
+    path: str
+    srgb: bool = Field(default=True, description="decode sRGB to linear on load")
+    filter: Literal["nearest", "bilinear"] = "bilinear"
+    scale: tuple[Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]] = (1.0, 1.0)
+
+
+Material = Annotated[SolidMaterial | CheckerMaterial | TextureMaterial, Field(discriminator="kind")]

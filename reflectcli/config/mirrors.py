@@ -1,0 +1,85 @@
+"""Mirrors: planar (quad, rectangle) and curved (sphere, cylinder, mesh)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field
+
+from .base import Color, PositiveInt, Strict, UnitFloat, Vec3
+from .objects import Transform
+
+
+class _Mirror(Strict):
+    """final = (1 - r) * base + r * reflected, per channel."""
+
+    name: str
+    reflectance: UnitFloat | tuple[UnitFloat, UnitFloat, UnitFloat] = 1.0
+    base: Color = (0.0, 0.0, 0.0)
+
+    @property
+    def reflectance_rgb(self) -> tuple[float, float, float]:
+        r = self.reflectance
+        return (r, r, r) if isinstance(r, float | int) else tuple(r)
+
+    @property
+    def planar(self) -> bool:
+        return False
+
+
+class QuadMirror(_Mirror):
+    shape: Literal["quad"]
+    corners: tuple[Vec3, Vec3, Vec3, Vec3]
+
+    @property
+    def planar(self) -> bool:
+        return True
+
+
+class RectangleMirror(_Mirror):
+    """Centered at `center`, facing `normal`, `size` = (width along up x normal, height along up)."""
+
+    shape: Literal["rectangle"]
+    center: Vec3
+    normal: Vec3
+    up: Vec3 = (0.0, 1.0, 0.0)
+    size: tuple[Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]]
+
+    @property
+    def planar(self) -> bool:
+        return True
+
+
+class SphereMirror(_Mirror):
+    """Exact in the ray tracer; `segments` tessellates it for rasterizing techniques."""
+
+    shape: Literal["sphere"]
+    center: Vec3
+    radius: float = Field(gt=0)
+    segments: PositiveInt = 64
+
+
+class CylinderMirror(_Mirror):
+    """An open tube from `origin` along `axis` (normalised) for `height`; exact in the ray tracer."""
+
+    shape: Literal["cylinder"]
+    origin: Vec3 = (0.0, 0.0, 0.0)
+    axis: Vec3 = (0.0, 1.0, 0.0)
+    radius: float = Field(gt=0)
+    height: float = Field(gt=0)
+    segments: PositiveInt = 64
+
+
+class MeshMirror(_Mirror):
+    """A triangle mesh reflector; `smooth` interpolates vertex normals across faces."""
+
+    shape: Literal["mesh"]
+    path: str
+    transform: Transform = Transform()
+    smooth: bool = True
+
+
+MirrorConfig = Annotated[
+    QuadMirror | RectangleMirror | SphereMirror | CylinderMirror | MeshMirror,
+    Field(discriminator="shape"),
+]

@@ -1,0 +1,19 @@
+"""User-facing errors: one line each, naming the file and the field."""
+
+from __future__ import annotations
+
+
+class Problem(Exception):
+    """One problem with the input: `file: field: message`."""
+
+    def __init__(self, file: str, field: str, message: str) -> None:
+        super().__init__(f"{file}: {field}: {message}" if field else f"{file}: {message}")
+        self.file, self.field, self.message = file, field, message
+
+
+class Problems(Exception):
+    """Several problems found together (validation reports them all at once)."""
+
+    def __init__(self, problems: list[Problem]) -> None:
+        super().__init__("\n".join(str(p) for p in problems))
+        self.problems = problems

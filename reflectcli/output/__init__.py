@@ -1,0 +1,1 @@
+"""Writing frames (EXR, PNG previews) atomically, and timing logs."""

@@ -1,0 +1,54 @@
+"""EXR frames through OpenImageIO: float channels R, G, B, A, Z plus lowercase extras.
+
+Metadata goes into string attributes; OIIO's DateTime is pinned so that identical renders
+give byte-identical files (timings live in the log, never in the image).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .atomic import atomic_path
+
+FIXED_DATETIME = "2000:01:01 00:00:00"
+
+
+def write_exr(path: str, channels: dict[str, np.ndarray], attributes: dict[str, str]) -> None:
+    """Write (H, W) float channels in the given order, zip-compressed, atomically."""
+    import OpenImageIO as oiio
+
+    names = list(channels)
+    data = np.ascontiguousarray(np.stack([channels[n] for n in names], axis=-1), np.float32)
+    h, w = data.shape[:2]
+    spec = oiio.ImageSpec(w, h, len(names), oiio.FLOAT)
+    spec.channelnames = tuple(names)
+    spec.attribute("compression", "zip")
+    for key, value in attributes.items():
+        spec.attribute(key, str(value))
+    spec.attribute("DateTime", FIXED_DATETIME)
+    with atomic_path(path) as tmp:
+        out = oiio.ImageOutput.create(tmp)
+        if out is None or not out.open(tmp, spec):
+            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+        ok = out.write_image(data)
+        out.close()
+        if not ok:
+            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+
+
+def read_exr(path: str) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """(channels by name as (H, W) float32, string attributes). OIIO may reorder channels."""
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        raise OSError(f"cannot read {path}: {oiio.geterror()}")
+    try:
+        spec = inp.spec()
+        data = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
+    finally:
+        inp.close()
+    data = np.asarray(data, np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    channels = {name: data[:, :, spec.channelindex(name)] for name in spec.channelnames}
+    attrs = {a.name: a.value for a in spec.extra_attribs}
+    return channels, attrs

@@ -1,0 +1,26 @@
+"""sRGB-encoded, clipped 8-bit PNG previews."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .atomic import atomic_path
+
+
+def linear_to_srgb(c: np.ndarray) -> np.ndarray:
+    c = np.clip(np.asarray(c, np.float32), 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+
+
+def write_png(path: str, rgb: np.ndarray) -> None:
+    import OpenImageIO as oiio
+
+    data = np.ascontiguousarray((linear_to_srgb(rgb) * 255.0 + 0.5).astype(np.uint8))
+    h, w = data.shape[:2]
+    spec = oiio.ImageSpec(w, h, 3, oiio.UINT8)
+    with atomic_path(path) as tmp:
+        out = oiio.ImageOutput.create(tmp)
+        if out is None or not out.open(tmp, spec):
+            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+        out.write_image(data)
+        out.close()

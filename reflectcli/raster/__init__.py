@@ -1,0 +1,1 @@
+"""The numba rasterizer shared by every technique for the non-mirror part of the image."""

@@ -1,0 +1,264 @@
+"""Z-buffer rasterization of triangles into triangle-id, barycentric and depth buffers.
+
+Pipeline per triangle: world -> clip (one 4x4), clipping in homogeneous clip space against
+the near and far planes and any extra planes (Sutherland-Hodgman, each clipped vertex carrying
+its barycentrics in the original triangle), perspective divide to NDC, viewport to screen
+(x right, y down, pixel centers at +0.5). Per pixel, screen-linear weights become
+perspective-correct barycentrics through 1/w; the depth buffer holds eye-space depth w.
+
+Determinism: one horizontal band of the screen per task, each band visiting the triangles in
+index order with a strict less-than depth test, so the result is independent of the thread
+count. A mirror's depth is scaled by MIRROR_TIE before the test (mirrors win ties).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+from ..scene.types import MIRROR_TIE
+
+_MAX_PLANES = 8
+_MAX_POLY = 3 + _MAX_PLANES
+
+# culling modes
+CULL_NONE, CULL_BACK, CULL_FRONT = 0, 1, 2
+
+# triangle status after setup
+_CULLED, _SIMPLE, _CLIPPED = 0, 1, 2
+
+
+@dataclass
+class RasterBuffers:
+    triangle: np.ndarray  # (H, W) int32, -1 where nothing was drawn
+    b1: np.ndarray  # (H, W) float32, barycentric weight of corner 1
+    b2: np.ndarray  # (H, W) float32, barycentric weight of corner 2
+    depth: np.ndarray  # (H, W) float32, eye-space depth, +inf where nothing was drawn
+
+
+def standard_planes() -> np.ndarray:
+    """Clip-space planes (a, b, c, e): keep a*x + b*y + c*z + e*w >= 0. Near, then far."""
+    return np.array([[0.0, 0.0, 1.0, 1.0], [0.0, 0.0, -1.0, 1.0]])
+
+
+def rasterize(
+    corners: np.ndarray,
+    is_mirror: np.ndarray,
+    world_to_clip: np.ndarray,
+    width: int,
+    height: int,
+    planes: np.ndarray | None = None,
+    cull: int = CULL_NONE,
+) -> RasterBuffers:
+    """Rasterize world-space triangles (T, 3, 3) with an OpenGL-style world->clip matrix.
+
+    `planes` are clip-space half-spaces (P, 4), near and far first; default near + far.
+    `cull`: CULL_BACK drops triangles whose screen winding is clockwise (seen from behind),
+    CULL_FRONT the opposite (for a mirrored camera, whose handedness is flipped).
+    """
+    if planes is None:
+        planes = standard_planes()
+    planes = np.ascontiguousarray(planes, dtype=np.float64)
+    assert planes.shape[0] <= _MAX_PLANES
+    corners = np.ascontiguousarray(corners, dtype=np.float32)
+    mirror = np.ascontiguousarray(is_mirror, dtype=np.uint8)
+    m = np.ascontiguousarray(world_to_clip, dtype=np.float64)
+    t = corners.shape[0]
+    screen = np.empty((t, 9), np.float64)
+    status = np.empty(t, np.uint8)
+    _setup(corners, m, planes, width, height, cull, screen, status)
+    tri = np.full((height, width), -1, np.int32)
+    b1 = np.zeros((height, width), np.float32)
+    b2 = np.zeros((height, width), np.float32)
+    depth = np.full((height, width), np.inf, np.float32)
+    bands = min(height, max(1, numba.get_num_threads()) * 8)
+    _draw(corners, mirror, m, planes, width, height, cull, screen, status, bands,
+          tri, b1, b2, depth)
+    return RasterBuffers(tri, b1, b2, depth)
+
+
+@njit(cache=True, parallel=True)
+def _setup(corners, m, planes, width, height, cull, screen, status):
+    """Per triangle: clip-space transform, trivial reject, and screen positions if unclipped.
+
+    screen[t] = (x0, y0, 1/w0, x1, y1, 1/w1, x2, y2, 1/w2) in screen space.
+    """
+    for t in prange(corners.shape[0]):
+        c = np.empty((3, 4))
+        for k in range(3):
+            x, y, z = corners[t, k, 0], corners[t, k, 1], corners[t, k, 2]
+            for r in range(4):
+                c[k, r] = m[r, 0] * x + m[r, 1] * y + m[r, 2] * z + m[r, 3]
+        status[t] = _SIMPLE
+        # frustum side planes: reject only (no clipping needed against them)
+        if (c[0, 0] < -c[0, 3] and c[1, 0] < -c[1, 3] and c[2, 0] < -c[2, 3]) or (
+            c[0, 0] > c[0, 3] and c[1, 0] > c[1, 3] and c[2, 0] > c[2, 3]) or (
+            c[0, 1] < -c[0, 3] and c[1, 1] < -c[1, 3] and c[2, 1] < -c[2, 3]) or (
+            c[0, 1] > c[0, 3] and c[1, 1] > c[1, 3] and c[2, 1] > c[2, 3]
+        ):
+            status[t] = _CULLED
+            continue
+        for p in range(planes.shape[0]):
+            outside = 0
+            for k in range(3):
+                s = (planes[p, 0] * c[k, 0] + planes[p, 1] * c[k, 1]
+                     + planes[p, 2] * c[k, 2] + planes[p, 3] * c[k, 3])
+                if s < 0.0:
+                    outside += 1
+            if outside == 3:
+                status[t] = _CULLED
+                break
+            if outside > 0:
+                status[t] = _CLIPPED
+        if status[t] != _SIMPLE:
+            continue
+        for k in range(3):
+            iw = 1.0 / c[k, 3]
+            screen[t, 3 * k] = (c[k, 0] * iw + 1.0) * 0.5 * width
+            screen[t, 3 * k + 1] = (1.0 - c[k, 1] * iw) * 0.5 * height
+            screen[t, 3 * k + 2] = iw
+        if cull != 0:
+            area = _area(screen[t, 0], screen[t, 1], screen[t, 3], screen[t, 4],
+                         screen[t, 6], screen[t, 7])
+            # screen y points down: a counter-clockwise (front) triangle has negative area here
+            if (cull == 1 and area > 0.0) or (cull == 2 and area < 0.0):
+                status[t] = _CULLED
+
+
+@njit(cache=True, inline="always")
+def _area(x0, y0, x1, y1, x2, y2):
+    return (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+
+
+@njit(cache=True)
+def _clip_polygon(corners, t, m, planes, width, height, out_xyw, out_bary):
+    """Clip triangle t against all planes; write screen (x, y, 1/w) and barycentrics.
+
+    Returns the vertex count of the clipped convex polygon (0 if nothing is left).
+    """
+    poly = np.empty((_MAX_POLY, 7))  # clip x, y, z, w, then barycentrics b0, b1, b2
+    nxt = np.empty((_MAX_POLY, 7))
+    for k in range(3):
+        x, y, z = corners[t, k, 0], corners[t, k, 1], corners[t, k, 2]
+        for r in range(4):
+            poly[k, r] = m[r, 0] * x + m[r, 1] * y + m[r, 2] * z + m[r, 3]
+        for b in range(3):
+            poly[k, 4 + b] = 1.0 if b == k else 0.0
+    n = 3
+    for p in range(planes.shape[0]):
+        count = 0
+        for i in range(n):
+            j = (i + 1) % n
+            si = (planes[p, 0] * poly[i, 0] + planes[p, 1] * poly[i, 1]
+                  + planes[p, 2] * poly[i, 2] + planes[p, 3] * poly[i, 3])
+            sj = (planes[p, 0] * poly[j, 0] + planes[p, 1] * poly[j, 1]
+                  + planes[p, 2] * poly[j, 2] + planes[p, 3] * poly[j, 3])
+            if si >= 0.0:
+                for q in range(7):
+                    nxt[count, q] = poly[i, q]
+                count += 1
+            if (si >= 0.0) != (sj >= 0.0):
+                a = si / (si - sj)
+                for q in range(7):
+                    nxt[count, q] = poly[i, q] + a * (poly[j, q] - poly[i, q])
+                count += 1
+        n = count
+        for i in range(n):
+            for q in range(7):
+                poly[i, q] = nxt[i, q]
+        if n < 3:
+            return 0
+    for i in range(n):
+        iw = 1.0 / poly[i, 3]
+        out_xyw[i, 0] = (poly[i, 0] * iw + 1.0) * 0.5 * width
+        out_xyw[i, 1] = (1.0 - poly[i, 1] * iw) * 0.5 * height
+        out_xyw[i, 2] = iw
+        for b in range(3):
+            out_bary[i, b] = poly[i, 4 + b]
+    return n
+
+
+@njit(cache=True)
+def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, row1, width,
+          tri, b1, b2, depth):
+    """Scan one screen triangle over rows [row0, row1). ba/bb/bc: corner barycentrics (3,)."""
+    area = _area(x0, y0, x1, y1, x2, y2)
+    if area == 0.0:
+        return
+    inv_area = 1.0 / area
+    xmin = max(int(np.floor(min(x0, x1, x2) - 0.5)), 0)
+    xmax = min(int(np.ceil(max(x0, x1, x2) - 0.5)), width - 1)
+    ymin = max(int(np.floor(min(y0, y1, y2) - 0.5)), row0)
+    ymax = min(int(np.ceil(max(y0, y1, y2) - 0.5)), row1 - 1)
+    for py in range(ymin, ymax + 1):
+        sy = py + 0.5
+        for px in range(xmin, xmax + 1):
+            sx = px + 0.5
+            l0 = _area(x1, y1, x2, y2, sx, sy) * inv_area
+            l1 = _area(x2, y2, x0, y0, sx, sy) * inv_area
+            l2 = 1.0 - l0 - l1
+            if l0 < 0.0 or l1 < 0.0 or l2 < 0.0:
+                continue
+            q0 = l0 * w0
+            q1 = l1 * w1
+            q2 = l2 * w2
+            iw = q0 + q1 + q2
+            w = 1.0 / iw
+            key = w * key_scale
+            if key < depth[py, px]:
+                depth[py, px] = key
+                tri[py, px] = t
+                b1[py, px] = (q0 * ba[1] + q1 * bb[1] + q2 * bc[1]) * w
+                b2[py, px] = (q0 * ba[2] + q1 * bb[2] + q2 * bc[2]) * w
+
+
+@njit(cache=True, parallel=True)
+def _draw(corners, mirror, m, planes, width, height, cull, screen, status, bands,
+          tri, b1, b2, depth):
+    e0 = np.array([1.0, 0.0, 0.0])
+    e1 = np.array([0.0, 1.0, 0.0])
+    e2 = np.array([0.0, 0.0, 1.0])
+    for band in prange(bands):
+        row0 = band * height // bands
+        row1 = (band + 1) * height // bands
+        xyw = np.empty((_MAX_POLY, 3))
+        bary = np.empty((_MAX_POLY, 3))
+        for t in range(corners.shape[0]):
+            st = status[t]
+            if st == _CULLED:
+                continue
+            key_scale = MIRROR_TIE if mirror[t] else 1.0
+            if st == _SIMPLE:
+                s = screen[t]
+                if max(s[1], s[4], s[7]) < row0 + 0.5 or min(s[1], s[4], s[7]) > row1 - 0.5:
+                    continue
+                _fill(t, key_scale, s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8],
+                      e0, e1, e2, row0, row1, width, tri, b1, b2, depth)
+                continue
+            n = _clip_polygon(corners, t, m, planes, width, height, xyw, bary)
+            if n < 3:
+                continue
+            if cull != 0:
+                a = 0.0
+                for i in range(1, n - 1):
+                    a += _area(xyw[0, 0], xyw[0, 1], xyw[i, 0], xyw[i, 1],
+                               xyw[i + 1, 0], xyw[i + 1, 1])
+                if (cull == 1 and a > 0.0) or (cull == 2 and a < 0.0):
+                    continue
+            for i in range(1, n - 1):
+                _fill(t, key_scale, xyw[0, 0], xyw[0, 1], xyw[0, 2],
+                      xyw[i, 0], xyw[i, 1], xyw[i, 2], xyw[i + 1, 0], xyw[i + 1, 1],
+                      xyw[i + 1, 2], bary[0], bary[i], bary[i + 1], row0, row1, width,
+                      tri, b1, b2, depth)
+    # depth keys of mirrors were scaled: undo so the buffer holds true eye-space depth
+    for band in prange(bands):
+        row0 = band * height // bands
+        row1 = (band + 1) * height // bands
+        for py in range(row0, row1):
+            for px in range(width):
+                t = tri[py, px]
+                if t >= 0 and mirror[t]:
+                    depth[py, px] = depth[py, px] / MIRROR_TIE

@@ -1,0 +1,67 @@
+"""Raster buffers -> colors: the shared shading of whatever the rasterizer left visible."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..scene.types import Scene, Triangles
+from ..shading import surface_color
+from .rasterize import RasterBuffers
+
+
+def shade_buffers(
+    buffers: RasterBuffers, tris: Triangles, scene: Scene, eye: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(rgb (H, W, 3) float32, surface id (H, W) int32).
+
+    Object pixels get their shaded color; mirror pixels get (1 - r) * base, the part of the
+    mirror's color that does not depend on the reflection (techniques add r * reflected);
+    background pixels get the scene background. `eye` is the world-space viewpoint.
+    """
+    h, w = buffers.triangle.shape
+    rgb = np.empty((h, w, 3), np.float32)
+    surf = np.empty((h, w), np.int32)
+    _shade(buffers.triangle, buffers.b1, buffers.b2, tris.corners, tris.uvs, tris.normals,
+           tris.material, tris.surface, scene.n_objects, np.asarray(eye, np.float64),
+           scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
+           scene.lights.light_f, scene.shading, scene.ambient, scene.background,
+           scene.mirrors.reflectance, scene.mirrors.base, rgb, surf)
+    return rgb, surf
+
+
+@njit(cache=True, parallel=True)
+def _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
+           mat_i, mat_f, texels, light_f, shading, ambient, background, refl, base, rgb, surf):
+    h, w = tri.shape
+    for y in prange(h):
+        for x in range(w):
+            t = tri[y, x]
+            if t < 0:
+                surf[y, x] = -1
+                for c in range(3):
+                    rgb[y, x, c] = background[c]
+                continue
+            s = surface[t]
+            surf[y, x] = s
+            if s >= n_objects:
+                k = s - n_objects
+                for c in range(3):
+                    rgb[y, x, c] = (1.0 - refl[k, c]) * base[k, c]
+                continue
+            c1 = b1[y, x]
+            c2 = b2[y, x]
+            c0 = 1.0 - c1 - c2
+            u = c0 * uvs[t, 0, 0] + c1 * uvs[t, 1, 0] + c2 * uvs[t, 2, 0]
+            v = c0 * uvs[t, 0, 1] + c1 * uvs[t, 1, 1] + c2 * uvs[t, 2, 1]
+            p = np.empty(3)
+            n = np.empty(3)
+            for a in range(3):
+                p[a] = c0 * corners[t, 0, a] + c1 * corners[t, 1, a] + c2 * corners[t, 2, a]
+                n[a] = c0 * normals[t, 0, a] + c1 * normals[t, 1, a] + c2 * normals[t, 2, a]
+            r, g, bl = surface_color(material[t], u, v, p[0], p[1], p[2], n[0], n[1], n[2],
+                                     p[0] - eye[0], p[1] - eye[1], p[2] - eye[2],
+                                     mat_i, mat_f, texels, light_f, shading, ambient)
+            rgb[y, x, 0] = r
+            rgb[y, x, 1] = g
+            rgb[y, x, 2] = bl

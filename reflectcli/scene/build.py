@@ -1,0 +1,346 @@
+"""Config -> Scene: primitives and mesh files flattened to world-space float32 arrays."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from functools import lru_cache
+
+import numpy as np
+
+from ..config.mirrors import (
+    CylinderMirror,
+    MeshMirror,
+    QuadMirror,
+    SphereMirror,
+)
+from ..config.objects import TransformKey
+from ..config.scene import SceneConfig
+from ..errors import Problem, Problems
+from ..geometry import trs_matrix
+from . import primitives
+from .mesh import Mesh
+from .textures import load_texture
+from .types import (
+    CHECKER,
+    CYLINDER,
+    DIRECTIONAL,
+    LAMBERT,
+    MESH,
+    PLANAR,
+    POINT,
+    SOLID,
+    SPHERE,
+    TEXTURE,
+    UNLIT,
+    Geometry,
+    Lights,
+    Materials,
+    Mirrors,
+    Scene,
+    Triangles,
+)
+
+
+def resolve(source: str, path: str) -> str:
+    """A path written in a config file is relative to that file."""
+    return os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(source)), path))
+
+
+def object_mesh(obj, source: str) -> Mesh:
+    """The object's mesh in its own (object) space."""
+    s = obj.shape
+    if s == "quad":
+        return primitives.quad(np.array(obj.corners), np.array(obj.uv))
+    if s == "box":
+        return primitives.box(obj.min, obj.max)
+    if s == "room":
+        return primitives.room(obj.min, obj.max, faces=obj.faces)
+    if s == "sphere":
+        if obj.tessellation == "ico":
+            return primitives.ico_sphere(obj.radius, obj.subdivisions)
+        return primitives.uv_sphere(obj.radius, obj.segments)
+    if s == "cylinder":
+        return primitives.cylinder(obj.radius, obj.height, obj.segments, caps=obj.caps)
+    if s == "cone":
+        return primitives.cone(obj.radius, obj.height, obj.segments)
+    if s == "pyramid":
+        return primitives.pyramid(obj.size, obj.height)
+    if s == "torus":
+        return primitives.torus(
+            obj.major_radius, obj.minor_radius, obj.major_segments, obj.minor_segments
+        )
+    if s == "teapot":
+        from .teapot import teapot
+
+        return teapot(obj.subdivisions)
+    if s == "mesh":
+        return _mesh_file(resolve(source, obj.path))
+    if s == "clutter":
+        from .procedural import music_room_clutter
+
+        return music_room_clutter(obj.triangles, obj.min, obj.max, seed=obj.seed)
+    raise AssertionError(s)
+
+
+@lru_cache(maxsize=32)
+def _mesh_file(path: str) -> Mesh:
+    from .mesh_file import load_mesh_file
+
+    return load_mesh_file(path)
+
+
+def transform_at(obj, frame: int) -> np.ndarray:
+    """The object's 4x4 transform at a frame: keyframes interpolate linearly, clamped at ends."""
+    if not obj.motion:
+        t = obj.transform
+        return trs_matrix(t.translate, t.rotate, t.scale)
+    keys: list[TransformKey] = obj.motion
+    if frame <= keys[0].frame or len(keys) == 1:
+        k = keys[0]
+        return trs_matrix(k.translate, k.rotate, k.scale)
+    if frame >= keys[-1].frame:
+        k = keys[-1]
+        return trs_matrix(k.translate, k.rotate, k.scale)
+    i = max(j for j in range(len(keys)) if keys[j].frame <= frame)
+    a, b = keys[i], keys[i + 1]
+    u = (frame - a.frame) / (b.frame - a.frame)
+
+    def mix(x, y):
+        return (1 - u) * np.asarray(x, float) + u * np.asarray(y, float)
+
+    return trs_matrix(mix(a.translate, b.translate), mix(a.rotate, b.rotate), mix(a.scale, b.scale))
+
+
+def _triangles(mesh: Mesh, material: int, surface: int) -> Triangles:
+    n = mesh.triangle_count
+    return Triangles(
+        mesh.corners.astype(np.float32),
+        mesh.uvs.astype(np.float32),
+        mesh.normals.astype(np.float32),
+        np.full(n, material, np.int32),
+        np.full(n, surface, np.int32),
+    )
+
+
+def _concat(parts: list[Triangles]) -> Triangles:
+    if not parts:
+        return Triangles(
+            np.zeros((0, 3, 3), np.float32),
+            np.zeros((0, 3, 2), np.float32),
+            np.zeros((0, 3, 3), np.float32),
+            np.zeros(0, np.int32),
+            np.zeros(0, np.int32),
+        )
+    return Triangles(
+        *(np.concatenate([getattr(p, f) for p in parts]) for f in
+          ("corners", "uvs", "normals", "material", "surface"))
+    )
+
+
+def mirror_corners(m) -> np.ndarray:
+    """A planar mirror's four corners p00, p10, p11, p01 (world)."""
+    if isinstance(m, QuadMirror):
+        return np.array(m.corners, float)
+    n = np.array(m.normal, float)
+    n /= np.linalg.norm(n)
+    up = np.array(m.up, float)
+    up = up - (up @ n) * n
+    up /= np.linalg.norm(up)
+    right = np.cross(up, n)
+    c = np.array(m.center, float)
+    hw, hh = m.size[0] / 2, m.size[1] / 2
+    return np.array([c - hw * right - hh * up, c + hw * right - hh * up,
+                     c + hw * right + hh * up, c - hw * right + hh * up])
+
+
+def mirror_plane(m) -> tuple[np.ndarray, float]:
+    """A planar mirror's plane (n, d), n = (p10 - p00) x (p01 - p00) normalised."""
+    c = mirror_corners(m)
+    n = np.cross(c[1] - c[0], c[3] - c[0])
+    n /= np.linalg.norm(n)
+    return n, float(-n @ c[0])
+
+
+def mirror_mesh(m, source: str) -> tuple[Mesh, bool]:
+    """World-space triangles of a mirror and whether they are the exact surface."""
+    if m.planar:
+        return primitives.quad(mirror_corners(m)), True
+    if isinstance(m, SphereMirror):
+        mesh = primitives.uv_sphere(m.radius, m.segments)
+        return mesh.transformed(trs_matrix(m.center, (0, 0, 0), 1.0)), False
+    if isinstance(m, CylinderMirror):
+        mesh = primitives.cylinder(m.radius, m.height, m.segments, caps=False)
+        return mesh.transformed(_axis_frame(m.origin, m.axis)), False
+    assert isinstance(m, MeshMirror)
+    mesh = _mesh_file(resolve(source, m.path))
+    t = m.transform
+    mesh = mesh.transformed(trs_matrix(t.translate, t.rotate, t.scale))
+    if not m.smooth:
+        mesh = Mesh.flat(mesh.corners, mesh.uvs)
+    return mesh, True
+
+
+def _axis_frame(origin, axis) -> np.ndarray:
+    """A rigid transform taking local +y to `axis` and the origin to `origin`."""
+    a = np.array(axis, float)
+    a /= np.linalg.norm(a)
+    helper = np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 0, 1.0])
+    x = np.cross(a, helper)
+    x /= np.linalg.norm(x)
+    z = np.cross(x, a)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, a, z, origin
+    return m
+
+
+def _materials(cfg: SceneConfig, source: str) -> Materials:
+    names = list(cfg.materials)
+    mat_i = np.zeros((max(len(names), 1), 5), np.int32)
+    mat_f = np.zeros((max(len(names), 1), 8), np.float32)
+    texels = [np.zeros((1, 3), np.float32)]
+    offset = 1
+    for k, name in enumerate(names):
+        m = cfg.materials[name]
+        if m.kind == "solid":
+            mat_i[k, 0] = SOLID
+            mat_f[k, 0:3] = m.color
+        elif m.kind == "checker":
+            mat_i[k, 0] = CHECKER
+            mat_f[k, 0:3], mat_f[k, 3:6], mat_f[k, 6:8] = m.color0, m.color1, m.scale
+        else:
+            img = load_texture(resolve(source, m.path), m.srgb)
+            h, w = img.shape[:2]
+            mat_i[k] = (TEXTURE, offset, w, h, 1 if m.filter == "bilinear" else 0)
+            mat_f[k, 6:8] = m.scale
+            texels.append(img.reshape(-1, 3))
+            offset += w * h
+    return Materials(names, mat_i, mat_f, np.ascontiguousarray(np.concatenate(texels)))
+
+
+def _lights(cfg: SceneConfig) -> Lights:
+    rows = []
+    for light in cfg.lights:
+        rgb = np.array(light.color) * light.intensity
+        if light.kind == "point":
+            rows.append([POINT, *light.position, *rgb])
+        else:
+            d = np.array(light.direction, float)
+            rows.append([DIRECTIONAL, *(d / np.linalg.norm(d)), *rgb])
+    return Lights(np.array(rows, np.float32).reshape(-1, 7))
+
+
+def _mirrors(cfg: SceneConfig) -> Mirrors:
+    kinds, params = [], []
+    for m in cfg.mirrors:
+        p = np.zeros(8)
+        if m.planar:
+            kinds.append(PLANAR)
+            n, d = mirror_plane(m)
+            p[:4] = (*n, d)
+        elif isinstance(m, SphereMirror):
+            kinds.append(SPHERE)
+            p[:4] = (*m.center, m.radius)
+        elif isinstance(m, CylinderMirror):
+            kinds.append(CYLINDER)
+            a = np.array(m.axis, float)
+            p[:8] = (*m.origin, *(a / np.linalg.norm(a)), m.radius, m.height)
+        else:
+            kinds.append(MESH)
+        params.append(p)
+    k = len(cfg.mirrors)
+    return Mirrors(
+        [m.name for m in cfg.mirrors],
+        np.array(kinds, np.int32).reshape(k),
+        np.array([m.reflectance_rgb for m in cfg.mirrors], np.float32).reshape(k, 3),
+        np.array([m.base for m in cfg.mirrors], np.float32).reshape(k, 3),
+        np.array(params, np.float32).reshape(k, 8),
+    )
+
+
+def scene_hash(cfg: SceneConfig, source: str) -> str:
+    """sha256 of the validated config and the bytes of every file it references."""
+    h = hashlib.sha256(json.dumps(cfg.model_dump(mode="json"), sort_keys=True).encode())
+    paths = [o.path for o in cfg.objects if o.shape == "mesh"]
+    paths += [m.path for m in cfg.materials.values() if m.kind == "texture"]
+    paths += [m.path for m in cfg.mirrors if isinstance(m, MeshMirror)]
+    for p in paths:
+        with open(resolve(source, p), "rb") as f:
+            h.update(hashlib.sha256(f.read()).digest())
+    return h.hexdigest()
+
+
+def build_scene(cfg: SceneConfig, source: str) -> Scene:
+    """Build the scene; raises Problems naming the file and field for what cannot be built."""
+    problems: list[Problem] = []
+    material_index = {name: k for k, name in enumerate(cfg.materials)}
+    meshes: list[Mesh | None] = []
+    for i, obj in enumerate(cfg.objects):
+        try:
+            meshes.append(object_mesh(obj, source))
+        except (OSError, ValueError) as e:
+            field = "path" if obj.shape == "mesh" else "shape"
+            problems.append(Problem(source, f"objects.{i}.{field}", str(e).splitlines()[0]))
+            meshes.append(None)
+    mirror_parts: list[Triangles] = []
+    exact: list[np.ndarray] = []
+    n_obj = len(cfg.objects)
+    for j, m in enumerate(cfg.mirrors):
+        try:
+            mesh, is_exact = mirror_mesh(m, source)
+        except (OSError, ValueError) as e:
+            problems.append(Problem(source, f"mirrors.{j}.path", str(e).splitlines()[0]))
+            continue
+        mirror_parts.append(_triangles(mesh.without_degenerate(), -1, n_obj + j))
+        exact.append(np.full(mirror_parts[-1].count, is_exact))
+    try:
+        materials = _materials(cfg, source)
+    except (OSError, ValueError) as e:
+        names = [n for n, m in cfg.materials.items() if m.kind == "texture"]
+        problems.append(Problem(source, f"materials.{names[0] if names else '?'}.path", str(e)))
+    if problems:
+        raise Problems(problems)
+
+    mirror_tris = _concat(mirror_parts)
+    mirror_exact = np.concatenate(exact) if exact else np.zeros(0, bool)
+    static_parts: dict[int, Triangles] = {}
+    moving = [i for i, o in enumerate(cfg.objects) if o.motion]
+    for i, (obj, mesh) in enumerate(zip(cfg.objects, meshes, strict=True)):
+        if not obj.motion:
+            static_parts[i] = _triangles(
+                mesh.transformed(transform_at(obj, 0)).without_degenerate(),
+                material_index[obj.material], i,
+            )
+    last: dict = {}
+
+    def geometry_at(frame: int) -> Geometry:
+        mats = tuple(transform_at(cfg.objects[i], frame).tobytes() for i in moving)
+        if last.get("key") == mats:
+            return last["geometry"]
+        parts = []
+        for i, (obj, mesh) in enumerate(zip(cfg.objects, meshes, strict=True)):
+            if i in static_parts:
+                parts.append(static_parts[i])
+            else:
+                world = mesh.transformed(transform_at(obj, frame)).without_degenerate()
+                parts.append(_triangles(world, material_index[obj.material], i))
+        geometry = Geometry(_concat(parts), mirror_tris, mirror_exact, ("geometry", mats))
+        last.update(key=mats, geometry=geometry)
+        return geometry
+
+    return Scene(
+        name=cfg.scene.name,
+        source=source,
+        shading=LAMBERT if cfg.scene.shading == "lambert" else UNLIT,
+        background=np.array(cfg.scene.background, np.float32),
+        ambient=float(cfg.scene.ambient),
+        materials=materials,
+        lights=_lights(cfg),
+        mirrors=_mirrors(cfg),
+        surface_names=[o.name for o in cfg.objects] + [m.name for m in cfg.mirrors],
+        n_objects=n_obj,
+        frame_count=cfg.camera.frame_count,
+        scene_hash=scene_hash(cfg, source),
+        geometry_at=geometry_at,
+    )

@@ -1,0 +1,81 @@
+"""A triangle soup with per-corner attributes: the one shape every primitive becomes.
+
+Per-corner (not per-vertex) UVs and normals let seams and hard edges live in the same
+arrays without splitting vertices; the renderers index them by triangle and barycentrics.
+All arrays are in the primitive's local (object) space until `transformed`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """Triangles with corner positions, UVs and shading normals (float64, object space)."""
+
+    corners: np.ndarray  # (F, 3, 3) corner positions
+    uvs: np.ndarray  # (F, 3, 2) corner texture coordinates
+    normals: np.ndarray  # (F, 3, 3) corner shading normals, unit length
+
+    def __post_init__(self) -> None:
+        f = self.corners.shape[0]
+        assert self.corners.shape == (f, 3, 3), self.corners.shape
+        assert self.uvs.shape == (f, 3, 2), self.uvs.shape
+        assert self.normals.shape == (f, 3, 3), self.normals.shape
+
+    @property
+    def triangle_count(self) -> int:
+        return int(self.corners.shape[0])
+
+    def face_normals(self) -> np.ndarray:
+        """Geometric normals (F, 3) from the winding: (c1 - c0) x (c2 - c0), normalised."""
+        n = np.cross(self.corners[:, 1] - self.corners[:, 0], self.corners[:, 2] - self.corners[:, 0])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return n / np.where(length > 0, length, 1.0)
+
+    def areas(self) -> np.ndarray:
+        n = np.cross(self.corners[:, 1] - self.corners[:, 0], self.corners[:, 2] - self.corners[:, 0])
+        return 0.5 * np.linalg.norm(n, axis=1)
+
+    def transformed(self, matrix: np.ndarray) -> Mesh:
+        """Apply a 4x4 affine object-to-world matrix; normals use the inverse transpose."""
+        m = np.asarray(matrix, dtype=np.float64)
+        corners = self.corners @ m[:3, :3].T + m[:3, 3]
+        normal_matrix = np.linalg.inv(m[:3, :3]).T
+        normals = self.normals @ normal_matrix.T
+        length = np.linalg.norm(normals, axis=2, keepdims=True)
+        normals = normals / np.where(length > 0, length, 1.0)
+        if np.linalg.det(m[:3, :3]) < 0:  # a mirroring transform flips the winding
+            corners = corners[:, ::-1]
+            normals = normals[:, ::-1]
+            uvs = self.uvs[:, ::-1]
+        else:
+            uvs = self.uvs
+        return Mesh(corners, uvs.copy(), normals)
+
+    def without_degenerate(self, min_area: float = 1e-12) -> Mesh:
+        keep = self.areas() > min_area
+        return Mesh(self.corners[keep], self.uvs[keep], self.normals[keep])
+
+    @staticmethod
+    def concatenate(meshes: list[Mesh]) -> Mesh:
+        if not meshes:
+            empty3 = np.zeros((0, 3, 3))
+            return Mesh(empty3, np.zeros((0, 3, 2)), empty3.copy())
+        return Mesh(
+            np.concatenate([m.corners for m in meshes]),
+            np.concatenate([m.uvs for m in meshes]),
+            np.concatenate([m.normals for m in meshes]),
+        )
+
+    @staticmethod
+    def flat(corners: np.ndarray, uvs: np.ndarray) -> Mesh:
+        """A mesh whose shading normals are its face normals (hard edges everywhere)."""
+        corners = np.asarray(corners, dtype=np.float64)
+        n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        n = n / np.where(length > 0, length, 1.0)
+        return Mesh(corners, np.asarray(uvs, dtype=np.float64), np.repeat(n[:, None, :], 3, axis=1))

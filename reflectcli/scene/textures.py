@@ -1,0 +1,34 @@
+"""Image textures through OpenImageIO, decoded to linear RGB float32."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    c = np.asarray(c, dtype=np.float32)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def load_texture(path: str, srgb: bool) -> np.ndarray:
+    """(H, W, 3) linear float32, row 0 at the top of the image (v = 1 maps to row 0)."""
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        raise ValueError(f"cannot read image: {oiio.geterror() or path}")
+    try:
+        spec = inp.spec()
+        pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
+    finally:
+        inp.close()
+    if pixels is None:
+        raise ValueError(f"cannot read image pixels: {path}")
+    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    if spec.nchannels == 1:
+        rgb = np.repeat(pixels, 3, axis=2)
+    elif spec.nchannels == 2:
+        rgb = np.repeat(pixels[:, :, :1], 3, axis=2)
+    else:
+        rgb = pixels[:, :, :3]
+    return srgb_to_linear(rgb) if srgb else np.ascontiguousarray(rgb)

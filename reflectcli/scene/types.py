@@ -1,0 +1,123 @@
+"""The built scene: flat float32/int32 arrays that numba kernels take directly.
+
+Surface ids number objects first (0 .. n_objects-1), then mirrors
+(n_objects .. n_objects+n_mirrors-1); -1 is the background. Triangle arrays are world space.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+# material kinds (mat_i[:, 0])
+SOLID, CHECKER, TEXTURE = 0, 1, 2
+# mirror kinds
+PLANAR, SPHERE, CYLINDER, MESH = 0, 1, 2, 3
+# shading modes
+UNLIT, LAMBERT = 0, 1
+# light kinds
+POINT, DIRECTIONAL = 0, 1
+
+# A mirror wins a depth tie against any other surface: its depth is scaled by this factor
+# before the comparison, in the rasterizer and in the ray tracer alike (a mirror flush with
+# its wall shows no z-fighting).
+MIRROR_TIE = 1.0 - 1e-4
+
+
+@dataclass(frozen=True)
+class Materials:
+    """mat_i: (M, 5) kind, texel offset, texture width, height, bilinear flag.
+    mat_f: (M, 8) color0 rgb, color1 rgb, scale u, scale v. texels: (N, 3) linear RGB."""
+
+    names: list[str]
+    mat_i: np.ndarray
+    mat_f: np.ndarray
+    texels: np.ndarray
+
+
+@dataclass(frozen=True)
+class Lights:
+    """light_f: (L, 7) kind, position-or-direction xyz (direction unit, the way light travels),
+    intensity * color rgb."""
+
+    light_f: np.ndarray
+
+
+@dataclass(frozen=True)
+class Mirrors:
+    """Per mirror: kind, reflectance rgb, base rgb and shape parameters (float32, world space).
+
+    params columns: planar: n xyz, d; sphere: center xyz, radius;
+    cylinder: origin xyz, axis xyz (unit), radius, height; mesh: unused.
+    """
+
+    names: list[str]
+    kind: np.ndarray  # (M,) int32
+    reflectance: np.ndarray  # (M, 3) float32
+    base: np.ndarray  # (M, 3) float32
+    params: np.ndarray  # (M, 8) float32
+
+    @property
+    def count(self) -> int:
+        return len(self.names)
+
+
+@dataclass(frozen=True)
+class Triangles:
+    """World-space triangles with their attributes."""
+
+    corners: np.ndarray  # (T, 3, 3) float32
+    uvs: np.ndarray  # (T, 3, 2) float32
+    normals: np.ndarray  # (T, 3, 3) float32
+    material: np.ndarray  # (T,) int32, -1 for mirrors
+    surface: np.ndarray  # (T,) int32
+
+    @property
+    def count(self) -> int:
+        return int(self.corners.shape[0])
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """One frame's geometry: object triangles and mirror triangles.
+
+    `mirror_tris` holds every mirror as triangles (curved ones tessellated, for rasterizing);
+    `mirror_exact` marks those that are the mirror itself (planar and mesh mirrors), which is
+    what the ray tracer intersects besides its analytic spheres and cylinders.
+    """
+
+    objects: Triangles
+    mirror_tris: Triangles
+    mirror_exact: np.ndarray  # (Tm,) bool
+    key: tuple  # equal keys -> identical geometry (lets techniques keep acceleration structures)
+
+    def all_triangles(self) -> Triangles:
+        o, m = self.objects, self.mirror_tris
+        return Triangles(
+            *(np.concatenate([getattr(o, f), getattr(m, f)]) for f in
+              ("corners", "uvs", "normals", "material", "surface"))
+        )
+
+
+@dataclass
+class Scene:
+    """Everything a technique needs, as arrays; geometry is fetched per frame (objects move)."""
+
+    name: str
+    source: str  # the scene file path
+    shading: int
+    background: np.ndarray  # (3,) float32
+    ambient: float
+    materials: Materials
+    lights: Lights
+    mirrors: Mirrors
+    surface_names: list[str]
+    n_objects: int
+    frame_count: int
+    scene_hash: str
+    geometry_at: Callable[[int], Geometry] = field(repr=False)
+
+    def geometry(self, frame: int) -> Geometry:
+        return self.geometry_at(frame)

@@ -1,0 +1,99 @@
+"""Surface shading shared by the rasterizer and the ray tracer (numba).
+
+Both call `surface_color` on a hit, so that two techniques differ only in their reflections.
+Inputs are world-space points, normals and view directions; uv in the material's UV space.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from .scene.types import CHECKER, POINT, TEXTURE, UNLIT
+
+# No fastmath: kernels here meet +inf depths (see STACK-NOTES.md).
+
+
+@njit(cache=True)
+def _texel(texels, offset, w, h, x, y):
+    x = x % w
+    y = y % h
+    k = offset + y * w + x
+    return texels[k, 0], texels[k, 1], texels[k, 2]
+
+
+@njit(cache=True)
+def material_albedo(mat, u, v, mat_i, mat_f, texels):
+    """The material's linear RGB at (u, v)."""
+    kind = mat_i[mat, 0]
+    if kind == CHECKER:
+        i = math.floor(u * mat_f[mat, 6])
+        j = math.floor(v * mat_f[mat, 7])
+        c = 0 if (int(i) + int(j)) % 2 == 0 else 3
+        return mat_f[mat, c], mat_f[mat, c + 1], mat_f[mat, c + 2]
+    if kind == TEXTURE:
+        off, w, h = mat_i[mat, 1], mat_i[mat, 2], mat_i[mat, 3]
+        su = u * mat_f[mat, 6]
+        sv = v * mat_f[mat, 7]
+        fx = (su - math.floor(su)) * w  # map space: texel units, row 0 at the top (v = 1)
+        fy = (1.0 - (sv - math.floor(sv))) * h
+        if mat_i[mat, 4] == 0:
+            return _texel(texels, off, w, h, int(fx), int(fy))
+        fx -= 0.5
+        fy -= 0.5
+        x0 = math.floor(fx)
+        y0 = math.floor(fy)
+        ax = fx - x0
+        ay = fy - y0
+        x0i = int(x0)
+        y0i = int(y0)
+        r00, g00, b00 = _texel(texels, off, w, h, x0i, y0i)
+        r10, g10, b10 = _texel(texels, off, w, h, x0i + 1, y0i)
+        r01, g01, b01 = _texel(texels, off, w, h, x0i, y0i + 1)
+        r11, g11, b11 = _texel(texels, off, w, h, x0i + 1, y0i + 1)
+        w00 = (1 - ax) * (1 - ay)
+        w10 = ax * (1 - ay)
+        w01 = (1 - ax) * ay
+        w11 = ax * ay
+        return (
+            w00 * r00 + w10 * r10 + w01 * r01 + w11 * r11,
+            w00 * g00 + w10 * g10 + w01 * g01 + w11 * g11,
+            w00 * b00 + w10 * b10 + w01 * b01 + w11 * b11,
+        )
+    return mat_f[mat, 0], mat_f[mat, 1], mat_f[mat, 2]
+
+
+@njit(cache=True)
+def surface_color(
+    mat, u, v, px, py, pz, nx, ny, nz, dx, dy, dz, mat_i, mat_f, texels, light_f, shading, ambient
+):
+    """Color leaving a surface point toward the viewer; (dx, dy, dz) is the incoming ray.
+
+    unlit: the albedo. lambert: ambient * albedo + sum over lights of albedo * E * max(0, n.l),
+    two-sided (the normal is turned toward the viewer), no shadows.
+    """
+    ar, ag, ab = material_albedo(mat, u, v, mat_i, mat_f, texels)
+    if shading == UNLIT:
+        return ar, ag, ab
+    inv_len = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz)
+    nx, ny, nz = nx * inv_len, ny * inv_len, nz * inv_len
+    if nx * dx + ny * dy + nz * dz > 0.0:
+        nx, ny, nz = -nx, -ny, -nz
+    er = eg = eb = ambient
+    for k in range(light_f.shape[0]):
+        if int(light_f[k, 0]) == POINT:
+            lx = light_f[k, 1] - px
+            ly = light_f[k, 2] - py
+            lz = light_f[k, 3] - pz
+            d2 = lx * lx + ly * ly + lz * lz
+            inv = 1.0 / math.sqrt(d2)
+            cos = (nx * lx + ny * ly + nz * lz) * inv
+            scale = max(cos, 0.0) / d2
+        else:
+            cos = -(nx * light_f[k, 1] + ny * light_f[k, 2] + nz * light_f[k, 3])
+            scale = max(cos, 0.0)
+        er += light_f[k, 4] * scale
+        eg += light_f[k, 5] * scale
+        eb += light_f[k, 6] * scale
+    return ar * er, ag * eg, ab * eb

@@ -1,0 +1,244 @@
+"""Wavefront Whitted tracing of one frame: primary rays, then one batch per mirror bounce.
+
+A ray's color accumulates along its path: at an object, weight * shade; at a mirror,
+weight * (1 - r) * base, and the weight becomes weight * r for the reflected ray; on a miss,
+weight * background. A mirror met after `max_depth` bounces adds only (1 - r) * base (its
+reflection is not followed), so max_depth = 0 draws mirrors as their base color.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+
+from ..camera import Camera
+from ..frame import Frame
+from ..scene.types import MIRROR_TIE, SPHERE, Geometry, Scene
+from ..shading import surface_color
+from .analytic import intersect_analytic
+from .embree import TriangleScene
+
+_FAR_AWAY = np.float32(1e30)
+
+
+@dataclass
+class Accelerators:
+    """Embree scenes for one geometry state: objects and the exact mirror triangles."""
+
+    key: tuple
+    objects: TriangleScene
+    mirrors: TriangleScene
+    mirror_corners: np.ndarray  # (Tm, 3, 3) the exact mirror triangles, in Embree's order
+    mirror_normals: np.ndarray
+    mirror_surface: np.ndarray
+
+    @property
+    def build_seconds(self) -> float:
+        return self.objects.build_seconds + self.mirrors.build_seconds
+
+
+def build_accelerators(geometry: Geometry) -> Accelerators:
+    m = geometry.mirror_tris
+    exact = geometry.mirror_exact
+    corners = np.ascontiguousarray(m.corners[exact])
+    return Accelerators(
+        geometry.key,
+        TriangleScene(geometry.objects.corners),
+        TriangleScene(corners),
+        corners,
+        np.ascontiguousarray(m.normals[exact]),
+        np.ascontiguousarray(m.surface[exact]),
+    )
+
+
+def trace_frame(
+    scene: Scene, geometry: Geometry, accel: Accelerators, camera: Camera,
+    max_depth: int, samples: int = 1, threads: int = 1,
+) -> Frame:
+    """Ray trace one frame; `samples` x `samples` rays per pixel on a regular grid."""
+    timings: dict[str, float] = {"intersect": 0.0, "shade": 0.0}
+    start = time.perf_counter()
+    h, w = camera.height, camera.width
+    spp = samples * samples
+    directions = camera.pixel_directions(samples).reshape(-1, 3).astype(np.float32)
+    n = directions.shape[0]
+    # eye-space primary rays: start on the near plane, stop at the far plane (t = depth - near)
+    origins = (camera.eye + camera.near * directions.astype(np.float64)).astype(np.float32)
+    tfar = np.full(n, camera.far - camera.near, np.float32)
+    slot = np.arange(n, dtype=np.int64)
+    weight = np.ones((n, 3), np.float32)
+    color = np.zeros((n, 3), np.float32)
+    depth = np.full(n, np.inf, np.float32)
+    surface = np.full(n, -1, np.int32)
+    timings["primary_rays"] = time.perf_counter() - start
+    rays = 0
+    for bounce in range(max_depth + 1):
+        if origins.shape[0] == 0:
+            break
+        rays += origins.shape[0]
+        hit_t, hit_surface, alive, next_o, next_d, next_w = _wave(
+            scene, geometry, accel, origins, directions, tfar, weight, slot, color,
+            bounce < max_depth, threads, timings)
+        if bounce == 0:
+            depth = np.where(hit_surface >= 0, hit_t + np.float32(camera.near), np.inf)
+            surface = hit_surface
+        origins, directions, weight, slot = next_o[alive], next_d[alive], next_w[alive], slot[alive]
+        tfar = np.full(origins.shape[0], _FAR_AWAY, np.float32)
+    rgb = color.reshape(h, w, spp, 3).mean(axis=2, dtype=np.float64).astype(np.float32)
+    if spp > 1:  # Z, A and ids come from the pixel-center ray, traced once more
+        d = camera.pixel_directions(1).reshape(-1, 3).astype(np.float32)
+        o = (camera.eye + camera.near * d.astype(np.float64)).astype(np.float32)
+        m = d.shape[0]
+        hit_t, surface, *_ = _wave(
+            scene, geometry, accel, o, d, np.full(m, camera.far - camera.near, np.float32),
+            np.ones((m, 3), np.float32), np.arange(m, dtype=np.int64),
+            np.zeros((m, 3), np.float32), False, threads, timings)
+        depth = np.where(surface >= 0, hit_t + np.float32(camera.near), np.inf)
+        rays += m
+    depth, surface = depth.reshape(h, w), surface.reshape(h, w)
+    timings["trace"] = time.perf_counter() - start
+    return Frame(
+        rgb=rgb, depth=depth.astype(np.float32), surface=surface.astype(np.int32),
+        mirror_mask=surface >= scene.n_objects, timings=timings, stats={"rays": int(rays)},
+    )
+
+
+def _wave(scene, geometry, accel, origins, directions, tfar, weight, slot, color, follow,
+          threads, timings):
+    """Intersect one batch of rays, shade their hits into color, emit reflected rays."""
+    t0 = time.perf_counter()
+    t_o, p_o, u_o, v_o = accel.objects.intersect(origins, directions, tfar, threads)
+    t_m, p_m, u_m, v_m = accel.mirrors.intersect(origins, directions, tfar, threads)
+    t_a, k_a = intersect_analytic(origins, directions, tfar, scene.mirrors.kind,
+                                  scene.mirrors.params, 0.0)
+    t1 = time.perf_counter()
+    count = origins.shape[0]
+    hit_t = np.empty(count, np.float32)
+    hit_surface = np.empty(count, np.int32)
+    alive = np.zeros(count, np.bool_)
+    next_o = np.empty((count, 3), np.float32)
+    next_d = np.empty((count, 3), np.float32)
+    next_w = np.empty((count, 3), np.float32)
+    o, m = geometry.objects, scene.mirrors
+    _resolve(origins, directions, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m, t_a, k_a,
+             o.corners, o.uvs, o.normals, o.material, o.surface,
+             accel.mirror_corners, accel.mirror_normals, accel.mirror_surface,
+             m.kind, m.params.astype(np.float64), m.reflectance, m.base, scene.n_objects,
+             scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
+             scene.lights.light_f, scene.shading, scene.ambient, scene.background,
+             follow, color, hit_t, hit_surface, alive, next_o, next_d, next_w)
+    timings["intersect"] += t1 - t0
+    timings["shade"] += time.perf_counter() - t1
+    return hit_t, hit_surface, alive, next_o, next_d, next_w
+
+
+@njit(cache=True)
+def _pick(t_o, t_m, t_a):
+    """0: object, 1: mirror triangle, 2: analytic mirror, -1: miss. Mirrors win depth ties."""
+    best = t_o
+    which = 0 if t_o < np.inf else -1
+    if t_m * MIRROR_TIE <= best:
+        best = t_m * MIRROR_TIE
+        which = 1 if t_m < np.inf else which
+    if t_a * MIRROR_TIE <= best and t_a < np.inf:
+        which = 2
+    return which
+
+
+@njit(cache=True, parallel=True)
+def _resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m, t_a, k_a,
+             corners, uvs, normals, material, surface, m_corners, m_normals, m_surface,
+             m_kind, m_params, m_refl, m_base, n_objects, mat_i, mat_f, texels, light_f,
+             shading, ambient, background, follow, color, hit_t, hit_surface, alive,
+             next_o, next_d, next_w):
+    """Shade each ray's nearest hit into color[slot] and emit its reflected ray if any."""
+    for i in prange(origins.shape[0]):
+        s = slot[i]
+        ox, oy, oz = float(origins[i, 0]), float(origins[i, 1]), float(origins[i, 2])
+        dx, dy, dz = float(dirs[i, 0]), float(dirs[i, 1]), float(dirs[i, 2])
+        which = _pick(t_o[i], t_m[i], t_a[i])
+        if which < 0:
+            hit_t[i] = np.inf
+            hit_surface[i] = -1
+            for c in range(3):
+                color[s, c] += weight[i, c] * background[c]
+            continue
+        if which == 0:
+            t = float(t_o[i])
+            tri = p_o[i]
+            b1, b2 = float(u_o[i]), float(v_o[i])
+            b0 = 1.0 - b1 - b2
+            hit_t[i] = t
+            hit_surface[i] = surface[tri]
+            px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
+            u = b0 * uvs[tri, 0, 0] + b1 * uvs[tri, 1, 0] + b2 * uvs[tri, 2, 0]
+            v = b0 * uvs[tri, 0, 1] + b1 * uvs[tri, 1, 1] + b2 * uvs[tri, 2, 1]
+            nx = b0 * normals[tri, 0, 0] + b1 * normals[tri, 1, 0] + b2 * normals[tri, 2, 0]
+            ny = b0 * normals[tri, 0, 1] + b1 * normals[tri, 1, 1] + b2 * normals[tri, 2, 1]
+            nz = b0 * normals[tri, 0, 2] + b1 * normals[tri, 1, 2] + b2 * normals[tri, 2, 2]
+            r, g, b = surface_color(material[tri], u, v, px, py, pz, nx, ny, nz, dx, dy, dz,
+                                    mat_i, mat_f, texels, light_f, shading, ambient)
+            color[s, 0] += weight[i, 0] * r
+            color[s, 1] += weight[i, 1] * g
+            color[s, 2] += weight[i, 2] * b
+            continue
+        # a mirror: geometric normal (for the offset) and shading normal (for the reflection)
+        if which == 1:
+            t = float(t_m[i])
+            tri = p_m[i]
+            k = m_surface[tri] - n_objects
+            b1, b2 = float(u_m[i]), float(v_m[i])
+            b0 = 1.0 - b1 - b2
+            e1x = m_corners[tri, 1, 0] - m_corners[tri, 0, 0]
+            e1y = m_corners[tri, 1, 1] - m_corners[tri, 0, 1]
+            e1z = m_corners[tri, 1, 2] - m_corners[tri, 0, 2]
+            e2x = m_corners[tri, 2, 0] - m_corners[tri, 0, 0]
+            e2y = m_corners[tri, 2, 1] - m_corners[tri, 0, 1]
+            e2z = m_corners[tri, 2, 2] - m_corners[tri, 0, 2]
+            gx, gy, gz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+            nx = b0 * m_normals[tri, 0, 0] + b1 * m_normals[tri, 1, 0] + b2 * m_normals[tri, 2, 0]
+            ny = b0 * m_normals[tri, 0, 1] + b1 * m_normals[tri, 1, 1] + b2 * m_normals[tri, 2, 1]
+            nz = b0 * m_normals[tri, 0, 2] + b1 * m_normals[tri, 1, 2] + b2 * m_normals[tri, 2, 2]
+            px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
+        else:
+            t = float(t_a[i])
+            k = k_a[i]
+            p = m_params[k]
+            px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
+            if m_kind[k] == SPHERE:
+                gx, gy, gz = px - p[0], py - p[1], pz - p[2]
+            else:  # CYLINDER: radial direction from the axis
+                lx, ly, lz = px - p[0], py - p[1], pz - p[2]
+                h = lx * p[3] + ly * p[4] + lz * p[5]
+                gx, gy, gz = lx - h * p[3], ly - h * p[4], lz - h * p[5]
+            nx, ny, nz = gx, gy, gz
+        hit_t[i] = t
+        hit_surface[i] = n_objects + k
+        for c in range(3):
+            color[s, c] += weight[i, c] * (1.0 - m_refl[k, c]) * m_base[k, c]
+        if not follow:
+            continue
+        # face both normals toward the incoming ray (mirrors are two-sided)
+        if gx * dx + gy * dy + gz * dz > 0.0:
+            gx, gy, gz = -gx, -gy, -gz
+        if nx * dx + ny * dy + nz * dz > 0.0:
+            nx, ny, nz = -nx, -ny, -nz
+        inv = 1.0 / np.sqrt(nx * nx + ny * ny + nz * nz)
+        nx, ny, nz = nx * inv, ny * inv, nz * inv
+        inv = 1.0 / np.sqrt(gx * gx + gy * gy + gz * gz)
+        gx, gy, gz = gx * inv, gy * inv, gz * inv
+        dn = dx * nx + dy * ny + dz * nz
+        rx, ry, rz = dx - 2.0 * dn * nx, dy - 2.0 * dn * ny, dz - 2.0 * dn * nz
+        inv = 1.0 / np.sqrt(rx * rx + ry * ry + rz * rz)
+        # offset the new origin off the surface, scaled to the coordinates' magnitude
+        eps = 1e-4 * (1.0 + max(abs(px), abs(py), abs(pz)))
+        next_o[i, 0], next_o[i, 1], next_o[i, 2] = px + eps * gx, py + eps * gy, pz + eps * gz
+        next_d[i, 0], next_d[i, 1], next_d[i, 2] = rx * inv, ry * inv, rz * inv
+        any_weight = False
+        for c in range(3):
+            next_w[i, c] = weight[i, c] * m_refl[k, c]
+            any_weight = any_weight or next_w[i, c] > 0.0
+        alive[i] = any_weight

@@ -1,0 +1,38 @@
+"""A tiny scene that touches every kernel once, so compile time is measured apart from frames."""
+
+from __future__ import annotations
+
+from .camera import Camera, camera_from_config
+from .config.scene import SceneConfig
+from .scene.build import build_scene
+from .scene.types import Scene
+
+WARM_SCENE = {
+    "scene": {"name": "warm-up", "shading": "lambert", "ambient": 0.1},
+    "camera": {"eye": [0.0, 1.0, 3.0], "target": [0.0, 1.0, 0.0], "width": 16, "height": 12},
+    "materials": {
+        "checker": {"kind": "checker"},
+        "red": {"kind": "solid", "color": [0.8, 0.1, 0.1]},
+    },
+    "lights": [{"kind": "point", "position": [0.0, 3.0, 2.0]},
+               {"kind": "directional", "direction": [0.0, -1.0, -1.0]}],
+    "objects": [
+        {"name": "room", "shape": "room", "min": [-4, 0, -4], "max": [4, 4, 4],
+         "material": "checker"},
+        {"name": "box", "shape": "box", "min": [-0.3, 0, -0.3], "max": [0.3, 0.6, 0.3],
+         "material": "red"},
+    ],
+    "mirrors": [
+        {"name": "wall", "shape": "quad", "reflectance": 0.9,
+         "corners": [[-2, 0.5, -3.9], [2, 0.5, -3.9], [2, 3, -3.9], [-2, 3, -3.9]]},
+        {"name": "ball", "shape": "sphere", "center": [1.5, 1, -1], "radius": 0.5,
+         "segments": 8},
+        {"name": "tube", "shape": "cylinder", "origin": [-1.5, 0, -1], "radius": 0.3,
+         "height": 1, "segments": 8},
+    ],
+}
+
+
+def warm_scene() -> tuple[Scene, Camera]:
+    cfg = SceneConfig.model_validate(WARM_SCENE)
+    return build_scene(cfg, "<warm-up>"), camera_from_config(cfg.camera, 0)
