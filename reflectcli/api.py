@@ -55,13 +55,19 @@ def prepare_output(folder: str, source: str, field: str) -> None:
             pass
         os.unlink(probe)
     except OSError as e:
-        raise Problems([Problem(source, field, f"cannot write to '{folder}': {e.strerror}")]) from None
+        raise Problems(
+            [Problem(source, field, f"cannot write to '{folder}': {e.strerror}")]
+        ) from None
 
 
 def frame_channels(frame: Frame) -> dict:
     channels = {
-        "R": frame.rgb[:, :, 0], "G": frame.rgb[:, :, 1], "B": frame.rgb[:, :, 2],
-        "A": frame.alpha, "Z": frame.depth, "mirror": frame.mirror_mask.astype("float32"),
+        "R": frame.rgb[:, :, 0],
+        "G": frame.rgb[:, :, 1],
+        "B": frame.rgb[:, :, 2],
+        "A": frame.alpha,
+        "Z": frame.depth,
+        "mirror": frame.mirror_mask.astype("float32"),
     }
     channels.update(frame.extra)
     return channels
@@ -111,13 +117,15 @@ def render(
     selected = parse_frames(frames, config.camera.frame_count)
     name = config.technique.name
     folder = os.path.join(out if out is not None else config.output.dir, config.scene.name, name)
-    prepare_output(folder, "--out" if out is not None else display,
-                   "" if out is not None else "output.dir")
+    prepare_output(
+        folder, "--out" if out is not None else display, "" if out is not None else "output.dir"
+    )
     scene = build_scene(config, path)
     if threads is not None:
         if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
-            raise Problems([Problem("--threads", "",
-                                    f"must be 1..{numba.config.NUMBA_NUM_THREADS}")])
+            raise Problems(
+                [Problem("--threads", "", f"must be 1..{numba.config.NUMBA_NUM_THREADS}")]
+            )
         numba.set_num_threads(threads)
     threads = numba.get_num_threads()
     params = config.technique
@@ -152,23 +160,26 @@ def render(
         if preview:
             write_png(exr[:-4] + ".png", frame.rgb)
         write_seconds = time.perf_counter() - t1
-        append_jsonl(log_path, {
-            "scene": config.scene.name,
-            "technique": name,
-            "parameters": json.loads(params_json),
-            "frame": index,
-            "file": os.path.basename(exr),
-            "frame_seconds": render_seconds,
-            "write_seconds": write_seconds,
-            "prepare_seconds": prepare_seconds,
-            "numba_compile_seconds": result.compile_seconds,
-            "stages": frame.timings,
-            **{k: v for k, v in frame.stats.items()},
-            "threads": threads,
-            "cpu": cpu_name(),
-            "versions": versions(),
-            "scene_hash": scene.scene_hash,
-        })
+        append_jsonl(
+            log_path,
+            {
+                "scene": config.scene.name,
+                "technique": name,
+                "parameters": json.loads(params_json),
+                "frame": index,
+                "file": os.path.basename(exr),
+                "frame_seconds": render_seconds,
+                "write_seconds": write_seconds,
+                "prepare_seconds": prepare_seconds,
+                "numba_compile_seconds": result.compile_seconds,
+                "stages": frame.timings,
+                **{k: v for k, v in frame.stats.items()},
+                "threads": threads,
+                "cpu": cpu_name(),
+                "versions": versions(),
+                "scene_hash": scene.scene_hash,
+            },
+        )
         result.written.append(exr)
         if on_frame is not None:
             on_frame(index, exr)

@@ -28,11 +28,18 @@ def cli() -> None:
 
 @cli.command()
 @click.argument("scene", type=click.Path(dir_okay=False))
-@click.option("--out", "out", type=click.Path(file_okay=False), help="output root (default: output.dir)")
+@click.option(
+    "--out", "out", type=click.Path(file_okay=False), help="output root (default: output.dir)"
+)
 @click.option("--frames", help="frame N, or frames A:B (B excluded)")
 @click.option("--technique", help="render with this technique instead of the scene's")
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-              help="override any config field, e.g. technique.max_depth=2 (repeatable)")
+@click.option(
+    "--set",
+    "overrides",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="override any config field, e.g. technique.max_depth=2 (repeatable)",
+)
 @click.option("--preview/--no-preview", default=None, help="also write an sRGB PNG per frame")
 @click.option("--threads", type=int, help="worker threads (default: all cores)")
 @click.option("--resume", is_flag=True, help="skip frames whose EXR already exists")
@@ -59,9 +66,18 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume) -
             if progress is not None:
                 progress.update(1)
 
-        result = api.render(scene, out=out, frames=frames, technique=technique,
-                            overrides=overrides, preview=preview, threads=threads,
-                            resume=resume, on_frame=on_frame, config=config)
+        result = api.render(
+            scene,
+            out=out,
+            frames=frames,
+            technique=technique,
+            overrides=overrides,
+            preview=preview,
+            threads=threads,
+            resume=resume,
+            on_frame=on_frame,
+            config=config,
+        )
     except Problems as e:
         _fail(e)
     except KeyboardInterrupt:
@@ -81,8 +97,9 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume) -
 def _unknown_technique(name, techniques):
     from .errors import Problem
 
-    return Problem("--technique", "", f"unknown technique '{name}' "
-                   f"(known: {', '.join(sorted(techniques))})")
+    return Problem(
+        "--technique", "", f"unknown technique '{name}' (known: {', '.join(sorted(techniques))})"
+    )
 
 
 def _load(path, overrides=(), technique=None):

@@ -30,7 +30,9 @@ def read_toml(path: str, field: str = "", referrer: str | None = None) -> dict:
     except FileNotFoundError:
         raise Problems([Problem(referrer or path, field, f"file not found: {path}")]) from None
     except OSError as e:
-        raise Problems([Problem(referrer or path, field, f"cannot read {path}: {e.strerror}")]) from None
+        raise Problems(
+            [Problem(referrer or path, field, f"cannot read {path}: {e.strerror}")]
+        ) from None
     except tomli.TOMLDecodeError as e:
         raise Problems([Problem(path, "", f"TOML syntax error: {e}")]) from None
 
@@ -162,8 +164,10 @@ def field_path(loc: tuple, data: Any) -> tuple:
     out: list = []
     node = data
     for part in loc:
-        if isinstance(node, dict) and part not in node and any(
-            node.get(k) == part for k in _TAG_KEYS
+        if (
+            isinstance(node, dict)
+            and part not in node
+            and any(node.get(k) == part for k in _TAG_KEYS)
         ):
             continue
         if isinstance(part, str) and part.startswith("function-"):
@@ -194,7 +198,7 @@ def _message(err: dict) -> str:
     if kind == "missing":
         return "required"
     msg = err["msg"]
-    return msg[len("Value error, "):] if msg.startswith("Value error, ") else msg
+    return msg[len("Value error, ") :] if msg.startswith("Value error, ") else msg
 
 
 def origin(prov: Provenance, loc: tuple, default: str) -> str:

@@ -37,7 +37,7 @@ class QuadMirror(_Mirror):
 
 
 class RectangleMirror(_Mirror):
-    """Centered at `center`, facing `normal`, `size` = (width along up x normal, height along up)."""
+    """Centered at `center`, facing `normal`; `size` = (width along up x normal, height)."""
 
     shape: Literal["rectangle"]
     center: Vec3
@@ -60,7 +60,7 @@ class SphereMirror(_Mirror):
 
 
 class CylinderMirror(_Mirror):
-    """An open tube from `origin` along `axis` (normalised) for `height`; exact in the ray tracer."""
+    """An open tube from `origin` along unit `axis` for `height`; exact in the ray tracer."""
 
     shape: Literal["cylinder"]
     origin: Vec3 = (0.0, 0.0, 0.0)

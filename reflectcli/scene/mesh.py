@@ -32,12 +32,16 @@ class Mesh:
 
     def face_normals(self) -> np.ndarray:
         """Geometric normals (F, 3) from the winding: (c1 - c0) x (c2 - c0), normalised."""
-        n = np.cross(self.corners[:, 1] - self.corners[:, 0], self.corners[:, 2] - self.corners[:, 0])
+        n = np.cross(
+            self.corners[:, 1] - self.corners[:, 0], self.corners[:, 2] - self.corners[:, 0]
+        )
         length = np.linalg.norm(n, axis=1, keepdims=True)
         return n / np.where(length > 0, length, 1.0)
 
     def areas(self) -> np.ndarray:
-        n = np.cross(self.corners[:, 1] - self.corners[:, 0], self.corners[:, 2] - self.corners[:, 0])
+        n = np.cross(
+            self.corners[:, 1] - self.corners[:, 0], self.corners[:, 2] - self.corners[:, 0]
+        )
         return 0.5 * np.linalg.norm(n, axis=1)
 
     def transformed(self, matrix: np.ndarray) -> Mesh:

@@ -1,0 +1,31 @@
+# reflect: batch renderer for mirror reflections.
+# `make demo` installs into .venv and renders the bundled teapot-box scene (EXR + PNG preview).
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+SCENE ?= scenes/teapot-box.toml
+
+.PHONY: demo install test lint render clean
+
+demo: install
+	$(BIN)/reflect render $(SCENE) --frames 0 --preview
+
+$(BIN)/reflect: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[dev]'
+	touch $(BIN)/reflect
+
+install: $(BIN)/reflect
+
+test: install
+	$(BIN)/pytest -q
+
+lint: install
+	$(BIN)/ruff check reflectcli tests
+
+render: install
+	$(BIN)/reflect render $(SCENE) --preview
+
+clean:
+	rm -rf out .reflect-cache .pytest_cache

@@ -1,0 +1,60 @@
+"""Load a user mesh file (OBJ, PLY, GLB, STL) into the renderer's `Mesh` triangle soup.
+
+trimesh does the parsing; here we only decide the shading normals: smooth vertex normals
+unless they disagree with the face by more than 45 degrees, so hard edges stay hard.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from reflectcli.scene.mesh import Mesh
+
+_SMOOTH_LIMIT_COS = float(np.cos(np.radians(45.0)))
+
+
+def load_mesh_file(path: str | Path) -> Mesh:
+    """Read `path` with trimesh (scenes are merged) into object-space corners, uvs, normals.
+
+    UVs come from the file's texture coordinates when present, else zeros. Raises
+    FileNotFoundError for a missing file and ValueError when trimesh cannot read it or the
+    result has no triangles.
+    """
+    import trimesh  # slow to import; only mesh-file scenes pay for it
+
+    file = Path(path)
+    if not file.is_file():
+        raise FileNotFoundError(f"mesh file not found: {file}")
+    try:
+        loaded = trimesh.load(file, force="mesh")
+    except Exception as exc:  # trimesh raises many types for bad or unknown files
+        raise ValueError(f"cannot read mesh file {file}: {exc}") from exc
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise ValueError(f"mesh file {file} contains no triangles")
+
+    faces = np.asarray(loaded.faces, dtype=np.int64)
+    vertices = np.asarray(loaded.vertices, dtype=np.float64)
+    corners = vertices[faces]
+    n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    keep = length[:, 0] > 0
+    if not keep.any():
+        raise ValueError(f"mesh file {file} contains only zero-area triangles")
+    faces, corners = faces[keep], corners[keep]
+    face_normals = n[keep] / length[keep]
+
+    uv = getattr(loaded.visual, "uv", None)
+    if uv is not None and len(uv) == len(vertices):
+        uvs = np.asarray(uv, dtype=np.float64)[faces, :2]
+    else:
+        uvs = np.zeros(faces.shape + (2,))
+
+    vertex_normals = np.asarray(loaded.vertex_normals, dtype=np.float64)[faces]
+    vn_length = np.linalg.norm(vertex_normals, axis=2, keepdims=True)
+    vertex_normals = vertex_normals / np.where(vn_length > 0, vn_length, 1.0)
+    flat = np.broadcast_to(face_normals[:, None, :], vertex_normals.shape)
+    agree = np.einsum("fck,fck->fc", vertex_normals, flat) >= _SMOOTH_LIMIT_COS
+    normals = np.where(agree[..., None], vertex_normals, flat)
+    return Mesh(corners, uvs, normals)
