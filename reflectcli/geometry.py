@@ -56,3 +56,34 @@ def trs_matrix(translate, rotate, scale) -> np.ndarray:
     m[:3, :3] = euler_matrix(rotate) @ np.diag(s)
     m[:3, 3] = translate
     return m
+
+
+def transform_plane(plane, matrix) -> np.ndarray:
+    """The plane (4,) of points x, re-expressed for points y = matrix @ x: M^-T @ plane."""
+    return np.linalg.inv(np.asarray(matrix, dtype=np.float64)).T @ np.asarray(plane, float)
+
+
+def oblique_projection(projection, plane_eye) -> np.ndarray:
+    """Lengyel's oblique near plane: replace the near plane of an OpenGL projection by
+    `plane_eye` (a, b, c, d in eye space; the camera must lie on its negative side, and points
+    with a x + b y + c z + d >= 0 are kept).
+
+    Only the third row changes, so clip-space x, y and w (hence the image and eye-space
+    depth) are untouched; points on the plane get NDC z = -1 and depth order along each view
+    ray is kept in front of it. The far plane becomes the plane through the far corner of the
+    old frustum opposite the new near plane: it tilts with the mirror, and an NDC-z depth
+    buffer loses precision as the mirror plane turns away from the view axis (the NDC z range
+    spent on the visible part shrinks). Our z-buffer holds eye-space depth, so the only cost
+    here is that clipping must not use the tilted far plane; see `far_plane_clip`.
+    """
+    p = np.array(projection, dtype=np.float64)
+    c = np.asarray(plane_eye, dtype=np.float64)
+    q = np.linalg.inv(p) @ np.array([np.sign(c[0]), np.sign(c[1]), 1.0, 1.0])
+    scaled = c * (2.0 / (c @ q))
+    p[2] = scaled - p[3]
+    return p
+
+
+def far_plane_clip(projection, far: float) -> np.ndarray:
+    """The eye-space far plane z_eye >= -far as a clip-space plane of `projection`."""
+    return transform_plane(np.array([0.0, 0.0, 1.0, far]), projection)

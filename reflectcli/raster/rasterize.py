@@ -27,6 +27,9 @@ _MAX_POLY = 3 + _MAX_PLANES
 # culling modes
 CULL_NONE, CULL_BACK, CULL_FRONT = 0, 1, 2
 
+# per-triangle flags
+FLAG_MIRROR, FLAG_SKIP = 1, 2
+
 # triangle status after setup
 _CULLED, _SIMPLE, _CLIPPED = 0, 1, 2
 
@@ -46,25 +49,30 @@ def standard_planes() -> np.ndarray:
 
 def rasterize(
     corners: np.ndarray,
-    is_mirror: np.ndarray,
+    flags: np.ndarray,
     world_to_clip: np.ndarray,
     width: int,
     height: int,
     planes: np.ndarray | None = None,
     cull: int = CULL_NONE,
+    mask: np.ndarray | None = None,
 ) -> RasterBuffers:
     """Rasterize world-space triangles (T, 3, 3) with an OpenGL-style world->clip matrix.
 
+    `flags` per triangle: bit 0 (FLAG_MIRROR, or a bool array) marks mirrors, which win
+    depth ties; bit 1 (FLAG_SKIP) leaves the triangle out of this pass.
     `planes` are clip-space half-spaces (P, 4), near and far first; default near + far.
     `cull`: CULL_BACK drops triangles whose screen winding is clockwise (seen from behind),
     CULL_FRONT the opposite (for a mirrored camera, whose handedness is flipped).
+    `mask` (H, W) bool is a stencil: only its pixels are drawn, and only rows and columns
+    of its bounding box are visited.
     """
     if planes is None:
         planes = standard_planes()
     planes = np.ascontiguousarray(planes, dtype=np.float64)
     assert planes.shape[0] <= _MAX_PLANES
     corners = np.ascontiguousarray(corners, dtype=np.float32)
-    mirror = np.ascontiguousarray(is_mirror, dtype=np.uint8)
+    flags = np.ascontiguousarray(flags, dtype=np.uint8)
     m = np.ascontiguousarray(world_to_clip, dtype=np.float64)
     t = corners.shape[0]
     screen = np.empty((t, 9), np.float64)
@@ -74,9 +82,18 @@ def rasterize(
     b1 = np.zeros((height, width), np.float32)
     b2 = np.zeros((height, width), np.float32)
     depth = np.full((height, width), np.inf, np.float32)
-    bands = min(height, max(1, numba.get_num_threads()) * 8)
-    _draw(corners, mirror, m, planes, width, height, cull, screen, status, bands,
-          tri, b1, b2, depth)
+    if mask is None:
+        stencil = np.ones((height, width), np.uint8)
+        x0, x1, y0, y1 = 0, width, 0, height
+    else:
+        stencil = np.ascontiguousarray(mask, dtype=np.uint8)
+        rows, cols = np.flatnonzero(stencil.any(axis=1)), np.flatnonzero(stencil.any(axis=0))
+        if rows.size == 0:
+            return RasterBuffers(tri, b1, b2, depth)
+        x0, x1, y0, y1 = int(cols[0]), int(cols[-1]) + 1, int(rows[0]), int(rows[-1]) + 1
+    bands = min(y1 - y0, max(1, numba.get_num_threads()) * 8)
+    _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
+          stencil, x0, x1, y0, y1, tri, b1, b2, depth)
     return RasterBuffers(tri, b1, b2, depth)
 
 
@@ -182,20 +199,24 @@ def _clip_polygon(corners, t, m, planes, width, height, out_xyw, out_bary):
 
 
 @njit(cache=True)
-def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, row1, width,
-          tri, b1, b2, depth):
-    """Scan one screen triangle over rows [row0, row1). ba/bb/bc: corner barycentrics (3,)."""
+def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, row1, col0, col1,
+          stencil, tri, b1, b2, depth):
+    """Scan one screen triangle over rows [row0, row1) and columns [col0, col1), stencil on.
+
+    ba/bb/bc: the corners' barycentrics in the original triangle (3,)."""
     area = _area(x0, y0, x1, y1, x2, y2)
     if area == 0.0:
         return
     inv_area = 1.0 / area
-    xmin = max(int(np.floor(min(x0, x1, x2) - 0.5)), 0)
-    xmax = min(int(np.ceil(max(x0, x1, x2) - 0.5)), width - 1)
+    xmin = max(int(np.floor(min(x0, x1, x2) - 0.5)), col0)
+    xmax = min(int(np.ceil(max(x0, x1, x2) - 0.5)), col1 - 1)
     ymin = max(int(np.floor(min(y0, y1, y2) - 0.5)), row0)
     ymax = min(int(np.ceil(max(y0, y1, y2) - 0.5)), row1 - 1)
     for py in range(ymin, ymax + 1):
         sy = py + 0.5
         for px in range(xmin, xmax + 1):
+            if stencil[py, px] == 0:
+                continue
             sx = px + 0.5
             l0 = _area(x1, y1, x2, y2, sx, sy) * inv_area
             l1 = _area(x2, y2, x0, y0, sx, sy) * inv_area
@@ -216,27 +237,28 @@ def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, ro
 
 
 @njit(cache=True, parallel=True)
-def _draw(corners, mirror, m, planes, width, height, cull, screen, status, bands,
-          tri, b1, b2, depth):
+def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
+          stencil, col0, col1, top, bottom, tri, b1, b2, depth):
     e0 = np.array([1.0, 0.0, 0.0])
     e1 = np.array([0.0, 1.0, 0.0])
     e2 = np.array([0.0, 0.0, 1.0])
+    rows = bottom - top
     for band in prange(bands):
-        row0 = band * height // bands
-        row1 = (band + 1) * height // bands
+        row0 = top + band * rows // bands
+        row1 = top + (band + 1) * rows // bands
         xyw = np.empty((_MAX_POLY, 3))
         bary = np.empty((_MAX_POLY, 3))
         for t in range(corners.shape[0]):
             st = status[t]
-            if st == _CULLED:
+            if st == _CULLED or flags[t] & 2:
                 continue
-            key_scale = MIRROR_TIE if mirror[t] else 1.0
+            key_scale = MIRROR_TIE if flags[t] & 1 else 1.0
             if st == _SIMPLE:
                 s = screen[t]
                 if max(s[1], s[4], s[7]) < row0 + 0.5 or min(s[1], s[4], s[7]) > row1 - 0.5:
                     continue
                 _fill(t, key_scale, s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8],
-                      e0, e1, e2, row0, row1, width, tri, b1, b2, depth)
+                      e0, e1, e2, row0, row1, col0, col1, stencil, tri, b1, b2, depth)
                 continue
             n = _clip_polygon(corners, t, m, planes, width, height, xyw, bary)
             if n < 3:
@@ -251,14 +273,14 @@ def _draw(corners, mirror, m, planes, width, height, cull, screen, status, bands
             for i in range(1, n - 1):
                 _fill(t, key_scale, xyw[0, 0], xyw[0, 1], xyw[0, 2],
                       xyw[i, 0], xyw[i, 1], xyw[i, 2], xyw[i + 1, 0], xyw[i + 1, 1],
-                      xyw[i + 1, 2], bary[0], bary[i], bary[i + 1], row0, row1, width,
-                      tri, b1, b2, depth)
+                      xyw[i + 1, 2], bary[0], bary[i], bary[i + 1], row0, row1, col0, col1,
+                      stencil, tri, b1, b2, depth)
     # depth keys of mirrors were scaled: undo so the buffer holds true eye-space depth
     for band in prange(bands):
-        row0 = band * height // bands
-        row1 = (band + 1) * height // bands
+        row0 = top + band * rows // bands
+        row1 = top + (band + 1) * rows // bands
         for py in range(row0, row1):
-            for px in range(width):
+            for px in range(col0, col1):
                 t = tri[py, px]
-                if t >= 0 and mirror[t]:
+                if t >= 0 and flags[t] & 1:
                     depth[py, px] = depth[py, px] / MIRROR_TIE

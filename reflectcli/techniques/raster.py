@@ -12,12 +12,13 @@ from __future__ import annotations
 import time
 from typing import Literal
 
+import numpy as np
 from pydantic import ConfigDict
 
 from ..camera import Camera
 from ..config.base import Strict
 from ..frame import Frame
-from ..raster.rasterize import rasterize
+from ..raster.rasterize import FLAG_MIRROR, rasterize
 from ..raster.shade import shade_buffers
 from ..scene.types import Scene
 from .base import Technique
@@ -34,8 +35,8 @@ def render_primary(scene: Scene, frame: int, camera: Camera) -> Frame:
     t0 = time.perf_counter()
     tris = scene.geometry(frame).all_triangles()
     world_to_clip = camera.projection_matrix() @ camera.view_matrix()
-    buffers = rasterize(tris.corners, tris.surface >= scene.n_objects, world_to_clip,
-                        camera.width, camera.height)
+    flags = np.where(tris.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
+    buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height)
     t1 = time.perf_counter()
     rgb, surface = shade_buffers(buffers, tris, scene, camera.eye)
     t2 = time.perf_counter()

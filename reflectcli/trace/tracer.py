@@ -233,10 +233,13 @@ def _resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m
         dn = dx * nx + dy * ny + dz * nz
         rx, ry, rz = dx - 2.0 * dn * nx, dy - 2.0 * dn * ny, dz - 2.0 * dn * nz
         inv = 1.0 / np.sqrt(rx * rx + ry * ry + rz * rz)
-        # offset the new origin off the surface, scaled to the coordinates' magnitude
+        rx, ry, rz = rx * inv, ry * inv, rz * inv
+        # start the reflected ray a little off the surface (eps, scaled to the coordinates'
+        # magnitude), moving along the ray itself so that it stays on the exact reflected line
         eps = 1e-4 * (1.0 + max(abs(px), abs(py), abs(pz)))
-        next_o[i, 0], next_o[i, 1], next_o[i, 2] = px + eps * gx, py + eps * gy, pz + eps * gz
-        next_d[i, 0], next_d[i, 1], next_d[i, 2] = rx * inv, ry * inv, rz * inv
+        step = eps / max(rx * gx + ry * gy + rz * gz, 1e-2)
+        next_o[i, 0], next_o[i, 1], next_o[i, 2] = px + step * rx, py + step * ry, pz + step * rz
+        next_d[i, 0], next_d[i, 1], next_d[i, 2] = rx, ry, rz
         any_weight = False
         for c in range(3):
             next_w[i, c] = weight[i, c] * m_refl[k, c]
