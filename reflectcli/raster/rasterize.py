@@ -77,7 +77,8 @@ def rasterize(
     t = corners.shape[0]
     screen = np.empty((t, 9), np.float64)
     status = np.empty(t, np.uint8)
-    _setup(corners, m, planes, width, height, cull, screen, status)
+    rows = np.empty((t, 2), np.int64)
+    _setup(corners, m, planes, width, height, cull, screen, status, rows)
     tri = np.full((height, width), -1, np.int32)
     b1 = np.zeros((height, width), np.float32)
     b2 = np.zeros((height, width), np.float32)
@@ -87,62 +88,120 @@ def rasterize(
         x0, x1, y0, y1 = 0, width, 0, height
     else:
         stencil = np.ascontiguousarray(mask, dtype=np.uint8)
-        rows, cols = np.flatnonzero(stencil.any(axis=1)), np.flatnonzero(stencil.any(axis=0))
-        if rows.size == 0:
+        ys = np.flatnonzero(stencil.any(axis=1))
+        xs = np.flatnonzero(stencil.any(axis=0))
+        if ys.size == 0:
             return RasterBuffers(tri, b1, b2, depth)
-        x0, x1, y0, y1 = int(cols[0]), int(cols[-1]) + 1, int(rows[0]), int(rows[-1]) + 1
+        x0, x1, y0, y1 = int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1
     bands = min(y1 - y0, max(1, numba.get_num_threads()) * 8)
-    _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
+    offsets, items = _bin(status, flags, rows, y0, y1, bands)
+    _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets, items,
           stencil, x0, x1, y0, y1, tri, b1, b2, depth)
     return RasterBuffers(tri, b1, b2, depth)
 
 
+_CHUNK = 1024  # triangles per parallel task in setup (one scratch allocation per task)
+
+
 @njit(cache=True, parallel=True)
-def _setup(corners, m, planes, width, height, cull, screen, status):
+def _setup(corners, m, planes, width, height, cull, screen, status, rows):
     """Per triangle: clip-space transform, trivial reject, and screen positions if unclipped.
 
-    screen[t] = (x0, y0, 1/w0, x1, y1, 1/w1, x2, y2, 1/w2) in screen space.
+    screen[t] = (x0, y0, 1/w0, x1, y1, 1/w1, x2, y2, 1/w2) in screen space; rows[t] = the
+    first and last pixel rows it may cover (all rows for triangles that need clipping).
     """
-    for t in prange(corners.shape[0]):
+    n = corners.shape[0]
+    for chunk in prange((n + _CHUNK - 1) // _CHUNK):
         c = np.empty((3, 4))
+        for t in range(chunk * _CHUNK, min(n, (chunk + 1) * _CHUNK)):
+            _setup_one(corners, t, m, planes, width, height, cull, screen, status, rows, c)
+
+
+@njit(cache=True, inline="always")
+def _setup_one(corners, t, m, planes, width, height, cull, screen, status, rows, c):
+    for k in range(3):
+        x, y, z = corners[t, k, 0], corners[t, k, 1], corners[t, k, 2]
+        for r in range(4):
+            c[k, r] = m[r, 0] * x + m[r, 1] * y + m[r, 2] * z + m[r, 3]
+    status[t] = _SIMPLE
+    rows[t, 0] = 0
+    rows[t, 1] = height - 1
+    # frustum side planes: reject only (no clipping needed against them)
+    if (c[0, 0] < -c[0, 3] and c[1, 0] < -c[1, 3] and c[2, 0] < -c[2, 3]) or (
+        c[0, 0] > c[0, 3] and c[1, 0] > c[1, 3] and c[2, 0] > c[2, 3]) or (
+        c[0, 1] < -c[0, 3] and c[1, 1] < -c[1, 3] and c[2, 1] < -c[2, 3]) or (
+        c[0, 1] > c[0, 3] and c[1, 1] > c[1, 3] and c[2, 1] > c[2, 3]
+    ):
+        status[t] = _CULLED
+        return
+    for p in range(planes.shape[0]):
+        outside = 0
         for k in range(3):
-            x, y, z = corners[t, k, 0], corners[t, k, 1], corners[t, k, 2]
-            for r in range(4):
-                c[k, r] = m[r, 0] * x + m[r, 1] * y + m[r, 2] * z + m[r, 3]
-        status[t] = _SIMPLE
-        # frustum side planes: reject only (no clipping needed against them)
-        if (c[0, 0] < -c[0, 3] and c[1, 0] < -c[1, 3] and c[2, 0] < -c[2, 3]) or (
-            c[0, 0] > c[0, 3] and c[1, 0] > c[1, 3] and c[2, 0] > c[2, 3]) or (
-            c[0, 1] < -c[0, 3] and c[1, 1] < -c[1, 3] and c[2, 1] < -c[2, 3]) or (
-            c[0, 1] > c[0, 3] and c[1, 1] > c[1, 3] and c[2, 1] > c[2, 3]
-        ):
+            s = (planes[p, 0] * c[k, 0] + planes[p, 1] * c[k, 1]
+                 + planes[p, 2] * c[k, 2] + planes[p, 3] * c[k, 3])
+            if s < 0.0:
+                outside += 1
+        if outside == 3:
             status[t] = _CULLED
+            return
+        if outside > 0:
+            status[t] = _CLIPPED
+    if status[t] != _SIMPLE:
+        return
+    for k in range(3):
+        iw = 1.0 / c[k, 3]
+        screen[t, 3 * k] = (c[k, 0] * iw + 1.0) * 0.5 * width
+        screen[t, 3 * k + 1] = (1.0 - c[k, 1] * iw) * 0.5 * height
+        screen[t, 3 * k + 2] = iw
+    ylo = min(screen[t, 1], screen[t, 4], screen[t, 7])
+    yhi = max(screen[t, 1], screen[t, 4], screen[t, 7])
+    # pixel row py is covered only if its center py + 0.5 lies in [ylo, yhi]
+    rows[t, 0] = max(int(np.ceil(ylo - 0.5)), 0)
+    rows[t, 1] = min(int(np.floor(yhi - 0.5)), height - 1)
+    if rows[t, 0] > rows[t, 1]:
+        status[t] = _CULLED
+        return
+    if cull != 0:
+        area = _area(screen[t, 0], screen[t, 1], screen[t, 3], screen[t, 4],
+                     screen[t, 6], screen[t, 7])
+        # screen y points down: a counter-clockwise (front) triangle has negative area here
+        if (cull == 1 and area > 0.0) or (cull == 2 and area < 0.0):
+            status[t] = _CULLED
+
+
+@njit(cache=True)
+def _bin(status, flags, rows, top, bottom, bands):
+    """Triangle lists per screen band, in triangle order: (offsets (bands+1), items)."""
+    span = bottom - top
+    band_of = np.empty(span, np.int64)
+    for b in range(bands):
+        for y in range(top + b * span // bands, top + (b + 1) * span // bands):
+            band_of[y - top] = b
+    counts = np.zeros(bands + 1, np.int64)
+    for t in range(status.shape[0]):
+        if status[t] == _CULLED or flags[t] & 2:
             continue
-        for p in range(planes.shape[0]):
-            outside = 0
-            for k in range(3):
-                s = (planes[p, 0] * c[k, 0] + planes[p, 1] * c[k, 1]
-                     + planes[p, 2] * c[k, 2] + planes[p, 3] * c[k, 3])
-                if s < 0.0:
-                    outside += 1
-            if outside == 3:
-                status[t] = _CULLED
-                break
-            if outside > 0:
-                status[t] = _CLIPPED
-        if status[t] != _SIMPLE:
+        lo = max(rows[t, 0], top)
+        hi = min(rows[t, 1], bottom - 1)
+        if lo > hi:
             continue
-        for k in range(3):
-            iw = 1.0 / c[k, 3]
-            screen[t, 3 * k] = (c[k, 0] * iw + 1.0) * 0.5 * width
-            screen[t, 3 * k + 1] = (1.0 - c[k, 1] * iw) * 0.5 * height
-            screen[t, 3 * k + 2] = iw
-        if cull != 0:
-            area = _area(screen[t, 0], screen[t, 1], screen[t, 3], screen[t, 4],
-                         screen[t, 6], screen[t, 7])
-            # screen y points down: a counter-clockwise (front) triangle has negative area here
-            if (cull == 1 and area > 0.0) or (cull == 2 and area < 0.0):
-                status[t] = _CULLED
+        for b in range(band_of[lo - top], band_of[hi - top] + 1):
+            counts[b + 1] += 1
+    for b in range(bands):
+        counts[b + 1] += counts[b]
+    items = np.empty(counts[bands], np.int32)
+    fill = counts[:bands].copy()
+    for t in range(status.shape[0]):
+        if status[t] == _CULLED or flags[t] & 2:
+            continue
+        lo = max(rows[t, 0], top)
+        hi = min(rows[t, 1], bottom - 1)
+        if lo > hi:
+            continue
+        for b in range(band_of[lo - top], band_of[hi - top] + 1):
+            items[fill[b]] = t
+            fill[b] += 1
+    return counts, items
 
 
 @njit(cache=True, inline="always")
@@ -237,7 +296,7 @@ def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, ro
 
 
 @njit(cache=True, parallel=True)
-def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
+def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets, items,
           stencil, col0, col1, top, bottom, tri, b1, b2, depth):
     e0 = np.array([1.0, 0.0, 0.0])
     e1 = np.array([0.0, 1.0, 0.0])
@@ -248,15 +307,12 @@ def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
         row1 = top + (band + 1) * rows // bands
         xyw = np.empty((_MAX_POLY, 3))
         bary = np.empty((_MAX_POLY, 3))
-        for t in range(corners.shape[0]):
+        for item in range(offsets[band], offsets[band + 1]):
+            t = items[item]
             st = status[t]
-            if st == _CULLED or flags[t] & 2:
-                continue
             key_scale = MIRROR_TIE if flags[t] & 1 else 1.0
             if st == _SIMPLE:
                 s = screen[t]
-                if max(s[1], s[4], s[7]) < row0 + 0.5 or min(s[1], s[4], s[7]) > row1 - 0.5:
-                    continue
                 _fill(t, key_scale, s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8],
                       e0, e1, e2, row0, row1, col0, col1, stencil, tri, b1, b2, depth)
                 continue

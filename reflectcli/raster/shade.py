@@ -54,13 +54,14 @@ def _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye
             c0 = 1.0 - c1 - c2
             u = c0 * uvs[t, 0, 0] + c1 * uvs[t, 1, 0] + c2 * uvs[t, 2, 0]
             v = c0 * uvs[t, 0, 1] + c1 * uvs[t, 1, 1] + c2 * uvs[t, 2, 1]
-            p = np.empty(3)
-            n = np.empty(3)
-            for a in range(3):
-                p[a] = c0 * corners[t, 0, a] + c1 * corners[t, 1, a] + c2 * corners[t, 2, a]
-                n[a] = c0 * normals[t, 0, a] + c1 * normals[t, 1, a] + c2 * normals[t, 2, a]
-            r, g, bl = surface_color(material[t], u, v, p[0], p[1], p[2], n[0], n[1], n[2],
-                                     p[0] - eye[0], p[1] - eye[1], p[2] - eye[2],
+            px = c0 * corners[t, 0, 0] + c1 * corners[t, 1, 0] + c2 * corners[t, 2, 0]
+            py = c0 * corners[t, 0, 1] + c1 * corners[t, 1, 1] + c2 * corners[t, 2, 1]
+            pz = c0 * corners[t, 0, 2] + c1 * corners[t, 1, 2] + c2 * corners[t, 2, 2]
+            nx = c0 * normals[t, 0, 0] + c1 * normals[t, 1, 0] + c2 * normals[t, 2, 0]
+            ny = c0 * normals[t, 0, 1] + c1 * normals[t, 1, 1] + c2 * normals[t, 2, 1]
+            nz = c0 * normals[t, 0, 2] + c1 * normals[t, 1, 2] + c2 * normals[t, 2, 2]
+            r, g, bl = surface_color(material[t], u, v, px, py, pz, nx, ny, nz,
+                                     px - eye[0], py - eye[1], pz - eye[2],
                                      mat_i, mat_f, texels, light_f, shading, ambient)
             rgb[y, x, 0] = r
             rgb[y, x, 1] = g
