@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
 
 from .config.camera import CameraConfig
 
@@ -85,6 +86,38 @@ class Camera:
         )
         d = d.transpose(0, 2, 1, 3, 4).reshape(self.height, self.width, samples * samples, 3)
         return d
+
+
+def primary_rays(camera: Camera, samples: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """float32 (origins, directions), (H * W * s * s, 3): the rays of `pixel_directions`
+    (same order, eye-space z = -1 per direction), starting on the near plane."""
+    right, up, back = camera.basis()
+    n = camera.height * camera.width * samples * samples
+    origins = np.empty((n, 3), np.float32)
+    dirs = np.empty((n, 3), np.float32)
+    _primary_rays(np.asarray(camera.eye, np.float64), right, up, back,
+                  math.tan(math.radians(camera.fov_y) / 2.0), camera.width, camera.height,
+                  samples, camera.near, origins, dirs)
+    return origins, dirs
+
+
+@njit(cache=True, parallel=True)
+def _primary_rays(eye, right, up, back, tan_half, width, height, samples, near, origins, dirs):
+    aspect = width / height
+    per_row = width * samples * samples
+    for j in prange(height):
+        for i in range(width):
+            for sy in range(samples):
+                y_ndc = 1.0 - 2.0 * (j + (sy + 0.5) / samples) / height
+                ye = y_ndc * tan_half
+                for sx in range(samples):
+                    x_ndc = 2.0 * (i + (sx + 0.5) / samples) / width - 1.0
+                    xe = x_ndc * tan_half * aspect
+                    k = j * per_row + (i * samples + sy) * samples + sx
+                    for a in range(3):
+                        d = xe * right[a] + ye * up[a] - back[a]
+                        dirs[k, a] = d
+                        origins[k, a] = eye[a] + near * d
 
 
 def camera_from_config(cfg: CameraConfig, frame: int = 0) -> Camera:

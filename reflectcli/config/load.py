@@ -24,17 +24,19 @@ Provenance = dict[tuple, str]
 
 
 def read_toml(path: str, field: str = "", referrer: str | None = None) -> dict:
+    rel = os.path.relpath(path)
+    display = path if rel.startswith("..") else rel  # as every other message names files
     try:
         with open(path, "rb") as f:
             return tomli.load(f)
     except FileNotFoundError:
-        raise Problems([Problem(referrer or path, field, f"file not found: {path}")]) from None
+        raise Problems([Problem(referrer or display, field, f"file not found: {path}")]) from None
     except OSError as e:
         raise Problems(
-            [Problem(referrer or path, field, f"cannot read {path}: {e.strerror}")]
+            [Problem(referrer or display, field, f"cannot read {path}: {e.strerror}")]
         ) from None
     except tomli.TOMLDecodeError as e:
-        raise Problems([Problem(path, "", f"TOML syntax error: {e}")]) from None
+        raise Problems([Problem(display, "", f"TOML syntax error: {e}")]) from None
 
 
 def _mark(data: Any, source: str, prefix: tuple, prov: Provenance) -> None:
@@ -79,8 +81,10 @@ def load_raw(path: str, prov: Provenance, stack: tuple = ()) -> dict:
         _rebase(included, os.path.dirname(os.path.abspath(inc_path)), here)
         merged = _merge(merged, included)
         local.update(sub)
+    from_files = set()
     for key in SECTION_FILES:
         if isinstance(data.get(key), str):
+            from_files.add(key)
             ref = os.path.join(here, data[key])
             section = read_toml(ref, key, display)
             data[key] = section.get(key, section) if isinstance(section, dict) else section
@@ -88,7 +92,7 @@ def load_raw(path: str, prov: Provenance, stack: tuple = ()) -> dict:
             _mark(data[key], ref_display, (key,), local)
             _rebase({key: data[key]}, os.path.dirname(os.path.abspath(ref)), here)
     for k, v in data.items():
-        if not (k in SECTION_FILES and (k,) in local and local[(k,)] != display):
+        if k not in from_files:
             _mark(v, display, (k,), local)
     merged = _merge(merged, data)
     prov.update(local)
@@ -163,15 +167,21 @@ def field_path(loc: tuple, data: Any) -> tuple:
     """Drop the discriminator tags pydantic puts into locations of tagged-union errors."""
     out: list = []
     node = data
+    tag_dropped = False
     for part in loc:
         if (
             isinstance(node, dict)
+            and not tag_dropped
             and part not in node
             and any(node.get(k) == part for k in _TAG_KEYS)
         ):
+            tag_dropped = True
             continue
         if isinstance(part, str) and part.startswith("function-"):
             continue
+        if isinstance(part, str) and node is not None and not isinstance(node, dict):
+            continue  # a union member label (`constrained-float`, `tuple[...]`) under a value
+        tag_dropped = False
         out.append(part)
         if isinstance(node, dict):
             node = node.get(part)
@@ -210,10 +220,15 @@ def origin(prov: Provenance, loc: tuple, default: str) -> str:
 
 def validation_problems(e: ValidationError, data: dict, prov: Provenance, default: str):
     problems = []
+    seen = set()
     for err in e.errors():
         loc = field_path(tuple(err["loc"]), data)
         field = ".".join(str(p) for p in loc)
-        problems.append(Problem(origin(prov, loc, default), field, _message(err)))
+        file = origin(prov, loc, default)
+        if (file, field) in seen:
+            continue  # the other members of a union (`1.5` vs `[r, g, b]`): report the first
+        seen.add((file, field))
+        problems.append(Problem(file, field, _message(err)))
     return problems
 
 
@@ -231,6 +246,11 @@ def load_config(
             _mark(data["technique"], "--technique", ("technique",), prov)
     for assignment in overrides:
         apply_override(data, assignment, prov)
+    current = data.get("technique")
+    if isinstance(current, dict) and "name" not in current:
+        from ..techniques.registry import default_technique
+
+        current["name"] = default_technique().name  # a scene that names none: the default
     try:
         cfg = SceneConfig.model_validate(data)
     except ValidationError as e:

@@ -28,6 +28,7 @@ from .types import (
     DIRECTIONAL,
     LAMBERT,
     MESH,
+    MIRROR_PARAMS,
     PLANAR,
     POINT,
     SOLID,
@@ -164,9 +165,10 @@ def mirror_plane(m) -> tuple[np.ndarray, float]:
 
 
 def mirror_mesh(m, source: str) -> tuple[Mesh, bool]:
-    """World-space triangles of a mirror and whether they are the exact surface."""
+    """World-space triangles of a mirror, and whether the ray tracer intersects them (mesh
+    mirrors) rather than the exact shape (planar, sphere and cylinder mirrors, in numba)."""
     if m.planar:
-        return primitives.quad(mirror_corners(m)), True
+        return primitives.quad(mirror_corners(m)), False
     if isinstance(m, SphereMirror):
         mesh = primitives.uv_sphere(m.radius, m.segments)
         return mesh.transformed(trs_matrix(m.center, (0, 0, 0), 1.0)), False
@@ -234,11 +236,11 @@ def _lights(cfg: SceneConfig) -> Lights:
 def _mirrors(cfg: SceneConfig) -> Mirrors:
     kinds, params = [], []
     for m in cfg.mirrors:
-        p = np.zeros(8)
+        p = np.zeros(MIRROR_PARAMS)
         if m.planar:
             kinds.append(PLANAR)
             n, d = mirror_plane(m)
-            p[:4] = (*n, d)
+            p[:16] = (*n, d, *mirror_corners(m).reshape(-1))
         elif isinstance(m, SphereMirror):
             kinds.append(SPHERE)
             p[:4] = (*m.center, m.radius)
@@ -255,7 +257,7 @@ def _mirrors(cfg: SceneConfig) -> Mirrors:
         np.array(kinds, np.int32).reshape(k),
         np.array([m.reflectance_rgb for m in cfg.mirrors], np.float32).reshape(k, 3),
         np.array([m.base for m in cfg.mirrors], np.float32).reshape(k, 3),
-        np.array(params, np.float32).reshape(k, 8),
+        np.array(params, np.float64).reshape(k, MIRROR_PARAMS),
     )
 
 

@@ -15,6 +15,8 @@ import numpy as np
 SOLID, CHECKER, TEXTURE = 0, 1, 2
 # mirror kinds
 PLANAR, SPHERE, CYLINDER, MESH = 0, 1, 2, 3
+MIRROR_PARAMS = 16
+
 # shading modes
 UNLIT, LAMBERT = 0, 1
 # light kinds
@@ -47,17 +49,18 @@ class Lights:
 
 @dataclass(frozen=True)
 class Mirrors:
-    """Per mirror: kind, reflectance rgb, base rgb and shape parameters (float32, world space).
+    """Per mirror: kind, reflectance rgb, base rgb and shape parameters (world space).
 
-    params columns: planar: n xyz, d; sphere: center xyz, radius;
-    cylinder: origin xyz, axis xyz (unit), radius, height; mesh: unused.
+    params (float64) columns: planar: n xyz, d, then corners p00 p10 p11 p01 (xyz each);
+    sphere: center xyz, radius; cylinder: origin xyz, axis xyz (unit), radius, height;
+    mesh: unused (its triangles are in Geometry.mirror_tris).
     """
 
     names: list[str]
     kind: np.ndarray  # (M,) int32
     reflectance: np.ndarray  # (M, 3) float32
     base: np.ndarray  # (M, 3) float32
-    params: np.ndarray  # (M, 8) float32
+    params: np.ndarray  # (M, MIRROR_PARAMS) float64
 
     @property
     def count(self) -> int:
@@ -84,8 +87,8 @@ class Geometry:
     """One frame's geometry: object triangles and mirror triangles.
 
     `mirror_tris` holds every mirror as triangles (curved ones tessellated, for rasterizing);
-    `mirror_exact` marks those that are the mirror itself (planar and mesh mirrors), which is
-    what the ray tracer intersects besides its analytic spheres and cylinders.
+    `mirror_exact` marks those the ray tracer intersects as triangles (mesh mirrors); it
+    intersects planar, sphere and cylinder mirrors exactly, in numba.
     """
 
     objects: Triangles

@@ -2,10 +2,22 @@
 
 from __future__ import annotations
 
+import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+
+
+_POOL: ThreadPoolExecutor | None = None
+
+
+def _pool() -> ThreadPoolExecutor:
+    """One long-lived pool: starting threads per call costs more than small batches take."""
+    global _POOL
+    if _POOL is None:
+        _POOL = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 1))
+    return _POOL
 
 
 class TriangleScene:
@@ -57,6 +69,5 @@ class TriangleScene:
         if chunks == 1:
             run(0, n)
         else:
-            with ThreadPoolExecutor(chunks) as pool:
-                list(pool.map(run, bounds[:-1], bounds[1:]))
+            list(_pool().map(run, bounds[:-1], bounds[1:]))
         return t, prim, u, v

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from ..camera import Camera
+from ..camera import Camera, primary_rays
 from ..frame import Frame
-from ..scene.types import MIRROR_TIE, SPHERE, Geometry, Scene
+from ..scene.types import MIRROR_TIE, PLANAR, SPHERE, Geometry, Scene
 from ..shading import surface_color
 from .analytic import intersect_analytic
 from .embree import TriangleScene
@@ -26,12 +26,12 @@ _FAR_AWAY = np.float32(1e30)
 
 @dataclass
 class Accelerators:
-    """Embree scenes for one geometry state: objects and the exact mirror triangles."""
+    """Embree scenes for one geometry state: objects, and mesh mirrors' triangles."""
 
     key: tuple
     objects: TriangleScene
     mirrors: TriangleScene
-    mirror_corners: np.ndarray  # (Tm, 3, 3) the exact mirror triangles, in Embree's order
+    mirror_corners: np.ndarray  # (Tm, 3, 3) mesh mirror triangles, in Embree's order
     mirror_normals: np.ndarray
     mirror_surface: np.ndarray
 
@@ -63,10 +63,9 @@ def trace_frame(
     start = time.perf_counter()
     h, w = camera.height, camera.width
     spp = samples * samples
-    directions = camera.pixel_directions(samples).reshape(-1, 3).astype(np.float32)
-    n = directions.shape[0]
     # eye-space primary rays: start on the near plane, stop at the far plane (t = depth - near)
-    origins = (camera.eye + camera.near * directions.astype(np.float64)).astype(np.float32)
+    origins, directions = primary_rays(camera, samples)
+    n = directions.shape[0]
     tfar = np.full(n, camera.far - camera.near, np.float32)
     slot = np.arange(n, dtype=np.int64)
     weight = np.ones((n, 3), np.float32)
@@ -89,8 +88,7 @@ def trace_frame(
         tfar = np.full(origins.shape[0], _FAR_AWAY, np.float32)
     rgb = color.reshape(h, w, spp, 3).mean(axis=2, dtype=np.float64).astype(np.float32)
     if spp > 1:  # Z, A and ids come from the pixel-center ray, traced once more
-        d = camera.pixel_directions(1).reshape(-1, 3).astype(np.float32)
-        o = (camera.eye + camera.near * d.astype(np.float64)).astype(np.float32)
+        o, d = primary_rays(camera, 1)
         m = d.shape[0]
         hit_t, surface, *_ = _wave(
             scene, geometry, accel, o, d, np.full(m, camera.far - camera.near, np.float32),
@@ -126,7 +124,7 @@ def _wave(scene, geometry, accel, origins, directions, tfar, weight, slot, color
     _resolve(origins, directions, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m, t_a, k_a,
              o.corners, o.uvs, o.normals, o.material, o.surface,
              accel.mirror_corners, accel.mirror_normals, accel.mirror_surface,
-             m.kind, m.params.astype(np.float64), m.reflectance, m.base, scene.n_objects,
+             m.kind, m.params, m.reflectance, m.base, scene.n_objects,
              scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
              scene.lights.light_f, scene.shading, scene.ambient, scene.background,
              follow, color, hit_t, hit_surface, alive, next_o, next_d, next_w)
@@ -208,7 +206,9 @@ def _resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m
             k = k_a[i]
             p = m_params[k]
             px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
-            if m_kind[k] == SPHERE:
+            if m_kind[k] == PLANAR:
+                gx, gy, gz = p[0], p[1], p[2]
+            elif m_kind[k] == SPHERE:
                 gx, gy, gz = px - p[0], py - p[1], pz - p[2]
             else:  # CYLINDER: radial direction from the axis
                 lx, ly, lz = px - p[0], py - p[1], pz - p[2]
