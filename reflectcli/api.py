@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import signal
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -27,6 +30,23 @@ class RenderResult:
     written: list[str] = field(default_factory=list)
     skipped: list[int] = field(default_factory=list)
     compile_seconds: float = 0.0
+
+
+@contextlib.contextmanager
+def interrupts_deferred():
+    """Hold Ctrl-C until the block ends, so an interrupted run never keeps a frame without
+    its log line. Signal handlers can only be set from the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list = []
+    previous = signal.signal(signal.SIGINT, lambda *args: caught.append(args))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
 
 
 def parse_frames(spec: str | None, count: int) -> range:
@@ -155,31 +175,28 @@ def render(
         start = time.perf_counter()
         frame = tech.render(state, index, camera)
         render_seconds = time.perf_counter() - start
-        t1 = time.perf_counter()
-        write_exr(exr, frame_channels(frame), {**attributes, "reflect:frame": str(index)})
-        if preview:
-            write_png(exr[:-4] + ".png", frame.rgb)
-        write_seconds = time.perf_counter() - t1
-        append_jsonl(
-            log_path,
-            {
-                "scene": config.scene.name,
-                "technique": name,
-                "parameters": json.loads(params_json),
-                "frame": index,
-                "file": os.path.basename(exr),
-                "frame_seconds": render_seconds,
-                "write_seconds": write_seconds,
-                "prepare_seconds": prepare_seconds,
-                "numba_compile_seconds": result.compile_seconds,
-                "stages": frame.timings,
-                **{k: v for k, v in frame.stats.items()},
-                "threads": threads,
-                "cpu": cpu_name(),
-                "versions": versions(),
-                "scene_hash": scene.scene_hash,
-            },
-        )
+        row = {
+            "scene": config.scene.name,
+            "technique": name,
+            "parameters": json.loads(params_json),
+            "frame": index,
+            "file": os.path.basename(exr),
+            "frame_seconds": render_seconds,
+            "prepare_seconds": prepare_seconds,
+            "numba_compile_seconds": result.compile_seconds,
+            "stages": frame.timings,
+            **frame.stats,
+            "threads": threads,
+            "cpu": cpu_name(),
+            "versions": versions(),
+            "scene_hash": scene.scene_hash,
+        }
+        with interrupts_deferred():  # a frame is kept with its log line, or not at all
+            t1 = time.perf_counter()
+            write_exr(exr, frame_channels(frame), {**attributes, "reflect:frame": str(index)})
+            if preview:
+                write_png(exr[:-4] + ".png", frame.rgb)
+            append_jsonl(log_path, {**row, "write_seconds": time.perf_counter() - t1})
         result.written.append(exr)
         if on_frame is not None:
             on_frame(index, exr)

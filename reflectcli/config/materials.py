@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Discriminator, Field, Tag
 
 from .base import Color, Strict
 
@@ -33,4 +33,16 @@ class TextureMaterial(Strict):
     scale: tuple[Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]] = (1.0, 1.0)
 
 
-Material = Annotated[SolidMaterial | CheckerMaterial | TextureMaterial, Field(discriminator="kind")]
+def _kind(value) -> str:
+    """A material without `kind` is solid (its documented default)."""
+    if isinstance(value, dict):
+        return value.get("kind", "solid")
+    return getattr(value, "kind", "solid")
+
+
+Material = Annotated[
+    Annotated[SolidMaterial, Tag("solid")]
+    | Annotated[CheckerMaterial, Tag("checker")]
+    | Annotated[TextureMaterial, Tag("texture")],
+    Discriminator(_kind),
+]

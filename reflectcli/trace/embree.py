@@ -8,7 +8,6 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-
 _POOL: ThreadPoolExecutor | None = None
 
 
