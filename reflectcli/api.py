@@ -16,6 +16,7 @@ from .config.load import load_config
 from .config.scene import SceneConfig
 from .errors import Problem, Problems
 from .frame import Frame
+from .maps.cache import MapCache, default_cache_dir
 from .output.exr import write_exr
 from .output.log import append_jsonl
 from .output.png import write_png
@@ -124,6 +125,7 @@ def render(
     resume: bool = False,
     on_frame: Callable[[int, str], None] | None = None,
     config: SceneConfig | None = None,
+    cache: str | None = None,
 ) -> RenderResult:
     """Render the selected frames of a scene file into out/<scene>/<technique>/.
 
@@ -153,7 +155,7 @@ def render(
     result = RenderResult(folder)
     result.compile_seconds = warm_up(name, params_json, threads)
     cls = TECHNIQUES[name]
-    tech = cls(params, threads)
+    tech = cls(params, threads, cache if cache is not None else default_cache_dir(path))
     t0 = time.perf_counter()
     state = tech.prepare(scene)
     prepare_seconds = time.perf_counter() - t0
@@ -201,3 +203,51 @@ def render(
         if on_frame is not None:
             on_frame(index, exr)
     return result
+
+
+@dataclass
+class PrecomputeResult:
+    cache: str
+    maps: list[dict] = field(default_factory=list)
+
+
+def precompute(
+    path: str,
+    *,
+    technique: str | None = None,
+    overrides: tuple[str, ...] | list[str] = (),
+    cache: str | None = None,
+    threads: int | None = None,
+    on_map: Callable[[dict], None] | None = None,
+) -> PrecomputeResult:
+    """Capture (or find in the cache) every map the scene's technique needs."""
+    import numba
+
+    config, _ = load_config(path, overrides, technique)
+    name = config.technique.name
+    cls = TECHNIQUES[name]
+    if not hasattr(cls, "precompute"):
+        map_based = sorted(n for n, c in TECHNIQUES.items() if hasattr(c, "precompute"))
+        raise Problems(
+            [
+                Problem(
+                    "--technique" if technique else path,
+                    "technique.name",
+                    f"'{name}' uses no precomputed maps (map-based: {', '.join(map_based)})",
+                )
+            ]
+        )
+    folder = cache if cache is not None else default_cache_dir(path)
+    prepare_output(folder, "--cache" if cache is not None else path, "")
+    scene = build_scene(config, path)
+    if threads is not None:
+        numba.set_num_threads(threads)
+    tech = cls(config.technique, numba.get_num_threads(), folder)
+    result = PrecomputeResult(folder)
+    result.maps = tech.precompute(scene, on_map)
+    return result
+
+
+def clear_cache(folder: str) -> int:
+    """Delete the maps in a cache folder; how many."""
+    return MapCache(folder).clear()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 
@@ -43,7 +44,12 @@ def cli() -> None:
 @click.option("--preview/--no-preview", default=None, help="also write an sRGB PNG per frame")
 @click.option("--threads", type=int, help="worker threads (default: all cores)")
 @click.option("--resume", is_flag=True, help="skip frames whose EXR already exists")
-def render(scene, out, frames, technique, overrides, preview, threads, resume) -> None:
+@click.option(
+    "--cache",
+    type=click.Path(file_okay=False),
+    help="map cache folder (default: .reflect-cache/ beside the scene)",
+)
+def render(scene, out, frames, technique, overrides, preview, threads, resume, cache) -> None:
     """Render SCENE (a TOML file) to out/<scene>/<technique>/frame_NNNN.exr."""
     from . import api
 
@@ -77,6 +83,7 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume) -
             resume=resume,
             on_frame=on_frame,
             config=config,
+            cache=cache,
         )
     except Problems as e:
         _fail(e)
@@ -106,6 +113,80 @@ def _load(path, overrides=(), technique=None):
     from .config.load import load_config
 
     return load_config(path, overrides, technique)
+
+
+@cli.command("precompute-maps")
+@click.argument("scene", type=click.Path(dir_okay=False))
+@click.option("--technique", help="a map-based technique instead of the scene's")
+@click.option(
+    "--set",
+    "overrides",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="override any config field (repeatable)",
+)
+@click.option(
+    "--cache",
+    type=click.Path(file_okay=False),
+    help="map cache folder (default: .reflect-cache/ beside the scene)",
+)
+@click.option("--threads", type=int, help="worker threads (default: all cores)")
+def precompute_maps(scene, technique, overrides, cache, threads) -> None:
+    """Capture the maps SCENE's technique needs into the cache (cached ones are kept)."""
+    from . import api
+
+    def on_map(record: dict) -> None:
+        click.echo(
+            f"{record['status']:>8}  {record['mirror']}  {record['seconds']:.2f} s  "
+            f"{record['path']}"
+        )
+
+    try:
+        if technique is not None:
+            from .techniques.registry import TECHNIQUES
+
+            if technique not in TECHNIQUES:
+                raise Problems([_unknown_technique(technique, TECHNIQUES)])
+        result = api.precompute(
+            scene,
+            technique=technique,
+            overrides=overrides,
+            cache=cache,
+            threads=threads,
+            on_map=on_map,
+        )
+    except Problems as e:
+        _fail(e)
+    except KeyboardInterrupt:
+        click.echo("\ninterrupted: maps already stored are kept", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    captured = sum(1 for m in result.maps if m["status"] == "captured")
+    click.echo(f"{captured} captured, {len(result.maps) - captured} cached in {result.cache}")
+
+
+@cli.group()
+def cache() -> None:
+    """Manage the precomputed-map cache."""
+
+
+@cache.command("clear")
+@click.argument("scene", required=False, type=click.Path(dir_okay=False))
+@click.option(
+    "--cache",
+    "folder",
+    type=click.Path(file_okay=False),
+    help="the cache folder (default: .reflect-cache/ beside SCENE)",
+)
+def cache_clear(scene, folder) -> None:
+    """Delete the cached maps of SCENE's folder, or of --cache DIR."""
+    from . import api
+    from .maps.cache import default_cache_dir
+
+    if folder is None and scene is None:
+        click.echo("cache clear: give a SCENE or --cache DIR", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    folder = folder if folder is not None else default_cache_dir(scene)
+    click.echo(f"removed {api.clear_cache(folder)} map(s) from {folder}")
 
 
 @cli.command()
@@ -141,6 +222,12 @@ def techniques() -> None:
 def main() -> None:
     # keep numba's threads to the cores we have unless the user says otherwise
     os.environ.setdefault("NUMBA_THREADING_LAYER", "omp")
+    # notices (cache recaptures, what was captured) as single lines on stderr
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    logger = logging.getLogger("reflect")
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
     cli(prog_name="reflect")
 
 

@@ -52,3 +52,66 @@ def read_exr(path: str) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     channels = {name: data[:, :, spec.channelindex(name)] for name in spec.channelnames}
     attrs = {a.name: a.value for a in spec.extra_attribs}
     return channels, attrs
+
+
+def write_exr_parts(
+    path: str, parts: list[tuple[str, dict[str, np.ndarray]]], attributes: dict[str, str]
+) -> None:
+    """A multi-part EXR, one named part per entry (e.g. cube faces), written atomically.
+
+    EXR cannot append a part later: open with every part's spec, then each further part in
+    "AppendSubimage" mode (STACK-NOTES.md). All parts share the display window."""
+    import OpenImageIO as oiio
+
+    specs, datas = [], []
+    for name, channels in parts:
+        names = list(channels)
+        data = np.ascontiguousarray(np.stack([channels[n] for n in names], axis=-1), np.float32)
+        h, w = data.shape[:2]
+        spec = oiio.ImageSpec(w, h, len(names), oiio.FLOAT)
+        spec.channelnames = tuple(names)
+        spec.attribute("compression", "zip")
+        spec.attribute("oiio:subimagename", name)
+        for key, value in attributes.items():
+            spec.attribute(key, str(value))
+        spec.attribute("DateTime", FIXED_DATETIME)
+        specs.append(spec)
+        datas.append(data)
+    with atomic_path(path) as tmp:
+        out = oiio.ImageOutput.create(tmp)
+        if out is None or not out.open(tmp, specs):
+            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+        ok = out.write_image(datas[0])
+        for spec, data in zip(specs[1:], datas[1:], strict=True):
+            ok = ok and out.open(tmp, spec, "AppendSubimage") and out.write_image(data)
+        out.close()
+        if not ok:
+            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+
+
+def read_exr_parts(path: str) -> list[tuple[str, dict[str, np.ndarray], dict[str, str]]]:
+    """Every part of an EXR: (name, channels by name, attributes). Raises OSError if unreadable.
+
+    Reads each part with the explicit subimage argument (after seek_subimage, the short
+    read_image forms silently return part 0)."""
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        raise OSError(f"cannot read {path}: {oiio.geterror()}")
+    parts = []
+    try:
+        index = 0
+        while inp.seek_subimage(index, 0):
+            spec = inp.spec()
+            data = inp.read_image(index, 0, 0, spec.nchannels, oiio.FLOAT)
+            if data is None:
+                raise OSError(f"cannot read {path} part {index}: {inp.geterror()}")
+            data = np.asarray(data, np.float32).reshape(spec.height, spec.width, spec.nchannels)
+            channels = {n: data[:, :, spec.channelindex(n)] for n in spec.channelnames}
+            attrs = {a.name: a.value for a in spec.extra_attribs}
+            parts.append((str(spec.getattribute("oiio:subimagename") or index), channels, attrs))
+            index += 1
+    finally:
+        inp.close()
+    return parts

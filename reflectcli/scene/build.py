@@ -261,16 +261,33 @@ def _mirrors(cfg: SceneConfig) -> Mirrors:
     )
 
 
-def scene_hash(cfg: SceneConfig, source: str) -> str:
-    """sha256 of the validated config and the bytes of every file it references."""
-    h = hashlib.sha256(json.dumps(cfg.model_dump(mode="json"), sort_keys=True).encode())
+def scene_hashes(cfg: SceneConfig, source: str) -> tuple[str, str]:
+    """(scene hash, content hash): sha256 of the validated config and the bytes of every file
+    it references; the content hash leaves out the camera, technique and output, so maps
+    captured from the scene stay valid when only those change."""
+    files = hashlib.sha256()
     paths = [o.path for o in cfg.objects if o.shape == "mesh"]
     paths += [m.path for m in cfg.materials.values() if m.kind == "texture"]
     paths += [m.path for m in cfg.mirrors if isinstance(m, MeshMirror)]
     for p in paths:
         with open(resolve(source, p), "rb") as f:
-            h.update(hashlib.sha256(f.read()).digest())
-    return h.hexdigest()
+            files.update(hashlib.sha256(f.read()).digest())
+    dump = cfg.model_dump(mode="json")
+    full = hashlib.sha256(json.dumps(dump, sort_keys=True).encode() + files.digest())
+    content = {k: dump[k] for k in ("materials", "lights", "objects", "mirrors")}
+    content["scene"] = {k: v for k, v in dump["scene"].items() if k != "name"}
+    part = hashlib.sha256(json.dumps(content, sort_keys=True).encode() + files.digest())
+    return full.hexdigest(), part.hexdigest()
+
+
+def _room_bounds(cfg: SceneConfig, meshes) -> np.ndarray | None:
+    """(2, 3) world bounds of the room objects at frame 0 (the default parallax proxy)."""
+    boxes = [mesh.transformed(transform_at(obj, 0)).corners.reshape(-1, 3)
+             for obj, mesh in zip(cfg.objects, meshes, strict=True) if obj.shape == "room"]
+    if not boxes:
+        return None
+    points = np.concatenate(boxes)
+    return np.array([points.min(axis=0), points.max(axis=0)])
 
 
 def build_scene(cfg: SceneConfig, source: str) -> Scene:
@@ -331,6 +348,7 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         last.update(key=mats, geometry=geometry)
         return geometry
 
+    hashes = scene_hashes(cfg, source)
     return Scene(
         name=cfg.scene.name,
         source=source,
@@ -343,6 +361,8 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         surface_names=[o.name for o in cfg.objects] + [m.name for m in cfg.mirrors],
         n_objects=n_obj,
         frame_count=cfg.camera.frame_count,
-        scene_hash=scene_hash(cfg, source),
+        scene_hash=hashes[0],
+        content_hash=hashes[1],
+        room_bounds=_room_bounds(cfg, meshes),
         geometry_at=geometry_at,
     )

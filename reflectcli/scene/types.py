@@ -119,7 +119,9 @@ class Scene:
     surface_names: list[str]
     n_objects: int
     frame_count: int
-    scene_hash: str
+    scene_hash: str  # everything: config and referenced files
+    content_hash: str  # what the scene looks like: no camera, technique or output
+    room_bounds: np.ndarray | None  # (2, 3) bounds of `room` objects at frame 0
     geometry_at: Callable[[int], Geometry] = field(repr=False)
 
     def geometry(self, frame: int) -> Geometry:

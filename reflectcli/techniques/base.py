@@ -21,9 +21,10 @@ class Technique:
     name: ClassVar[str]
     Params: ClassVar[type[BaseModel]]
 
-    def __init__(self, params: BaseModel, threads: int = 1) -> None:
+    def __init__(self, params: BaseModel, threads: int = 1, cache_dir: str | None = None) -> None:
         self.params = params
         self.threads = threads
+        self.cache_dir = cache_dir  # where precomputed maps live; None keeps them in memory
 
     def prepare(self, scene: Scene) -> Any:
         raise NotImplementedError

@@ -32,7 +32,8 @@ from ..camera import Camera
 from ..config.base import Strict
 from ..frame import Frame
 from ..geometry import far_plane_clip, oblique_projection, reflection_matrix, transform_plane
-from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP, rasterize, standard_planes
+from ..raster.primary import render_primary
+from ..raster.rasterize import FLAG_SKIP, rasterize, standard_planes
 from ..raster.shade import shade_buffers
 from ..scene.types import PLANAR, Scene, Triangles
 from .base import Technique
@@ -79,20 +80,16 @@ class Rerender(Technique):
         return scene
 
     def render(self, scene: Scene, frame: int, camera: Camera) -> Frame:
-        t0 = time.perf_counter()
-        tris = scene.geometry(frame).all_triangles()
-        flags = np.where(tris.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
-        world_to_clip = camera.projection_matrix() @ camera.view_matrix()
-        buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height)
-        rgb, surface = shade_buffers(buffers, tris, scene, camera.eye)
-        primary_seconds = time.perf_counter() - t0
-        stats = {"passes": 1, "triangles_rasterized": tris.count, "pass_seconds": []}
-        mask = np.ones(surface.shape, bool)
-        self._reflect(scene, tris, flags, camera, 1, np.eye(4), camera.eye, surface, mask, rgb,
-                      stats)
-        timings = {"primary": primary_seconds, "reflections": sum(stats["pass_seconds"])}
-        return Frame(rgb=rgb, depth=buffers.depth, surface=surface,
-                     mirror_mask=surface >= scene.n_objects, timings=timings, stats=stats)
+        primary = render_primary(scene, frame, camera)
+        result = primary.frame
+        stats = {"passes": 1, "triangles_rasterized": primary.triangles.count,
+                 "pass_seconds": []}
+        mask = np.ones(result.surface.shape, bool)
+        self._reflect(scene, primary.triangles, primary.flags, camera, 1, np.eye(4), camera.eye,
+                      result.surface, mask, result.rgb, stats)
+        result.timings["reflections"] = sum(stats["pass_seconds"])
+        result.stats.update(stats)
+        return result
 
     def _reflect(self, scene, tris: Triangles, flags, camera, level, chain, eye, surface, mask,
                  rgb, stats) -> None:

@@ -1,0 +1,1 @@
+"""Precomputed maps: environment (cube, sphere) maps; capture, lookup, cache."""

@@ -1,0 +1,38 @@
+"""The first pass every raster technique shares: the scene from the real camera."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..camera import Camera
+from ..frame import Frame
+from ..scene.types import Scene, Triangles
+from .rasterize import FLAG_MIRROR, RasterBuffers, rasterize
+from .shade import shade_buffers
+
+
+@dataclass
+class Primary:
+    frame: Frame  # mirror pixels hold (1 - r) * base; techniques add r * reflected
+    buffers: RasterBuffers
+    triangles: Triangles
+    flags: np.ndarray  # per-triangle rasterizer flags (mirrors marked)
+
+
+def render_primary(scene: Scene, frame: int, camera: Camera) -> Primary:
+    t0 = time.perf_counter()
+    tris = scene.geometry(frame).all_triangles()
+    flags = np.where(tris.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
+    world_to_clip = camera.projection_matrix() @ camera.view_matrix()
+    buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height)
+    t1 = time.perf_counter()
+    rgb, surface = shade_buffers(buffers, tris, scene, camera.eye)
+    t2 = time.perf_counter()
+    result = Frame(
+        rgb=rgb, depth=buffers.depth, surface=surface, mirror_mask=surface >= scene.n_objects,
+        timings={"rasterize": t1 - t0, "shade": t2 - t1}, stats={"triangles": tris.count},
+    )
+    return Primary(result, buffers, tris, flags)
