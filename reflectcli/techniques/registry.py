@@ -11,12 +11,15 @@ from typing import Annotated, Union
 from pydantic import BaseModel, Field
 
 from .base import Technique
+from .dprm import Dprm
 from .envmap import Envmap
 from .raster import Raster
 from .raytrace import Raytrace
 from .rerender import Rerender
 
-TECHNIQUES: dict[str, type[Technique]] = {t.name: t for t in (Raytrace, Raster, Rerender, Envmap)}
+TECHNIQUES: dict[str, type[Technique]] = {
+    t.name: t for t in (Raytrace, Raster, Rerender, Envmap, Dprm)
+}
 PARAMS: dict[str, type[BaseModel]] = {name: t.Params for name, t in TECHNIQUES.items()}
 
 TechniqueConfig = Annotated[Union[tuple(PARAMS.values())], Field(discriminator="name")]  # noqa: UP007

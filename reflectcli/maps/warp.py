@@ -1,0 +1,254 @@
+"""Forward warping of zexel maps into a mirror's pixels (numba), McMillan's 3D warp.
+
+Each zexel at map pixel (u, v) with eye-space depth z has generalized disparity
+delta = 1 / z (0 for empty zexels: points at infinity, which still warp correctly as
+directions). Its homogeneous map-eye point is D (u, v, 1, delta) with D the map camera's
+pixel-to-ray matrix; the world point is V_map^-1 of that, its mirror image R of that, and
+its place on the screen P V of that. One 4x4 W = P V R V_map^-1 D per map and frame:
+clip = W (u, v, 1, delta), which is equation 3 of the paper written projectively:
+x_o ~ delta P_o^-1 (c_i - c_o) + P_o^-1 P_i x_i. The paper's equation 4 disparity,
+1 - z_window (far - near) / far, equals near / z for a plain perspective depth buffer: ours up
+to the constant `near`, which the projective form absorbs; storing eye-space depth keeps it
+exact for the oblique capture projection, whose window z is not that of a plain one.
+
+Visibility: `zbuffer` keeps, per pixel, the zexel nearest the eye (ties to the lower id);
+`ordered` paints each map in McMillan's occlusion-compatible order (later overwrite),
+z-testing only against other maps. Both run one band of screen rows per task over zexels
+binned by row, so results do not depend on the thread count.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+from ..camera import Camera
+
+
+def pixel_to_eye(camera: Camera) -> np.ndarray:
+    """D: map pixel (u, v, 1, delta) -> homogeneous eye-space point (x/z, y/z, -1, 1/z)."""
+    t = math.tan(math.radians(camera.fov_y) / 2.0)
+    a = camera.aspect
+    w, h = camera.width, camera.height
+    return np.array([
+        [2.0 * t * a / w, 0.0, (1.0 / w - 1.0) * t * a, 0.0],
+        [0.0, -2.0 * t / h, (1.0 - 1.0 / h) * t, 0.0],
+        [0.0, 0.0, -1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ])
+
+
+def warp_matrix(map_camera: Camera, camera: Camera, reflection: np.ndarray) -> np.ndarray:
+    """W = P V R V_map^-1 D (see the module docstring)."""
+    return (camera.projection_matrix() @ camera.view_matrix() @ reflection
+            @ np.linalg.inv(map_camera.view_matrix()) @ pixel_to_eye(map_camera))
+
+
+def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near: float):
+    """Screen positions (float32, pixels) and eye depths of every zexel; invalid -> sx = NaN."""
+    n = depth.size
+    sx = np.empty(n, np.float32)
+    sy = np.empty(n, np.float32)
+    z = np.empty(n, np.float32)
+    _project(depth, np.ascontiguousarray(w, np.float64), width, height, near, sx, sy, z)
+    return sx, sy, z
+
+
+@njit(cache=True, parallel=True)
+def _project(depth, w, width, height, near, sx, sy, z):
+    mh, mw = depth.shape
+    for v in prange(mh):
+        # per-row terms hoisted: clip = W[:, 0] u + (W[:, 1] v + W[:, 2]) + W[:, 3] delta
+        r0 = w[0, 1] * v + w[0, 2]
+        r1 = w[1, 1] * v + w[1, 2]
+        r3 = w[3, 1] * v + w[3, 2]
+        for u in range(mw):
+            k = v * mw + u
+            d = depth[v, u]
+            delta = 0.0 if d == np.inf else 1.0 / d
+            cx = w[0, 0] * u + r0 + w[0, 3] * delta
+            cy = w[1, 0] * u + r1 + w[1, 3] * delta
+            cw = w[3, 0] * u + r3 + w[3, 3] * delta
+            if delta > 0.0:
+                zz = cw / delta
+                ok = zz > near
+            else:
+                zz = np.inf
+                ok = cw > 0.0
+            if not ok:
+                sx[k] = np.nan
+                continue
+            inv = 1.0 / cw
+            x = (cx * inv + 1.0) * 0.5 * width
+            y = (1.0 - cy * inv) * 0.5 * height
+            if not (-8.0 <= x < width + 8.0 and -8.0 <= y < height + 8.0):
+                sx[k] = np.nan
+                continue
+            sx[k] = x
+            sy[k] = y
+            z[k] = zz
+
+
+def splat_radii(sx, sy, z, shape, mode) -> np.ndarray:
+    """Per-zexel splat radius: fixed (1 -> 0, 3 -> 1, 5 -> 2) or adaptive from the warp's
+    local footprint (half the screen distance to the right and lower neighbours, within a
+    surface: neighbours more than 5% apart in depth do not count), capped at 3."""
+    if mode != "adaptive":
+        return np.full(sx.shape[0], (int(mode) - 1) // 2, np.int8)
+    radii = np.empty(sx.shape[0], np.int8)
+    _adaptive(sx, sy, z, shape[0], shape[1], radii)
+    return radii
+
+
+@njit(cache=True, parallel=True)
+def _adaptive(sx, sy, z, mh, mw, radii):
+    for v in prange(mh):
+        for u in range(mw):
+            k = v * mw + u
+            radii[k] = 0
+            if np.isnan(sx[k]):
+                continue
+            reach = 0.0
+            for du, dv in ((1, 0), (0, 1), (-1, 0), (0, -1)):
+                uu, vv = u + du, v + dv
+                if uu < 0 or vv < 0 or uu >= mw or vv >= mh:
+                    continue
+                q = vv * mw + uu
+                if np.isnan(sx[q]):
+                    continue
+                if not (abs(z[q] - z[k]) <= 0.05 * min(z[q], z[k])):
+                    continue
+                reach = max(reach, abs(sx[q] - sx[k]), abs(sy[q] - sy[k]))
+            radii[k] = min(3, int(math.ceil(reach * 0.5 - 0.5))) if reach > 1.0 else 0
+
+
+def ordered_sequence(mh: int, mw: int, epipole_x: float, epipole_y: float, toward: bool):
+    """McMillan's occlusion-compatible order over a map: split at the epipole's row and
+    column into up to four sheets; in each, rows and columns run from the borders toward the
+    epipole (`toward`, epipole in front of the map camera) or away from it."""
+    # an epipole at infinity (desired COP on the map camera's plane) lies beyond a border
+    ex = int(math.floor(np.clip(np.nan_to_num(epipole_x, nan=mw / 2), -1, mw)))
+    ey = int(math.floor(np.clip(np.nan_to_num(epipole_y, nan=mh / 2), -1, mh)))
+    rows_top = np.arange(0, max(ey + 1, 0))  # rows at or above the epipole row
+    rows_bottom = np.arange(mh - 1, max(ey, -1), -1)  # rows below, from the bottom up
+    cols_left = np.arange(0, max(ex + 1, 0))
+    cols_right = np.arange(mw - 1, max(ex, -1), -1)
+    if not toward:
+        rows_top, rows_bottom = rows_top[::-1], rows_bottom[::-1]
+        cols_left, cols_right = cols_left[::-1], cols_right[::-1]
+    parts = []
+    for rows in (rows_top, rows_bottom):
+        for cols in (cols_left, cols_right):
+            if rows.size and cols.size:
+                parts.append((rows[:, None] * mw + cols[None, :]).reshape(-1))
+    return np.concatenate(parts).astype(np.int64)
+
+
+def splat(
+    sx, sy, z, radii, order, slot, stride, stencil, best_z, best_id, ordered: bool
+) -> int:
+    """Write the zexels (in `order`) into the per-pixel (depth, id) buffers over `stencil`;
+    ids are slot * stride + zexel index. Returns the number of zexels on the screen."""
+    height, width = stencil.shape
+    bands = min(height, max(1, numba.get_num_threads()) * 4)
+    offsets, items = _bin(sx, sy, radii, order, height, bands)
+    _splat(sx, sy, z, radii, offsets, items, slot, stride, stencil, best_z, best_id,
+           bands, ordered)
+    return int(np.count_nonzero(~np.isnan(sx)))
+
+
+@njit(cache=True)
+def _bin(sx, sy, radii, order, height, bands):
+    """Zexel lists per band of screen rows, in `order` (splat reach included)."""
+    counts = np.zeros(bands + 1, np.int64)
+    for i in range(order.shape[0]):
+        k = order[i]
+        if np.isnan(sx[k]):
+            continue
+        py = int(math.floor(sy[k]))
+        r = radii[k]
+        lo = max(py - r, 0)
+        hi = min(py + r, height - 1)
+        if lo > hi:
+            continue
+        for b in range(lo * bands // height, hi * bands // height + 1):
+            counts[b + 1] += 1
+    for b in range(bands):
+        counts[b + 1] += counts[b]
+    items = np.empty(counts[bands], np.int64)
+    fill = counts[:bands].copy()
+    for i in range(order.shape[0]):
+        k = order[i]
+        if np.isnan(sx[k]):
+            continue
+        py = int(math.floor(sy[k]))
+        r = radii[k]
+        lo = max(py - r, 0)
+        hi = min(py + r, height - 1)
+        if lo > hi:
+            continue
+        for b in range(lo * bands // height, hi * bands // height + 1):
+            items[fill[b]] = k
+            fill[b] += 1
+    return counts, items
+
+
+@njit(cache=True, parallel=True)
+def _splat(sx, sy, z, radii, offsets, items, slot, stride, stencil, best_z, best_id,
+           bands, ordered):
+    height, width = stencil.shape
+    for b in prange(bands):
+        # rows of band b: those y with y * bands // height == b
+        row0 = (b * height + bands - 1) // bands
+        row1 = ((b + 1) * height + bands - 1) // bands
+        for i in range(offsets[b], offsets[b + 1]):
+            k = items[i]
+            px = int(math.floor(sx[k]))
+            py = int(math.floor(sy[k]))
+            r = radii[k]
+            zk = z[k]
+            ident = slot * stride + k
+            for y in range(max(py - r, row0), min(py + r, row1 - 1) + 1):
+                for x in range(max(px - r, 0), min(px + r, width - 1) + 1):
+                    if not stencil[y, x]:
+                        continue
+                    current = best_id[y, x]
+                    if ordered and current >= 0 and current // stride == slot:
+                        take = True  # same map: later in McMillan's order wins
+                    else:
+                        bz = best_z[y, x]
+                        take = zk < bz or (zk == bz and (current < 0 or ident < current))
+                    if take:
+                        best_z[y, x] = zk
+                        best_id[y, x] = ident
+
+
+def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.ndarray,
+              stencil: np.ndarray, splat_mode, ordered: bool):
+    """Warp several zexel maps (ZexelMap) into the pixels of `stencil` seen from `camera`.
+
+    Returns (depth (H, W) float32, id (H, W) int64: map index * stride + zexel index, or -1
+    where no zexel landed, stride, zexels on screen)."""
+    h, w = stencil.shape
+    best_z = np.full((h, w), np.inf, np.float32)
+    best_id = np.full((h, w), -1, np.int64)
+    stride = max(m.depth.size for m in maps)
+    zexels = 0
+    for slot, zmap in enumerate(maps):
+        wm = warp_matrix(zmap.camera, camera, reflection)
+        sx, sy, z = project_map(zmap.depth, wm, w, h, camera.near)
+        radii = splat_radii(sx, sy, z, zmap.depth.shape, splat_mode)
+        if ordered:
+            c = zmap.camera
+            e = c.projection_matrix() @ c.view_matrix() @ np.append(mirrored_eye, 1.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ex = (e[0] / e[3] + 1.0) * 0.5 * c.width
+                ey = (1.0 - e[1] / e[3]) * 0.5 * c.height
+            order = ordered_sequence(*zmap.depth.shape, ex, ey, e[3] > 0)
+        else:
+            order = np.arange(zmap.depth.size, dtype=np.int64)
+        zexels += splat(sx, sy, z, radii, order, slot, stride, stencil, best_z, best_id, ordered)
+    return best_z, best_id, stride, zexels

@@ -1,0 +1,118 @@
+"""Depth-preserving reflection maps: color + eye-space depth per zexel, captured through a
+planar mirror from viewpoints behind it (Bastos & Stuerzlinger, sec. 4).
+
+A map is an ordinary camera image of the scene in front of the mirror, taken from a
+viewpoint on the mirror's back side looking through the mirror as through a window, with
+the mirror plane as the (oblique) near plane, so nothing behind the mirror is captured.
+Depth is the eye-space depth along the map camera's axis (+inf where nothing was hit); the
+warp derives the generalized disparity 1 / depth from it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..camera import Camera, normalize
+from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP, rasterize
+from ..raster.shade import shade_buffers
+from ..scene.types import Scene
+
+
+@dataclass
+class ZexelMap:
+    camera: Camera  # the map's camera (world space); its image is the map
+    color: np.ndarray  # (H, W, 3) float32, linear
+    depth: np.ndarray  # (H, W) float32, eye-space depth along the camera axis, +inf if empty
+
+
+@dataclass(frozen=True)
+class MirrorFrame:
+    """A planar mirror's center, unit normal (its front), right and up (world)."""
+
+    center: np.ndarray
+    normal: np.ndarray
+    right: np.ndarray
+    up: np.ndarray
+    corners: np.ndarray  # (4, 3) p00 p10 p11 p01
+
+    @property
+    def plane(self) -> np.ndarray:
+        return np.append(self.normal, -self.normal @ self.center)
+
+    @property
+    def diagonal(self) -> float:
+        return float(np.linalg.norm(self.corners[2] - self.corners[0]))
+
+
+def mirror_frame(scene: Scene, k: int) -> MirrorFrame:
+    p = scene.mirrors.params[k]
+    corners = p[4:16].reshape(4, 3).astype(np.float64)
+    n = p[:3].astype(np.float64)
+    up = normalize(corners[3] - corners[0])
+    right = np.cross(up, n)
+    return MirrorFrame(corners.mean(axis=0), n, right, up, corners)
+
+
+def viewpoints(frame: MirrorFrame, count: int, layout: str, radius: float, spread: float):
+    """(count, 3) world points on a hemisphere of `radius` behind the mirror, within `spread`
+    degrees of its axis; count = 1 is the point on the axis.
+
+    grid: a sqrt(count) x sqrt(count) grid over the cap's tangent square (count a square);
+    fibonacci: a golden-angle spiral over the cap (any count)."""
+    axis = -frame.normal
+    if count == 1:
+        return (frame.center + radius * axis)[None]
+    tan_spread = math.tan(math.radians(spread))
+    if layout == "grid":
+        n = math.isqrt(count)
+        s = np.linspace(-1.0, 1.0, n)
+        u, v = np.meshgrid(s, s)
+        offsets = tan_spread * (u.reshape(-1, 1) * frame.right + v.reshape(-1, 1) * frame.up)
+    else:
+        i = np.arange(count) + 0.5
+        cos_max = math.cos(math.radians(spread))
+        cos_t = 1.0 - (1.0 - cos_max) * i / count
+        r = np.sqrt(1.0 - cos_t**2) / cos_t
+        phi = i * math.pi * (3.0 - math.sqrt(5.0))
+        offsets = r[:, None] * (np.cos(phi)[:, None] * frame.right
+                                + np.sin(phi)[:, None] * frame.up)
+    dirs = axis + offsets
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    return frame.center + radius * dirs
+
+
+def map_camera(frame: MirrorFrame, viewpoint: np.ndarray, resolution: int, near: float,
+               far: float) -> Camera:
+    """A square camera at `viewpoint` aimed at the mirror's center whose frustum covers it."""
+    cam = Camera(viewpoint, frame.center, frame.up, 90.0, resolution, resolution, near, far)
+    view = cam.view_matrix()
+    eye_corners = frame.corners @ view[:3, :3].T + view[:3, 3]
+    depth = -eye_corners[:, 2]
+    half = np.max(np.abs(eye_corners[:, :2]) / depth[:, None])
+    fov = 2.0 * math.degrees(math.atan(half * 1.02))  # 2% margin around the mirror
+    return Camera(viewpoint, frame.center, frame.up, fov, resolution, resolution, near, far)
+
+
+def capture_map(scene: Scene, k: int, camera: Camera, frame_index: int = 0) -> ZexelMap:
+    """Render the scene in front of mirror k from `camera` (behind the mirror), mirror plane
+    as the oblique near plane; the mirror itself is left out, other mirrors show their base."""
+    from ..techniques.rerender import reflection_pass_matrices
+
+    mf = mirror_frame(scene, k)
+    plane = mf.plane
+    if plane[:3] @ camera.eye + plane[3] > 0:
+        raise ValueError("map viewpoint must lie behind the mirror")
+    offset = 1e-4 * (1.0 + abs(plane[3]) + float(np.abs(camera.eye).max()))
+    world_to_clip, planes = reflection_pass_matrices(
+        camera, np.eye(4), plane - np.array([0, 0, 0, offset]), "oblique")
+    tris = scene.geometry(frame_index).all_triangles()
+    flags = np.where(tris.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
+    flags |= np.where(tris.surface == scene.n_objects + k, FLAG_SKIP, 0).astype(np.uint8)
+    buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height, planes)
+    color, _ = shade_buffers(buffers, tris, scene, camera.eye)
+    depth = buffers.depth.copy()
+    depth[buffers.triangle < 0] = np.inf
+    return ZexelMap(camera, color, depth)

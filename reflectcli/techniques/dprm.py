@@ -1,0 +1,209 @@
+"""Depth-preserving reflection maps (Bastos & Stuerzlinger): precomputed zexel maps per
+planar mirror, forward-warped into the mirror's pixels every frame.
+
+| parameter | type | default | meaning |
+|---|---|---|---|
+| `maps.count` | int | 1 | maps per mirror, on a hemisphere behind it (1: on its axis) |
+| `maps.resolution` | int | 512 | zexels per map side |
+| `maps.layout` | "grid", "fibonacci" | "grid" | viewpoint layout (grid needs a square count) |
+| `maps.radius` | float | mirror diagonal | viewpoint distance from the mirror's center |
+| `maps.spread` | degrees | 45 | half-angle of the cap of viewpoints around the axis |
+| `maps.per_frame` | int | 1 | maps warped per frame: those nearest the reflected eye |
+| `fill.splat` | 1, 3, 5, "adaptive" | 1 | splat footprint in pixels (adaptive: from the warp) |
+| `fill.temporal` | bool | false | keep the previous frame's reflection where no zexel lands |
+| `occlusion` | "zbuffer", "ordered" | "zbuffer" | nearest zexel wins, or McMillan's order |
+
+Per frame and visible planar mirror: the eye is reflected across the mirror (equations 1
+and 2: M = E - 2 (N.E + d) N; the reflected view direction R_d = E_d - 2 (N.E_d) N, which is
+the paper's 2 (N.E_d) N - E_d with E_d pointing toward the eye), the `per_frame` maps whose
+viewpoints are nearest M are warped (reflectcli/maps/warp.py), holes are filled as asked, and
+the mirror pixels get (1 - r) * base + r * reflected. The warp's cost depends on the zexels,
+not on the scene's polygons. Maps are captured at frame 0: objects that move later are not
+in them (a warning says so). Pixels no zexel reached are `holes` (an EXR channel) and show
+the background. Curved mirrors show (1 - r) * base.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from typing import Literal
+
+import numpy as np
+from pydantic import ConfigDict, Field, model_validator
+
+from ..camera import Camera
+from ..config.base import Strict
+from ..frame import Frame
+from ..geometry import reflection_matrix
+from ..maps.cache import MapCache, cache_key
+from ..maps.warp import warp_maps
+from ..maps.zexel import ZexelMap, capture_map, map_camera, mirror_frame, viewpoints
+from ..raster.primary import render_primary
+from ..scene.types import PLANAR, Scene
+from .base import Technique
+from .envmap import scene_extent
+
+log = logging.getLogger("reflect")
+MAP_FORMAT = 1
+
+
+class DprmMaps(Strict):
+    count: int = Field(default=1, ge=1, le=4096, description="maps per mirror")
+    resolution: int = Field(default=512, ge=8, le=8192, description="zexels per map side")
+    layout: Literal["grid", "fibonacci"] = Field(default="grid", description="viewpoints")
+    radius: float | None = Field(default=None, gt=0, description="default: mirror diagonal")
+    spread: float = Field(default=45.0, gt=0, lt=90, description="cap half-angle, degrees")
+    per_frame: int = Field(default=1, ge=1, le=64, description="maps warped per frame")
+
+    @model_validator(mode="after")
+    def _count_fits_layout(self) -> DprmMaps:
+        if self.layout == "grid" and self.count != math.isqrt(self.count) ** 2:
+            raise ValueError(f"count = {self.count} does not fit layout 'grid' (needs a "
+                             "square: 1, 4, 9, 16, ...)")
+        if self.per_frame > self.count:
+            raise ValueError(f"per_frame = {self.per_frame} exceeds count = {self.count}")
+        return self
+
+
+class DprmFill(Strict):
+    splat: Literal[1, 3, 5, "adaptive"] = Field(default=1, description="splat footprint")
+    temporal: bool = Field(default=False, description="reuse the previous frame in holes")
+
+
+class DprmParams(Strict):
+    model_config = ConfigDict(title="dprm")
+
+    name: Literal["dprm"] = "dprm"
+    maps: DprmMaps = Field(default_factory=DprmMaps, description="map capture and choice")
+    fill: DprmFill = Field(default_factory=DprmFill, description="exposure filling")
+    occlusion: Literal["zbuffer", "ordered"] = Field(default="zbuffer", description="visibility")
+
+
+class Dprm(Technique):
+    name = "dprm"
+    Params = DprmParams
+
+    def precompute(self, scene: Scene, on_map=None) -> list[dict]:
+        """Capture (or load) every planar mirror's maps; one record per mirror."""
+        p: DprmMaps = self.params.maps
+        cache = MapCache(self.cache_dir)
+        near, far = scene_extent(scene)
+        records = []
+        for k, name in enumerate(scene.mirrors.names):
+            if scene.mirrors.kind[k] != PLANAR:
+                continue
+            mf = mirror_frame(scene, k)
+            radius = p.radius if p.radius is not None else mf.diagonal
+            points = viewpoints(mf, p.count, p.layout, radius, p.spread)
+            cams = [map_camera(mf, v, p.resolution, near, far) for v in points]
+            key = cache_key(format=MAP_FORMAT, technique="dprm", scene=scene.content_hash,
+                            mirror=name, count=p.count, resolution=p.resolution,
+                            layout=p.layout, radius=radius, spread=p.spread, near=near, far=far)
+            start = time.perf_counter()
+            parts = cache.load("dprm", key, lambda parts: _valid(parts, p))
+            status = "cached"
+            if parts is None:
+                status = "captured"
+                maps = [capture_map(scene, k, cam) for cam in cams]
+                parts = [(f"map{j:03d}", {"R": m.color[:, :, 0], "G": m.color[:, :, 1],
+                                          "B": m.color[:, :, 2], "Z": m.depth})
+                         for j, m in enumerate(maps)]
+                cache.store("dprm", key, parts, {
+                    "reflect:mirror": name, "reflect:maps": str(p.count),
+                    "reflect:near": repr(near), "reflect:far": repr(far),
+                    "reflect:viewpoints": " ".join(f"{x:.9g}" for x in points.reshape(-1))})
+            else:
+                maps = [ZexelMap(cam, np.stack([c["R"], c["G"], c["B"]], axis=-1), c["Z"])
+                        for cam, (_, c, _) in zip(cams, parts, strict=True)]
+            record = {"mirror": name, "index": k, "status": status, "maps": maps,
+                      "plane": (mf.normal, float(-mf.normal @ mf.center)),
+                      "viewpoints": points, "seconds": time.perf_counter() - start,
+                      "path": cache.path("dprm", key)}
+            records.append(record)
+            if on_map is not None:
+                on_map(record)
+        return records
+
+    def prepare(self, scene: Scene) -> dict:
+        start = time.perf_counter()
+        records = self.precompute(scene)
+        captured = [r["mirror"] for r in records if r["status"] == "captured"]
+        if captured and self.cache_dir is not None:
+            log.info("dprm: captured maps of %s; cached %d", ", ".join(captured),
+                     len(records) - len(captured))
+        if scene.frame_count > 1 and scene.geometry(0).key[1]:
+            log.warning("dprm: objects move in this scene, but its maps are captured at "
+                        "frame 0: reflections show them where they were then")
+        return {"scene": scene, "mirrors": records, "previous": {},
+                "precompute_seconds": time.perf_counter() - start}
+
+    def render(self, state: dict, frame: int, camera: Camera) -> Frame:
+        scene: Scene = state["scene"]
+        params: DprmParams = self.params
+        primary = render_primary(scene, frame, camera)
+        result = primary.frame
+        holes = np.zeros(result.surface.shape, bool)
+        warp_s = fill_s = 0.0
+        used, warped = 0, 0
+        for record in state["mirrors"]:
+            k = record["index"]
+            stencil = result.surface == scene.n_objects + k
+            if not stencil.any():
+                continue
+            t0 = time.perf_counter()
+            reflected, reached, n_maps, n_zexels = self._warp(record, camera, stencil)
+            t1 = time.perf_counter()
+            filled = reached
+            if params.fill.temporal:
+                prev = state["previous"].get(k)
+                if prev is not None:
+                    reuse = stencil & ~reached & prev[1]
+                    reflected[reuse] = prev[0][reuse]
+                    filled = reached | reuse
+                state["previous"][k] = (reflected.copy(), filled & stencil)
+            hole = stencil & ~filled
+            reflected[hole] = scene.background
+            result.rgb[stencil] += scene.mirrors.reflectance[k] * reflected[stencil]
+            holes |= hole
+            fill_s += time.perf_counter() - t1
+            warp_s += t1 - t0
+            used += n_maps
+            warped += n_zexels
+        mirror_pixels = int(np.count_nonzero(result.surface >= scene.n_objects))
+        result.extra["holes"] = holes.astype(np.float32)
+        result.timings.update({"warp": warp_s, "fill": fill_s,
+                               "precompute": state["precompute_seconds"] if frame == 0 else 0.0})
+        result.stats.update({"maps_used": used, "zexels_warped": warped,
+                             "holes": int(holes.sum()),
+                             "hole_fraction": float(holes.sum() / max(mirror_pixels, 1))})
+        return result
+
+    def _warp(self, record: dict, camera: Camera, stencil: np.ndarray):
+        """Reflected colors over the stencil, and which pixels a zexel reached."""
+        params: DprmParams = self.params
+        k_maps: list[ZexelMap] = record["maps"]
+        n, d = record["plane"]
+        # equations 1 and 2: the eye mirrored across the plane
+        reflect = reflection_matrix(n, d)
+        mirrored_eye = camera.eye - 2.0 * (n @ camera.eye + d) * n
+        order_by_distance = np.argsort(
+            np.linalg.norm(record["viewpoints"] - mirrored_eye, axis=1), kind="stable")
+        chosen = order_by_distance[: params.maps.per_frame]
+        maps = [k_maps[j] for j in chosen]
+        _, best_id, stride, zexels = warp_maps(maps, camera, reflect, mirrored_eye, stencil,
+                                               params.fill.splat, params.occlusion == "ordered")
+        h, w = stencil.shape
+        reflected = np.zeros((h, w, 3), np.float32)
+        reached = best_id >= 0
+        ids = best_id[reached]
+        colors = np.stack([m.color.reshape(-1, 3) for m in maps])
+        reflected[reached] = colors[ids // stride, ids % stride]
+        return reflected, reached, len(chosen), zexels
+
+
+def _valid(parts, p: DprmMaps) -> bool:
+    return len(parts) == p.count and all(
+        set(c) >= {"R", "G", "B", "Z"} and c["Z"].shape == (p.resolution, p.resolution)
+        for _, c, _ in parts)
