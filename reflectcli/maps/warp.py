@@ -14,7 +14,7 @@ exact for the oblique capture projection, whose window z is not that of a plain 
 Visibility: `zbuffer` keeps, per pixel, the zexel nearest the eye (ties to the lower id);
 `ordered` paints each map in McMillan's occlusion-compatible order (later overwrite),
 z-testing only against other maps. Both run one band of screen rows per task over zexels
-binned by row, so results do not depend on the thread count.
+skipping map rows that cannot reach it, so results do not depend on the thread count.
 """
 
 from __future__ import annotations
@@ -125,105 +125,113 @@ def _adaptive(sx, sy, z, mh, mw, radii):
             radii[k] = min(3, int(math.ceil(reach * 0.5 - 0.5))) if reach > 1.0 else 0
 
 
-def ordered_sequence(mh: int, mw: int, epipole_x: float, epipole_y: float, toward: bool):
-    """McMillan's occlusion-compatible order over a map: split at the epipole's row and
-    column into up to four sheets; in each, rows and columns run from the borders toward the
-    epipole (`toward`, epipole in front of the map camera) or away from it."""
+def ordered_runs(mh: int, mw: int, epipole_x: float, epipole_y: float, toward: bool):
+    """McMillan's occlusion-compatible order over a map as runs (row, first col, stop, step):
+    split at the epipole's row and column into up to four sheets; in each, rows and columns
+    run from the borders toward the epipole (`toward`: the desired center of projection is in
+    front of the map camera) or away from it."""
     # an epipole at infinity (desired COP on the map camera's plane) lies beyond a border
     ex = int(math.floor(np.clip(np.nan_to_num(epipole_x, nan=mw / 2), -1, mw)))
     ey = int(math.floor(np.clip(np.nan_to_num(epipole_y, nan=mh / 2), -1, mh)))
-    rows_top = np.arange(0, max(ey + 1, 0))  # rows at or above the epipole row
-    rows_bottom = np.arange(mh - 1, max(ey, -1), -1)  # rows below, from the bottom up
-    cols_left = np.arange(0, max(ex + 1, 0))
-    cols_right = np.arange(mw - 1, max(ex, -1), -1)
+    rows_top = list(range(0, max(ey + 1, 0)))  # rows at or above the epipole row
+    rows_bottom = list(range(mh - 1, max(ey, -1), -1))  # rows below it, bottom up
+    left = (0, max(ex + 1, 0), 1)  # columns at or left of the epipole, left to right
+    right = (mw - 1, max(ex, -1), -1)  # columns right of it, right to left
     if not toward:
         rows_top, rows_bottom = rows_top[::-1], rows_bottom[::-1]
-        cols_left, cols_right = cols_left[::-1], cols_right[::-1]
-    parts = []
+        left = (left[1] - 1, left[0] - 1, -1)
+        right = (right[1] + 1, right[0] + 1, 1)
+    runs = []
     for rows in (rows_top, rows_bottom):
-        for cols in (cols_left, cols_right):
-            if rows.size and cols.size:
-                parts.append((rows[:, None] * mw + cols[None, :]).reshape(-1))
-    return np.concatenate(parts).astype(np.int64)
+        for c0, c1, step in (left, right):
+            if (c1 - c0) * step > 0:
+                runs += [(v, c0, c1, step) for v in rows]
+    return np.array(runs, np.int64).reshape(-1, 4)
 
 
-def splat(
-    sx, sy, z, radii, order, slot, stride, stencil, best_z, best_id, ordered: bool
-) -> int:
-    """Write the zexels (in `order`) into the per-pixel (depth, id) buffers over `stencil`;
-    ids are slot * stride + zexel index. Returns the number of zexels on the screen."""
-    height, width = stencil.shape
-    bands = min(height, max(1, numba.get_num_threads()) * 4)
-    offsets, items = _bin(sx, sy, radii, order, height, bands)
-    _splat(sx, sy, z, radii, offsets, items, slot, stride, stencil, best_z, best_id,
-           bands, ordered)
+def raster_runs(mh: int, mw: int) -> np.ndarray:
+    """Plain row-major order (zexel index order) as runs."""
+    runs = np.zeros((mh, 4), np.int64)
+    runs[:, 0] = np.arange(mh)
+    runs[:, 2] = mw
+    runs[:, 3] = 1
+    return runs
+
+
+def splat(sx, sy, z, radii, runs, mw, slot, stride, stencil, best_z, best_id,
+          ordered: bool) -> int:
+    """Write the zexels, visited run by run, into the per-pixel (depth, id) buffers over
+    `stencil`; ids are slot * stride + zexel index. Returns the number of zexels on screen.
+
+    One band of screen rows per task: each band visits every run but skips the map rows
+    whose zexels (with their splats) cannot reach it, so the work per band stays close to
+    the zexels that land in it, and the result does not depend on the thread count."""
+    mh = sx.shape[0] // mw
+    row_lo = np.empty(mh, np.int64)
+    row_hi = np.empty(mh, np.int64)
+    _row_reach(sx, sy, radii, mw, row_lo, row_hi)
+    rows = np.flatnonzero(stencil.any(axis=1))
+    if rows.size == 0:
+        return 0
+    bands = max(1, numba.get_num_threads()) * 2
+    edges = np.linspace(rows[0], rows[-1] + 1, bands + 1).round().astype(np.int64)
+    _splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_z, best_id,
+           edges, ordered)
     return int(np.count_nonzero(~np.isnan(sx)))
 
 
-@njit(cache=True)
-def _bin(sx, sy, radii, order, height, bands):
-    """Zexel lists per band of screen rows, in `order` (splat reach included)."""
-    counts = np.zeros(bands + 1, np.int64)
-    for i in range(order.shape[0]):
-        k = order[i]
-        if np.isnan(sx[k]):
-            continue
-        py = int(math.floor(sy[k]))
-        r = radii[k]
-        lo = max(py - r, 0)
-        hi = min(py + r, height - 1)
-        if lo > hi:
-            continue
-        for b in range(lo * bands // height, hi * bands // height + 1):
-            counts[b + 1] += 1
-    for b in range(bands):
-        counts[b + 1] += counts[b]
-    items = np.empty(counts[bands], np.int64)
-    fill = counts[:bands].copy()
-    for i in range(order.shape[0]):
-        k = order[i]
-        if np.isnan(sx[k]):
-            continue
-        py = int(math.floor(sy[k]))
-        r = radii[k]
-        lo = max(py - r, 0)
-        hi = min(py + r, height - 1)
-        if lo > hi:
-            continue
-        for b in range(lo * bands // height, hi * bands // height + 1):
-            items[fill[b]] = k
-            fill[b] += 1
-    return counts, items
+@njit(cache=True, parallel=True)
+def _row_reach(sx, sy, radii, mw, row_lo, row_hi):
+    """Per map row: the first and last screen row its zexels' splats reach (-1 if none)."""
+    for v in prange(row_lo.shape[0]):
+        lo = 1 << 40
+        hi = -1
+        for u in range(mw):
+            k = v * mw + u
+            if np.isnan(sx[k]):
+                continue
+            py = int(math.floor(sy[k]))
+            lo = min(lo, py - radii[k])
+            hi = max(hi, py + radii[k])
+        row_lo[v] = lo
+        row_hi[v] = hi
 
 
 @njit(cache=True, parallel=True)
-def _splat(sx, sy, z, radii, offsets, items, slot, stride, stencil, best_z, best_id,
-           bands, ordered):
-    height, width = stencil.shape
-    for b in prange(bands):
-        # rows of band b: those y with y * bands // height == b
-        row0 = (b * height + bands - 1) // bands
-        row1 = ((b + 1) * height + bands - 1) // bands
-        for i in range(offsets[b], offsets[b + 1]):
-            k = items[i]
-            px = int(math.floor(sx[k]))
-            py = int(math.floor(sy[k]))
-            r = radii[k]
-            zk = z[k]
-            ident = slot * stride + k
-            for y in range(max(py - r, row0), min(py + r, row1 - 1) + 1):
-                for x in range(max(px - r, 0), min(px + r, width - 1) + 1):
-                    if not stencil[y, x]:
-                        continue
-                    current = best_id[y, x]
-                    if ordered and current >= 0 and current // stride == slot:
-                        take = True  # same map: later in McMillan's order wins
-                    else:
-                        bz = best_z[y, x]
-                        take = zk < bz or (zk == bz and (current < 0 or ident < current))
-                    if take:
-                        best_z[y, x] = zk
-                        best_id[y, x] = ident
+def _splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_z, best_id,
+           edges, ordered):
+    width = stencil.shape[1]
+    for b in prange(edges.shape[0] - 1):
+        row0 = edges[b]
+        row1 = edges[b + 1]
+        for run in range(runs.shape[0]):
+            v = runs[run, 0]
+            if row_hi[v] < row0 or row_lo[v] >= row1:
+                continue
+            for u in range(runs[run, 1], runs[run, 2], runs[run, 3]):
+                k = v * mw + u
+                if np.isnan(sx[k]):
+                    continue
+                py = int(math.floor(sy[k]))
+                r = radii[k]
+                if py + r < row0 or py - r >= row1:
+                    continue
+                px = int(math.floor(sx[k]))
+                zk = z[k]
+                ident = slot * stride + k
+                for y in range(max(py - r, row0), min(py + r, row1 - 1) + 1):
+                    for x in range(max(px - r, 0), min(px + r, width - 1) + 1):
+                        if not stencil[y, x]:
+                            continue
+                        current = best_id[y, x]
+                        if ordered and current >= 0 and current // stride == slot:
+                            take = True  # same map: later in McMillan's order wins
+                        else:
+                            bz = best_z[y, x]
+                            take = zk < bz or (zk == bz and (current < 0 or ident < current))
+                        if take:
+                            best_z[y, x] = zk
+                            best_id[y, x] = ident
 
 
 def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.ndarray,
@@ -247,8 +255,9 @@ def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.nda
             with np.errstate(divide="ignore", invalid="ignore"):
                 ex = (e[0] / e[3] + 1.0) * 0.5 * c.width
                 ey = (1.0 - e[1] / e[3]) * 0.5 * c.height
-            order = ordered_sequence(*zmap.depth.shape, ex, ey, e[3] > 0)
+            runs = ordered_runs(*zmap.depth.shape, ex, ey, e[3] > 0)
         else:
-            order = np.arange(zmap.depth.size, dtype=np.int64)
-        zexels += splat(sx, sy, z, radii, order, slot, stride, stencil, best_z, best_id, ordered)
+            runs = raster_runs(*zmap.depth.shape)
+        zexels += splat(sx, sy, z, radii, runs, zmap.depth.shape[1], slot, stride, stencil,
+                        best_z, best_id, ordered)
     return best_z, best_id, stride, zexels
