@@ -191,6 +191,82 @@ def cache_clear(scene, folder) -> None:
 
 @cli.command()
 @click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--resume", is_flag=True, help="keep the rows already in results.jsonl")
+@click.option("--workers", type=int, default=1, show_default=True,
+              help="run jobs in this many local processes")
+@click.option("--scheduler", metavar="ADDRESS", help="run jobs on a Dask cluster")
+@click.option("--threads", type=int, help="numba threads per job")
+def bench(file, resume, workers, scheduler, threads) -> None:
+    """Run the bench matrix in FILE; write results.csv/.jsonl, report.md and plots."""
+    from .bench.runner import load_bench, run_bench
+
+    progress = None
+    try:
+        plan = load_bench(file)
+        if sys.stderr.isatty():
+            progress = click.progressbar(length=len(plan.jobs), label="runs", file=sys.stderr)
+            progress.__enter__()
+        result = run_bench(file, resume=resume, workers=workers, scheduler=scheduler,
+                           threads=threads,
+                           on_row=(lambda row: progress.update(1)) if progress else None)
+    except Problems as e:
+        _fail(e)
+    except KeyboardInterrupt:
+        click.echo("\ninterrupted: finished runs are kept (--resume continues)", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    finally:
+        if progress is not None:
+            progress.__exit__(None, None, None)
+    click.echo(f"{result.ran} run(s), {result.skipped} kept; results in {result.out}")
+
+
+@cli.command()
+@click.argument("first", type=click.Path(dir_okay=False, exists=True))
+@click.argument("second", type=click.Path(dir_okay=False, exists=True))
+@click.option("--mask-channel", help="score only pixels where this channel is > 0 in both")
+@click.option("--threshold", type=float, default=0.1, show_default=True,
+              help="error above which a pixel counts as off")
+def compare(first, second, mask_channel, threshold) -> None:
+    """Print PSNR, RMSE, max error and the fraction of pixels off between two EXRs."""
+    import numpy as np
+
+    from .bench.metrics import image_metrics
+    from .output.exr import read_exr
+
+    images = []
+    for path in (first, second):
+        try:
+            channels, _ = read_exr(path)
+        except OSError as e:
+            click.echo(f"{path}: {str(e).splitlines()[0]}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+        missing = [c for c in ("R", "G", "B") if c not in channels]
+        if mask_channel and mask_channel not in channels:
+            missing.append(mask_channel)
+        if missing:
+            click.echo(f"{path}: channels: missing {', '.join(missing)}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+        images.append(channels)
+    a, b = (np.stack([c[k] for k in "RGB"], axis=-1) for c in images)
+    if a.shape != b.shape:
+        click.echo(f"{second}: size {b.shape[1]}x{b.shape[0]} differs from "
+                   f"{a.shape[1]}x{a.shape[0]}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    mask = None
+    if mask_channel:
+        mask = (images[0][mask_channel] > 0) & (images[1][mask_channel] > 0)
+    m = image_metrics(a, b, mask, threshold)
+    scope = f"{int(mask.sum())} pixels where {mask_channel} > 0" if mask is not None else (
+        f"all {a.shape[0] * a.shape[1]} pixels")
+    click.echo(f"over {scope}")
+    click.echo(f"psnr      {m['psnr']:.4f} dB")
+    click.echo(f"rmse      {m['rmse']:.6g}")
+    click.echo(f"max_error {m['max_error']:.6g}")
+    click.echo(f"frac_off  {m['frac_off']:.6g} (> {threshold})")
+
+
+@cli.command()
+@click.argument("file", type=click.Path(dir_okay=False))
 def validate(file) -> None:
     """Check a scene or config FILE; print `ok` or one line per problem."""
     from .validate import validate_file

@@ -1,0 +1,1 @@
+"""`reflect bench`: technique x scene x parameter matrices against ray-traced references."""
