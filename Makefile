@@ -5,7 +5,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 SCENE ?= scenes/teapot-box.toml
 
-.PHONY: demo install test lint render clean
+.PHONY: demo install test lint render bench figures smoke clean
 
 demo: install
 	$(BIN)/reflect render $(SCENE) --frames 0 --preview
@@ -13,7 +13,7 @@ demo: install
 $(BIN)/reflect: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev]'
+	$(BIN)/pip install --quiet -e '.[dev,plots,dask]'
 	touch $(BIN)/reflect
 
 install: $(BIN)/reflect
@@ -26,6 +26,19 @@ lint: install
 
 render: install
 	$(BIN)/reflect render $(SCENE) --preview
+
+bench: install
+	$(BIN)/reflect bench configs/bench/paper-dprm.toml
+	$(BIN)/reflect bench configs/bench/paper-curved.toml
+	$(BIN)/reflect bench configs/bench/scaling.toml
+
+figures: install
+	$(BIN)/reflect bench configs/bench/paper-dprm.toml --resume
+	$(BIN)/reflect bench configs/bench/paper-curved.toml --resume
+	$(BIN)/reflect bench configs/bench/scaling.toml --resume
+
+smoke: install
+	$(BIN)/reflect bench configs/bench/smoke.toml
 
 clean:
 	rm -rf out .reflect-cache .pytest_cache

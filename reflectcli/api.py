@@ -51,17 +51,22 @@ def interrupts_deferred():
 
 
 def parse_frames(spec: str | None, count: int) -> range:
-    """`None` -> all frames; `N` -> frame N; `A:B` -> frames A..B-1 (either end may be empty)."""
+    """`None` -> all frames; `N` -> frame N; `A:B[:S]` -> frames A..B-1 every S (either end
+    may be empty; B is clamped to the frame count)."""
     if spec is None:
         return range(count)
     try:
         if ":" in spec:
-            a, b = spec.split(":", 1)
-            r = range(int(a) if a else 0, min(int(b), count) if b else count)
+            a, b, *step = spec.split(":")
+            if len(step) > 1:
+                raise ValueError(spec)
+            r = range(int(a) if a else 0, min(int(b), count) if b else count,
+                      int(step[0]) if step and step[0] else 1)
         else:
             r = range(int(spec), int(spec) + 1)
     except ValueError:
-        raise Problems([Problem("--frames", "", f"expected N or A:B, got '{spec}'")]) from None
+        message = f"expected N, A:B or A:B:S, got '{spec}'"
+        raise Problems([Problem("--frames", "", message)]) from None
     if len(r) == 0 or r.start < 0 or r.stop > count:
         raise Problems([Problem("--frames", "", f"'{spec}' selects no frame of 0..{count - 1}")])
     return r

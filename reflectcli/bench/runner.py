@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 import statistics
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -104,6 +105,7 @@ def execute_job(job: dict, settings: dict) -> dict:
     from .. import api
 
     folder = os.path.join(settings["out"], "runs", job["id"])
+    shutil.rmtree(folder, ignore_errors=True)  # a run without a result row starts over
     result = api.render(job["scene"], out=folder, frames=settings["frames"],
                         technique=job["technique"], overrides=job["overrides"],
                         cache=os.path.join(settings["out"], "cache"),

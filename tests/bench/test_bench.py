@@ -1,0 +1,151 @@
+"""The bench end to end: outputs, resume, processes and a Dask cluster give the same rows."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from reflectcli.bench.report import CSV_COLUMNS
+from reflectcli.bench.runner import run_bench
+from reflectcli.cli import cli
+from reflectcli.output.log import read_jsonl
+
+ROOT = Path(__file__).resolve().parents[2]
+TIMING = {"frame_ms_median", "frame_ms_p25", "frame_ms_p75", "reference_ms_median",
+          "precompute_seconds", "numba_compile_seconds", "images", "reference_images"}
+
+
+def _bench_file(tmp_path, name="t"):
+    path = tmp_path / f"{name}.toml"
+    scenes = ROOT / "scenes"
+    path.write_text(f"""
+[bench]
+name = "{name}"
+frames = "0:2"
+warmup = 1
+out = "out-{name}"
+plots = true
+
+[[runs]]
+scenes = ["{scenes / 'teapot-box.toml'}"]
+techniques = ["rerender", "envmap"]
+set = ["camera.width=48", "camera.height=36"]
+
+[[runs]]
+scenes = ["{scenes / 'teapot-box.toml'}"]
+techniques = ["dprm"]
+set = ["camera.width=48", "camera.height=36"]
+[runs.sweep]
+"technique.maps.resolution" = [16, 32]
+""")
+    return path
+
+
+def _stable(rows):
+    return [{k: v for k, v in r.items() if k not in TIMING} for r in rows]
+
+
+def test_bench_writes_every_output(tmp_path):
+    result = CliRunner().invoke(cli, ["bench", str(_bench_file(tmp_path))])
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "out-t"
+    rows = read_jsonl(str(out / "results.jsonl"))
+    assert len(rows) == 4 and len({r["run"] for r in rows}) == 4
+    with open(out / "results.csv") as f:
+        table = list(csv.reader(f))
+    assert table[0] == CSV_COLUMNS and len(table) == 5
+    report = (out / "report.md").read_text()
+    assert "## teapot-box" in report and report.count("| dprm |") == 2
+    for png in ("contact-teapot-box.png", "error-vs-maps.resolution.png"):
+        assert (out / png).stat().st_size > 1000
+    rerender = next(r for r in rows if r["technique"] == "rerender")
+    assert rerender["psnr_mirror"] > 60  # rerender is exact against the ray tracer
+    dprm = sorted((r for r in rows if r["technique"] == "dprm"),
+                  key=lambda r: r["sweep"]["technique.maps.resolution"])
+    assert dprm[0]["hole_fraction"] > dprm[1]["hole_fraction"]  # denser maps, fewer holes
+    for r in rows:
+        assert r["versions"]["reflect"] and r["cpu"] and r["threads"] >= 1
+        assert r["timed_frames"] == 1 and r["frames"] == 2
+
+
+def test_resumed_bench_equals_uninterrupted(tmp_path):
+    path = _bench_file(tmp_path)
+    full = run_bench(str(path))
+    rows_file = tmp_path / "out-t" / "results.jsonl"
+    lines = rows_file.read_text().splitlines()
+    rows_file.write_text("\n".join(lines[:2]) + "\n")  # as if stopped after two runs
+    resumed = run_bench(str(path), resume=True)
+    assert resumed.ran == 2 and resumed.skipped == 2
+    assert _stable(resumed.rows) == _stable(full.rows)
+    assert len(read_jsonl(str(rows_file))) == 4
+
+
+def test_local_processes_give_the_same_rows(tmp_path):
+    serial = run_bench(str(_bench_file(tmp_path, "s")))
+    parallel = run_bench(str(_bench_file(tmp_path, "p")), workers=2)
+    strip = [{k: v for k, v in r.items() if k != "run"} for r in _stable(serial.rows)]
+    assert strip == [{k: v for k, v in r.items() if k != "run"} for r in _stable(parallel.rows)]
+
+
+def test_dask_cluster_gives_the_same_rows(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    serial = run_bench(str(_bench_file(tmp_path, "s")))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        remote = run_bench(str(_bench_file(tmp_path, "d")), scheduler=cluster.scheduler_address)
+    strip = [{k: v for k, v in r.items() if k != "run"} for r in _stable(serial.rows)]
+    assert strip == [{k: v for k, v in r.items() if k != "run"} for r in _stable(remote.rows)]
+
+
+def test_bad_bench_file(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text('[bench]\nname = "bad"\n[[runs]]\nscenes = ["nope.toml"]\n'
+                    'techniques = ["raytrace"]\n')
+    result = CliRunner().invoke(cli, ["bench", str(path)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert "bad.toml" in result.output and "nope.toml" in result.output
+
+
+def test_compare_command(tmp_path):
+    runner = CliRunner()
+    scene = str(ROOT / "scenes" / "teapot-box.toml")
+    for tech in ("raytrace", "rerender"):
+        r = runner.invoke(cli, ["render", scene, "--technique", tech, "--frames", "0",
+                                "--out", str(tmp_path), "--set", "camera.width=64",
+                                "--set", "camera.height=48", "--set", "technique.max_depth=1"])
+        assert r.exit_code == 0, r.output
+    a = tmp_path / "teapot-box" / "raytrace" / "frame_0000.exr"
+    b = tmp_path / "teapot-box" / "rerender" / "frame_0000.exr"
+    r = runner.invoke(cli, ["compare", str(a), str(b), "--mask-channel", "mirror"])
+    assert r.exit_code == 0 and "psnr      inf dB" in r.output and "mirror > 0" in r.output
+    r = runner.invoke(cli, ["compare", str(a), str(b), "--mask-channel", "nope"])
+    assert r.exit_code == 2 and "channels: missing nope" in r.output
+
+
+def test_smoke_preset(tmp_path, monkeypatch):
+    """configs/bench/smoke.toml, the CI matrix: every output well formed (not timings)."""
+    monkeypatch.chdir(tmp_path)
+    result = run_bench(str(ROOT / "configs" / "bench" / "smoke.toml"))
+    out = Path(result.out)
+    rows = read_jsonl(str(out / "results.jsonl"))
+    assert len(rows) == result.ran == 8
+    with open(out / "results.csv") as f:
+        table = list(csv.DictReader(f))
+    assert len(table) == 8 and set(table[0]) == set(CSV_COLUMNS)
+    for row in table:
+        assert float(row["frame_ms_median"]) > 0 and row["technique"] and row["scene"]
+        assert row["psnr_mirror"] != "" and 0.0 <= float(row["hole_fraction"]) <= 1.0
+    assert (out / "report.md").read_text().startswith("# Bench `smoke`")
+    assert {p.name for p in out.glob("contact-*.png")} == {"contact-teapot-box.png",
+                                                         "contact-four-spheres.png"}
+
+
+@pytest.mark.parametrize("preset", ["paper-dprm", "paper-curved", "scaling"])
+def test_presets_validate(preset):
+    from reflectcli.bench.runner import load_bench
+
+    plan = load_bench(str(ROOT / "configs" / "bench" / f"{preset}.toml"))
+    assert len(plan.jobs) >= 8
