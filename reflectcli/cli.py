@@ -285,13 +285,17 @@ def techniques() -> None:
     from .techniques.registry import TECHNIQUES
 
     for name, cls in TECHNIQUES.items():
-        summary = (sys.modules[cls.__module__].__doc__ or "").strip().splitlines()[0]
+        doc = (sys.modules[cls.__module__].__doc__ or "").strip()
+        summary = " ".join(doc.split("\n\n")[0].split())
         click.echo(f"{name}: {summary}")
         rows = parameter_table(cls.Params)
         if not rows:
             click.echo("    (no parameters)")
+        width = max((len(r[0]) for r in rows), default=0)
+        type_width = max((len(r[1]) for r in rows), default=0)
         for pname, ptype, default, desc in rows:
-            click.echo(f"    {pname:<14} {ptype:<10} default {default:<8} {desc}")
+            click.echo(f"    {pname:<{width}}  {ptype:<{type_width}}  = {default}"
+                       + (f"  ({desc})" if desc else ""))
         click.echo("")
 
 

@@ -18,6 +18,7 @@ from reflectcli import __version__
 from reflectcli.cli import cli
 from reflectcli.output.exr import read_exr
 from reflectcli.output.log import read_jsonl
+from reflectcli.techniques.base import toml_value
 from reflectcli.techniques.registry import TECHNIQUES
 
 SCENES = Path(__file__).parents[1] / "scenes"
@@ -279,16 +280,20 @@ def test_techniques_lists_parameters_and_defaults():
 
     raytrace = {row[0]: row for row in block("raytrace")}
     assert set(raytrace) == {"max_depth", "samples"}
-    assert raytrace["max_depth"][1:4] == ["int", "default", "4"]
-    assert raytrace["samples"][1:4] == ["int", "default", "1"]
+    assert raytrace["max_depth"][1:4] == ["int", "=", "4"]
+    assert raytrace["samples"][1:4] == ["int", "=", "1"]
     assert block("raster") == [["(no", "parameters)"]]
+    dprm = {row[0]: row for row in block("dprm")}
+    assert {"maps.count", "maps.resolution", "fill.splat", "occlusion"} <= set(dprm)
     # every technique's parameters and defaults come from its Params model
     for name, cls in TECHNIQUES.items():
-        rows = {row[0]: row for row in block(name) if row[0] != "(no"}
-        fields = {k: f for k, f in cls.Params.model_fields.items() if k != "name"}
+        rows = {row[0]: " ".join(row) for row in block(name) if row[0] != "(no"}
+        fields = {f"{k}.{kk}" if hasattr(f.annotation, "model_fields") else k: (f, kk, ff)
+                  for k, f in cls.Params.model_fields.items() if k != "name"
+                  for kk, ff in (getattr(f.annotation, "model_fields", None) or {k: f}).items()}
         assert set(rows) == set(fields)
-        for key, f in fields.items():
-            assert rows[key][3] == repr(f.default)
+        for key, (_, _, field) in fields.items():
+            assert f"= {toml_value(field.get_default(call_default_factory=True))}" in rows[key]
 
 
 def test_version():

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from types import UnionType
+from typing import Any, ClassVar, Literal, Union, get_args, get_origin
 
 from pydantic import BaseModel
 
@@ -33,13 +34,48 @@ class Technique:
         raise NotImplementedError
 
 
-def parameter_table(params: type[BaseModel]) -> list[tuple[str, str, str, str]]:
-    """(name, type, default, description) rows from a Params model, for `reflect techniques`."""
+def parameter_table(params: type[BaseModel], prefix: str = "") -> list[tuple[str, str, str, str]]:
+    """(dotted name, type, default, description) rows from a Params model, nested models
+    flattened (`maps.count`), for `reflect techniques`: never a hand-kept list."""
     rows = []
     for name, field in params.model_fields.items():
-        if name == "name":
+        if name == "name" and not prefix:
             continue
-        annotation = getattr(field.annotation, "__name__", None) or str(field.annotation)
-        annotation = annotation.replace("typing.", "")
-        rows.append((name, annotation, repr(field.default), field.description or ""))
+        annotation = field.annotation
+        default = field.get_default(call_default_factory=True)
+        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+            rows += parameter_table(annotation, f"{prefix}{name}.")
+            continue
+        rows.append((f"{prefix}{name}", type_name(annotation), toml_value(default),
+                     field.description or ""))
     return rows
+
+
+def type_name(annotation) -> str:
+    """A readable type: int, float, "a" | "b", xyz, ..."""
+    origin = get_origin(annotation)
+    args = get_args(annotation)
+    if origin is Literal:
+        return " | ".join(toml_value(a) for a in args)
+    if origin in (Union, UnionType):
+        return " | ".join(type_name(a) for a in args if a is not type(None)) + " (optional)"
+    if origin is tuple and len(args) == 3 and all(a is float for a in args):
+        return "xyz"
+    if origin is dict:
+        return f"table of {type_name(args[1])}"
+    return getattr(annotation, "__name__", str(annotation))
+
+
+def toml_value(value) -> str:
+    """A default as it would be written in TOML."""
+    if value is None:
+        return "(unset)"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, tuple | list):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + "}"
+    return str(value)

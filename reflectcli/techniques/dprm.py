@@ -7,7 +7,7 @@ planar mirror, forward-warped into the mirror's pixels every frame.
 | `maps.resolution` | int | 512 | zexels per map side |
 | `maps.layout` | "grid", "fibonacci" | "grid" | viewpoint layout (grid needs a square count) |
 | `maps.radius` | float | mirror diagonal | viewpoint distance from the mirror's center |
-| `maps.spread` | degrees | 45 | half-angle of the cap of viewpoints around the axis |
+| `maps.spread` | degrees | 45.0 | half-angle of the cap of viewpoints around the axis |
 | `maps.per_frame` | int | 1 | maps warped per frame: those nearest the reflected eye |
 | `fill.splat` | 1, 3, 5, "adaptive" | 1 | splat footprint in pixels (adaptive: from the warp) |
 | `fill.temporal` | bool | false | keep the previous frame's reflection where no zexel lands |
