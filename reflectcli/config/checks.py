@@ -51,8 +51,20 @@ def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -
     for j, m in enumerate(cfg.mirrors):
         if m.shape == "mesh" and not os.path.isfile(_resolve(source, m.path)):
             add(("mirrors", j, "path"), f"file not found: {m.path}")
-        if m.shape == "cylinder" and np.linalg.norm(m.axis) == 0:
+        if m.shape in ("cylinder", "cap") and np.linalg.norm(m.axis) == 0:
             add(("mirrors", j, "axis"), "must not be zero")
+        if m.shape == "extrusion":
+            from ..scene.reflectors import profile_normals, profile_points
+
+            points = profile_points(m.profile)
+            if len(points) < 2:
+                add(("mirrors", j, "profile"),
+                    f"needs at least 2 distinct points (has {len(points)})")
+            else:
+                try:
+                    profile_normals(points)
+                except ValueError as e:
+                    add(("mirrors", j, "profile"), str(e))
         if m.shape == "rectangle":
             n, up = np.array(m.normal, float), np.array(m.up, float)
             if np.linalg.norm(n) == 0:

@@ -1,4 +1,4 @@
-"""Mirrors: planar (quad, rectangle) and curved (sphere, cylinder, mesh)."""
+"""Mirrors: planar (quad, rectangle) and curved (sphere, cylinder, extrusion, cap, mesh)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from .base import Color, PositiveInt, Strict, UnitFloat, Vec3
+from .base import Color, PositiveInt, Strict, UnitFloat, Vec2, Vec3
 from .objects import Transform
 
 
@@ -79,7 +79,48 @@ class MeshMirror(_Mirror):
     smooth: bool = True
 
 
+class ExtrusionMirror(_Mirror):
+    """A linear extrusion of a planar polyline (Ofek & Rappoport's TV screen, Fig. 17).
+
+    In local space the polyline `profile` ([x, z] points) lies in the xz plane and is swept
+    along +y from y = 0 to y = `height`; `transform` places it in the world. The reflecting
+    front is to the LEFT of the polyline's direction seen from +y (looking down -y): a
+    profile running toward -x faces +z. Normals are smooth: per profile point the average of
+    its segments' normals. `subdivisions` rows of triangles along the height. Built as a
+    triangle mesh, traced as triangles with interpolated normals.
+    """
+
+    shape: Literal["extrusion"]
+    profile: list[Vec2]
+    height: float = Field(gt=0)
+    transform: Transform = Transform()
+    subdivisions: PositiveInt = 1
+
+
+class CapMirror(_Mirror):
+    """A spherical cap: the part of the sphere (`center`, `radius`) within `angle` degrees
+    (half-angle, 0 < angle <= 180) of the pole center + radius * `axis`. `concave`: the
+    reflecting side is the inside (normals point to the center); else the outside.
+    `segments` facets around the axis (rings at the same angular spacing). Built as a
+    triangle mesh, traced as triangles with interpolated normals.
+    """
+
+    shape: Literal["cap"]
+    center: Vec3 = (0.0, 0.0, 0.0)
+    radius: float = Field(gt=0)
+    axis: Vec3 = (0.0, 1.0, 0.0)
+    angle: float = Field(gt=0, le=180)
+    concave: bool = False
+    segments: PositiveInt = 64
+
+
 MirrorConfig = Annotated[
-    QuadMirror | RectangleMirror | SphereMirror | CylinderMirror | MeshMirror,
+    QuadMirror
+    | RectangleMirror
+    | SphereMirror
+    | CylinderMirror
+    | ExtrusionMirror
+    | CapMirror
+    | MeshMirror,
     Field(discriminator="shape"),
 ]

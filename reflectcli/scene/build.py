@@ -10,7 +10,9 @@ from functools import lru_cache
 import numpy as np
 
 from ..config.mirrors import (
+    CapMirror,
     CylinderMirror,
+    ExtrusionMirror,
     MeshMirror,
     QuadMirror,
     SphereMirror,
@@ -19,7 +21,7 @@ from ..config.objects import TransformKey
 from ..config.scene import SceneConfig
 from ..errors import Problem, Problems
 from ..geometry import trs_matrix
-from . import primitives
+from . import primitives, reflectors
 from .mesh import Mesh
 from .textures import load_texture
 from .types import (
@@ -165,8 +167,9 @@ def mirror_plane(m) -> tuple[np.ndarray, float]:
 
 
 def mirror_mesh(m, source: str) -> tuple[Mesh, bool]:
-    """World-space triangles of a mirror, and whether the ray tracer intersects them (mesh
-    mirrors) rather than the exact shape (planar, sphere and cylinder mirrors, in numba)."""
+    """World-space triangles of a mirror, and whether the ray tracer intersects them (mesh,
+    extrusion and cap mirrors) rather than the exact shape (planar, sphere and cylinder
+    mirrors, in numba)."""
     if m.planar:
         return primitives.quad(mirror_corners(m)), False
     if isinstance(m, SphereMirror):
@@ -175,6 +178,10 @@ def mirror_mesh(m, source: str) -> tuple[Mesh, bool]:
     if isinstance(m, CylinderMirror):
         mesh = primitives.cylinder(m.radius, m.height, m.segments, caps=False)
         return mesh.transformed(_axis_frame(m.origin, m.axis)), False
+    if isinstance(m, ExtrusionMirror):
+        return reflectors.extrusion_mesh(m), True
+    if isinstance(m, CapMirror):
+        return reflectors.cap_mesh(m), True
     assert isinstance(m, MeshMirror)
     mesh = _mesh_file(resolve(source, m.path))
     t = m.transform
@@ -309,7 +316,8 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         try:
             mesh, is_exact = mirror_mesh(m, source)
         except (OSError, ValueError) as e:
-            problems.append(Problem(source, f"mirrors.{j}.path", str(e).splitlines()[0]))
+            field = "profile" if m.shape == "extrusion" else "path"
+            problems.append(Problem(source, f"mirrors.{j}.{field}", str(e).splitlines()[0]))
             continue
         mirror_parts.append(_triangles(mesh.without_degenerate(), -1, n_obj + j))
         exact.append(np.full(mirror_parts[-1].count, is_exact))

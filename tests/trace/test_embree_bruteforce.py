@@ -1,0 +1,353 @@
+"""Embree and the analytic intersectors (sphere, cylinder, planar quad) against float64
+closed forms."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from reflectcli.scene.types import CYLINDER, MESH, MIRROR_PARAMS, PLANAR, SPHERE
+from reflectcli.trace.analytic import intersect_analytic
+from reflectcli.trace.embree import TriangleScene
+
+GRAZE = 1e-5  # barycentric margin: a ray this close to an edge may fall either side
+T_REL = 1e-4
+
+f32 = st.floats(-1.0, 1.0, allow_nan=False, width=32)
+
+
+def moller_trumbore(corners: np.ndarray, o: np.ndarray, d: np.ndarray):
+    """All ray-triangle pairs in float64: t, u, v (weights of corners 1, 2), det (R, T)."""
+    c = corners.astype(np.float64)
+    o, d = o.astype(np.float64), d.astype(np.float64)
+    e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
+    p = np.cross(d[:, None, :], e2[None])  # (R, T, 3)
+    det = np.einsum("rtk,tk->rt", p, e1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        s = o[:, None, :] - c[None, :, 0]
+        u = np.einsum("rtk,rtk->rt", s, p) * inv
+        q = np.cross(s, e1[None])
+        v = np.einsum("rk,rtk->rt", d, q) * inv
+        t = np.einsum("tk,rtk->rt", e2, q) * inv
+    return t, u, v, det
+
+
+def brute_force(corners, o, d, tfar):
+    """Nearest hit per ray, and whether the ray is too close to call (grazing or a tie)."""
+    with np.errstate(invalid="ignore", divide="ignore"):  # inf - inf on misses
+        return _brute_force(corners, o, d, tfar)
+
+
+def _brute_force(corners, o, d, tfar):
+    t, u, v, det = moller_trumbore(corners, o, d)
+    w = 1.0 - u - v
+    ok = (det != 0) & np.isfinite(t)
+    inside = ok & (u >= 0) & (v >= 0) & (w >= 0) & (t > 0) & (t <= tfar[:, None])
+    margin = np.minimum(np.minimum(u, v), w)
+    # within GRAZE of an edge of a triangle whose plane is met in range: either answer is fine
+    graze = ok & (np.abs(margin) <= GRAZE) & (t > -1e-4) & (t <= tfar[:, None] * (1 + T_REL))
+    # a ray nearly in a triangle's plane, or a hit at t ~ 0 or ~ tfar, is also ambiguous
+    area2 = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
+                                    corners[:, 2] - corners[:, 0]), axis=1)
+    cosine = np.abs(det) / (area2[None] * np.linalg.norm(d, axis=1)[:, None])
+    near_hit = ok & (margin >= -GRAZE)
+    graze |= cosine < 1e-4  # a ray (nearly) along a triangle's plane
+    graze |= near_hit & (np.abs(t) < 1e-4)
+    finite = np.isfinite(tfar)[:, None]
+    graze |= near_hit & finite & (np.abs(t - tfar[:, None]) <= T_REL * tfar[:, None])
+    tt = np.where(inside, t, np.inf)
+    prim = np.where(np.isfinite(tt.min(axis=1)), tt.argmin(axis=1), -1)
+    best = tt.min(axis=1)
+    second = np.sort(tt, axis=1)[:, 1] if tt.shape[1] > 1 else np.full(len(o), np.inf)
+    tie = np.isfinite(second) & (second - best <= T_REL * np.abs(second))
+    r = np.arange(len(o))
+    return best, prim, u[r, np.maximum(prim, 0)], v[r, np.maximum(prim, 0)], graze.any(axis=1) | tie
+
+
+soups = st.integers(1, 12).flatmap(lambda n: arrays(np.float32, (n, 3, 3), elements=f32))
+ray_sets = st.integers(1, 64).flatmap(lambda n: arrays(np.float32, (n, 6), elements=f32))
+
+
+@settings(max_examples=300, deadline=None)
+@given(soups, ray_sets, st.sampled_from([np.inf, 2.0]), st.integers(0, 2**32 - 1))
+def test_embree_matches_moller_trumbore(corners, rays, far, seed):
+    # sliver triangles are numerically ambiguous everywhere; keep triangles of fair area
+    area2 = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]),
+                           axis=1)
+    corners = corners[area2 > 1e-2]
+    origins = 2.0 * rays[:, :3]
+    d = rays[:, 3:]
+    keep = np.linalg.norm(d, axis=1) > 0.05
+    origins, d = origins[keep], d[keep]
+    if len(corners) == 0 or len(origins) == 0:
+        return
+    # aim half the rays at a triangle's interior so that hits are common
+    rng = np.random.default_rng(seed)
+    aim = rng.random(len(origins)) < 0.5
+    tri = rng.integers(0, len(corners), len(origins))
+    bary = rng.dirichlet([1, 1, 1], len(origins))
+    goal = np.einsum("rk,rkc->rc", bary, corners[tri].astype(np.float64))
+    d = np.where(aim[:, None], (goal - origins) * rng.uniform(0.3, 2.0, (len(d), 1)),
+                 d).astype(np.float32)
+    keep = np.linalg.norm(d, axis=1) > 0.05
+    origins, d = origins[keep], d[keep]
+    if len(origins) == 0:
+        return
+    tfar = np.full(len(origins), far, np.float32)
+    scene = TriangleScene(corners)
+    t, prim, u, v = scene.intersect(origins, d, tfar)
+    bt, bprim, bu, bv, ambiguous = brute_force(corners, origins, d, tfar.astype(np.float64))
+    clear = ~ambiguous
+    np.testing.assert_array_equal(prim[clear], bprim[clear])
+    hit = clear & (bprim >= 0)
+    # Embree works in float32: positions carry a few ulps of the coordinates' magnitude, and
+    # a grazing ray turns that into a larger error along the ray (1 / cosine) and across the
+    # triangle (1 / its height). Tolerances: the stated relative ones plus that conditioning.
+    eps = 8 * np.finfo(np.float32).eps * (1.0 + max(np.abs(corners).max(),
+                                                    np.abs(origins).max()))
+    c64 = corners.astype(np.float64)
+    e1, e2 = c64[:, 1] - c64[:, 0], c64[:, 2] - c64[:, 0]
+    cross = np.cross(e1, e2)
+    area2 = np.linalg.norm(cross, axis=1)
+    longest = np.linalg.norm(np.stack([e1, e2, e2 - e1], 1), axis=2).max(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):  # misses: inf - inf, 0 / 0
+        p = np.maximum(bprim, 0)
+        dn = np.linalg.norm(d.astype(np.float64), axis=1)
+        cosine = np.abs(np.einsum("rk,rk->r", d, cross[p])) / (dn * area2[p])
+        t_tol = T_REL * bt + eps / (dn * cosine)
+        b_tol = 1e-4 + eps / cosine * longest[p] / area2[p]
+        assert np.all(np.abs(t - bt)[hit] <= t_tol[hit]), (t[hit], bt[hit])
+        assert np.all(np.abs(u - bu)[hit] <= b_tol[hit]), (u[hit], bu[hit])
+        assert np.all(np.abs(v - bv)[hit] <= b_tol[hit]), (v[hit], bv[hit])
+    assert np.all(np.isinf(t[prim < 0]))
+
+
+def test_embree_hits_are_common_in_the_property_test():
+    """A fixed soup: most rays aimed at interiors hit, and every hit equals brute force."""
+    rng = np.random.default_rng(3)
+    corners = rng.uniform(-1, 1, (50, 3, 3)).astype(np.float32)
+    origins = rng.uniform(-2, 2, (4000, 3)).astype(np.float32)
+    tri = rng.integers(0, 50, 4000)
+    goal = np.einsum("rk,rkc->rc", rng.dirichlet([1, 1, 1], 4000), corners[tri])
+    d = (goal - origins).astype(np.float32)
+    tfar = np.full(4000, np.inf, np.float32)
+    t, prim, u, v = TriangleScene(corners).intersect(origins, d, tfar, threads=2)
+    bt, bprim, bu, bv, ambiguous = brute_force(corners, origins, d, tfar.astype(np.float64))
+    assert (bprim >= 0).mean() > 0.99
+    assert ambiguous.mean() < 0.01
+    clear = ~ambiguous
+    np.testing.assert_array_equal(prim[clear], bprim[clear])
+    np.testing.assert_allclose(t[clear], bt[clear], rtol=T_REL)
+
+
+def test_empty_scene_never_hits():
+    t, prim, u, v = TriangleScene(np.zeros((0, 3, 3), np.float32)).intersect(
+        np.zeros((3, 3), np.float32), np.ones((3, 3), np.float32), np.full(3, np.inf, np.float32))
+    assert np.all(prim == -1) and np.all(np.isinf(t))
+
+
+# ---------------------------------------------------------------- analytic spheres, cylinders
+
+def sphere_closed_form(o, d, c, r, tmin):
+    """Roots of |o + t d - c|^2 = r^2 by the textbook formula, and the discriminant."""
+    oc = o - c
+    a = np.einsum("rk,rk->r", d, d)
+    b = 2 * np.einsum("rk,rk->r", oc, d)
+    cc = np.einsum("rk,rk->r", oc, oc) - r * r
+    disc = b * b - 4 * a * cc
+    with np.errstate(invalid="ignore"):
+        sq = np.sqrt(disc)
+        t0, t1 = (-b - sq) / (2 * a), (-b + sq) / (2 * a)
+        # the textbook roots lose digits to cancellation: polish each with Newton steps
+        for _ in range(3):
+            t0 = t0 - (a * t0 * t0 + b * t0 + cc) / (2 * a * t0 + b)
+            t1 = t1 - (a * t1 * t1 + b * t1 + cc) / (2 * a * t1 + b)
+    t = np.where(t0 > tmin, t0, np.where(t1 > tmin, t1, np.inf))
+    t = np.where(disc >= 0, t, np.inf)
+    return t, disc / (4 * a * a), np.stack([t0, t1], 1)
+
+
+def cylinder_closed_form(o, d, origin, axis, r, h, tmin):
+    """Transform to a frame with the axis as local y and solve x^2 + z^2 = r^2, 0 <= y <= h."""
+    a = axis / np.linalg.norm(axis)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    ex = np.cross(helper, a)
+    ex /= np.linalg.norm(ex)
+    ez = np.cross(ex, a)
+    basis = np.stack([ex, a, ez])
+    lo, ld = (o - origin) @ basis.T, d @ basis.T
+    qa = ld[:, 0] ** 2 + ld[:, 2] ** 2
+    qb = 2 * (lo[:, 0] * ld[:, 0] + lo[:, 2] * ld[:, 2])
+    qc = lo[:, 0] ** 2 + lo[:, 2] ** 2 - r * r
+    disc = qb * qb - 4 * qa * qc
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sq = np.sqrt(disc)
+        roots = np.stack([(-qb - sq) / (2 * qa), (-qb + sq) / (2 * qa)], 1)
+        for _ in range(3):  # Newton polish, as for the sphere
+            roots = roots - (qa[:, None] * roots**2 + qb[:, None] * roots + qc[:, None]) / (
+                2 * qa[:, None] * roots + qb[:, None])
+    y = lo[:, 1:2] + roots * ld[:, 1:2]
+    valid = (disc[:, None] >= 0) & (qa[:, None] > 0) & (roots > tmin) & (y >= 0) & (y <= h)
+    t = np.where(valid, roots, np.inf).min(axis=1)
+    # rims and tangent rays are ambiguous
+    rim = (np.abs(y) < 1e-5 * (1 + h)) | (np.abs(y - h) < 1e-5 * (1 + h))
+    marginal = (np.isfinite(roots) & rim).any(axis=1)
+    marginal |= (disc >= 0) & (disc < 1e-8 * np.maximum(qb * qb, 1e-30))
+    marginal |= (np.abs(roots - tmin) < 1e-6).any(axis=1)
+    return t, marginal
+
+
+def quad_closed_form(o, d, n, c00, e1, e2, tmin):
+    """Ray-plane t, then the hit's coordinates along the rectangle's two edges."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -((o - c00) @ n) / (d @ n)
+    p = o + t[:, None] * d
+    a = (p - c00) @ e1 / (e1 @ e1)
+    b = (p - c00) @ e2 / (e2 @ e2)
+    inside = (a >= 0) & (a <= 1) & (b >= 0) & (b <= 1) & (t > tmin) & np.isfinite(t)
+    edge = np.minimum(np.minimum(np.abs(a), np.abs(a - 1)), np.minimum(np.abs(b), np.abs(b - 1)))
+    cosine = np.abs(d @ n) / np.linalg.norm(d, axis=1)
+    marginal = (edge < 1e-6) | (cosine < 1e-6) | (np.abs(t - tmin) < 1e-6)
+    return np.where(inside, t, np.inf), marginal
+
+
+shapes = st.lists(
+    st.tuples(
+        st.sampled_from([SPHERE, CYLINDER, PLANAR, MESH]),
+        arrays(np.float64, 3, elements=st.floats(-2, 2)),
+        arrays(np.float64, 3, elements=st.floats(-1, 1)).filter(
+            lambda a: np.linalg.norm(a) > 0.2),
+        st.floats(0.1, 1.5), st.floats(0.1, 3.0),
+    ),
+    min_size=1, max_size=5,
+)
+
+
+def rectangle(center, normal, w, h):
+    """Corners p00 p10 p11 p01 of a w x h rectangle facing `normal`, and its plane."""
+    n = normal / np.linalg.norm(normal)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(n[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    e1 = np.cross(helper, n)
+    e1 *= w / np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    e2 *= h / np.linalg.norm(e2)
+    c00 = center - 0.5 * (e1 + e2)
+    return n, float(-n @ c00), np.stack([c00, c00 + e1, c00 + e1 + e2, c00 + e2])
+
+
+@settings(max_examples=300, deadline=None)
+@given(shapes, st.integers(0, 2**32 - 1), st.sampled_from([0.0, 0.5]),
+       st.sampled_from([np.inf, 4.0]))
+def test_analytic_matches_closed_forms(shape_list, seed, tmin, far):
+    rng = np.random.default_rng(seed)
+    k = len(shape_list)
+    kind = np.array([s[0] for s in shape_list], np.int32)
+    params = np.zeros((k, MIRROR_PARAMS), np.float64)
+    for i, (kd, c, a, r, h) in enumerate(shape_list):
+        if kd == SPHERE:
+            params[i, :4] = (*c, r)
+        elif kd == CYLINDER:
+            params[i, :8] = (*c, *(a / np.linalg.norm(a)), r, h)
+        elif kd == PLANAR:
+            n, dd, corners = rectangle(c, a, 2 * r, h)
+            params[i, :16] = (*n, dd, *corners.reshape(-1))
+        else:  # a mesh mirror row: Embree's business, the analytic intersector ignores it
+            params[i, :3] = c
+    n = 256
+    origins = rng.uniform(-4, 4, (n, 3)).astype(np.float32)
+    # aim at a random point near a random shape
+    pick = rng.integers(0, k, n)
+    goal = params[pick, :3] + rng.normal(0, 1.0, (n, 3))
+    goal[kind[pick] == PLANAR] = params[pick, 4:7][kind[pick] == PLANAR] + rng.normal(
+        0, 1.0, (int((kind[pick] == PLANAR).sum()), 3))
+    d = (goal - origins) * rng.uniform(0.2, 2.0, (n, 1))
+    d = d.astype(np.float32)
+    d[np.linalg.norm(d, axis=1) < 1e-3] = (0, 0, 1)
+    tfar = np.full(n, far, np.float32)
+    t, idx = intersect_analytic(origins, d, tfar, kind, params, tmin)
+
+    p = params
+    o64, d64 = origins.astype(np.float64), d.astype(np.float64)
+    all_t = np.full((n, k), np.inf)
+    marginal = np.zeros(n, bool)
+    for i in range(k):
+        if kind[i] == SPHERE:
+            ti, disc, roots = sphere_closed_form(o64, d64, p[i, :3], p[i, 3], tmin)
+            scale = p[i, 3] ** 2 / np.einsum("rk,rk->r", d64, d64)
+            marginal |= (disc >= 0) & (disc < 1e-8 * scale)  # tangent rays
+            marginal |= (np.abs(roots - tmin) < 1e-6).any(axis=1)
+        elif kind[i] == CYLINDER:
+            ti, m = cylinder_closed_form(o64, d64, p[i, :3], p[i, 3:6], p[i, 6], p[i, 7], tmin)
+            marginal |= m
+        elif kind[i] == PLANAR:
+            c = p[i, 4:16].reshape(4, 3)
+            ti, m = quad_closed_form(o64, d64, p[i, :3], c[0], c[1] - c[0], c[3] - c[0], tmin)
+            marginal |= m
+        else:
+            continue
+        all_t[:, i] = ti
+    all_t[all_t >= far] = np.inf
+    if np.isfinite(far):
+        marginal |= (np.abs(all_t - far) < 1e-6 * far).any(axis=1)
+    best = all_t.min(axis=1)
+    which = np.where(np.isfinite(best), all_t.argmin(axis=1), -1)
+    if k > 1:  # two shapes met at (nearly) the same t: either may win
+        srt = np.sort(all_t, axis=1)
+        with np.errstate(invalid="ignore"):
+            gap = np.where(np.isfinite(srt[:, 1]), srt[:, 1] - srt[:, 0], np.inf)
+        marginal |= gap < 1e-6 * np.abs(srt[:, 1])
+    clear = ~marginal
+    np.testing.assert_array_equal(idx[clear], which[clear])
+    hit = clear & (which >= 0)
+    np.testing.assert_allclose(t[hit], best[hit], rtol=1e-6)
+    assert np.all(np.isinf(t[idx < 0]))
+    assert not np.any(kind[idx[idx >= 0]] == MESH)
+
+
+def test_analytic_property_cases_are_mostly_clear():
+    """The exclusions of the property test leave almost every ray to compare."""
+    rng = np.random.default_rng(11)
+    kind = np.array([SPHERE, CYLINDER, SPHERE, CYLINDER], np.int32)
+    params = np.zeros((4, MIRROR_PARAMS))
+    params[:, :8] = [[0, 0, 0, 1, 0, 0, 0, 0], [2, -1, 0, 0.6, 0.8, 0, 0.5, 2],
+                     [-1.5, 1, 1, 0.7, 0, 0, 0, 0], [0, 0, -2, 1, 0, 0, 0.3, 3]]
+    n = 20000
+    o = rng.uniform(-4, 4, (n, 3)).astype(np.float32)
+    d = (params[rng.integers(0, 4, n), :3] + rng.normal(0, 1, (n, 3)) - o).astype(np.float32)
+    t, idx = intersect_analytic(o, d, np.full(n, np.inf, np.float32), kind, params, 0.0)
+    o64, d64, p = o.astype(float), d.astype(float), params.astype(float)
+    cols, marginal = [], np.zeros(n, bool)
+    for i in range(4):
+        if kind[i] == SPHERE:
+            ti, disc, _ = sphere_closed_form(o64, d64, p[i, :3], p[i, 3], 0.0)
+            marginal |= (disc >= 0) & (disc < 1e-8 * p[i, 3] ** 2 / (d64 * d64).sum(1))
+        else:
+            ti, m = cylinder_closed_form(o64, d64, p[i, :3], p[i, 3:6], p[i, 6], p[i, 7], 0.0)
+            marginal |= m
+        cols.append(ti)
+    all_t = np.stack(cols, 1)
+    which = np.where(np.isfinite(all_t.min(1)), all_t.argmin(1), -1)
+    assert marginal.mean() < 0.001
+    assert (which >= 0).mean() > 0.4
+    clear = ~marginal
+    np.testing.assert_array_equal(idx[clear], which[clear])
+    hit = clear & (which >= 0)
+    np.testing.assert_allclose(t[hit], all_t.min(1)[hit], rtol=1e-6)
+
+
+def test_analytic_sphere_and_tube_by_hand():
+    """Rays along the axes meet a unit sphere and a unit tube where geometry says."""
+    kind = np.array([SPHERE, CYLINDER], np.int32)
+    params = np.zeros((2, MIRROR_PARAMS))
+    params[:, :8] = [[0, 0, 0, 1, 0, 0, 0, 0], [10, 0, 0, 0, 1, 0, 1, 2]]
+    o = np.array([[0, 0, 5], [0, 0, 0], [10, 1, 5], [10, 3, 5], [10, -5, 0.5]], np.float32)
+    d = np.array([[0, 0, -1], [1, 0, 0], [0, 0, -2], [0, 0, -1], [0, 1, 0]], np.float32)
+    t, idx = intersect_analytic(o, d, np.full(5, np.inf, np.float32), kind, params, 0.0)
+    np.testing.assert_array_equal(idx, [0, 0, 1, -1, -1])
+    np.testing.assert_allclose(t[:3], [4.0, 1.0, 2.0], rtol=1e-7)  # from inside: far root
+    # the segment stops short: tfar below the hit leaves the ray unhit
+    t, idx = intersect_analytic(o[:1], d[:1], np.array([3.9], np.float32), kind, params, 0.0)
+    assert idx[0] == -1 and np.isinf(t[0])
