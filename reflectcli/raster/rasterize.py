@@ -56,6 +56,7 @@ def rasterize(
     planes: np.ndarray | None = None,
     cull: int = CULL_NONE,
     mask: np.ndarray | None = None,
+    depth_floor: np.ndarray | None = None,
 ) -> RasterBuffers:
     """Rasterize world-space triangles (T, 3, 3) with an OpenGL-style world->clip matrix.
 
@@ -65,7 +66,8 @@ def rasterize(
     `cull`: CULL_BACK drops triangles whose screen winding is clockwise (seen from behind),
     CULL_FRONT the opposite (for a mirrored camera, whose handedness is flipped).
     `mask` (H, W) bool is a stencil: only its pixels are drawn, and only rows and columns
-    of its bounding box are visited.
+    of its bounding box are visited. `depth_floor` (H, W) eye-space depths: fragments at or
+    in front of it are dropped (a second z-buffer, e.g. a curved reflector's own depth).
     """
     if planes is None:
         planes = standard_planes()
@@ -93,10 +95,12 @@ def rasterize(
         if ys.size == 0:
             return RasterBuffers(tri, b1, b2, depth)
         x0, x1, y0, y1 = int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1
+    floor = (np.zeros((height, width), np.float32) if depth_floor is None
+             else np.ascontiguousarray(depth_floor, dtype=np.float32))
     bands = min(y1 - y0, max(1, numba.get_num_threads()) * 8)
     offsets, items = _bin(status, flags, rows, y0, y1, bands)
     _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets, items,
-          stencil, x0, x1, y0, y1, tri, b1, b2, depth)
+          stencil, floor, x0, x1, y0, y1, tri, b1, b2, depth)
     return RasterBuffers(tri, b1, b2, depth)
 
 
@@ -259,7 +263,7 @@ def _clip_polygon(corners, t, m, planes, width, height, out_xyw, out_bary):
 
 @njit(cache=True)
 def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, row1, col0, col1,
-          stencil, tri, b1, b2, depth):
+          stencil, floor, tri, b1, b2, depth):
     """Scan one screen triangle over rows [row0, row1) and columns [col0, col1), stencil on.
 
     ba/bb/bc: the corners' barycentrics in the original triangle (3,)."""
@@ -288,7 +292,7 @@ def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, ro
             iw = q0 + q1 + q2
             w = 1.0 / iw
             key = w * key_scale
-            if key < depth[py, px]:
+            if key < depth[py, px] and w > floor[py, px]:
                 depth[py, px] = key
                 tri[py, px] = t
                 b1[py, px] = (q0 * ba[1] + q1 * bb[1] + q2 * bc[1]) * w
@@ -297,7 +301,7 @@ def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, ro
 
 @njit(cache=True, parallel=True)
 def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets, items,
-          stencil, col0, col1, top, bottom, tri, b1, b2, depth):
+          stencil, floor, col0, col1, top, bottom, tri, b1, b2, depth):
     e0 = np.array([1.0, 0.0, 0.0])
     e1 = np.array([0.0, 1.0, 0.0])
     e2 = np.array([0.0, 0.0, 1.0])
@@ -314,7 +318,7 @@ def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
             if st == _SIMPLE:
                 s = screen[t]
                 _fill(t, key_scale, s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8],
-                      e0, e1, e2, row0, row1, col0, col1, stencil, tri, b1, b2, depth)
+                      e0, e1, e2, row0, row1, col0, col1, stencil, floor, tri, b1, b2, depth)
                 continue
             n = _clip_polygon(corners, t, m, planes, width, height, xyw, bary)
             if n < 3:
@@ -330,7 +334,7 @@ def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
                 _fill(t, key_scale, xyw[0, 0], xyw[0, 1], xyw[0, 2],
                       xyw[i, 0], xyw[i, 1], xyw[i, 2], xyw[i + 1, 0], xyw[i + 1, 1],
                       xyw[i + 1, 2], bary[0], bary[i], bary[i + 1], row0, row1, col0, col1,
-                      stencil, tri, b1, b2, depth)
+                      stencil, floor, tri, b1, b2, depth)
     # depth keys of mirrors were scaled: undo so the buffer holds true eye-space depth
     for band in prange(bands):
         row0 = top + band * rows // bands
