@@ -16,9 +16,10 @@ from .envmap import Envmap
 from .raster import Raster
 from .raytrace import Raytrace
 from .rerender import Rerender
+from .virtual import Virtual
 
 TECHNIQUES: dict[str, type[Technique]] = {
-    t.name: t for t in (Raytrace, Raster, Rerender, Envmap, Dprm)
+    t.name: t for t in (Raytrace, Raster, Rerender, Envmap, Dprm, Virtual)
 }
 PARAMS: dict[str, type[BaseModel]] = {name: t.Params for name, t in TECHNIQUES.items()}
 

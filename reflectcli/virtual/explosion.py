@@ -1,0 +1,383 @@
+"""Explosion maps and the hidden map (Ofek & Rappoport, sec. 4), in numba.
+
+Map space: a disk image of `res` x `res` texels whose circle of radius s/2 (s a little
+smaller than res) holds every reflection direction. MapCoords of a unit direction
+(x, y, z), expressed in a frame whose z axis points from the reflector's center to the eye:
+    T = (s x / (2 sqrt(2 (z + 1))) + res / 2,  s y / (2 sqrt(2 (z + 1))) + res / 2).
+The paper as transcribed has s x / sqrt(2 (z + 1)) + s / 2, whose circle has radius s (not
+s/2) and does not fit the map: the factor 1/2 is restored here (x / sqrt(2 (z + 1)) spans
+[-1, 1] on the unit sphere), and the circle is centered in the map.
+
+Building (Figure 6): front-facing vertices (n . (E - V) >= 0) send a reflection ray to the
+sphere (center C, radius d); the direction from C to the hit gives T. Front-facing triangles
+are filled with their id. Profile triangles get their back-facing normals projected to be
+orthogonal to the line of sight, then are filled the same way. ExtendMap adds, for each
+profile triangle with two back-facing vertices, an extension quad from their T outward to
+0.6 s from the center, filled (where still empty) with an extension id, so the circle is
+covered. Lookup (MapToVirtualVertex): barycentric coordinates of a map point in the
+triangle under it weight the triangle's vertices and normals into a plane of reflection;
+for an extension quad, the position along its inner edge does. The point is mirrored across
+that plane.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+
+from .mesh import IndexedMesh
+
+EXTENSION_REACH = 0.6  # extension vertices end at this fraction of s from the map center
+
+
+@dataclass
+class ExplosionMap:
+    ids: np.ndarray  # (res, res) int32: face id, F + extension id, or -1
+    coords: np.ndarray  # (V, 2) map coordinates of the vertices used (nan if unused)
+    radius: float  # of the sphere the reflection rays were cut with
+    filled_before_extension: int  # texels inside the circle filled by triangles alone
+
+
+@dataclass
+class ExplosionMaps:
+    """The maps of one reflector (part) for one viewpoint, nearest sphere first: the paper's
+    near and far maps, optionally with layers at radii in between."""
+
+    mesh: IndexedMesh
+    normals: np.ndarray  # (V, 3) normals with back-facing ones of profile triangles fixed
+    front: np.ndarray  # (V,) bool
+    frame: np.ndarray  # (3, 3) rows: map x, y, z (z from the center toward the eye)
+    center: np.ndarray
+    layers: list[ExplosionMap]
+    extensions: np.ndarray  # (X, 3) int64: face, vertex i, vertex j
+    res: int
+    s: float
+
+    @property
+    def near(self) -> ExplosionMap:
+        return self.layers[0]
+
+    @property
+    def far(self) -> ExplosionMap:
+        return self.layers[-1]
+
+
+def map_frame(center: np.ndarray, eye: np.ndarray) -> np.ndarray:
+    z = eye - center
+    z = z / np.linalg.norm(z)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    return np.array([x, np.cross(z, x), z])
+
+
+@njit(cache=True)
+def map_coords(frame, res, s, dx, dy, dz):
+    """T of a direction (need not be unit), in texel units."""
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    x = (frame[0, 0] * dx + frame[0, 1] * dy + frame[0, 2] * dz) / length
+    y = (frame[1, 0] * dx + frame[1, 1] * dy + frame[1, 2] * dz) / length
+    z = (frame[2, 0] * dx + frame[2, 1] * dy + frame[2, 2] * dz) / length
+    m = 2.0 * math.sqrt(max(2.0 * (z + 1.0), 1e-24))
+    return s * x / m + res / 2.0, s * y / m + res / 2.0
+
+
+def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
+                         near_radius: float, far_radius: float, res: int,
+                         layers: int = 2) -> ExplosionMaps:
+    """Maps at `layers` radii from near to far, spaced geometrically (2: the paper's pair)."""
+    v, n, f = mesh.vertices, mesh.normals, mesh.faces
+    to_eye = eye - v
+    front = np.einsum("ij,ij->i", n, to_eye) >= 0.0
+    face_front = front[f]
+    profile = face_front.any(axis=1) & ~face_front.all(axis=1)
+    fixed = n.copy()
+    needs = np.zeros(len(v), bool)
+    needs[f[profile].reshape(-1)] = True
+    needs &= ~front
+    sight = -to_eye / np.linalg.norm(to_eye, axis=1, keepdims=True)
+    proj = fixed[needs] - np.einsum("ij,ij->i", fixed[needs], sight[needs])[:, None] * sight[needs]
+    fixed[needs] = proj / np.maximum(np.linalg.norm(proj, axis=1, keepdims=True), 1e-30)
+    used = front | needs
+    drawn = face_front.all(axis=1) | profile
+    two_back = profile & (face_front.sum(axis=1) == 1)
+    ext = []
+    for fi in np.flatnonzero(two_back):
+        i, j = [int(x) for x in f[fi][~face_front[fi]]]
+        ext.append((fi, i, j))
+    extensions = np.array(ext, np.int64).reshape(-1, 3)
+    frame = map_frame(center, eye)
+    s = res - 2.0
+    maps = []
+    for radius in np.geomspace(near_radius, far_radius, max(layers, 2)):
+        coords = np.full((len(v), 2), np.nan)
+        _vertex_coords(v, fixed, used, eye, center, radius, frame, res, s, coords)
+        ids = np.full((res, res), -1, np.int32)
+        _fill_faces(ids, coords, f, np.flatnonzero(drawn))
+        inside = _inside_circle(res, s)
+        filled = int(np.count_nonzero((ids >= 0) & inside))
+        _fill_extensions(ids, coords, extensions, len(f), res / 2.0, EXTENSION_REACH * s)
+        maps.append(ExplosionMap(ids, coords, radius, filled))
+    return ExplosionMaps(mesh, fixed, front, frame, np.asarray(center, float), maps,
+                         extensions, res, s)
+
+
+def _inside_circle(res: int, s: float) -> np.ndarray:
+    c = np.arange(res) + 0.5 - res / 2.0
+    return (c[None, :] ** 2 + c[:, None] ** 2) <= (s / 2.0) ** 2
+
+
+def empty_in_circle(m: ExplosionMap, res: int, s: float) -> int:
+    """Texels inside the map circle left without an id."""
+    return int(np.count_nonzero((m.ids < 0) & _inside_circle(res, s)))
+
+
+@njit(cache=True)
+def _vertex_coords(v, n, used, eye, center, radius, frame, res, s, coords):
+    for i in range(v.shape[0]):
+        if not used[i]:
+            continue
+        dx, dy, dz = v[i, 0] - eye[0], v[i, 1] - eye[1], v[i, 2] - eye[2]
+        inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+        dx, dy, dz = dx * inv, dy * inv, dz * inv
+        dn = dx * n[i, 0] + dy * n[i, 1] + dz * n[i, 2]
+        rx, ry, rz = dx - 2 * dn * n[i, 0], dy - 2 * dn * n[i, 1], dz - 2 * dn * n[i, 2]
+        # the reflection ray leaves V (inside the sphere): its far root
+        ox, oy, oz = v[i, 0] - center[0], v[i, 1] - center[1], v[i, 2] - center[2]
+        b = ox * rx + oy * ry + oz * rz
+        c = ox * ox + oy * oy + oz * oz - radius * radius
+        t = -b + math.sqrt(max(b * b - c, 0.0))
+        coords[i, 0], coords[i, 1] = map_coords(frame, res, s, ox + t * rx, oy + t * ry,
+                                                oz + t * rz)
+
+
+@njit(cache=True)
+def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty):
+    res = ids.shape[0]
+    area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+    if area == 0.0 or math.isnan(area):
+        return
+    x0 = max(int(math.floor(min(ax, bx, cx))), 0)
+    x1 = min(int(math.ceil(max(ax, bx, cx))), res - 1)
+    y0 = max(int(math.floor(min(ay, by, cy))), 0)
+    y1 = min(int(math.ceil(max(ay, by, cy))), res - 1)
+    for y in range(y0, y1 + 1):
+        py = y + 0.5
+        for x in range(x0, x1 + 1):
+            px = x + 0.5
+            w0 = ((bx - px) * (cy - py) - (cx - px) * (by - py)) / area
+            w1 = ((cx - px) * (ay - py) - (ax - px) * (cy - py)) / area
+            w2 = 1.0 - w0 - w1
+            inside = w0 >= 0.0 and w1 >= 0.0 and w2 >= 0.0
+            if inside and (not only_empty or ids[y, x] < 0):
+                ids[y, x] = value
+
+
+@njit(cache=True)
+def _fill_faces(ids, coords, faces, drawn):
+    for k in range(drawn.shape[0]):
+        fi = drawn[k]
+        a, b, c = faces[fi, 0], faces[fi, 1], faces[fi, 2]
+        _fill_triangle(ids, coords[a, 0], coords[a, 1], coords[b, 0], coords[b, 1],
+                       coords[c, 0], coords[c, 1], fi, False)
+
+
+@njit(cache=True)
+def _extend(cx, cy, px, py, reach):
+    dx, dy = px - cx, py - cy
+    length = math.sqrt(dx * dx + dy * dy)
+    if length == 0.0:
+        return px, py
+    return cx + dx * reach / length, cy + dy * reach / length
+
+
+@njit(cache=True)
+def _fill_extensions(ids, coords, extensions, n_faces, center, reach):
+    for e in range(extensions.shape[0]):
+        i, j = extensions[e, 1], extensions[e, 2]
+        ax, ay = coords[i, 0], coords[i, 1]
+        bx, by = coords[j, 0], coords[j, 1]
+        cx, cy = _extend(center, center, bx, by, reach)
+        dx, dy = _extend(center, center, ax, ay, reach)
+        value = n_faces + e
+        _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, True)
+        _fill_triangle(ids, ax, ay, cx, cy, dx, dy, value, True)
+        # the quad may be wound either way: fill its mirror too
+        _fill_triangle(ids, ax, ay, cx, cy, bx, by, value, True)
+        _fill_triangle(ids, ax, ay, dx, dy, cx, cy, value, True)
+
+
+def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.ndarray,
+                     hidden_screen: np.ndarray, screen_coords: np.ndarray):
+    """Figure 7 for many points: hidden points (hidden_face >= 0, at screen position
+    hidden_screen) through the hidden map (the reflector's item buffer, whose triangles'
+    screen positions are screen_coords); the others through the two maps whose spheres
+    bracket the point (the near and far maps when there are two), blended by the inverse
+    distances to those spheres. Returns (virtual points, hidden flags)."""
+    out = np.empty(points.shape, np.float64)
+    m = maps.mesh
+    ids = np.stack([layer.ids for layer in maps.layers])
+    coords = np.stack([layer.coords for layer in maps.layers])
+    radii = np.array([layer.radius for layer in maps.layers])
+    _virtual(np.ascontiguousarray(points, np.float64), m.vertices, maps.normals, m.faces,
+             maps.extensions, ids, coords, radii, maps.center, maps.frame, maps.res, maps.s,
+             hidden_face, hidden_screen, screen_coords, out)
+    return out, hidden_face >= 0
+
+
+@njit(cache=True)
+def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
+    """(plane point, unit normal) for map point T, or a zero normal if the texel is empty."""
+    res = ids.shape[0]
+    x = min(max(int(math.floor(tx)), 0), res - 1)
+    y = min(max(int(math.floor(ty)), 0), res - 1)
+    ident = ids[y, x]
+    p = np.zeros(3)
+    nn = np.zeros(3)
+    if ident < 0:
+        return p, nn
+    nf = faces.shape[0]
+    if ident < nf:
+        a, b, c = faces[ident, 0], faces[ident, 1], faces[ident, 2]
+        ax, ay = coords[a, 0], coords[a, 1]
+        bx, by = coords[b, 0], coords[b, 1]
+        cx, cy = coords[c, 0], coords[c, 1]
+        area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+        if area == 0.0:
+            wb = wc = 1.0 / 3.0
+        else:
+            wb = ((tx - ax) * (cy - ay) - (cx - ax) * (ty - ay)) / area
+            wc = ((bx - ax) * (ty - ay) - (tx - ax) * (by - ay)) / area
+        wa = 1.0 - wb - wc  # negative weights are fine (the paper says so)
+        for k in range(3):
+            p[k] = wa * v[a, k] + wb * v[b, k] + wc * v[c, k]
+            nn[k] = wa * n[a, k] + wb * n[b, k] + wc * n[c, k]
+    else:
+        e = ident - nf
+        i, j = extensions[e, 1], extensions[e, 2]
+        ex, ey = coords[j, 0] - coords[i, 0], coords[j, 1] - coords[i, 1]
+        ll = ex * ex + ey * ey
+        u = 0.5 if ll == 0.0 else ((tx - coords[i, 0]) * ex + (ty - coords[i, 1]) * ey) / ll
+        u = min(max(u, 0.0), 1.0)
+        for k in range(3):
+            p[k] = (1.0 - u) * v[i, k] + u * v[j, k]
+            nn[k] = (1.0 - u) * n[i, k] + u * n[j, k]
+    length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
+    if length > 0.0:
+        for k in range(3):
+            nn[k] /= length
+    return p, nn
+
+
+@njit(cache=True)
+def _mirror(q, p, nn):
+    d = (q[0] - p[0]) * nn[0] + (q[1] - p[1]) * nn[1] + (q[2] - p[2]) * nn[2]
+    return q[0] - 2 * d * nn[0], q[1] - 2 * d * nn[1], q[2] - 2 * d * nn[2]
+
+
+@njit(cache=True, parallel=True)
+def _virtual(points, v, n, faces, extensions, ids, coords, radii, center, frame, res, s,
+             hidden_face, hidden_screen, screen, out):
+    for i in prange(points.shape[0]):
+        q = points[i]
+        h = hidden_face[i]
+        if h >= 0:  # the hidden map: barycentrics in the reflector triangle on screen
+            a, b, c = faces[h, 0], faces[h, 1], faces[h, 2]
+            tx, ty = hidden_screen[i, 0], hidden_screen[i, 1]
+            ax, ay, bx, by = screen[a, 0], screen[a, 1], screen[b, 0], screen[b, 1]
+            cx, cy = screen[c, 0], screen[c, 1]
+            area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+            if area != 0.0:
+                wb = ((tx - ax) * (cy - ay) - (cx - ax) * (ty - ay)) / area
+                wc = ((bx - ax) * (ty - ay) - (tx - ax) * (by - ay)) / area
+                wa = 1.0 - wb - wc
+                p = np.empty(3)
+                nn = np.empty(3)
+                for k in range(3):
+                    p[k] = wa * v[a, k] + wb * v[b, k] + wc * v[c, k]
+                    nn[k] = wa * n[a, k] + wb * n[b, k] + wc * n[c, k]
+                length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
+                for k in range(3):
+                    nn[k] /= length
+                out[i, 0], out[i, 1], out[i, 2] = _mirror(q, p, nn)
+                continue
+        tx, ty = map_coords(frame, res, s, q[0] - center[0], q[1] - center[1],
+                            q[2] - center[2])
+        dist = math.sqrt((q[0] - center[0]) ** 2 + (q[1] - center[1]) ** 2
+                         + (q[2] - center[2]) ** 2)
+        lo = 0
+        while lo < radii.shape[0] - 2 and dist > radii[lo + 1]:
+            lo += 1
+        r_near, r_far = radii[lo], radii[lo + 1]
+        pn, nn_ = _plane_from_map(ids[lo], coords[lo], v, n, faces, extensions, tx, ty)
+        pf, nf_ = _plane_from_map(ids[lo + 1], coords[lo + 1], v, n, faces, extensions, tx, ty)
+        has_near = nn_[0] ** 2 + nn_[1] ** 2 + nn_[2] ** 2 > 0
+        has_far = nf_[0] ** 2 + nf_[1] ** 2 + nf_[2] ** 2 > 0
+        wn = 1.0 / max(abs(dist - r_near), 1e-12) if has_near else 0.0
+        wf = 1.0 / max(abs(dist - r_far), 1e-12) if has_far else 0.0
+        if wn + wf == 0.0:
+            out[i, 0], out[i, 1], out[i, 2] = q[0], q[1], q[2]
+            continue
+        xn = _mirror(q, pn, nn_)
+        xf = _mirror(q, pf, nf_)
+        for k in range(3):
+            out[i, k] = (wn * xn[k] + wf * xf[k]) / (wn + wf)
+
+
+def refine(virtual: np.ndarray, points: np.ndarray, hidden: np.ndarray, mesh_v: np.ndarray,
+           mesh_n: np.ndarray, faces: np.ndarray, item: np.ndarray, screen: np.ndarray,
+           world_to_clip: np.ndarray, iterations: int) -> np.ndarray:
+    """The local search the paper points to for more accuracy: project the virtual vertex,
+    find the reflector triangle under it in the item buffer (the hidden map), take the plane
+    interpolated there, mirror Q across it again; repeat. Points whose virtual vertex falls
+    off the reflector keep the explosion maps' answer."""
+    out = np.ascontiguousarray(virtual, np.float64).copy()
+    if iterations > 0:
+        _refine(out, np.ascontiguousarray(points, np.float64), hidden, mesh_v, mesh_n, faces,
+                item, screen, np.ascontiguousarray(world_to_clip, np.float64), iterations)
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _refine(out, points, hidden, v, n, faces, item, screen, m, iterations):
+    h, w = item.shape
+    for i in prange(points.shape[0]):
+        if hidden[i]:
+            continue
+        q = points[i]
+        for _ in range(iterations):
+            x, y, z = out[i, 0], out[i, 1], out[i, 2]
+            cw = m[3, 0] * x + m[3, 1] * y + m[3, 2] * z + m[3, 3]
+            if cw <= 0.0:
+                break
+            sx = ((m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]) / cw + 1.0) * 0.5 * w
+            sy = (1.0 - (m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]) / cw) * 0.5 * h
+            px, py = int(math.floor(sx)), int(math.floor(sy))
+            if px < 0 or py < 0 or px >= w or py >= h or item[py, px] < 0:
+                break
+            f = item[py, px]
+            a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+            ax, ay, bx, by = screen[a, 0], screen[a, 1], screen[b, 0], screen[b, 1]
+            cx, cy = screen[c, 0], screen[c, 1]
+            area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+            if area == 0.0:
+                break
+            wb = ((sx - ax) * (cy - ay) - (cx - ax) * (sy - ay)) / area
+            wc = ((bx - ax) * (sy - ay) - (sx - ax) * (by - ay)) / area
+            wa = 1.0 - wb - wc
+            p = np.empty(3)
+            nn = np.empty(3)
+            for k in range(3):
+                p[k] = wa * v[a, k] + wb * v[b, k] + wc * v[c, k]
+                nn[k] = wa * n[a, k] + wb * n[b, k] + wc * n[c, k]
+            length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
+            for k in range(3):
+                nn[k] /= length
+            mx, my, mz = _mirror(q, p, nn)
+            # damped: the plain fixed-point step can oscillate between neighbouring triangles
+            out[i, 0] = 0.5 * (out[i, 0] + mx)
+            out[i, 1] = 0.5 * (out[i, 1] + my)
+            out[i, 2] = 0.5 * (out[i, 2] + mz)

@@ -1,0 +1,160 @@
+"""Mesh helpers for the virtual-object technique: welding a reflector's triangle soup into an
+indexed mesh, splitting it into convex and concave parts, and tessellating reflected objects."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..scene.types import Triangles
+
+
+@dataclass(frozen=True)
+class IndexedMesh:
+    """A reflector as shared vertices (world space) with unit normals, and triangles."""
+
+    vertices: np.ndarray  # (V, 3) float64
+    normals: np.ndarray  # (V, 3) float64, unit
+    faces: np.ndarray  # (F, 3) int64
+    soup_index: np.ndarray  # (F,) index of each face in the triangle soup it came from
+
+
+def weld(corners: np.ndarray, normals: np.ndarray, soup_index: np.ndarray | None = None,
+         decimals: int = 6) -> IndexedMesh:
+    """Merge coincident corners (rounded to `decimals`); a vertex's normal is the mean of its
+    corners' normals, so a smooth soup stays smooth and a seam closes."""
+    pts = corners.reshape(-1, 3).astype(np.float64)
+    key = np.round(pts, decimals)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    n = np.zeros((first.size, 3))
+    np.add.at(n, inverse, normals.reshape(-1, 3).astype(np.float64))
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    faces = inverse.reshape(-1, 3)
+    if soup_index is None:
+        soup_index = np.arange(faces.shape[0])
+    return IndexedMesh(pts[first], n, faces.astype(np.int64), np.asarray(soup_index))
+
+
+def vertex_convexity(mesh: IndexedMesh) -> np.ndarray:
+    """+1 where the surface bends away from its normal around a vertex (convex seen from the
+    front), -1 where it bends toward it (concave): the sign of the mean offset of the
+    neighbours along the vertex normal (negative offset = neighbours below = convex)."""
+    v, n, f = mesh.vertices, mesh.normals, mesh.faces
+    total = np.zeros(len(v))
+    count = np.zeros(len(v))
+    for a, b in ((0, 1), (1, 2), (2, 0), (1, 0), (2, 1), (0, 2)):
+        i, j = f[:, a], f[:, b]
+        np.add.at(total, i, np.einsum("ij,ij->i", v[j] - v[i], n[i]))
+        np.add.at(count, i, 1)
+    offset = total / np.maximum(count, 1)
+    return np.where(offset <= 0, 1, -1)
+
+
+def convexity_parts(mesh: IndexedMesh) -> list[np.ndarray]:
+    """Face index sets of connected regions of one convexity (a face takes the majority of its
+    vertices' signs). A single-signed mesh is one part."""
+    sign = vertex_convexity(mesh)
+    face_sign = np.sign(sign[mesh.faces].sum(axis=1))
+    face_sign[face_sign == 0] = 1
+    # connected components over shared edges, within one sign
+    nf = len(mesh.faces)
+    parent = np.arange(nf)
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    edges = {}
+    for fi, (a, b, c) in enumerate(mesh.faces):
+        for e in ((a, b), (b, c), (c, a)):
+            key = (min(e), max(e))
+            if key in edges:
+                g = edges[key]
+                if face_sign[g] == face_sign[fi]:
+                    ra, rb = find(g), find(fi)
+                    if ra != rb:
+                        parent[ra] = rb
+            else:
+                edges[key] = fi
+    roots = np.array([find(i) for i in range(nf)])
+    parts = [np.flatnonzero(roots == r) for r in np.unique(roots)]
+    return sorted(parts, key=lambda p: int(p[0]))
+
+
+@dataclass(frozen=True)
+class Tessellation:
+    """Subdivided triangles whose corners index shared grid points, so that a per-point
+    computation (virtual vertices) runs once per point, not once per corner."""
+
+    triangles: Triangles  # corners == points[corner_index]
+    points: np.ndarray  # (P, 3) float64
+    corner_index: np.ndarray  # (T, 3) int64
+
+
+def _grid(n: int):
+    """Barycentric grid of a triangle split n x n: (weights (G, 3), faces (S, 3))."""
+    index = {}
+    weights = []
+    for a in range(n + 1):
+        for b in range(n + 1 - a):
+            index[(a, b)] = len(weights)
+            weights.append((1 - (a + b) / n, a / n, b / n))
+    faces = []
+    for a in range(n):
+        for b in range(n - a):
+            faces.append((index[(a, b)], index[(a + 1, b)], index[(a, b + 1)]))
+            if a + b + 1 < n:
+                faces.append((index[(a + 1, b)], index[(a + 1, b + 1)], index[(a, b + 1)]))
+    return np.array(weights), np.array(faces, np.int64)
+
+
+def subdivide(tris: Triangles, n: int) -> Tessellation:
+    """Split every triangle into n^2 by a regular barycentric grid; attributes interpolated
+    (the reflected objects' tessellation: virtual objects bend only at their vertices)."""
+    w, faces = _grid(max(n, 1))
+    corner_w = w[faces]  # (S, 3, 3): per sub-corner, weights of the original corners
+    t, g, s = tris.count, len(w), len(faces)
+
+    def interp(attr):
+        return np.einsum("skc,tcd->tskd", corner_w, attr.astype(np.float64))
+
+    points = np.einsum("gc,tcd->tgd", w, tris.corners.astype(np.float64)).reshape(-1, 3)
+    corner_index = (np.arange(t)[:, None, None] * g + faces[None]).reshape(-1, 3)
+    out = Triangles(
+        points[corner_index].astype(np.float32),
+        interp(tris.uvs).reshape(t * s, 3, 2).astype(np.float32),
+        interp(tris.normals).reshape(t * s, 3, 3).astype(np.float32),
+        np.repeat(tris.material, s),
+        np.repeat(tris.surface, s),
+    )
+    return Tessellation(out, points, corner_index)
+
+
+def tessellate(tris: Triangles, subdivisions: int, max_edge: float | None) -> Tessellation:
+    """Each triangle split n x n, n = max(subdivisions, ceil(longest edge / max_edge)):
+    the paper's per-object grid, refined where triangles are large against the reflector."""
+    if max_edge is None or tris.count == 0:
+        return subdivide(tris, subdivisions)
+    c = tris.corners.astype(np.float64)
+    longest = np.max(np.linalg.norm(c - np.roll(c, 1, axis=1), axis=2), axis=1)
+    n = np.minimum(np.maximum(subdivisions, np.ceil(longest / max_edge)), 256).astype(np.int64)
+    parts = []
+    for value in np.unique(n):
+        pick = n == value
+        parts.append(subdivide(Triangles(*(a[pick] for a in (
+            tris.corners, tris.uvs, tris.normals, tris.material, tris.surface))), int(value)))
+    return concatenate_tessellations(parts)
+
+
+def concatenate_tessellations(parts: list[Tessellation]) -> Tessellation:
+    offsets = np.cumsum([0] + [len(p.points) for p in parts[:-1]])
+    return Tessellation(
+        Triangles(*(np.concatenate([getattr(p.triangles, f) for p in parts]) for f in
+                    ("corners", "uvs", "normals", "material", "surface"))),
+        np.concatenate([p.points for p in parts]),
+        np.concatenate([p.corner_index + o for p, o in zip(parts, offsets, strict=True)]),
+    )
