@@ -47,24 +47,34 @@ def warp_matrix(map_camera: Camera, camera: Camera, reflection: np.ndarray) -> n
             @ np.linalg.inv(map_camera.view_matrix()) @ pixel_to_eye(map_camera))
 
 
-def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near: float):
-    """Screen positions (float32, pixels) and eye depths of every zexel; invalid -> sx = NaN."""
+def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near: float,
+                box: tuple[int, int, int, int] | None = None, margin: int = 3):
+    """Screen positions (float32, pixels) and eye depths of every zexel, and per map row the
+    first and last screen row its zexels reach (row_lo > row_hi if none). Zexels behind the
+    eye or outside `box` = (x0, x1, y0, y1) grown by `margin` pixels get sx = NaN."""
     n = depth.size
     sx = np.empty(n, np.float32)
     sy = np.empty(n, np.float32)
     z = np.empty(n, np.float32)
-    _project(depth, np.ascontiguousarray(w, np.float64), width, height, near, sx, sy, z)
-    return sx, sy, z
+    row_lo = np.empty(depth.shape[0], np.int64)
+    row_hi = np.empty(depth.shape[0], np.int64)
+    x0, x1, y0, y1 = box if box is not None else (0, width, 0, height)
+    _project(depth, np.ascontiguousarray(w, np.float64), near, float(x0 - margin),
+             float(x1 + margin), float(y0 - margin), float(y1 + margin), width, height,
+             sx, sy, z, row_lo, row_hi)
+    return sx, sy, z, row_lo, row_hi
 
 
 @njit(cache=True, parallel=True)
-def _project(depth, w, width, height, near, sx, sy, z):
+def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, row_lo, row_hi):
     mh, mw = depth.shape
     for v in prange(mh):
         # per-row terms hoisted: clip = W[:, 0] u + (W[:, 1] v + W[:, 2]) + W[:, 3] delta
         r0 = w[0, 1] * v + w[0, 2]
         r1 = w[1, 1] * v + w[1, 2]
         r3 = w[3, 1] * v + w[3, 2]
+        lo = 1 << 40
+        hi = -1
         for u in range(mw):
             k = v * mw + u
             d = depth[v, u]
@@ -84,12 +94,17 @@ def _project(depth, w, width, height, near, sx, sy, z):
             inv = 1.0 / cw
             x = (cx * inv + 1.0) * 0.5 * width
             y = (1.0 - cy * inv) * 0.5 * height
-            if not (-8.0 <= x < width + 8.0 and -8.0 <= y < height + 8.0):
+            if not (xmin <= x < xmax and ymin <= y < ymax):
                 sx[k] = np.nan
                 continue
             sx[k] = x
             sy[k] = y
             z[k] = zz
+            py = int(math.floor(y))
+            lo = min(lo, py)
+            hi = max(hi, py)
+        row_lo[v] = lo
+        row_hi[v] = hi
 
 
 def splat_radii(sx, sy, z, shape, mode) -> np.ndarray:
@@ -158,43 +173,23 @@ def raster_runs(mh: int, mw: int) -> np.ndarray:
     return runs
 
 
-def splat(sx, sy, z, radii, runs, mw, slot, stride, stencil, best_z, best_id,
-          ordered: bool) -> int:
+def splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_z, best_id,
+          ordered: bool) -> None:
     """Write the zexels, visited run by run, into the per-pixel (depth, id) buffers over
-    `stencil`; ids are slot * stride + zexel index. Returns the number of zexels on screen.
+    `stencil`; ids are slot * stride + zexel index. `row_lo`/`row_hi`: per map row, the
+    screen rows its zexels land on (splats add their radius).
 
     One band of screen rows per task: each band visits every run but skips the map rows
-    whose zexels (with their splats) cannot reach it, so the work per band stays close to
-    the zexels that land in it, and the result does not depend on the thread count."""
-    mh = sx.shape[0] // mw
-    row_lo = np.empty(mh, np.int64)
-    row_hi = np.empty(mh, np.int64)
-    _row_reach(sx, sy, radii, mw, row_lo, row_hi)
+    that cannot reach it, so the work per band stays close to the zexels that land in it,
+    and the result does not depend on the thread count."""
     rows = np.flatnonzero(stencil.any(axis=1))
     if rows.size == 0:
-        return 0
+        return
+    reach = int(radii.max()) if radii.size else 0
     bands = max(1, numba.get_num_threads()) * 2
     edges = np.linspace(rows[0], rows[-1] + 1, bands + 1).round().astype(np.int64)
-    _splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_z, best_id,
-           edges, ordered)
-    return int(np.count_nonzero(~np.isnan(sx)))
-
-
-@njit(cache=True, parallel=True)
-def _row_reach(sx, sy, radii, mw, row_lo, row_hi):
-    """Per map row: the first and last screen row its zexels' splats reach (-1 if none)."""
-    for v in prange(row_lo.shape[0]):
-        lo = 1 << 40
-        hi = -1
-        for u in range(mw):
-            k = v * mw + u
-            if np.isnan(sx[k]):
-                continue
-            py = int(math.floor(sy[k]))
-            lo = min(lo, py - radii[k])
-            hi = max(hi, py + radii[k])
-        row_lo[v] = lo
-        row_hi[v] = hi
+    _splat(sx, sy, z, radii, runs, mw, row_lo - reach, row_hi + reach, slot, stride, stencil,
+           best_z, best_id, edges, ordered)
 
 
 @njit(cache=True, parallel=True)
@@ -219,6 +214,19 @@ def _splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, be
                 px = int(math.floor(sx[k]))
                 zk = z[k]
                 ident = slot * stride + k
+                if r == 0:  # one pixel: the common case, without the loops
+                    if px < 0 or px >= width or not stencil[py, px]:
+                        continue
+                    current = best_id[py, px]
+                    if ordered and current >= 0 and current // stride == slot:
+                        take = True
+                    else:
+                        bz = best_z[py, px]
+                        take = zk < bz or (zk == bz and (current < 0 or ident < current))
+                    if take:
+                        best_z[py, px] = zk
+                        best_id[py, px] = ident
+                    continue
                 for y in range(max(py - r, row0), min(py + r, row1 - 1) + 1):
                     for x in range(max(px - r, 0), min(px + r, width - 1) + 1):
                         if not stencil[y, x]:
@@ -239,15 +247,23 @@ def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.nda
     """Warp several zexel maps (ZexelMap) into the pixels of `stencil` seen from `camera`.
 
     Returns (depth (H, W) float32, id (H, W) int64: map index * stride + zexel index, or -1
-    where no zexel landed, stride, zexels on screen)."""
+    where no zexel landed, stride, zexels projected into the stencil's box)."""
     h, w = stencil.shape
     best_z = np.full((h, w), np.inf, np.float32)
     best_id = np.full((h, w), -1, np.int64)
     stride = max(m.depth.size for m in maps)
+    ys = np.flatnonzero(stencil.any(axis=1))
+    xs = np.flatnonzero(stencil.any(axis=0))
+    if ys.size == 0:
+        return best_z, best_id, stride, 0
+    box = (int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1)
+    # zexels landing this far outside the stencil's box cannot splat into it
+    margin = 8 if splat_mode == "adaptive" else 3
     zexels = 0
     for slot, zmap in enumerate(maps):
         wm = warp_matrix(zmap.camera, camera, reflection)
-        sx, sy, z = project_map(zmap.depth, wm, w, h, camera.near)
+        sx, sy, z, row_lo, row_hi = project_map(zmap.depth, wm, w, h, camera.near, box,
+                                                margin)
         radii = splat_radii(sx, sy, z, zmap.depth.shape, splat_mode)
         if ordered:
             c = zmap.camera
@@ -258,6 +274,7 @@ def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.nda
             runs = ordered_runs(*zmap.depth.shape, ex, ey, e[3] > 0)
         else:
             runs = raster_runs(*zmap.depth.shape)
-        zexels += splat(sx, sy, z, radii, runs, zmap.depth.shape[1], slot, stride, stencil,
-                        best_z, best_id, ordered)
+        splat(sx, sy, z, radii, runs, zmap.depth.shape[1], row_lo, row_hi, slot, stride,
+              stencil, best_z, best_id, ordered)
+        zexels += int(np.count_nonzero(~np.isnan(sx)))
     return best_z, best_id, stride, zexels
