@@ -81,27 +81,31 @@ def cube_face_coords(bases, rx, ry, rz):
 @njit(cache=True)
 def cube_sample(faces, bases, rx, ry, rz, bilinear):
     """Nearest or bilinear (clamped at the face's edges) color of direction r."""
-    res = faces.shape[1]
     face, u, v = cube_face_coords(bases, rx, ry, rz)
+    return image_sample(faces[face], u, v, bilinear)
+
+
+@njit(cache=True)
+def image_sample(image, u, v, bilinear):
+    """Color at (u, v) in [0, 1]^2 of an (R, R, 3) image (row 0 at the top, v down), nearest
+    or bilinear with the edges clamped."""
+    res = image.shape[0]
     fx = u * res
     fy = v * res
     out = np.empty(3, np.float32)
-    if not bilinear:
+    if not bilinear or res == 1:
         x = min(max(int(fx), 0), res - 1)
         y = min(max(int(fy), 0), res - 1)
         for c in range(3):
-            out[c] = faces[face, y, x, c]
+            out[c] = image[y, x, c]
         return out
     fx = min(max(fx - 0.5, 0.0), res - 1.0)
     fy = min(max(fy - 0.5, 0.0), res - 1.0)
-    x0 = min(int(fx), res - 2) if res > 1 else 0
-    y0 = min(int(fy), res - 2) if res > 1 else 0
-    x1 = min(x0 + 1, res - 1)
-    y1 = min(y0 + 1, res - 1)
+    x0 = min(int(fx), res - 2)
+    y0 = min(int(fy), res - 2)
     ax = fx - x0
     ay = fy - y0
     for c in range(3):
-        out[c] = ((1 - ax) * (1 - ay) * faces[face, y0, x0, c]
-                  + ax * (1 - ay) * faces[face, y0, x1, c]
-                  + (1 - ax) * ay * faces[face, y1, x0, c] + ax * ay * faces[face, y1, x1, c])
+        out[c] = ((1 - ax) * (1 - ay) * image[y0, x0, c] + ax * (1 - ay) * image[y0, x0 + 1, c]
+                  + (1 - ax) * ay * image[y0 + 1, x0, c] + ax * ay * image[y0 + 1, x0 + 1, c])
     return out

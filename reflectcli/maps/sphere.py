@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .cube import cube_sample, face_bases
+from .cube import cube_sample, face_bases, image_sample
 
 
 def sphere_from_cube(faces: np.ndarray, resolution: int) -> np.ndarray:
@@ -55,24 +55,5 @@ def sphere_coords(rx, ry, rz):
 
 @njit(cache=True)
 def sphere_sample(image, rx, ry, rz, bilinear):
-    res = image.shape[0]
     u, v = sphere_coords(rx, ry, rz)
-    fx = u * res
-    fy = v * res
-    out = np.empty(3, np.float32)
-    if not bilinear:
-        x = min(max(int(fx), 0), res - 1)
-        y = min(max(int(fy), 0), res - 1)
-        for c in range(3):
-            out[c] = image[y, x, c]
-        return out
-    fx = min(max(fx - 0.5, 0.0), res - 1.0)
-    fy = min(max(fy - 0.5, 0.0), res - 1.0)
-    x0 = min(int(fx), res - 2)
-    y0 = min(int(fy), res - 2)
-    ax = fx - x0
-    ay = fy - y0
-    for c in range(3):
-        out[c] = ((1 - ax) * (1 - ay) * image[y0, x0, c] + ax * (1 - ay) * image[y0, x0 + 1, c]
-                  + (1 - ax) * ay * image[y0 + 1, x0, c] + ax * ay * image[y0 + 1, x0 + 1, c])
-    return out
+    return image_sample(image, u, v, bilinear)

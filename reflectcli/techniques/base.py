@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+import time
 from types import UnionType
 from typing import Any, ClassVar, Literal, Union, get_args, get_origin
 
@@ -10,6 +12,8 @@ from pydantic import BaseModel
 from ..camera import Camera
 from ..frame import Frame
 from ..scene.types import Scene
+
+log = logging.getLogger("reflect")
 
 
 class Technique:
@@ -32,6 +36,18 @@ class Technique:
 
     def render(self, state: Any, frame: int, camera: Camera) -> Frame:
         raise NotImplementedError
+
+
+def precompute_logged(technique, scene: Scene, label: str) -> tuple[list[dict], float]:
+    """Run a map technique's precompute, say what was captured (only when maps are kept on
+    disk: a render without a cache captures everything, and that is no news) and time it."""
+    start = time.perf_counter()
+    records = technique.precompute(scene)
+    captured = [r["mirror"] for r in records if r["status"] == "captured"]
+    if captured and technique.cache_dir is not None:
+        log.info("%s: captured maps of %s; cached %d", label, ", ".join(captured),
+                 len(records) - len(captured))
+    return records, time.perf_counter() - start
 
 
 def parameter_table(params: type[BaseModel], prefix: str = "") -> list[tuple[str, str, str, str]]:

@@ -42,7 +42,7 @@ from ..maps.warp import warp_maps
 from ..maps.zexel import ZexelMap, capture_map, map_camera, mirror_frame, viewpoints
 from ..raster.primary import render_primary
 from ..scene.types import PLANAR, Scene
-from .base import Technique
+from .base import Technique, precompute_logged
 from .envmap import scene_extent
 
 log = logging.getLogger("reflect")
@@ -127,17 +127,12 @@ class Dprm(Technique):
         return records
 
     def prepare(self, scene: Scene) -> dict:
-        start = time.perf_counter()
-        records = self.precompute(scene)
-        captured = [r["mirror"] for r in records if r["status"] == "captured"]
-        if captured and self.cache_dir is not None:
-            log.info("dprm: captured maps of %s; cached %d", ", ".join(captured),
-                     len(records) - len(captured))
+        records, seconds = precompute_logged(self, scene, "dprm")
         if scene.frame_count > 1 and scene.geometry(0).key[1]:
             log.warning("dprm: objects move in this scene, but its maps are captured at "
                         "frame 0: reflections show them where they were then")
         return {"scene": scene, "mirrors": records, "previous": {},
-                "precompute_seconds": time.perf_counter() - start}
+                "precompute_seconds": seconds}
 
     def render(self, state: dict, frame: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]

@@ -20,7 +20,6 @@ of the scene's content, the capture point and the map parameters (`reflect preco
 
 from __future__ import annotations
 
-import logging
 import time
 from typing import Literal
 
@@ -37,9 +36,8 @@ from ..maps.lookup import CUBE, SPHERE_MAP, add_reflections
 from ..maps.sphere import sphere_from_cube
 from ..raster.primary import render_primary
 from ..scene.types import CYLINDER, PLANAR, SPHERE, Scene
-from .base import Technique
+from .base import Technique, precompute_logged
 
-log = logging.getLogger("reflect")
 MAP_FORMAT = 1  # bump when the stored layout changes
 
 
@@ -133,12 +131,7 @@ class Envmap(Technique):
         return records
 
     def prepare(self, scene: Scene) -> dict:
-        start = time.perf_counter()
-        records = self.precompute(scene)
-        captured = [r["mirror"] for r in records if r["status"] == "captured"]
-        if captured and self.cache_dir is not None:
-            log.info("envmap: captured %s; cached %d", ", ".join(captured),
-                     len(records) - len(captured))
+        records, seconds = precompute_logged(self, scene, "envmap")
         params: EnvmapParams = self.params
         if params.proxy_min is not None and params.proxy_max is not None:
             box = np.array([params.proxy_min, params.proxy_max], float)
@@ -148,8 +141,8 @@ class Envmap(Technique):
             pts = scene.geometry(0).objects.corners.reshape(-1, 3)
             box = np.array([pts.min(axis=0), pts.max(axis=0)], float)
         return {"scene": scene, "maps": records, "box": box,
-                "precompute_seconds": time.perf_counter() - start,
-                "maps_captured": len(captured)}
+                "precompute_seconds": seconds,
+                "maps_captured": sum(r["status"] == "captured" for r in records)}
 
     def render(self, state: dict, frame: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]

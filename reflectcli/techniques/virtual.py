@@ -8,7 +8,6 @@ reflector's pixels and blended.
 | `explosion.resolution` | int | 200 | explosion map side in texels |
 | `explosion.near_scale` | float | 1.1 | near sphere radius / reflector bounding radius |
 | `explosion.layers` | int | 6 | maps on spheres from near to far (2: the paper's pair) |
-| `explosion.refine` | int | 0 | local search steps through the item buffer (0: maps only) |
 | `tessellation.subdivisions` | int | 7 | each reflected triangle split n x n (paper: 7x7) |
 | `tessellation.max_edge` | float | (unset) | and further until no edge is longer (world) |
 | `tessellation.max_edge_radii` | float | 1.0 | the same in reflector radii, if no max_edge |
@@ -20,9 +19,7 @@ reflector's pixels and blended.
 the cross-section) for cylinders, exact mirroring for planar mirrors (the special case), and
 explosion maps for meshes. Explosion maps (near: a sphere `near_scale` times the reflector's
 bounding radius; far: one bounding the scene) and the hidden map (the reflector's item
-buffer from the first pass) are rebuilt per frame and part (reflectcli/virtual/explosion.py);
-`explosion.refine` then searches locally, as the paper suggests for more accuracy: project
-the virtual vertex, take the reflector's plane under it from the item buffer, mirror again.
+buffer from the first pass) are rebuilt per frame and part (reflectcli/virtual/explosion.py).
 Reflected objects are everything but the reflector, tessellated by `tessellation`; mirrors
 among them show their base color (one level of recursion, as in the paper's figures).
 `reflector_test`: `zbuffer` rejects virtual fragments at or in front of the reflector's own
@@ -47,7 +44,7 @@ from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP, rasterize, standard_plane
 from ..raster.shade import shade_buffers
 from ..scene.types import CYLINDER, PLANAR, SPHERE, Scene, Triangles
 from ..virtual.direct import cylinder_virtual_vertices, sphere_virtual_vertices
-from ..virtual.explosion import build_explosion_maps, refine, virtual_vertices
+from ..virtual.explosion import build_explosion_maps, virtual_vertices
 from ..virtual.mesh import (
     IndexedMesh,
     Tessellation,
@@ -63,7 +60,6 @@ class ExplosionParams(Strict):
     resolution: int = Field(default=200, ge=16, le=4096, description="map side, texels")
     near_scale: float = Field(default=1.1, gt=1.0, description="near sphere / bounding radius")
     layers: int = Field(default=6, ge=2, le=64, description="maps from near to far sphere")
-    refine: int = Field(default=0, ge=0, le=32, description="local search steps")
 
 
 class TessellationParams(Strict):
@@ -238,10 +234,7 @@ class Virtual(Technique):
             xs, ys = x[ok], y[ok]
             behind = proj[ok, 2] > depth[ys, xs]
             face[np.flatnonzero(ok)[behind]] = hidden_map[ys[behind], xs[behind]]
-            virtual, hidden = virtual_vertices(maps, points, face, proj[:, :2].copy(), screen)
-            virtual = refine(virtual, points, hidden, part.vertices, maps.normals, part.faces,
-                             hidden_map, screen, world_to_clip, params.refine)
-            return virtual, hidden
+            return virtual_vertices(maps, points, face, proj[:, :2].copy(), screen)
 
         fn.maps = maps  # for tests and figures
         return fn

@@ -273,6 +273,30 @@ def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
 
 
 @njit(cache=True)
+def _screen_plane(faces, f, screen, v, n, sx, sy):
+    """(point, unit normal) interpolated over reflector triangle f at screen point (sx, sy)
+    from its vertices' screen positions; a zero normal if the triangle is degenerate."""
+    a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+    ax, ay, bx, by = screen[a, 0], screen[a, 1], screen[b, 0], screen[b, 1]
+    cx, cy = screen[c, 0], screen[c, 1]
+    p = np.zeros(3)
+    nn = np.zeros(3)
+    area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+    if area == 0.0:
+        return p, nn
+    wb = ((sx - ax) * (cy - ay) - (cx - ax) * (sy - ay)) / area
+    wc = ((bx - ax) * (sy - ay) - (sx - ax) * (by - ay)) / area
+    wa = 1.0 - wb - wc
+    for k in range(3):
+        p[k] = wa * v[a, k] + wb * v[b, k] + wc * v[c, k]
+        nn[k] = wa * n[a, k] + wb * n[b, k] + wc * n[c, k]
+    length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
+    for k in range(3):
+        nn[k] /= length
+    return p, nn
+
+
+@njit(cache=True)
 def _mirror(q, p, nn):
     d = (q[0] - p[0]) * nn[0] + (q[1] - p[1]) * nn[1] + (q[2] - p[2]) * nn[2]
     return q[0] - 2 * d * nn[0], q[1] - 2 * d * nn[1], q[2] - 2 * d * nn[2]
@@ -285,23 +309,9 @@ def _virtual(points, v, n, faces, extensions, ids, coords, radii, center, frame,
         q = points[i]
         h = hidden_face[i]
         if h >= 0:  # the hidden map: barycentrics in the reflector triangle on screen
-            a, b, c = faces[h, 0], faces[h, 1], faces[h, 2]
-            tx, ty = hidden_screen[i, 0], hidden_screen[i, 1]
-            ax, ay, bx, by = screen[a, 0], screen[a, 1], screen[b, 0], screen[b, 1]
-            cx, cy = screen[c, 0], screen[c, 1]
-            area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
-            if area != 0.0:
-                wb = ((tx - ax) * (cy - ay) - (cx - ax) * (ty - ay)) / area
-                wc = ((bx - ax) * (ty - ay) - (tx - ax) * (by - ay)) / area
-                wa = 1.0 - wb - wc
-                p = np.empty(3)
-                nn = np.empty(3)
-                for k in range(3):
-                    p[k] = wa * v[a, k] + wb * v[b, k] + wc * v[c, k]
-                    nn[k] = wa * n[a, k] + wb * n[b, k] + wc * n[c, k]
-                length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
-                for k in range(3):
-                    nn[k] /= length
+            p, nn = _screen_plane(faces, h, screen, v, n, hidden_screen[i, 0],
+                                  hidden_screen[i, 1])
+            if nn[0] != 0.0 or nn[1] != 0.0 or nn[2] != 0.0:
                 out[i, 0], out[i, 1], out[i, 2] = _mirror(q, p, nn)
                 continue
         tx, ty = map_coords(frame, res, s, q[0] - center[0], q[1] - center[1],
@@ -326,58 +336,3 @@ def _virtual(points, v, n, faces, extensions, ids, coords, radii, center, frame,
         for k in range(3):
             out[i, k] = (wn * xn[k] + wf * xf[k]) / (wn + wf)
 
-
-def refine(virtual: np.ndarray, points: np.ndarray, hidden: np.ndarray, mesh_v: np.ndarray,
-           mesh_n: np.ndarray, faces: np.ndarray, item: np.ndarray, screen: np.ndarray,
-           world_to_clip: np.ndarray, iterations: int) -> np.ndarray:
-    """The local search the paper points to for more accuracy: project the virtual vertex,
-    find the reflector triangle under it in the item buffer (the hidden map), take the plane
-    interpolated there, mirror Q across it again; repeat. Points whose virtual vertex falls
-    off the reflector keep the explosion maps' answer."""
-    out = np.ascontiguousarray(virtual, np.float64).copy()
-    if iterations > 0:
-        _refine(out, np.ascontiguousarray(points, np.float64), hidden, mesh_v, mesh_n, faces,
-                item, screen, np.ascontiguousarray(world_to_clip, np.float64), iterations)
-    return out
-
-
-@njit(cache=True, parallel=True)
-def _refine(out, points, hidden, v, n, faces, item, screen, m, iterations):
-    h, w = item.shape
-    for i in prange(points.shape[0]):
-        if hidden[i]:
-            continue
-        q = points[i]
-        for _ in range(iterations):
-            x, y, z = out[i, 0], out[i, 1], out[i, 2]
-            cw = m[3, 0] * x + m[3, 1] * y + m[3, 2] * z + m[3, 3]
-            if cw <= 0.0:
-                break
-            sx = ((m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]) / cw + 1.0) * 0.5 * w
-            sy = (1.0 - (m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]) / cw) * 0.5 * h
-            px, py = int(math.floor(sx)), int(math.floor(sy))
-            if px < 0 or py < 0 or px >= w or py >= h or item[py, px] < 0:
-                break
-            f = item[py, px]
-            a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
-            ax, ay, bx, by = screen[a, 0], screen[a, 1], screen[b, 0], screen[b, 1]
-            cx, cy = screen[c, 0], screen[c, 1]
-            area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
-            if area == 0.0:
-                break
-            wb = ((sx - ax) * (cy - ay) - (cx - ax) * (sy - ay)) / area
-            wc = ((bx - ax) * (sy - ay) - (sx - ax) * (by - ay)) / area
-            wa = 1.0 - wb - wc
-            p = np.empty(3)
-            nn = np.empty(3)
-            for k in range(3):
-                p[k] = wa * v[a, k] + wb * v[b, k] + wc * v[c, k]
-                nn[k] = wa * n[a, k] + wb * n[b, k] + wc * n[c, k]
-            length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
-            for k in range(3):
-                nn[k] /= length
-            mx, my, mz = _mirror(q, p, nn)
-            # damped: the plain fixed-point step can oscillate between neighbouring triangles
-            out[i, 0] = 0.5 * (out[i, 0] + mx)
-            out[i, 1] = 0.5 * (out[i, 1] + my)
-            out[i, 2] = 0.5 * (out[i, 2] + mz)
