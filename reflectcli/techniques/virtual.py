@@ -18,8 +18,8 @@ reflector's pixels and blended.
 `auto` uses the exact sphere method for spheres, the extrusion method (a binary search in
 the cross-section) for cylinders, exact mirroring for planar mirrors (the special case), and
 explosion maps for meshes. Explosion maps (near: a sphere `near_scale` times the reflector's
-bounding radius; far: one bounding the scene) and the hidden map (the reflector's item
-buffer from the first pass) are rebuilt per frame and part (reflectcli/virtual/explosion.py).
+bounding radius; far: one bounding the scene) and the hidden map (an item buffer and
+z-buffer of the reflector alone) are rebuilt per frame and part (reflectcli/virtual/explosion.py).
 Reflected objects are everything but the reflector, tessellated by `tessellation`; mirrors
 among them show their base color (one level of recursion, as in the paper's figures).
 `reflector_test`: `zbuffer` rejects virtual fragments at or in front of the reflector's own
@@ -197,6 +197,11 @@ class Virtual(Technique):
                                primary.buffers.triangle - first, -1)
         buffer_face[buffer_face >= count] = -1
         scene_points = scene.geometry(0).all_triangles().corners.reshape(-1, 3)
+        # the reflector's own z-buffer and item buffer (the paper's hidden map): the reflector
+        # alone, so that what hides it in the scene does not hide points behind it
+        alone = rasterize(tris.corners[first:first + count], np.zeros(count, np.uint8),
+                          camera.projection_matrix() @ camera.view_matrix(), camera.width,
+                          camera.height)
         for faces in parts:
             part = _sub_mesh(mesh, faces)
             in_part = np.zeros(count + 1, bool)
@@ -204,11 +209,9 @@ class Virtual(Technique):
             stencil = stencil_all & in_part[buffer_face]
             if not stencil.any():
                 continue
-            yield stencil, self._explosion_fn(part, faces, count, camera, primary, buffer_face,
-                                              scene_points)
+            yield stencil, self._explosion_fn(part, faces, count, camera, alone, scene_points)
 
-    def _explosion_fn(self, part: IndexedMesh, faces, count, camera, primary, buffer_face,
-                      scene_points):
+    def _explosion_fn(self, part: IndexedMesh, faces, count, camera, alone, scene_points):
         params = self.params.explosion
         center = part.vertices.mean(axis=0)
         bound = float(np.linalg.norm(part.vertices - center, axis=1).max())
@@ -216,11 +219,11 @@ class Virtual(Technique):
         near = max(bound * params.near_scale, 1e-6)
         maps = build_explosion_maps(part, camera.eye, center, near, max(far, near * 1.01),
                                     params.resolution, params.layers)
-        # the hidden map: the first pass's item buffer, restricted to this part's faces
+        # the hidden map: the reflector's item buffer, restricted to this part's faces
         local = np.full(count + 1, -1, np.int64)
         local[faces] = np.arange(len(faces))
-        hidden_map = local[buffer_face]
-        depth = primary.buffers.depth
+        hidden_map = local[alone.triangle]
+        depth = alone.depth
         world_to_clip = camera.projection_matrix() @ camera.view_matrix()
         screen = _project(part.vertices, world_to_clip, camera)[:, :2]
 
