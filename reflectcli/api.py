@@ -224,6 +224,7 @@ def precompute(
     cache: str | None = None,
     threads: int | None = None,
     on_map: Callable[[dict], None] | None = None,
+    on_progress: Callable[[int, int], None] | None = None,
 ) -> PrecomputeResult:
     """Capture (or find in the cache) every map the scene's technique needs."""
     import numba
@@ -249,7 +250,7 @@ def precompute(
         numba.set_num_threads(threads)
     tech = cls(config.technique, numba.get_num_threads(), folder)
     result = PrecomputeResult(folder)
-    result.maps = tech.precompute(scene, on_map)
+    result.maps = tech.precompute(scene, on_map, on_progress)
     return result
 
 

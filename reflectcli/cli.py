@@ -135,7 +135,21 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
     """Capture the maps SCENE's technique needs into the cache (cached ones are kept)."""
     from . import api
 
+    bar: dict = {}
+
+    def on_progress(done: int, total: int) -> None:
+        if not sys.stderr.isatty():
+            return
+        if "bar" not in bar:
+            bar["bar"] = click.progressbar(length=total, label="capturing maps", file=sys.stderr)
+            bar["bar"].__enter__()
+            bar["done"] = 0
+        bar["bar"].update(done - bar["done"])
+        bar["done"] = done
+
     def on_map(record: dict) -> None:
+        if "bar" in bar:
+            bar.pop("bar").__exit__(None, None, None)
         click.echo(
             f"{record['status']:>8}  {record['mirror']}  {record['seconds']:.2f} s  "
             f"{record['path']}"
@@ -154,6 +168,7 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
             cache=cache,
             threads=threads,
             on_map=on_map,
+            on_progress=on_progress,
         )
     except Problems as e:
         _fail(e)

@@ -116,3 +116,32 @@ def capture_map(scene: Scene, k: int, camera: Camera, frame_index: int = 0) -> Z
     depth = buffers.depth.copy()
     depth[buffers.triangle < 0] = np.inf
     return ZexelMap(camera, color, depth)
+
+
+def coarser(zmap: ZexelMap) -> ZexelMap:
+    """The next mip level: half the resolution, each zexel the nearest of its 2x2 block.
+
+    The nearest (smallest depth) keeps silhouettes in front rather than averaging depths
+    across a discontinuity into zexels floating in between; its color goes with it. The
+    coarse zexel is reprojected through the coarse pixel's center, so it moves by up to half
+    a coarse zexel: the error LOD trades for speed."""
+    h, w = zmap.depth.shape
+    h2, w2 = h // 2, w // 2
+    depth = zmap.depth[: 2 * h2, : 2 * w2].reshape(h2, 2, w2, 2).transpose(0, 2, 1, 3)
+    color = zmap.color[: 2 * h2, : 2 * w2].reshape(h2, 2, w2, 2, 3).transpose(0, 2, 1, 3, 4)
+    flat = depth.reshape(h2, w2, 4)
+    pick = np.argmin(flat, axis=2)
+    new_depth = np.take_along_axis(flat, pick[..., None], axis=2)[..., 0]
+    new_color = np.take_along_axis(color.reshape(h2, w2, 4, 3), pick[..., None, None],
+                                   axis=2)[:, :, 0]
+    cam = zmap.camera
+    camera = Camera(cam.eye, cam.target, cam.up, cam.fov_y, w2, h2, cam.near, cam.far)
+    return ZexelMap(camera, np.ascontiguousarray(new_color), np.ascontiguousarray(new_depth))
+
+
+def mip_pyramid(zmap: ZexelMap, smallest: int = 16) -> list[ZexelMap]:
+    """[full map, half, quarter, ...] down to `smallest` zexels a side."""
+    levels = [zmap]
+    while min(levels[-1].depth.shape) // 2 >= smallest:
+        levels.append(coarser(levels[-1]))
+    return levels

@@ -9,6 +9,7 @@ planar mirror, forward-warped into the mirror's pixels every frame.
 | `maps.radius` | float | mirror diagonal | viewpoint distance from the mirror's center |
 | `maps.spread` | degrees | 45.0 | half-angle of the cap of viewpoints around the axis |
 | `maps.per_frame` | int | 1 | maps warped per frame: those nearest the reflected eye |
+| `maps.lod` | bool | false | warp the mip level whose density matches the mirror on screen |
 | `fill.splat` | 1, 3, 5, "adaptive" | 1 | splat footprint in pixels (adaptive: from the warp) |
 | `fill.temporal` | bool | false | keep the previous frame's reflection where no zexel lands |
 | `occlusion` | "zbuffer", "ordered" | "zbuffer" | nearest zexel wins, or McMillan's order |
@@ -39,7 +40,14 @@ from ..frame import Frame
 from ..geometry import reflection_matrix
 from ..maps.cache import MapCache, cache_key
 from ..maps.warp import warp_maps
-from ..maps.zexel import ZexelMap, capture_map, map_camera, mirror_frame, viewpoints
+from ..maps.zexel import (
+    ZexelMap,
+    capture_map,
+    map_camera,
+    mip_pyramid,
+    mirror_frame,
+    viewpoints,
+)
 from ..raster.primary import render_primary
 from ..scene.types import PLANAR, Scene
 from .base import Technique, precompute_logged
@@ -56,6 +64,7 @@ class DprmMaps(Strict):
     radius: float | None = Field(default=None, gt=0, description="default: mirror diagonal")
     spread: float = Field(default=45.0, gt=0, lt=90, description="cap half-angle, degrees")
     per_frame: int = Field(default=1, ge=1, le=64, description="maps warped per frame")
+    lod: bool = Field(default=False, description="warp the mip level matching the mirror")
 
     @model_validator(mode="after")
     def _count_fits_layout(self) -> DprmMaps:
@@ -85,9 +94,12 @@ class Dprm(Technique):
     name = "dprm"
     Params = DprmParams
 
-    def precompute(self, scene: Scene, on_map=None) -> list[dict]:
-        """Capture (or load) every planar mirror's maps; one record per mirror."""
+    def precompute(self, scene: Scene, on_map=None, on_progress=None) -> list[dict]:
+        """Capture (or load) every planar mirror's maps; one record per mirror.
+        on_progress(maps done, maps in all) follows the capture map by map."""
         p: DprmMaps = self.params.maps
+        total = p.count * int(np.count_nonzero(scene.mirrors.kind == PLANAR))
+        done = 0
         cache = MapCache(self.cache_dir)
         near, far = scene_extent(scene)
         records = []
@@ -106,7 +118,12 @@ class Dprm(Technique):
             status = "cached"
             if parts is None:
                 status = "captured"
-                maps = [capture_map(scene, k, cam) for cam in cams]
+                maps = []
+                for cam in cams:
+                    maps.append(capture_map(scene, k, cam))
+                    done += 1
+                    if on_progress is not None:
+                        on_progress(done, total)
                 parts = [(f"map{j:03d}", {"R": m.color[:, :, 0], "G": m.color[:, :, 1],
                                           "B": m.color[:, :, 2], "Z": m.depth})
                          for j, m in enumerate(maps)]
@@ -117,6 +134,9 @@ class Dprm(Technique):
             else:
                 maps = [ZexelMap(cam, np.stack([c["R"], c["G"], c["B"]], axis=-1), c["Z"])
                         for cam, (_, c, _) in zip(cams, parts, strict=True)]
+                done += len(maps)
+                if on_progress is not None:
+                    on_progress(done, total)
             record = {"mirror": name, "index": k, "status": status, "maps": maps,
                       "plane": (mf.normal, float(-mf.normal @ mf.center)),
                       "viewpoints": points, "seconds": time.perf_counter() - start,
@@ -171,9 +191,26 @@ class Dprm(Technique):
         result.timings.update({"warp": warp_s, "fill": fill_s,
                                "precompute": state["precompute_seconds"] if frame == 0 else 0.0})
         result.stats.update({"maps_used": used, "zexels_warped": warped,
+                             "lod_level": getattr(self, "last_lod_level", 0),
                              "holes": int(holes.sum()),
                              "hole_fraction": float(holes.sum() / max(mirror_pixels, 1))})
         return result
+
+    def _lod(self, record: dict, chosen, stencil: np.ndarray):
+        """The coarsest mip level that still has a zexel per mirror pixel across the mirror
+        (the maps' frustums cover the mirror, so their side spans about its width)."""
+        if "pyramids" not in record:
+            record["pyramids"] = {}
+        pixels_across = math.sqrt(max(int(stencil.sum()), 1))
+        level = max(0, int(math.floor(math.log2(
+            record["maps"][0].depth.shape[0] / pixels_across))))
+        maps = []
+        for j in chosen:
+            if j not in record["pyramids"]:
+                record["pyramids"][j] = mip_pyramid(record["maps"][j])
+            pyramid = record["pyramids"][j]
+            maps.append(pyramid[min(level, len(pyramid) - 1)])
+        return maps, level
 
     def _warp(self, record: dict, camera: Camera, stencil: np.ndarray):
         """Reflected colors over the stencil, and which pixels a zexel reached."""
@@ -187,6 +224,10 @@ class Dprm(Technique):
             np.linalg.norm(record["viewpoints"] - mirrored_eye, axis=1), kind="stable")
         chosen = order_by_distance[: params.maps.per_frame]
         maps = [k_maps[j] for j in chosen]
+        level = 0
+        if params.maps.lod:
+            maps, level = self._lod(record, chosen, stencil)
+        self.last_lod_level = level
         _, best_id, stride, zexels = warp_maps(maps, camera, reflect, mirrored_eye, stencil,
                                                params.fill.splat, params.occlusion == "ordered")
         h, w = stencil.shape

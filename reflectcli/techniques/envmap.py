@@ -83,7 +83,7 @@ class Envmap(Technique):
     name = "envmap"
     Params = EnvmapParams
 
-    def precompute(self, scene: Scene, on_map=None) -> list[dict]:
+    def precompute(self, scene: Scene, on_map=None, on_progress=None) -> list[dict]:
         """Capture (or load from the cache) every reflector's map; one record per map."""
         params: EnvmapParams = self.params
         unknown = sorted(set(params.capture) - set(scene.mirrors.names))
@@ -128,6 +128,8 @@ class Envmap(Technique):
             records.append(record)
             if on_map is not None:
                 on_map(record)
+            if on_progress is not None:
+                on_progress(k + 1, scene.mirrors.count)
         return records
 
     def prepare(self, scene: Scene) -> dict:
