@@ -39,6 +39,8 @@ class ExplosionMap:
     coords: np.ndarray  # (V, 2) map coordinates of the vertices used (nan if unused)
     radius: float  # of the sphere the reflection rays were cut with
     filled_before_extension: int  # texels inside the circle filled by triangles alone
+    empty_after_extension: int  # texels inside the circle ExtendMap left empty (then filled
+    # with the nearest id, so that no lookup falls into a hole)
 
 
 @dataclass
@@ -108,6 +110,11 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     for fi in np.flatnonzero(two_back):
         i, j = [int(x) for x in f[fi][~face_front[fi]]]
         ext.append((fi, i, j))
+    # an open reflector (a cap, a mask, a part of a split mesh) ends at boundary edges rather
+    # than at a silhouette: they bound the reflected directions the same way
+    for fi, i, j in _boundary_edges(f):
+        if drawn[fi] and used[i] and used[j]:
+            ext.append((fi, i, j))
     extensions = np.array(ext, np.int64).reshape(-1, 3)
     frame = map_frame(center, eye)
     s = res - 2.0
@@ -120,7 +127,9 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
         inside = _inside_circle(res, s)
         filled = int(np.count_nonzero((ids >= 0) & inside))
         _fill_extensions(ids, coords, extensions, len(f), res / 2.0, EXTENSION_REACH * s)
-        maps.append(ExplosionMap(ids, coords, radius, filled))
+        empty = int(np.count_nonzero((ids < 0) & inside))
+        _fill_nearest(ids)
+        maps.append(ExplosionMap(ids, coords, radius, filled, empty))
     return ExplosionMaps(mesh, fixed, front, frame, np.asarray(center, float), maps,
                          extensions, res, s)
 
@@ -130,9 +139,24 @@ def _inside_circle(res: int, s: float) -> np.ndarray:
     return (c[None, :] ** 2 + c[:, None] ** 2) <= (s / 2.0) ** 2
 
 
-def empty_in_circle(m: ExplosionMap, res: int, s: float) -> int:
-    """Texels inside the map circle left without an id."""
-    return int(np.count_nonzero((m.ids < 0) & _inside_circle(res, s)))
+def _boundary_edges(faces: np.ndarray) -> list[tuple[int, int, int]]:
+    """(face, i, j) for every edge used by one face only."""
+    seen: dict[tuple[int, int], list] = {}
+    for fi, (a, b, c) in enumerate(faces):
+        for i, j in ((a, b), (b, c), (c, a)):
+            seen.setdefault((min(i, j), max(i, j)), []).append((fi, int(i), int(j)))
+    return [uses[0] for uses in seen.values() if len(uses) == 1]
+
+
+def _fill_nearest(ids: np.ndarray) -> None:
+    """Give every empty texel the id of the nearest filled one (in place)."""
+    empty = ids < 0
+    if not empty.any() or empty.all():
+        return
+    from scipy.ndimage import distance_transform_edt
+
+    _, (iy, ix) = distance_transform_edt(empty, return_indices=True)
+    ids[empty] = ids[iy[empty], ix[empty]]
 
 
 @njit(cache=True)
