@@ -61,12 +61,13 @@ class MapCache:
                 os.unlink(path)
         return parts
 
-    def store(self, kind: str, key: str, parts, attributes: dict[str, str]) -> str | None:
+    def store(self, kind: str, key: str, parts, attributes: dict[str, str],
+              part_attributes: list[dict[str, str]] | None = None) -> str | None:
         path = self.path(kind, key)
         if path is None:
             return None
         os.makedirs(self.root, exist_ok=True)
-        write_exr_parts(path, parts, {**attributes, KEY_ATTRIBUTE: key})
+        write_exr_parts(path, parts, {**attributes, KEY_ATTRIBUTE: key}, part_attributes)
         return path
 
     def clear(self) -> int:

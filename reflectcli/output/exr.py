@@ -55,7 +55,8 @@ def read_exr(path: str) -> tuple[dict[str, np.ndarray], dict[str, str]]:
 
 
 def write_exr_parts(
-    path: str, parts: list[tuple[str, dict[str, np.ndarray]]], attributes: dict[str, str]
+    path: str, parts: list[tuple[str, dict[str, np.ndarray]]], attributes: dict[str, str],
+    part_attributes: list[dict[str, str]] | None = None,
 ) -> None:
     """A multi-part EXR, one named part per entry (e.g. cube faces), written atomically.
 
@@ -64,7 +65,7 @@ def write_exr_parts(
     import OpenImageIO as oiio
 
     specs, datas = [], []
-    for name, channels in parts:
+    for index, (name, channels) in enumerate(parts):
         names = list(channels)
         data = np.ascontiguousarray(np.stack([channels[n] for n in names], axis=-1), np.float32)
         h, w = data.shape[:2]
@@ -72,7 +73,8 @@ def write_exr_parts(
         spec.channelnames = tuple(names)
         spec.attribute("compression", "zip")
         spec.attribute("oiio:subimagename", name)
-        for key, value in attributes.items():
+        own = part_attributes[index] if part_attributes else {}
+        for key, value in {**attributes, **own}.items():
             spec.attribute(key, str(value))
         spec.attribute("DateTime", FIXED_DATETIME)
         specs.append(spec)

@@ -129,8 +129,11 @@ class Dprm(Technique):
                          for j, m in enumerate(maps)]
                 cache.store("dprm", key, parts, {
                     "reflect:mirror": name, "reflect:maps": str(p.count),
-                    "reflect:near": repr(near), "reflect:far": repr(far),
-                    "reflect:viewpoints": " ".join(f"{x:.9g}" for x in points.reshape(-1))})
+                    "reflect:near": repr(near), "reflect:far": repr(far)}, [
+                    {"reflect:viewpoint": _numbers(cam.eye),
+                     "reflect:view_matrix": _numbers(cam.view_matrix()),
+                     "reflect:projection_matrix": _numbers(cam.projection_matrix()),
+                     "reflect:fov_y": repr(cam.fov_y)} for cam in cams])
             else:
                 maps = [ZexelMap(cam, np.stack([c["R"], c["G"], c["B"]], axis=-1), c["Z"])
                         for cam, (_, c, _) in zip(cams, parts, strict=True)]
@@ -237,6 +240,10 @@ class Dprm(Technique):
         colors = np.stack([m.color.reshape(-1, 3) for m in maps])
         reflected[reached] = colors[ids // stride, ids % stride]
         return reflected, reached, len(chosen), zexels
+
+
+def _numbers(values) -> str:
+    return " ".join(f"{x:.9g}" for x in np.asarray(values, float).reshape(-1))
 
 
 def _valid(parts, p: DprmMaps) -> bool:
