@@ -22,7 +22,7 @@ test: install
 	$(BIN)/pytest -q
 
 lint: install
-	$(BIN)/ruff check reflectcli tests
+	$(BIN)/ruff check reflectcli tests benchmarks scripts
 
 render: install
 	$(BIN)/reflect render $(SCENE) --preview
