@@ -56,11 +56,7 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
     progress = None
     done: list[str] = []
     try:
-        if technique is not None:
-            from .techniques.registry import TECHNIQUES
-
-            if technique not in TECHNIQUES:
-                raise Problems([_unknown_technique(technique, TECHNIQUES)])
+        _check_technique(technique)
         config, _ = _load(scene, overrides, technique)
         count = len(api.parse_frames(frames, config.camera.frame_count))
         if sys.stderr.isatty() and count > 1:
@@ -99,6 +95,14 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
         progress.__exit__(None, None, None)
     skipped = f", {len(result.skipped)} skipped (--resume)" if result.skipped else ""
     click.echo(f"wrote {len(result.written)} frame(s) to {result.folder}{skipped}")
+
+
+def _check_technique(name: str | None) -> None:
+    """--technique must name a registered technique (one line, exit 2, otherwise)."""
+    from .techniques.registry import TECHNIQUES
+
+    if name is not None and name not in TECHNIQUES:
+        raise Problems([_unknown_technique(name, TECHNIQUES)])
 
 
 def _unknown_technique(name, techniques):
@@ -156,11 +160,7 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
         )
 
     try:
-        if technique is not None:
-            from .techniques.registry import TECHNIQUES
-
-            if technique not in TECHNIQUES:
-                raise Problems([_unknown_technique(technique, TECHNIQUES)])
+        _check_technique(technique)
         result = api.precompute(
             scene,
             technique=technique,

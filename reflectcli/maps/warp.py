@@ -215,31 +215,28 @@ def _splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, be
                 zk = z[k]
                 ident = slot * stride + k
                 if r == 0:  # one pixel: the common case, without the loops
-                    if px < 0 or px >= width or not stencil[py, px]:
-                        continue
-                    current = best_id[py, px]
-                    if ordered and current >= 0 and current // stride == slot:
-                        take = True
-                    else:
-                        bz = best_z[py, px]
-                        take = zk < bz or (zk == bz and (current < 0 or ident < current))
-                    if take:
-                        best_z[py, px] = zk
-                        best_id[py, px] = ident
+                    if 0 <= px < width and stencil[py, px]:
+                        _write(py, px, zk, ident, slot, stride, best_z, best_id, ordered)
                     continue
                 for y in range(max(py - r, row0), min(py + r, row1 - 1) + 1):
                     for x in range(max(px - r, 0), min(px + r, width - 1) + 1):
-                        if not stencil[y, x]:
-                            continue
-                        current = best_id[y, x]
-                        if ordered and current >= 0 and current // stride == slot:
-                            take = True  # same map: later in McMillan's order wins
-                        else:
-                            bz = best_z[y, x]
-                            take = zk < bz or (zk == bz and (current < 0 or ident < current))
-                        if take:
-                            best_z[y, x] = zk
-                            best_id[y, x] = ident
+                        if stencil[y, x]:
+                            _write(y, x, zk, ident, slot, stride, best_z, best_id, ordered)
+
+
+@njit(cache=True, inline="always")
+def _write(y, x, zk, ident, slot, stride, best_z, best_id, ordered):
+    """The visibility rule at one pixel: the nearest zexel wins (ties to the lower id); in
+    ordered mode a zexel of the same map wins regardless (McMillan's order)."""
+    current = best_id[y, x]
+    if ordered and current >= 0 and current // stride == slot:
+        take = True
+    else:
+        bz = best_z[y, x]
+        take = zk < bz or (zk == bz and (current < 0 or ident < current))
+    if take:
+        best_z[y, x] = zk
+        best_id[y, x] = ident
 
 
 def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.ndarray,
