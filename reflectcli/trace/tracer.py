@@ -55,8 +55,13 @@ def build_accelerators(geometry: Geometry) -> Accelerators:
 
 
 def trace_frame(
-    scene: Scene, geometry: Geometry, accel: Accelerators, camera: Camera,
-    max_depth: int, samples: int = 1, threads: int = 1,
+    scene: Scene,
+    geometry: Geometry,
+    accel: Accelerators,
+    camera: Camera,
+    max_depth: int,
+    samples: int = 1,
+    threads: int = 1,
 ) -> Frame:
     """Ray trace one frame; `samples` x `samples` rays per pixel on a regular grid."""
     timings: dict[str, float] = {"intersect": 0.0, "shade": 0.0}
@@ -79,8 +84,19 @@ def trace_frame(
             break
         rays += origins.shape[0]
         hit_t, hit_surface, alive, next_o, next_d, next_w = _wave(
-            scene, geometry, accel, origins, directions, tfar, weight, slot, color,
-            bounce < max_depth, threads, timings)
+            scene,
+            geometry,
+            accel,
+            origins,
+            directions,
+            tfar,
+            weight,
+            slot,
+            color,
+            bounce < max_depth,
+            threads,
+            timings,
+        )
         if bounce == 0:
             depth = np.where(hit_surface >= 0, hit_t + np.float32(camera.near), np.inf)
             surface = hit_surface
@@ -91,27 +107,43 @@ def trace_frame(
         o, d = primary_rays(camera, 1)
         m = d.shape[0]
         hit_t, surface, *_ = _wave(
-            scene, geometry, accel, o, d, np.full(m, camera.far - camera.near, np.float32),
-            np.ones((m, 3), np.float32), np.arange(m, dtype=np.int64),
-            np.zeros((m, 3), np.float32), False, threads, timings)
+            scene,
+            geometry,
+            accel,
+            o,
+            d,
+            np.full(m, camera.far - camera.near, np.float32),
+            np.ones((m, 3), np.float32),
+            np.arange(m, dtype=np.int64),
+            np.zeros((m, 3), np.float32),
+            False,
+            threads,
+            timings,
+        )
         depth = np.where(surface >= 0, hit_t + np.float32(camera.near), np.inf)
         rays += m
     depth, surface = depth.reshape(h, w), surface.reshape(h, w)
     timings["trace"] = time.perf_counter() - start
     return Frame(
-        rgb=rgb, depth=depth.astype(np.float32), surface=surface.astype(np.int32),
-        mirror_mask=surface >= scene.n_objects, timings=timings, stats={"rays": int(rays)},
+        rgb=rgb,
+        depth=depth.astype(np.float32),
+        surface=surface.astype(np.int32),
+        mirror_mask=surface >= scene.n_objects,
+        timings=timings,
+        stats={"rays": int(rays)},
     )
 
 
-def _wave(scene, geometry, accel, origins, directions, tfar, weight, slot, color, follow,
-          threads, timings):
+def _wave(
+    scene, geometry, accel, origins, directions, tfar, weight, slot, color, follow, threads, timings
+):
     """Intersect one batch of rays, shade their hits into color, emit reflected rays."""
     t0 = time.perf_counter()
     t_o, p_o, u_o, v_o = accel.objects.intersect(origins, directions, tfar, threads)
     t_m, p_m, u_m, v_m = accel.mirrors.intersect(origins, directions, tfar, threads)
-    t_a, k_a = intersect_analytic(origins, directions, tfar, scene.mirrors.kind,
-                                  scene.mirrors.params, 0.0)
+    t_a, k_a = intersect_analytic(
+        origins, directions, tfar, scene.mirrors.kind, scene.mirrors.params, 0.0
+    )
     t1 = time.perf_counter()
     count = origins.shape[0]
     hit_t = np.empty(count, np.float32)
@@ -121,13 +153,50 @@ def _wave(scene, geometry, accel, origins, directions, tfar, weight, slot, color
     next_d = np.empty((count, 3), np.float32)
     next_w = np.empty((count, 3), np.float32)
     o, m = geometry.objects, scene.mirrors
-    _resolve(origins, directions, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m, t_a, k_a,
-             o.corners, o.uvs, o.normals, o.material, o.surface,
-             accel.mirror_corners, accel.mirror_normals, accel.mirror_surface,
-             m.kind, m.params, m.reflectance, m.base, scene.n_objects,
-             scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
-             scene.lights.light_f, scene.shading, scene.ambient, scene.background,
-             follow, color, hit_t, hit_surface, alive, next_o, next_d, next_w)
+    _resolve(
+        origins,
+        directions,
+        weight,
+        slot,
+        t_o,
+        p_o,
+        u_o,
+        v_o,
+        t_m,
+        p_m,
+        u_m,
+        v_m,
+        t_a,
+        k_a,
+        o.corners,
+        o.uvs,
+        o.normals,
+        o.material,
+        o.surface,
+        accel.mirror_corners,
+        accel.mirror_normals,
+        accel.mirror_surface,
+        m.kind,
+        m.params,
+        m.reflectance,
+        m.base,
+        scene.n_objects,
+        scene.materials.mat_i,
+        scene.materials.mat_f,
+        scene.materials.texels,
+        scene.lights.light_f,
+        scene.shading,
+        scene.ambient,
+        scene.background,
+        follow,
+        color,
+        hit_t,
+        hit_surface,
+        alive,
+        next_o,
+        next_d,
+        next_w,
+    )
     timings["intersect"] += t1 - t0
     timings["shade"] += time.perf_counter() - t1
     return hit_t, hit_surface, alive, next_o, next_d, next_w
@@ -147,16 +216,58 @@ def _pick(t_o, t_m, t_a):
 
 
 @njit(cache=True, parallel=True)
-def _resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m, t_a, k_a,
-             corners, uvs, normals, material, surface, m_corners, m_normals, m_surface,
-             m_kind, m_params, m_refl, m_base, n_objects, mat_i, mat_f, texels, light_f,
-             shading, ambient, background, follow, color, hit_t, hit_surface, alive,
-             next_o, next_d, next_w):
-    """Shade each ray's nearest hit into color[slot] and emit its reflected ray if any."""
+def _resolve(
+    origins,
+    dirs,
+    weight,
+    slot,
+    t_o,
+    p_o,
+    u_o,
+    v_o,
+    t_m,
+    p_m,
+    u_m,
+    v_m,
+    t_a,
+    k_a,
+    corners,
+    uvs,
+    normals,
+    material,
+    surface,
+    m_corners,
+    m_normals,
+    m_surface,
+    m_kind,
+    m_params,
+    m_refl,
+    m_base,
+    n_objects,
+    mat_i,
+    mat_f,
+    texels,
+    light_f,
+    shading,
+    ambient,
+    background,
+    follow,
+    color,
+    hit_t,
+    hit_surface,
+    alive,
+    next_o,
+    next_d,
+    next_w,
+):
+    """Shade each ray's nearest hit into color[slot] and emit its reflected ray if any.
+
+    Inputs are float32; hit points and reflected directions are worked in float64
+    (np.float64(), since numba's float() keeps a float32 a float32)."""
     for i in prange(origins.shape[0]):
         s = slot[i]
-        ox, oy, oz = float(origins[i, 0]), float(origins[i, 1]), float(origins[i, 2])
-        dx, dy, dz = float(dirs[i, 0]), float(dirs[i, 1]), float(dirs[i, 2])
+        ox, oy, oz = np.float64(origins[i, 0]), np.float64(origins[i, 1]), np.float64(origins[i, 2])
+        dx, dy, dz = np.float64(dirs[i, 0]), np.float64(dirs[i, 1]), np.float64(dirs[i, 2])
         which = _pick(t_o[i], t_m[i], t_a[i])
         if which < 0:
             hit_t[i] = np.inf
@@ -165,9 +276,9 @@ def _resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m
                 color[s, c] += weight[i, c] * background[c]
             continue
         if which == 0:
-            t = float(t_o[i])
+            t = np.float64(t_o[i])
             tri = p_o[i]
-            b1, b2 = float(u_o[i]), float(v_o[i])
+            b1, b2 = np.float64(u_o[i]), np.float64(v_o[i])
             b0 = 1.0 - b1 - b2
             hit_t[i] = t
             hit_surface[i] = surface[tri]
@@ -177,18 +288,36 @@ def _resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m
             nx = b0 * normals[tri, 0, 0] + b1 * normals[tri, 1, 0] + b2 * normals[tri, 2, 0]
             ny = b0 * normals[tri, 0, 1] + b1 * normals[tri, 1, 1] + b2 * normals[tri, 2, 1]
             nz = b0 * normals[tri, 0, 2] + b1 * normals[tri, 1, 2] + b2 * normals[tri, 2, 2]
-            r, g, b = surface_color(material[tri], u, v, px, py, pz, nx, ny, nz, dx, dy, dz,
-                                    mat_i, mat_f, texels, light_f, shading, ambient)
+            r, g, b = surface_color(
+                material[tri],
+                u,
+                v,
+                px,
+                py,
+                pz,
+                nx,
+                ny,
+                nz,
+                dx,
+                dy,
+                dz,
+                mat_i,
+                mat_f,
+                texels,
+                light_f,
+                shading,
+                ambient,
+            )
             color[s, 0] += weight[i, 0] * r
             color[s, 1] += weight[i, 1] * g
             color[s, 2] += weight[i, 2] * b
             continue
         # a mirror: geometric normal (for the offset) and shading normal (for the reflection)
         if which == 1:
-            t = float(t_m[i])
+            t = np.float64(t_m[i])
             tri = p_m[i]
             k = m_surface[tri] - n_objects
-            b1, b2 = float(u_m[i]), float(v_m[i])
+            b1, b2 = np.float64(u_m[i]), np.float64(v_m[i])
             b0 = 1.0 - b1 - b2
             e1x = m_corners[tri, 1, 0] - m_corners[tri, 0, 0]
             e1y = m_corners[tri, 1, 1] - m_corners[tri, 0, 1]
@@ -202,7 +331,7 @@ def _resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m
             nz = b0 * m_normals[tri, 0, 2] + b1 * m_normals[tri, 1, 2] + b2 * m_normals[tri, 2, 2]
             px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
         else:
-            t = float(t_a[i])
+            t = np.float64(t_a[i])
             k = k_a[i]
             p = m_params[k]
             px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
