@@ -373,4 +373,6 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         content_hash=hashes[1],
         room_bounds=_room_bounds(cfg, meshes),
         geometry_at=geometry_at,
+        mirror_profiles={j: reflectors.extrusion_profile(m) for j, m in enumerate(cfg.mirrors)
+                         if isinstance(m, ExtrusionMirror)},
     )

@@ -123,6 +123,9 @@ class Scene:
     content_hash: str  # what the scene looks like: no camera, technique or output
     room_bounds: np.ndarray | None  # (2, 3) bounds of `room` objects at frame 0
     geometry_at: Callable[[int], Geometry] = field(repr=False)
+    # per mirror index, for linear extrusions: (profile points (N, 2) in local x, z, their
+    # unit normals (N, 2), local -> world 4x4, height); the virtual technique searches them
+    mirror_profiles: dict = field(default_factory=dict)
 
     def geometry(self, frame: int) -> Geometry:
         return self.geometry_at(frame)

@@ -16,10 +16,11 @@ reflector's pixels and blended.
 | `decompose_overrides` | {mirror = "auto" or "none"} | {} | per-mirror choice |
 
 `auto` uses the exact sphere method for spheres, the extrusion method (a binary search in
-the cross-section) for cylinders, exact mirroring for planar mirrors (the special case), and
-explosion maps for meshes. Explosion maps (near: a sphere `near_scale` times the reflector's
-bounding radius; far: one bounding the scene) and the hidden map (an item buffer and
-z-buffer of the reflector alone) are rebuilt per frame and part (reflectcli/virtual/explosion.py).
+the cross-section) for cylinders and extrusion mirrors (the TV of Fig. 17), exact
+mirroring for planar mirrors (the special case), and explosion maps for other meshes.
+Explosion maps (near: a sphere `near_scale` times the reflector's bounding radius; far: one
+bounding the scene) and the hidden map (an item buffer and z-buffer of the reflector alone)
+are rebuilt per frame and part (reflectcli/virtual/explosion.py).
 Reflected objects are everything but the reflector, tessellated by `tessellation`; mirrors
 among them show their base color (one level of recursion, as in the paper's figures).
 `reflector_test`: `zbuffer` rejects virtual fragments at or in front of the reflector's own
@@ -43,7 +44,11 @@ from ..raster.primary import Primary, render_primary
 from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP, rasterize, standard_planes
 from ..raster.shade import shade_buffers
 from ..scene.types import CYLINDER, PLANAR, SPHERE, Scene, Triangles
-from ..virtual.direct import cylinder_virtual_vertices, sphere_virtual_vertices
+from ..virtual.direct import (
+    cylinder_virtual_vertices,
+    profile_virtual_vertices,
+    sphere_virtual_vertices,
+)
 from ..virtual.explosion import build_explosion_maps, virtual_vertices
 from ..virtual.mesh import (
     IndexedMesh,
@@ -156,13 +161,14 @@ class Virtual(Technique):
             cache[key] = concatenate_tessellations(parts)
         return cache[key]
 
-    def _method(self, kind: int) -> str:
+    def _method(self, kind: int, profiled: bool) -> str:
         m = self.params.method
         if kind == PLANAR:
             return "planar"
+        extrusion = kind == CYLINDER or profiled
         if m == "auto":
-            return {SPHERE: "sphere", CYLINDER: "extrusion"}.get(kind, "explosion")
-        if (m == "sphere" and kind != SPHERE) or (m == "extrusion" and kind != CYLINDER):
+            return "sphere" if kind == SPHERE else "extrusion" if extrusion else "explosion"
+        if (m == "sphere" and kind != SPHERE) or (m == "extrusion" and not extrusion):
             return "explosion"  # the direct methods need their shape; fall back
         return m
 
@@ -172,7 +178,7 @@ class Virtual(Technique):
         kind = int(scene.mirrors.kind[k])
         p = scene.mirrors.params[k]
         eye = np.asarray(camera.eye, np.float64)
-        method = self._method(kind)
+        method = self._method(kind, k in scene.mirror_profiles)
         stencil_all = primary.frame.surface == sid
         if method == "planar":
             n, d = p[:3].astype(np.float64), float(p[3])
@@ -182,9 +188,14 @@ class Virtual(Technique):
         if method == "sphere":
             yield stencil_all, lambda pts: sphere_virtual_vertices(pts, eye, p[:3], p[3])
             return
-        if method == "extrusion":
+        if method == "extrusion" and kind == CYLINDER:
             yield stencil_all, lambda pts: cylinder_virtual_vertices(pts, eye, p[:3], p[3:6],
                                                                      p[6])
+            return
+        if method == "extrusion":
+            profile, normals, frame, _ = scene.mirror_profiles[k]
+            yield stencil_all, lambda pts: profile_virtual_vertices(pts, eye, profile, normals,
+                                                                    frame)
             return
         tris = primary.triangles
         first = int(np.flatnonzero(tris.surface == sid)[0])

@@ -162,3 +162,30 @@ def test_explosion_layers_improve_on_the_near_far_pair():
 
     pair, layered = median_angle(2), median_angle(6)
     assert layered < 1.5 < pair
+
+
+def test_profile_search_agrees_with_the_cylinder():
+    """An extrusion of a finely sampled circle behaves like the exact cylinder."""
+    from reflectcli.virtual.direct import profile_virtual_vertices
+
+    angles = np.linspace(0.0, np.pi, 721)  # the half facing the eye (+z)
+    profile = np.stack([0.8 * np.cos(angles)[::-1] * -1, 0.8 * np.sin(angles)], axis=1)
+    profile = profile[::-1]  # front side: left of the direction seen from +y -> outward
+    normals = profile / 0.8
+    eye = np.array([0.3, 1.0, 5.0])
+    rng = np.random.default_rng(6)
+    q = rng.uniform([-4, -1, 0.5], [4, 3, 4], (300, 3))
+    q = q[np.linalg.norm(q[:, [0, 2]], axis=1) > 1.2]
+    exact, hidden = cylinder_virtual_vertices(q, eye, np.zeros(3), np.array([0, 1.0, 0]), 0.8)
+    got, hidden2 = profile_virtual_vertices(q, eye, profile, normals, np.eye(4))
+    visible = ~hidden & ~hidden2
+    assert visible.sum() > 100
+    np.testing.assert_allclose(got[visible], exact[visible], atol=2e-3)
+
+
+def test_tv_extrusion_beats_envmap():
+    small = ("camera.width=200", "camera.height=200")
+    ref, _ = render_frame("tv-extrusion", "raytrace", 0, ("technique.max_depth=1", *small))
+    out, _ = render_frame("tv-extrusion", "virtual", 0, small)
+    env, _ = render_frame("tv-extrusion", "envmap", 0, small)
+    assert _mirror_psnr(out, ref) > _mirror_psnr(env, ref) + 6.0
