@@ -189,3 +189,26 @@ def test_tv_extrusion_beats_envmap():
     out, _ = render_frame("tv-extrusion", "virtual", 0, small)
     env, _ = render_frame("tv-extrusion", "envmap", 0, small)
     assert _mirror_psnr(out, ref) > _mirror_psnr(env, ref) + 6.0
+
+
+def test_error_falls_with_reflector_triangles():
+    """Explosion-map virtual vertices against the exact sphere's, as the reflector's
+    tessellation grows (the paper's 128 / 512 / 2048 comparison; measured median angular
+    error seen from the eye: 48 triangles 5.6 deg, 224: 1.6, 960: 0.61, 3968: 0.33)."""
+    eye, center = np.array([0.0, 1.0, 6.0]), np.zeros(3)
+    rng = np.random.default_rng(0)
+    q = rng.normal(size=(2000, 3))
+    q = q / np.linalg.norm(q, axis=1, keepdims=True) * rng.uniform(1.5, 15, (2000, 1))
+    exact, hidden = sphere_virtual_vertices(q, eye, center, 1.0)
+    errors = []
+    for segments in (8, 16, 32, 64):
+        m = primitives.uv_sphere(1.0, segments)
+        mesh = weld(m.corners, m.normals)
+        maps = build_explosion_maps(mesh, eye, center, 1.1, 30.0, 200, 6)
+        v, _ = virtual_vertices(maps, q, np.full(len(q), -1), np.zeros((len(q), 2)),
+                                np.zeros((len(mesh.vertices), 2)))
+        a, b = v[~hidden] - eye, exact[~hidden] - eye
+        cos = np.einsum("ij,ij->i", a, b) / np.linalg.norm(a, axis=1) / np.linalg.norm(b, axis=1)
+        errors.append(np.degrees(np.median(np.arccos(np.clip(cos, -1, 1)))))
+    assert all(x > y for x, y in zip(errors, errors[1:], strict=False))
+    assert errors[-1] < 0.5
