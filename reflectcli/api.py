@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import logging
 import os
 import signal
 import threading
@@ -113,7 +114,13 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
     scene, camera = warm_scene()
     cls = TECHNIQUES[technique_name]
     technique = cls(cls.Params.model_validate_json(params_json), threads)
-    technique.render(technique.prepare(scene), 0, camera)
+    logger = logging.getLogger("reflect")
+    level = logger.level
+    logger.setLevel(logging.ERROR)  # the warm-up scene's notices are nobody's business
+    try:
+        technique.render(technique.prepare(scene), 0, camera)
+    finally:
+        logger.setLevel(level)
     _warmed[key] = time.perf_counter() - start
     return _warmed[key]
 
@@ -143,16 +150,14 @@ def render(
         config, _ = load_config(path, overrides, technique)
     selected = parse_frames(frames, config.camera.frame_count)
     name = config.technique.name
+    if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
+        raise Problems([Problem("--threads", "", f"must be 1..{numba.config.NUMBA_NUM_THREADS}")])
     folder = os.path.join(out if out is not None else config.output.dir, config.scene.name, name)
     prepare_output(
         folder, "--out" if out is not None else display, "" if out is not None else "output.dir"
     )
     scene = build_scene(config, path)
     if threads is not None:
-        if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
-            raise Problems(
-                [Problem("--threads", "", f"must be 1..{numba.config.NUMBA_NUM_THREADS}")]
-            )
         numba.set_num_threads(threads)
     threads = numba.get_num_threads()
     params = config.technique

@@ -193,7 +193,8 @@ def cache() -> None:
     help="the cache folder (default: .reflect-cache/ beside SCENE)",
 )
 def cache_clear(scene, folder) -> None:
-    """Delete the cached maps of SCENE's folder, or of --cache DIR."""
+    """Delete every cached map in SCENE's cache folder (shared by the scenes beside it), or
+    in --cache DIR."""
     from . import api
     from .maps.cache import default_cache_dir
 

@@ -38,6 +38,17 @@ class Technique:
         raise NotImplementedError
 
 
+def warn_non_planar(scene: Scene, technique: str) -> None:
+    """Planar-only techniques say which mirrors they leave at their base color."""
+    from ..scene.types import PLANAR
+
+    curved = [name for name, kind in zip(scene.mirrors.names, scene.mirrors.kind, strict=True)
+              if kind != PLANAR]
+    if curved:
+        log.warning("%s: reflects planar mirrors only; %s show(s) (1 - r) * base",
+                    technique, ", ".join(curved))
+
+
 def precompute_logged(technique, scene: Scene, label: str) -> tuple[list[dict], float]:
     """Run a map technique's precompute, say what was captured (only when maps are kept on
     disk: a render without a cache captures everything, and that is no news) and time it."""

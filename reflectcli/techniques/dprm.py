@@ -50,7 +50,7 @@ from ..maps.zexel import (
 )
 from ..raster.primary import render_primary
 from ..scene.types import PLANAR, Scene
-from .base import Technique, precompute_logged
+from .base import Technique, precompute_logged, warn_non_planar
 from .envmap import scene_extent
 
 log = logging.getLogger("reflect")
@@ -150,6 +150,7 @@ class Dprm(Technique):
         return records
 
     def prepare(self, scene: Scene) -> dict:
+        warn_non_planar(scene, "dprm")
         records, seconds = precompute_logged(self, scene, "dprm")
         if scene.frame_count > 1 and scene.geometry(0).key[1]:
             log.warning("dprm: objects move in this scene, but its maps are captured at "

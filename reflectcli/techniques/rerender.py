@@ -36,7 +36,7 @@ from ..raster.primary import render_primary
 from ..raster.rasterize import FLAG_SKIP, rasterize, standard_planes
 from ..raster.shade import shade_buffers
 from ..scene.types import PLANAR, Scene, Triangles
-from .base import Technique
+from .base import Technique, warn_non_planar
 
 
 class RerenderParams(Strict):
@@ -77,6 +77,7 @@ class Rerender(Technique):
     Params = RerenderParams
 
     def prepare(self, scene: Scene) -> Scene:
+        warn_non_planar(scene, "rerender")
         return scene
 
     def render(self, scene: Scene, frame: int, camera: Camera) -> Frame:

@@ -182,8 +182,11 @@ class Virtual(Technique):
         stencil_all = primary.frame.surface == sid
         if method == "planar":
             n, d = p[:3].astype(np.float64), float(p[3])
-            yield stencil_all, lambda pts: (reflect_point(pts, n, d),
-                                            np.zeros(len(pts), bool))
+            if n @ eye + d < 0:
+                n, d = -n, -d
+            # points on or behind the plane (a wall the mirror hangs on) are not reflected:
+            # they count as hidden, and _draw clips virtual geometry to behind the plane
+            yield stencil_all, lambda pts: (reflect_point(pts, n, d), pts @ n + d <= 0.0)
             return
         if method == "sphere":
             yield stencil_all, lambda pts: sphere_virtual_vertices(pts, eye, p[:3], p[3])
@@ -259,7 +262,15 @@ class Virtual(Technique):
         world_to_clip = camera.projection_matrix() @ camera.view_matrix()
         planes = standard_planes()
         floor = None
-        if self.params.reflector_test == "zbuffer":
+        if scene.mirrors.kind[k] == PLANAR:  # the exact case: the mirror plane clips
+            n = scene.mirrors.params[k, :3].astype(np.float64)
+            d = float(scene.mirrors.params[k, 3])
+            if n @ camera.eye + d < 0:
+                n, d = -n, -d
+            offset = 1e-4 * (1.0 + abs(d) + float(np.abs(camera.eye).max()))
+            clip = transform_plane(np.append(-n, -d - offset), world_to_clip)
+            planes = np.vstack([planes, clip / np.abs(clip).max()])
+        elif self.params.reflector_test == "zbuffer":
             floor = np.where(stencil, primary.buffers.depth, 0.0).astype(np.float32)
         elif self.params.reflector_test == "clip_planes":
             sid = scene.n_objects + k

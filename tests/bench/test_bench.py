@@ -131,10 +131,10 @@ def test_smoke_preset(tmp_path, monkeypatch):
     result = run_bench(str(ROOT / "configs" / "bench" / "smoke.toml"))
     out = Path(result.out)
     rows = read_jsonl(str(out / "results.jsonl"))
-    assert len(rows) == result.ran == 8
+    assert len(rows) == result.ran == 10
     with open(out / "results.csv") as f:
         table = list(csv.DictReader(f))
-    assert len(table) == 8 and set(table[0]) == set(CSV_COLUMNS)
+    assert len(table) == 10 and set(table[0]) == set(CSV_COLUMNS)
     for row in table:
         assert float(row["frame_ms_median"]) > 0 and row["technique"] and row["scene"]
         assert row["psnr_mirror"] != "" and 0.0 <= float(row["hole_fraction"]) <= 1.0

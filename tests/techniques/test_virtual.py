@@ -212,3 +212,11 @@ def test_error_falls_with_reflector_triangles():
         errors.append(np.degrees(np.median(np.arccos(np.clip(cos, -1, 1)))))
     assert all(x > y for x, y in zip(errors, errors[1:], strict=False))
     assert errors[-1] < 0.5
+
+
+def test_planar_mirrors_are_the_exact_special_case():
+    """virtual on a planar mirror hung on its wall equals rerender (and the ray tracer)."""
+    ref, _ = render_frame("teapot-box", "rerender", 0, ("technique.max_depth=1",))
+    out, _ = render_frame("teapot-box", "virtual", 0)
+    m = ref.mirror_mask & out.mirror_mask
+    assert psnr(out.rgb[m], ref.rgb[m]) >= 40.0
