@@ -8,6 +8,7 @@ reflector's pixels and blended.
 | `explosion.resolution` | int | 200 | explosion map side in texels |
 | `explosion.near_scale` | float | 1.1 | near sphere radius / reflector bounding radius |
 | `explosion.layers` | int | 6 | maps on spheres from near to far (2: the paper's pair) |
+| `explosion.center` | "mean", "focus" | "focus" | map center: vertex mean, or rays' focus |
 | `tessellation.subdivisions` | int | 7 | each reflected triangle split n x n (paper: 7x7) |
 | `tessellation.max_edge` | float | (unset) | and further until no edge is longer (world) |
 | `tessellation.max_edge_radii` | float | 1.0 | the same in reflector radii, if no max_edge |
@@ -18,8 +19,9 @@ reflector's pixels and blended.
 `auto` uses the exact sphere method for spheres, the extrusion method (a binary search in
 the cross-section) for cylinders and extrusion mirrors (the TV of Fig. 17), exact
 mirroring for planar mirrors (the special case), and explosion maps for other meshes.
-Explosion maps (near: a sphere `near_scale` times the reflector's bounding radius; far: one
-bounding the scene) and the hidden map (an item buffer and z-buffer of the reflector alone)
+Explosion maps (centered where the reflection rays come closest together, their focus, or
+at the paper's vertex mean; near: a sphere `near_scale` times the reflector's bounding
+radius from there; far: one bounding the scene) and the hidden map (an item buffer and z-buffer of the reflector alone)
 are rebuilt per frame and part (reflectcli/virtual/explosion.py).
 Reflected objects are everything but the reflector, tessellated by `tessellation`; mirrors
 among them show their base color (one level of recursion, as in the paper's figures).
@@ -49,7 +51,7 @@ from ..virtual.direct import (
     profile_virtual_vertices,
     sphere_virtual_vertices,
 )
-from ..virtual.explosion import build_explosion_maps, virtual_vertices
+from ..virtual.explosion import build_explosion_maps, ray_focus, virtual_vertices
 from ..virtual.mesh import (
     IndexedMesh,
     Tessellation,
@@ -65,6 +67,8 @@ class ExplosionParams(Strict):
     resolution: int = Field(default=200, ge=16, le=4096, description="map side, texels")
     near_scale: float = Field(default=1.1, gt=1.0, description="near sphere / bounding radius")
     layers: int = Field(default=6, ge=2, le=64, description="maps from near to far sphere")
+    center: Literal["mean", "focus"] = Field(
+        default="focus", description="map center: vertex mean or the reflection rays' focus")
 
 
 class TessellationParams(Strict):
@@ -227,7 +231,8 @@ class Virtual(Technique):
 
     def _explosion_fn(self, part: IndexedMesh, faces, count, camera, alone, scene_points):
         params = self.params.explosion
-        center = part.vertices.mean(axis=0)
+        center = (ray_focus(part, camera.eye) if params.center == "focus"
+                  else part.vertices.mean(axis=0))
         bound = float(np.linalg.norm(part.vertices - center, axis=1).max())
         far = float(np.linalg.norm(scene_points - center, axis=1).max()) * 1.01
         near = max(bound * params.near_scale, 1e-6)

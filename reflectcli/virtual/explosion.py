@@ -67,6 +67,28 @@ class ExplosionMaps:
         return self.layers[-1]
 
 
+def ray_focus(mesh: IndexedMesh, eye: np.ndarray) -> np.ndarray:
+    """The point nearest (least squares) to the lines of the front-facing vertices'
+    reflection rays: where a concave reflector focuses them, or where a convex one seems to
+    send them from. Seen from there, the direction to a scene point is close to the
+    direction of the reflection ray that reaches it, at any distance. Falls back to the
+    vertex mean when the rays are (nearly) parallel."""
+    v, n = mesh.vertices, mesh.normals
+    d = v - eye
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    front = np.einsum("ij,ij->i", n, -d) >= 0.0
+    if front.sum() < 3:
+        return v.mean(axis=0)
+    v, n, d = v[front], n[front], d[front]
+    r = d - 2.0 * np.einsum("ij,ij->i", d, n)[:, None] * n
+    proj = np.eye(3)[None] - r[:, :, None] * r[:, None, :]  # (I - r r^T) per ray
+    a = proj.sum(axis=0)
+    b = np.einsum("kij,kj->i", proj, v)
+    if np.linalg.cond(a) > 1e8:
+        return mesh.vertices.mean(axis=0)
+    return np.linalg.solve(a, b)
+
+
 def map_frame(center: np.ndarray, eye: np.ndarray) -> np.ndarray:
     z = eye - center
     z = z / np.linalg.norm(z)
