@@ -21,8 +21,9 @@ the cross-section) for cylinders and extrusion mirrors (the TV of Fig. 17), exac
 mirroring for planar mirrors (the special case), and explosion maps for other meshes.
 Explosion maps (centered where the reflection rays come closest together, their focus, or
 at the paper's vertex mean; near: a sphere `near_scale` times the reflector's bounding
-radius from there; far: one bounding the scene) and the hidden map (an item buffer and z-buffer of the reflector alone)
-are rebuilt per frame and part (reflectcli/virtual/explosion.py).
+radius from there; far: one bounding the scene) and the hidden map (an item buffer and
+z-buffer of the reflector alone) are rebuilt per frame and part
+(reflectcli/virtual/explosion.py).
 Reflected objects are everything but the reflector, tessellated by `tessellation`; mirrors
 among them show their base color (one level of recursion, as in the paper's figures).
 `reflector_test`: `zbuffer` rejects virtual fragments at or in front of the reflector's own
