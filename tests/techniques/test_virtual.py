@@ -220,3 +220,30 @@ def test_planar_mirrors_are_the_exact_special_case():
     out, _ = render_frame("teapot-box", "virtual", 0)
     m = ref.mirror_mask & out.mirror_mask
     assert psnr(out.rgb[m], ref.rgb[m]) >= 40.0
+
+
+def test_reflector_tests_drop_geometry_in_front_of_the_reflector():
+    """The second z-buffer (depth floor) and the bounding-box clip planes both remove a
+    virtual triangle lying between the eye and the reflector; neither removes one behind."""
+    from reflectcli.camera import Camera
+    from reflectcli.raster.rasterize import rasterize, standard_planes
+    from reflectcli.techniques.virtual import _box_planes
+
+    cam = Camera(np.array([0.0, 0, 5]), np.zeros(3), np.array([0, 1.0, 0]), 40.0, 64, 64,
+                 0.1, 100.0)
+    w2c = cam.projection_matrix() @ cam.view_matrix()
+    reflector = np.array([[-1, -1, -1], [1, 1, 1.0]])  # a unit box standing for it
+    floor = np.full((64, 64), 4.0, np.float32)  # the reflector's depth at every pixel
+
+    def triangle(z):
+        return np.array([[[-0.5, -0.5, z], [0.5, -0.5, z], [0.0, 0.5, z]]], np.float32)
+
+    for z, visible in ((2.0, False), (-0.5, True)):  # in front of / behind the reflector
+        drawn = rasterize(triangle(z), np.zeros(1, np.uint8), w2c, 64, 64,
+                          depth_floor=floor).triangle >= 0
+        assert drawn.any() == visible
+        planes = np.vstack([standard_planes(), _box_planes(reflector, cam.eye, w2c)])
+        clipped = rasterize(triangle(z), np.zeros(1, np.uint8), w2c, 64, 64, planes)
+        assert (clipped.triangle >= 0).any() == visible
+    unfiltered = rasterize(triangle(2.0), np.zeros(1, np.uint8), w2c, 64, 64)
+    assert (unfiltered.triangle >= 0).any()  # "none" keeps it
