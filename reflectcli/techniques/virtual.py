@@ -109,15 +109,24 @@ class Virtual(Technique):
         result = primary.frame
         geometry = scene.geometry(frame)
         stats = {"virtual_vertices": 0, "virtual_triangles": 0, "reflector_parts": 0}
-        t_vertices = t_raster = 0.0
+        t_vertices = t_raster = t_maps = t_tessellate = 0.0
         for k in range(scene.mirrors.count):
             sid = scene.n_objects + k
             in_view = result.surface == sid
             if not in_view.any():
                 continue
+            t_start = time.perf_counter()
             tess = self._reflected(state, scene, geometry, k)
             reflected = tess.triangles
-            for stencil, virtual_fn in self._parts(scene, primary, k, camera):
+            t_tessellate += time.perf_counter() - t_start
+            parts = self._parts(scene, primary, k, camera)
+            while True:
+                t_start = time.perf_counter()  # building a part's maps happens in next()
+                item = next(parts, None)
+                t_maps += time.perf_counter() - t_start
+                if item is None:
+                    break
+                stencil, virtual_fn = item
                 t0 = time.perf_counter()
                 points = tess.points
                 virtual, hidden = virtual_fn(points)
@@ -134,7 +143,8 @@ class Virtual(Technique):
                 stats["virtual_vertices"] += points.shape[0]
                 stats["virtual_triangles"] += reflected.count
                 stats["reflector_parts"] += 1
-        result.timings.update({"virtual_vertices": t_vertices, "virtual_raster": t_raster})
+        result.timings.update({"tessellate": t_tessellate, "maps": t_maps,
+                               "virtual_vertices": t_vertices, "virtual_raster": t_raster})
         result.stats.update(stats)
         return result
 
