@@ -5,8 +5,9 @@ lies on the great circle through E, Q and the center C (the plane of the three),
 between the directions of E and Q. With n(theta) the unit normal at angle theta from C->E
 in that plane, the law of reflection says the unit vectors from J to E and to Q are mirror
 images about n: f(theta) = n x u_E + n x u_Q = 0 (2-D cross products). f > 0 at theta = 0
-and < 0 at the direction of Q, so bisection finds J (the thesis the paper defers to is not
-at hand; this is the numerical solution the issue suggests). Q' is Q mirrored across the
+and < 0 at the direction of Q, so a bracketing root search (regula falsi) finds J (the
+thesis the paper defers to is not at hand; this is the numerical solution the issue
+suggests). Q' is Q mirrored across the
 tangent plane at J. A hidden Q (the line of sight to it enters the reflector first) is
 mirrored across the tangent plane where the line of sight enters, like the paper's hidden
 map: its doubly virtual vertex lies in front of the reflector and only closes polygons.
@@ -34,28 +35,50 @@ import numpy as np
 from numba import njit, prange
 
 
+@njit(cache=True, inline="always")
+def _circle_law(theta, ex, ey, qx, qy, r):
+    """f(theta) = n x u_E + n x u_Q: positive before the reflection point, negative after."""
+    nx, ny = math.cos(theta), math.sin(theta)
+    jx, jy = r * nx, r * ny
+    ux, uy = ex - jx, ey - jy
+    inv = 1.0 / math.sqrt(ux * ux + uy * uy)
+    vx, vy = qx - jx, qy - jy
+    inv2 = 1.0 / max(math.sqrt(vx * vx + vy * vy), 1e-300)
+    return (nx * uy - ny * ux) * inv + (nx * vy - ny * vx) * inv2
+
+
 @njit(cache=True)
 def _circle_reflection(ex, ey, qx, qy, r):
     """Angle theta (from +x) of the reflection point on a circle of radius r at the origin
-    for E = (ex, ey) on the +x axis (ey = 0) and Q = (qx, qy) with qy >= 0."""
-    phi = math.atan2(qy, qx)
-    lo, hi = 0.0, phi
-    for _ in range(44):  # 2^-44 of the arc: far below a texel
-        mid = 0.5 * (lo + hi)
-        nx, ny = math.cos(mid), math.sin(mid)
-        jx, jy = r * nx, r * ny
-        ux, uy = ex - jx, ey - jy
-        inv = 1.0 / math.sqrt(ux * ux + uy * uy)
-        ux, uy = ux * inv, uy * inv
-        vx, vy = qx - jx, qy - jy
-        inv = 1.0 / max(math.sqrt(vx * vx + vy * vy), 1e-300)
-        vx, vy = vx * inv, vy * inv
-        f = (nx * uy - ny * ux) + (nx * vy - ny * vx)
-        if f > 0.0:
-            lo = mid
+    for E = (ex, ey) on the +x axis (ey = 0) and Q = (qx, qy) with qy >= 0.
+
+    The root of f on [0, phi_Q] is bracketed; the Illinois variant of regula falsi keeps the
+    bracket (as bisection would) and converges superlinearly: ~10 evaluations instead of ~44
+    halvings for the same 1e-13 rad."""
+    lo, hi = 0.0, math.atan2(qy, qx)
+    f_lo = _circle_law(lo, ex, ey, qx, qy, r)
+    f_hi = _circle_law(hi, ex, ey, qx, qy, r)
+    if f_lo <= 0.0:
+        return lo
+    if f_hi >= 0.0:
+        return hi
+    side = 0
+    for _ in range(60):
+        mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        f_mid = _circle_law(mid, ex, ey, qx, qy, r)
+        if f_mid > 0.0:
+            lo, f_lo = mid, f_mid
+            if side == 1:
+                f_hi *= 0.5
+            side = 1
         else:
-            hi = mid
-    return 0.5 * (lo + hi)
+            hi, f_hi = mid, f_mid
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+        if hi - lo < 1e-13 or f_mid == 0.0:
+            break
+    return 0.5 * (lo + hi) if hi - lo < 1e-13 else mid
 
 
 @njit(cache=True)
