@@ -61,8 +61,10 @@ def parse_frames(spec: str | None, count: int) -> range:
             a, b, *step = spec.split(":")
             if len(step) > 1:
                 raise ValueError(spec)
-            r = range(int(a) if a else 0, min(int(b), count) if b else count,
-                      int(step[0]) if step and step[0] else 1)
+            stride = int(step[0]) if step and step[0] else 1
+            if stride < 1:
+                raise ValueError(spec)
+            r = range(int(a) if a else 0, min(int(b), count) if b else count, stride)
         else:
             r = range(int(spec), int(spec) + 1)
     except ValueError:
@@ -252,6 +254,9 @@ def precompute(
     prepare_output(folder, "--cache" if cache is not None else path, "")
     scene = build_scene(config, path)
     if threads is not None:
+        if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
+            raise Problems([Problem("--threads", "",
+                                    f"must be 1..{numba.config.NUMBA_NUM_THREADS}")])
         numba.set_num_threads(threads)
     tech = cls(config.technique, numba.get_num_threads(), folder)
     result = PrecomputeResult(folder)

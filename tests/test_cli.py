@@ -510,3 +510,27 @@ def test_ctrl_c_keeps_complete_frames_only(here):
     # Ctrl-C is held while a frame and its log line are written: every kept frame is logged
     rows = read_jsonl(str(folder / "timings.jsonl"))  # every line is complete JSON
     assert [r["file"] for r in rows] == written
+
+
+def test_more_bad_input_found_in_review(tmp_path):
+    """Non-UTF-8 scene files, a backward frame step, NaN values and a bad --threads for
+    precompute-maps: one line each, exit code 2, no traceback."""
+    bad = tmp_path / "latin1.toml"
+    bad.write_bytes(b'[scene]\nname = "caf\xe9"\n')
+    scene = str(SCENES / "teapot-box.toml")
+    cases = [
+        (["render", str(bad)], "latin1.toml", "not UTF-8"),
+        (["render", scene, "--frames", "40:0:-1", "--out", str(tmp_path / "o")], "--frames",
+         "expected N, A:B or A:B:S"),
+        (["render", scene, "--set", "camera.eye=[nan, 1.0, 1.0]", "--out",
+          str(tmp_path / "o")], "camera.eye", ""),
+        (["precompute-maps", scene, "--technique", "envmap", "--threads", "0", "--cache",
+          str(tmp_path / "c")], "--threads", "must be 1.."),
+    ]
+    for args, where, what in cases:
+        result = CliRunner().invoke(cli, args)
+        lines = result.output.strip().splitlines()
+        assert result.exit_code == 2, (args, result.output)
+        assert len(lines) == 1 and where in lines[0] and what in lines[0], result.output
+        assert "Traceback" not in result.output
+    assert not (tmp_path / "o").exists()

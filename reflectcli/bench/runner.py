@@ -21,6 +21,7 @@ import numpy as np
 from ..errors import Problem, Problems
 from ..output.exr import read_exr
 from ..output.log import append_jsonl, read_jsonl
+from ..scene.build import scene_hashes
 from .config import BenchConfig, expand
 from .metrics import METRIC_NAMES, image_metrics
 
@@ -70,11 +71,16 @@ def load_bench(path: str) -> BenchPlan:
                             cfg.bench.frames)
         job["scene_name"] = scene_cfg.scene.name
         job["parameters"] = scene_cfg.technique.model_dump(mode="json")
-        ref_overrides = scene_overrides(job["overrides"])
+        ref_overrides = scene_overrides(job["overrides"]) + [
+            f"technique.max_depth={cfg.bench.reference_depth}"]
+        ref_cfg, _ = load_config(job["scene"], ref_overrides, "raytrace")
+        # the scene's content (files it reads included) is in the id: an edited scene gets a
+        # new reference instead of being scored against the old one
         job["reference"] = {
             "id": _digest(os.path.relpath(job["scene"]), ref_overrides, cfg.bench.frames,
-                          cfg.bench.reference_depth),
-            "overrides": ref_overrides + [f"technique.max_depth={cfg.bench.reference_depth}"],
+                          scene_hashes(ref_cfg, job["scene"])[0]),
+            "overrides": ref_overrides,
+            "scene_name": ref_cfg.scene.name,
         }
         job["index"] = i
         plan.jobs.append(job)
@@ -88,16 +94,10 @@ def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> 
     from .. import api
 
     folder = os.path.join(plan.out, "references", job["reference"]["id"])
-    api.render(job["scene"], out=folder, frames=plan.config.bench.frames, technique="raytrace",
-               overrides=job["reference"]["overrides"], resume=True, threads=threads)
-    return _frames_folder(folder)
-
-
-def _frames_folder(root: str) -> str:
-    """out/<scene>/<technique>/ below a render root (there is exactly one)."""
-    scene = os.listdir(root)[0]
-    technique = os.listdir(os.path.join(root, scene))[0]
-    return os.path.join(root, scene, technique)
+    result = api.render(job["scene"], out=folder, frames=plan.config.bench.frames,
+                        technique="raytrace", overrides=job["reference"]["overrides"],
+                        resume=True, threads=threads)
+    return result.folder
 
 
 def execute_job(job: dict, settings: dict) -> dict:
@@ -110,7 +110,7 @@ def execute_job(job: dict, settings: dict) -> dict:
                         technique=job["technique"], overrides=job["overrides"],
                         cache=os.path.join(settings["out"], "cache"),
                         threads=settings.get("threads"))
-    frames_dir = os.path.dirname(result.written[0])
+    frames_dir = result.folder
     log = read_jsonl(os.path.join(frames_dir, "timings.jsonl"))
     ref_dir = settings["reference_dirs"][job["reference"]["id"]]
     ref_log = {r["file"]: r for r in read_jsonl(os.path.join(ref_dir, "timings.jsonl"))}

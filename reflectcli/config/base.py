@@ -14,6 +14,7 @@ UnitFloat = Annotated[float, Field(ge=0.0, le=1.0)]
 
 
 class Strict(BaseModel):
-    """Unknown keys are errors (pbrt-style): a typo must not silently fall back to a default."""
+    """Unknown keys are errors (pbrt-style): a typo must not silently fall back to a default.
+    NaN and infinity are errors too: every range check would let them through."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)

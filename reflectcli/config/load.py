@@ -35,6 +35,8 @@ def read_toml(path: str, field: str = "", referrer: str | None = None) -> dict:
         raise Problems(
             [Problem(referrer or display, field, f"cannot read {path}: {e.strerror}")]
         ) from None
+    except UnicodeDecodeError as e:
+        raise Problems([Problem(display, "", f"not UTF-8 text: {e.reason}")]) from None
     except tomli.TOMLDecodeError as e:
         raise Problems([Problem(display, "", f"TOML syntax error: {e}")]) from None
 

@@ -100,7 +100,7 @@ def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, r
             sx[k] = x
             sy[k] = y
             z[k] = zz
-            py = int(math.floor(y))
+            py = int(math.floor(sy[k]))  # the float32 row the splat will use
             lo = min(lo, py)
             hi = max(hi, py)
         row_lo[v] = lo

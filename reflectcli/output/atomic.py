@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 from collections.abc import Iterator
 
 
@@ -14,7 +15,8 @@ def atomic_path(path: str) -> Iterator[str]:
     An interrupted or failed write leaves `path` as it was (absent or the previous file)."""
     folder, name = os.path.split(os.path.abspath(path))
     stem, ext = os.path.splitext(name)
-    tmp = os.path.join(folder, f".{stem}.tmp{os.getpid()}{ext}")
+    # unique per process and thread: bench jobs on a Dask worker share a process
+    tmp = os.path.join(folder, f".{stem}.tmp{os.getpid()}-{threading.get_ident()}{ext}")
     try:
         yield tmp
         os.replace(tmp, path)

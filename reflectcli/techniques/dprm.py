@@ -163,6 +163,7 @@ class Dprm(Technique):
         params: DprmParams = self.params
         primary = render_primary(scene, frame, camera)
         result = primary.frame
+        self.last_lod_level = 0
         holes = np.zeros(result.surface.shape, bool)
         warp_s = fill_s = 0.0
         used, warped = 0, 0

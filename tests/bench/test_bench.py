@@ -149,3 +149,29 @@ def test_presets_validate(preset):
 
     plan = load_bench(str(ROOT / "configs" / "bench" / f"{preset}.toml"))
     assert len(plan.jobs) >= 8
+
+
+def test_edited_scene_gets_a_new_reference(tmp_path):
+    scene = tmp_path / "box.toml"
+    scene.write_text((ROOT / "scenes" / "teapot-box.toml").read_text())
+    bench = tmp_path / "b.toml"
+    bench.write_text(f"""
+[bench]
+name = "b"
+frames = "0"
+warmup = 0
+out = "out-b"
+plots = false
+
+[[runs]]
+scenes = ["{scene}"]
+techniques = ["rerender"]
+set = ["camera.width=32", "camera.height=24"]
+""")
+    first = run_bench(str(bench))
+    scene.write_text(scene.read_text().replace("color = [0.8, 0.1, 0.1]",
+                                               "color = [0.1, 0.8, 0.1]"))
+    second = run_bench(str(bench))
+    refs = list((tmp_path / "out-b" / "references").iterdir())
+    assert len(refs) == 2  # the old reference is not reused for the edited scene
+    assert first.rows[0]["psnr_mirror"] > 60 and second.rows[0]["psnr_mirror"] > 60
