@@ -154,11 +154,11 @@ def render(
     name = config.technique.name
     if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
         raise Problems([Problem("--threads", "", f"must be 1..{numba.config.NUMBA_NUM_THREADS}")])
+    scene = build_scene(config, path)  # before any folder is made: it may still reject input
     folder = os.path.join(out if out is not None else config.output.dir, config.scene.name, name)
     prepare_output(
         folder, "--out" if out is not None else display, "" if out is not None else "output.dir"
     )
-    scene = build_scene(config, path)
     if threads is not None:
         numba.set_num_threads(threads)
     threads = numba.get_num_threads()

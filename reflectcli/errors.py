@@ -10,6 +10,9 @@ class Problem(Exception):
         super().__init__(f"{file}: {field}: {message}" if field else f"{file}: {message}")
         self.file, self.field, self.message = file, field, message
 
+    def __reduce__(self):  # picklable, so a bench worker process can send it back
+        return (Problem, (self.file, self.field, self.message))
+
 
 class Problems(Exception):
     """Several problems found together (validation reports them all at once)."""
@@ -17,3 +20,6 @@ class Problems(Exception):
     def __init__(self, problems: list[Problem]) -> None:
         super().__init__("\n".join(str(p) for p in problems))
         self.problems = problems
+
+    def __reduce__(self):
+        return (Problems, (self.problems,))

@@ -204,6 +204,12 @@ def _axis_frame(origin, axis) -> np.ndarray:
     return m
 
 
+class TextureError(Exception):
+    def __init__(self, material: str, message: str) -> None:
+        super().__init__(message)
+        self.material, self.message = material, message.splitlines()[0]
+
+
 def _materials(cfg: SceneConfig, source: str) -> Materials:
     names = list(cfg.materials)
     mat_i = np.zeros((max(len(names), 1), 5), np.int32)
@@ -219,7 +225,10 @@ def _materials(cfg: SceneConfig, source: str) -> Materials:
             mat_i[k, 0] = CHECKER
             mat_f[k, 0:3], mat_f[k, 3:6], mat_f[k, 6:8] = m.color0, m.color1, m.scale
         else:
-            img = load_texture(resolve(source, m.path), m.srgb)
+            try:
+                img = load_texture(resolve(source, m.path), m.srgb)
+            except (OSError, ValueError) as e:
+                raise TextureError(name, str(e)) from None
             h, w = img.shape[:2]
             mat_i[k] = (TEXTURE, offset, w, h, 1 if m.filter == "bilinear" else 0)
             mat_f[k, 6:8] = m.scale
@@ -323,9 +332,8 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         exact.append(np.full(mirror_parts[-1].count, is_exact))
     try:
         materials = _materials(cfg, source)
-    except (OSError, ValueError) as e:
-        names = [n for n, m in cfg.materials.items() if m.kind == "texture"]
-        problems.append(Problem(source, f"materials.{names[0] if names else '?'}.path", str(e)))
+    except TextureError as e:
+        problems.append(Problem(source, f"materials.{e.material}.path", e.message))
     if problems:
         raise Problems(problems)
 
