@@ -59,6 +59,7 @@ from ..virtual.mesh import (
     concatenate_tessellations,
     convexity_parts,
     tessellate,
+    vertex_convexity,
     weld,
 )
 from .base import Technique
@@ -249,6 +250,10 @@ class Virtual(Technique):
         near = max(bound * params.near_scale, 1e-6)
         maps = build_explosion_maps(part, camera.eye, center, near, max(far, near * 1.01),
                                     params.resolution, params.layers)
+        flip = np.zeros(3)
+        if vertex_convexity(part).mean() < 0 and maps.front.any():  # a concave part
+            flip = part.normals[maps.front].mean(axis=0)
+            flip /= max(np.linalg.norm(flip), 1e-30)
         # the hidden map: the reflector's item buffer, restricted to this part's faces
         local = np.full(count + 1, -1, np.int64)
         local[faces] = np.arange(len(faces))
@@ -267,7 +272,7 @@ class Virtual(Technique):
             xs, ys = x[ok], y[ok]
             behind = proj[ok, 2] > depth[ys, xs]
             face[np.flatnonzero(ok)[behind]] = hidden_map[ys[behind], xs[behind]]
-            return virtual_vertices(maps, points, face, proj[:, :2].copy(), screen)
+            return virtual_vertices(maps, points, face, proj[:, :2].copy(), screen, flip)
 
         fn.maps = maps  # for tests and figures
         return fn

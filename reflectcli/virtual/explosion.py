@@ -41,6 +41,7 @@ class ExplosionMap:
     filled_before_extension: int  # texels inside the circle filled by triangles alone
     empty_after_extension: int  # texels inside the circle ExtendMap left empty (then filled
     # with the nearest id, so that no lookup falls into a hole)
+    core: np.ndarray  # (res, res) bool: texels filled by reflector triangles (reflected cells)
 
 
 @dataclass
@@ -146,12 +147,13 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
         _vertex_coords(v, fixed, used, eye, center, radius, frame, res, s, coords)
         ids = np.full((res, res), -1, np.int32)
         _fill_faces(ids, coords, f, np.flatnonzero(drawn))
+        core = ids >= 0
         inside = _inside_circle(res, s)
         filled = int(np.count_nonzero((ids >= 0) & inside))
         _fill_extensions(ids, coords, extensions, len(f), res / 2.0, EXTENSION_REACH * s)
         empty = int(np.count_nonzero((ids < 0) & inside))
         _fill_nearest(ids)
-        maps.append(ExplosionMap(ids, coords, radius, filled, empty))
+        maps.append(ExplosionMap(ids, coords, radius, filled, empty, core))
     return ExplosionMaps(mesh, fixed, front, frame, np.asarray(center, float), maps,
                          extensions, res, s)
 
@@ -257,21 +259,26 @@ def _fill_extensions(ids, coords, extensions, n_faces, center, reach):
 
 
 def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.ndarray,
-                     hidden_screen: np.ndarray, screen_coords: np.ndarray):
+                     hidden_screen: np.ndarray, screen_coords: np.ndarray,
+                     flip_axis: np.ndarray | None = None):
     """Figure 7 for many points: hidden points (hidden_face >= 0, at screen position
     hidden_screen) through the hidden map (the reflector's item buffer, whose triangles'
     screen positions are screen_coords); the others through the two maps whose spheres
     bracket the point (the near and far maps when there are two), blended by the inverse
-    distances to those spheres. Returns (virtual points, hidden flags)."""
+    distances to those spheres. Returns (virtual points, flags: hidden, or outside every
+    reflected cell (the unreflected region) - their virtual vertices only close polygons)."""
     out = np.empty(points.shape, np.float64)
     m = maps.mesh
     ids = np.stack([layer.ids for layer in maps.layers])
     coords = np.stack([layer.coords for layer in maps.layers])
     radii = np.array([layer.radius for layer in maps.layers])
+    cores = np.stack([layer.core for layer in maps.layers])
+    unreflected = np.zeros(points.shape[0], np.bool_)
+    flip = np.zeros(3) if flip_axis is None else np.asarray(flip_axis, np.float64)
     _virtual(np.ascontiguousarray(points, np.float64), m.vertices, maps.normals, m.faces,
-             maps.extensions, ids, coords, radii, maps.center, maps.frame, maps.res, maps.s,
-             hidden_face, hidden_screen, screen_coords, out)
-    return out, hidden_face >= 0
+             maps.extensions, ids, coords, radii, maps.center, flip, maps.frame, maps.res,
+             maps.s, hidden_face, hidden_screen, screen_coords, cores, out, unreflected)
+    return out, (hidden_face >= 0) | unreflected
 
 
 @njit(cache=True)
@@ -349,8 +356,8 @@ def _mirror(q, p, nn):
 
 
 @njit(cache=True, parallel=True)
-def _virtual(points, v, n, faces, extensions, ids, coords, radii, center, frame, res, s,
-             hidden_face, hidden_screen, screen, out):
+def _virtual(points, v, n, faces, extensions, ids, coords, radii, center, flip_axis, frame,
+             res, s, hidden_face, hidden_screen, screen, cores, out, unreflected):
     for i in prange(points.shape[0]):
         q = points[i]
         h = hidden_face[i]
@@ -360,14 +367,21 @@ def _virtual(points, v, n, faces, extensions, ids, coords, radii, center, frame,
             if nn[0] != 0.0 or nn[1] != 0.0 or nn[2] != 0.0:
                 out[i, 0], out[i, 1], out[i, 2] = _mirror(q, p, nn)
                 continue
-        tx, ty = map_coords(frame, res, s, q[0] - center[0], q[1] - center[1],
-                            q[2] - center[2])
+        # a point between a concave reflector and the focus of its rays is reached by a ray
+        # still travelling toward the focus: look up the direction that ray is going in
+        dx, dy, dz = q[0] - center[0], q[1] - center[1], q[2] - center[2]
+        if dx * flip_axis[0] + dy * flip_axis[1] + dz * flip_axis[2] < 0.0:
+            dx, dy, dz = -dx, -dy, -dz
+        tx, ty = map_coords(frame, res, s, dx, dy, dz)
         dist = math.sqrt((q[0] - center[0]) ** 2 + (q[1] - center[1]) ** 2
                          + (q[2] - center[2]) ** 2)
         lo = 0
         while lo < radii.shape[0] - 2 and dist > radii[lo + 1]:
             lo += 1
         r_near, r_far = radii[lo], radii[lo + 1]
+        cx = min(max(int(math.floor(tx)), 0), res - 1)
+        cy = min(max(int(math.floor(ty)), 0), res - 1)
+        unreflected[i] = not (cores[lo, cy, cx] and cores[lo + 1, cy, cx])
         pn, nn_ = _plane_from_map(ids[lo], coords[lo], v, n, faces, extensions, tx, ty)
         pf, nf_ = _plane_from_map(ids[lo + 1], coords[lo + 1], v, n, faces, extensions, tx, ty)
         has_near = nn_[0] ** 2 + nn_[1] ** 2 + nn_[2] ** 2 > 0
