@@ -59,9 +59,8 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
         _check_technique(technique)
         config, _ = _load(scene, overrides, technique)
         count = len(api.parse_frames(frames, config.camera.frame_count))
-        if sys.stderr.isatty() and count > 1:
-            progress = click.progressbar(length=count, label="frames", file=sys.stderr)
-            progress.__enter__()
+        if count > 1:
+            progress = _open_bar(count, "frames")
 
         def on_frame(index: int, path: str) -> None:
             done.append(path)
@@ -95,6 +94,15 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
         progress.__exit__(None, None, None)
     skipped = f", {len(result.skipped)} skipped (--resume)" if result.skipped else ""
     click.echo(f"wrote {len(result.written)} frame(s) to {result.folder}{skipped}")
+
+
+def _open_bar(length: int, label: str):
+    """An entered progress bar on stderr, or None when stderr is not a terminal."""
+    if not sys.stderr.isatty():
+        return None
+    bar = click.progressbar(length=length, label=label, file=sys.stderr)
+    bar.__enter__()
+    return bar
 
 
 def _check_technique(name: str | None) -> None:
@@ -142,18 +150,17 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
     bar: dict = {}
 
     def on_progress(done: int, total: int) -> None:
-        if not sys.stderr.isatty():
-            return
         if "bar" not in bar:
-            bar["bar"] = click.progressbar(length=total, label="capturing maps", file=sys.stderr)
-            bar["bar"].__enter__()
+            bar["bar"] = _open_bar(total, "capturing maps")
             bar["done"] = 0
-        bar["bar"].update(done - bar["done"])
-        bar["done"] = done
+        if bar["bar"] is not None:
+            bar["bar"].update(done - bar["done"])
+            bar["done"] = done
 
     def on_map(record: dict) -> None:
-        if "bar" in bar:
-            bar.pop("bar").__exit__(None, None, None)
+        if bar.get("bar") is not None:
+            bar["bar"].__exit__(None, None, None)
+        bar.pop("bar", None)
         click.echo(
             f"{record['status']:>8}  {record['mirror']}  {record['seconds']:.2f} s  "
             f"{record['path']}"
@@ -219,9 +226,7 @@ def bench(file, resume, workers, scheduler, threads) -> None:
     progress = None
     try:
         plan = load_bench(file)
-        if sys.stderr.isatty():
-            progress = click.progressbar(length=len(plan.jobs), label="runs", file=sys.stderr)
-            progress.__enter__()
+        progress = _open_bar(len(plan.jobs), "runs")
         result = run_bench(file, resume=resume, workers=workers, scheduler=scheduler,
                            threads=threads,
                            on_row=(lambda row: progress.update(1)) if progress else None)

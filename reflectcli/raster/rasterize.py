@@ -173,6 +173,18 @@ def _setup_one(corners, t, m, planes, width, height, cull, screen, status, rows,
             status[t] = _CULLED
 
 
+@njit(cache=True, inline="always")
+def _band_range(t, status, flags, rows, top, bottom, band_of):
+    """First and last band triangle t reaches (last < first if it is drawn in none)."""
+    if status[t] == _CULLED or flags[t] & 2:
+        return 0, -1
+    lo = max(rows[t, 0], top)
+    hi = min(rows[t, 1], bottom - 1)
+    if lo > hi:
+        return 0, -1
+    return band_of[lo - top], band_of[hi - top]
+
+
 @njit(cache=True)
 def _bin(status, flags, rows, top, bottom, bands):
     """Triangle lists per screen band, in triangle order: (offsets (bands+1), items)."""
@@ -183,26 +195,16 @@ def _bin(status, flags, rows, top, bottom, bands):
             band_of[y - top] = b
     counts = np.zeros(bands + 1, np.int64)
     for t in range(status.shape[0]):
-        if status[t] == _CULLED or flags[t] & 2:
-            continue
-        lo = max(rows[t, 0], top)
-        hi = min(rows[t, 1], bottom - 1)
-        if lo > hi:
-            continue
-        for b in range(band_of[lo - top], band_of[hi - top] + 1):
+        first, last = _band_range(t, status, flags, rows, top, bottom, band_of)
+        for b in range(first, last + 1):
             counts[b + 1] += 1
     for b in range(bands):
         counts[b + 1] += counts[b]
     items = np.empty(counts[bands], np.int32)
     fill = counts[:bands].copy()
     for t in range(status.shape[0]):
-        if status[t] == _CULLED or flags[t] & 2:
-            continue
-        lo = max(rows[t, 0], top)
-        hi = min(rows[t, 1], bottom - 1)
-        if lo > hi:
-            continue
-        for b in range(band_of[lo - top], band_of[hi - top] + 1):
+        first, last = _band_range(t, status, flags, rows, top, bottom, band_of)
+        for b in range(first, last + 1):
             items[fill[b]] = t
             fill[b] += 1
     return counts, items
