@@ -11,7 +11,11 @@ x_o ~ delta P_o^-1 (c_i - c_o) + P_o^-1 P_i x_i. The paper's equation 4 disparit
 to the constant `near`, which the projective form absorbs; storing eye-space depth keeps it
 exact for the oblique capture projection, whose window z is not that of a plain one.
 
-Visibility: `zbuffer` keeps, per pixel, the zexel nearest the eye (ties to the lower id);
+Visibility: `zbuffer` keeps, per pixel, a zexel of the surface nearest the eye, and of that
+surface's zexels (eye depth within SAME_SURFACE of the nearest) the one that lands nearest
+the pixel's center (ties to the lower id). Keeping simply the nearest depth would pick, on a
+slanted surface, the zexel on the near edge of the pixel, a bias that grows as maps get
+denser; the center rule makes a denser map converge on the point sample at the center.
 `ordered` paints each map in McMillan's occlusion-compatible order (later overwrite),
 z-testing only against other maps. Both run one band of screen rows per task over zexels
 skipping map rows that cannot reach it, so results do not depend on the thread count.
@@ -173,10 +177,14 @@ def raster_runs(mh: int, mw: int) -> np.ndarray:
     return runs
 
 
-def splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_z, best_id,
+SAME_SURFACE = 0.01  # relative eye-depth difference within which two zexels are one surface
+
+
+def splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_zd, best_id,
           ordered: bool) -> None:
-    """Write the zexels, visited run by run, into the per-pixel (depth, id) buffers over
-    `stencil`; ids are slot * stride + zexel index. `row_lo`/`row_hi`: per map row, the
+    """Write the zexels, visited run by run, into the per-pixel buffers over `stencil`:
+    best_zd (H, W, 2) float32 (front depth, squared distance of the kept zexel to the pixel
+    center) and best_id; ids are slot * stride + zexel index. `row_lo`/`row_hi`: per map row, the
     screen rows its zexels land on (splats add their radius).
 
     One band of screen rows per task: each band visits every run but skips the map rows
@@ -189,11 +197,11 @@ def splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, bes
     bands = max(1, numba.get_num_threads()) * 2
     edges = np.linspace(rows[0], rows[-1] + 1, bands + 1).round().astype(np.int64)
     _splat(sx, sy, z, radii, runs, mw, row_lo - reach, row_hi + reach, slot, stride, stencil,
-           best_z, best_id, edges, ordered)
+           best_zd, best_id, edges, ordered)
 
 
 @njit(cache=True, parallel=True)
-def _splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_z, best_id,
+def _splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_zd, best_id,
            edges, ordered):
     width = stencil.shape[1]
     for b in prange(edges.shape[0] - 1):
@@ -211,32 +219,46 @@ def _splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, be
                 r = radii[k]
                 if py + r < row0 or py - r >= row1:
                     continue
-                px = int(math.floor(sx[k]))
+                fx = sx[k]
+                fy = sy[k]
+                px = int(math.floor(fx))
                 zk = z[k]
                 ident = slot * stride + k
                 if r == 0:  # one pixel: the common case, without the loops
                     if 0 <= px < width and stencil[py, px]:
-                        _write(py, px, zk, ident, slot, stride, best_z, best_id, ordered)
+                        dk = (fx - px - 0.5) ** 2 + (fy - py - 0.5) ** 2
+                        _write(py, px, zk, dk, ident, slot, stride, best_zd, best_id,
+                               ordered)
                     continue
                 for y in range(max(py - r, row0), min(py + r, row1 - 1) + 1):
                     for x in range(max(px - r, 0), min(px + r, width - 1) + 1):
                         if stencil[y, x]:
-                            _write(y, x, zk, ident, slot, stride, best_z, best_id, ordered)
+                            dk = (fx - x - 0.5) ** 2 + (fy - y - 0.5) ** 2
+                            _write(y, x, zk, dk, ident, slot, stride, best_zd, best_id,
+                                   ordered)
 
 
 @njit(cache=True, inline="always")
-def _write(y, x, zk, ident, slot, stride, best_z, best_id, ordered):
-    """The visibility rule at one pixel: the nearest zexel wins (ties to the lower id); in
-    ordered mode a zexel of the same map wins regardless (McMillan's order)."""
+def _write(y, x, zk, dk, ident, slot, stride, best_zd, best_id, ordered):
+    """The visibility rule at one pixel. z-buffer: a zexel clearly nearer than the front
+    surface so far takes the pixel; one on the front surface (within SAME_SURFACE) takes it
+    if it lands nearer the pixel center (ties to the lower id); best_zd[..., 0] tracks the
+    front, best_zd[..., 1] the kept zexel's squared distance to the center (one cache line).
+    Ordered mode: a zexel of the same map wins regardless (McMillan's order)."""
     current = best_id[y, x]
-    if ordered and current >= 0 and current // stride == slot:
-        take = True
-    else:
-        bz = best_z[y, x]
-        take = zk < bz or (zk == bz and (current < 0 or ident < current))
-    if take:
-        best_z[y, x] = zk
+    bz = best_zd[y, x, 0]
+    if current < 0 or zk < bz * (1.0 - SAME_SURFACE) or (
+            ordered and current // stride == slot):
+        best_zd[y, x, 0] = zk
+        best_zd[y, x, 1] = dk
         best_id[y, x] = ident
+    elif zk <= bz * (1.0 + SAME_SURFACE) or zk == bz:  # == for two zexels at infinity
+        # selects, not branches: which zexel lands nearer the center is close to random
+        bd = best_zd[y, x, 1]
+        take = (dk < bd) | ((dk == bd) & (ident < current))
+        best_zd[y, x, 0] = min(zk, bz)
+        best_zd[y, x, 1] = dk if take else bd
+        best_id[y, x] = ident if take else current
 
 
 def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.ndarray,
@@ -246,7 +268,8 @@ def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.nda
     Returns (depth (H, W) float32, id (H, W) int64: map index * stride + zexel index, or -1
     where no zexel landed, stride, zexels projected into the stencil's box)."""
     h, w = stencil.shape
-    best_z = np.full((h, w), np.inf, np.float32)
+    best_zd = np.full((h, w, 2), np.inf, np.float32)
+    best_z = best_zd[:, :, 0]
     best_id = np.full((h, w), -1, np.int64)
     stride = max(m.depth.size for m in maps)
     ys = np.flatnonzero(stencil.any(axis=1))
@@ -272,6 +295,6 @@ def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.nda
         else:
             runs = raster_runs(*zmap.depth.shape)
         splat(sx, sy, z, radii, runs, zmap.depth.shape[1], row_lo, row_hi, slot, stride,
-              stencil, best_z, best_id, ordered)
+              stencil, best_zd, best_id, ordered)
         zexels += int(np.count_nonzero(~np.isnan(sx)))
     return best_z, best_id, stride, zexels

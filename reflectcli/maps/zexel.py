@@ -19,6 +19,7 @@ from ..camera import Camera, normalize
 from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP, rasterize
 from ..raster.shade import shade_buffers
 from ..scene.types import Scene
+from .warp import SAME_SURFACE
 
 
 @dataclass
@@ -119,24 +120,32 @@ def capture_map(scene: Scene, k: int, camera: Camera, frame_index: int = 0) -> Z
 
 
 def coarser(zmap: ZexelMap) -> ZexelMap:
-    """The next mip level: half the resolution, each zexel the nearest of its 2x2 block.
+    """The next mip level: half the resolution, each zexel made from its 2x2 block.
 
-    The nearest (smallest depth) keeps silhouettes in front rather than averaging depths
-    across a discontinuity into zexels floating in between; its color goes with it. The
-    coarse zexel is reprojected through the coarse pixel's center, so it moves by up to half
-    a coarse zexel: the error LOD trades for speed."""
+    Where the four zexels lie on one surface (eye depths within SAME_SURFACE of each other)
+    the coarse zexel is their box filter: mean color, and the depth whose disparity 1/z is
+    their mean, which on a plane is exactly the depth at the coarse pixel's center (1/z is
+    affine in screen space). Across a discontinuity it is the nearest of the four, so
+    silhouettes stay in front rather than zexels floating between surfaces; that one moves
+    by up to half a coarse zexel when it is reprojected through the coarse pixel's center."""
     h, w = zmap.depth.shape
     h2, w2 = h // 2, w // 2
-    depth = zmap.depth[: 2 * h2, : 2 * w2].reshape(h2, 2, w2, 2).transpose(0, 2, 1, 3)
-    color = zmap.color[: 2 * h2, : 2 * w2].reshape(h2, 2, w2, 2, 3).transpose(0, 2, 1, 3, 4)
-    flat = depth.reshape(h2, w2, 4)
+    flat = (zmap.depth[: 2 * h2, : 2 * w2].reshape(h2, 2, w2, 2).transpose(0, 2, 1, 3)
+            .reshape(h2, w2, 4))
+    colors = (zmap.color[: 2 * h2, : 2 * w2].reshape(h2, 2, w2, 2, 3)
+              .transpose(0, 2, 1, 3, 4).reshape(h2, w2, 4, 3))
     pick = np.argmin(flat, axis=2)
     new_depth = np.take_along_axis(flat, pick[..., None], axis=2)[..., 0]
-    new_color = np.take_along_axis(color.reshape(h2, w2, 4, 3), pick[..., None, None],
-                                   axis=2)[:, :, 0]
+    new_color = np.take_along_axis(colors, pick[..., None, None], axis=2)[:, :, 0]
+    near, far = flat.min(axis=2), flat.max(axis=2)
+    with np.errstate(invalid="ignore"):
+        one_surface = np.isfinite(far) & (far <= near * (1.0 + SAME_SURFACE))
+    new_depth[one_surface] = 1.0 / np.mean(1.0 / flat[one_surface], axis=1)
+    new_color[one_surface] = colors[one_surface].mean(axis=1)
     cam = zmap.camera
     camera = Camera(cam.eye, cam.target, cam.up, cam.fov_y, w2, h2, cam.near, cam.far)
-    return ZexelMap(camera, np.ascontiguousarray(new_color), np.ascontiguousarray(new_depth))
+    return ZexelMap(camera, np.ascontiguousarray(new_color, np.float32),
+                    np.ascontiguousarray(new_depth, np.float32))
 
 
 def mip_pyramid(zmap: ZexelMap, smallest: int = 16) -> list[ZexelMap]:
