@@ -9,6 +9,7 @@ reflector's pixels and blended.
 | `explosion.near_scale` | float | 1.1 | near sphere radius / reflector bounding radius |
 | `explosion.layers` | int | 6 | maps on spheres from near to far (2: the paper's pair) |
 | `explosion.center` | "mean", "focus" | "focus" | map center: vertex mean, or rays' focus |
+| `explosion.refine` | "screen", "none" | "screen" | refine map answers on the reflector's pixels |
 | `tessellation.subdivisions` | int | 7 | each reflected triangle split n x n (paper: 7x7) |
 | `tessellation.max_edge` | float | (unset) | and further until no edge is longer (world) |
 | `tessellation.max_edge_radii` | float | 1.0 | the same in reflector radii, if no max_edge |
@@ -62,6 +63,7 @@ from ..virtual.mesh import (
     vertex_convexity,
     weld,
 )
+from ..virtual.refine import BOUNDARY, EXACT, NONE, refine_virtual, reflector_grid
 from .base import Technique
 
 
@@ -71,6 +73,8 @@ class ExplosionParams(Strict):
     layers: int = Field(default=6, ge=2, le=64, description="maps from near to far sphere")
     center: Literal["mean", "focus"] = Field(
         default="focus", description="map center: vertex mean or the reflection rays' focus")
+    refine: Literal["screen", "none"] = Field(
+        default="screen", description="refine map answers on the reflector's pixels")
 
 
 class TessellationParams(Strict):
@@ -232,6 +236,11 @@ class Virtual(Technique):
         alone = rasterize(tris.corners[first:first + count], np.zeros(count, np.uint8),
                           camera.projection_matrix() @ camera.view_matrix(), camera.width,
                           camera.height)
+        grid = None
+        if self.params.explosion.refine == "screen":
+            grid = reflector_grid(alone.triangle, alone.b1, alone.b2,
+                                  tris.corners[first:first + count],
+                                  tris.normals[first:first + count], camera.eye)
         for faces in parts:
             part = _sub_mesh(mesh, faces)
             in_part = np.zeros(count + 1, bool)
@@ -239,9 +248,11 @@ class Virtual(Technique):
             stencil = stencil_all & in_part[buffer_face]
             if not stencil.any():
                 continue
-            yield stencil, self._explosion_fn(part, faces, count, camera, alone, scene_points)
+            yield stencil, self._explosion_fn(part, faces, count, camera, alone, scene_points,
+                                              grid)
 
-    def _explosion_fn(self, part: IndexedMesh, faces, count, camera, alone, scene_points):
+    def _explosion_fn(self, part: IndexedMesh, faces, count, camera, alone, scene_points,
+                      grid=None):
         params = self.params.explosion
         center = (ray_focus(part, camera.eye) if params.center == "focus"
                   else part.vertices.mean(axis=0))
@@ -261,6 +272,7 @@ class Virtual(Technique):
         depth = alone.depth
         world_to_clip = camera.projection_matrix() @ camera.view_matrix()
         screen = _project(part.vertices, world_to_clip, camera)[:, :2]
+        inside = (hidden_map >= 0) if grid is not None else None
 
         def fn(points: np.ndarray) -> np.ndarray:
             proj = _project(points, world_to_clip, camera)
@@ -272,7 +284,20 @@ class Virtual(Technique):
             xs, ys = x[ok], y[ok]
             behind = proj[ok, 2] > depth[ys, xs]
             face[np.flatnonzero(ok)[behind]] = hidden_map[ys[behind], xs[behind]]
-            return virtual_vertices(maps, points, face, proj[:, :2].copy(), screen, flip)
+            virtual, flags = virtual_vertices(maps, points, face, proj[:, :2].copy(), screen,
+                                              flip)
+            if grid is not None:
+                # seeds: where the map's virtual vertices land on the screen (on the eye ray
+                # through the reflection point the map found)
+                seeds = _project(virtual, world_to_clip, camera)[:, :2]
+                # hidden points too: one behind the reflector may still be reflected near
+                # its silhouette; where no reflection is found it keeps its doubly virtual one
+                refined, status = refine_virtual(points, seeds, inside, grid[0], grid[1],
+                                                 camera.eye)
+                found = status != NONE
+                virtual[found] = refined[found]
+                flags = (flags & (status != EXACT)) | (status == BOUNDARY)
+            return virtual, flags
 
         fn.maps = maps  # for tests and figures
         return fn

@@ -285,3 +285,43 @@ def test_concave_points_inside_the_focus_look_up_the_right_way():
             ref @ got / np.linalg.norm(ref) / np.linalg.norm(got), -1, 1))))
     assert len(errors) > 20
     assert np.median(errors) < 1.0
+
+
+def test_screen_refinement_finds_the_exact_reflection_points():
+    """Explosion-map answers refined on the reflector's pixels land on the exact sphere
+    method's virtual vertices (measured: median 0.005 degrees against 0.036 unrefined, the
+    sphere mesh's own faceting included) and the image gains (measured 9.1 -> 16.4 dB at
+    512x512 against the ray tracer; the exact method: 19.8)."""
+    from conftest import SCENES
+
+    from reflectcli.camera import camera_from_config
+    from reflectcli.config.load import load_config
+    from reflectcli.raster.primary import render_primary
+    from reflectcli.scene.build import build_scene
+    from reflectcli.techniques.virtual import Virtual
+    from reflectcli.virtual.direct import sphere_virtual_vertices
+
+    path = str(SCENES / "four-spheres.toml")
+    small = ["camera.width=256", "camera.height=256"]
+    medians = {}
+    for refine in ("screen", "none"):
+        cfg, _ = load_config(path, ['technique.method="explosion"', *small,
+                                    f'technique.explosion.refine="{refine}"'], "virtual")
+        scene = build_scene(cfg, path)
+        cam = camera_from_config(cfg.camera, 0)
+        tech = Virtual(cfg.technique)
+        tess = tech._reflected(tech.prepare(scene), scene, scene.geometry(0), 0)
+        _, fn = next(iter(tech._parts(scene, render_primary(scene, 0, cam), 0, cam)))
+        got, flagged = fn(tess.points)
+        p = scene.mirrors.params[0]
+        want, hidden = sphere_virtual_vertices(tess.points, cam.eye, p[:3], p[3])
+        keep = ~flagged & ~hidden
+        a, b = got[keep] - cam.eye, want[keep] - cam.eye
+        cos = np.einsum("ij,ij->i", a, b) / np.linalg.norm(a, axis=1) / np.linalg.norm(b, axis=1)
+        medians[refine] = float(np.median(np.degrees(np.arccos(np.clip(cos, -1, 1)))))
+    assert medians["screen"] < 0.02 < medians["none"]
+    ref, _ = render_frame("four-spheres", "raytrace", 0, ("technique.max_depth=1", *small))
+    on, _ = render_frame("four-spheres", "virtual", 0, ('technique.method="explosion"', *small))
+    off, _ = render_frame("four-spheres", "virtual", 0, ('technique.method="explosion"', *small,
+                                                         'technique.explosion.refine="none"'))
+    assert _mirror_psnr(on, ref) > _mirror_psnr(off, ref) + 3.0

@@ -1,0 +1,218 @@
+"""Screen-space refinement of virtual vertices on mesh reflectors (beyond the paper).
+
+An explosion map finds a point's reflection cell to about a map texel, and the virtual
+vertex it gives inherits that error (on four-spheres: 9 dB where the exact sphere method
+reaches 20). The reflector's own item buffer knows, per pixel center s (screen space), the
+reflector point Q(s) (world) and the reflected direction R(s) of the eye ray through it, with
+the same interpolated normals the ray tracer uses. The reflection point of a scene point P is
+the s where R(s) points at P: Gauss-Newton on c(s) = unit(P - Q(s)) - R(s), with Q and R
+interpolated bilinearly between pixel centers, seeded by the explosion map's answer. The
+virtual vertex then lies on the eye ray through Q(s), at the length of the path E -> Q -> P:
+P' = E + unit(Q - E) (|Q - E| + |P - Q|).
+
+The search stays inside one reflector part (its pixels in the reflector-only item buffer, so
+that objects in front of the reflector do not cut it): mixed reflectors get one image per
+part, as in the paper. A point whose search leaves the part, or does not converge, keeps its
+explosion-map vertex.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+
+def reflector_grid(triangle: np.ndarray, b1: np.ndarray, b2: np.ndarray, corners: np.ndarray,
+                   normals: np.ndarray, eye: np.ndarray):
+    """Per pixel of a reflector-only item buffer: Q (H, W, 3) world point, R (H, W, 3) unit
+    reflected direction of the eye ray (interpolated normal, two-sided); pixels the reflector
+    does not cover hold NaN."""
+    h, w = triangle.shape
+    q = np.full((h, w, 3), np.nan)
+    r = np.full((h, w, 3), np.nan)
+    _grid(triangle, b1, b2, corners.astype(np.float64), normals.astype(np.float64),
+          np.asarray(eye, np.float64), q, r)
+    return q, r
+
+
+@njit(cache=True, parallel=True)
+def _grid(triangle, b1, b2, corners, normals, eye, q, r):
+    h, w = triangle.shape
+    for y in prange(h):
+        for x in range(w):
+            t = triangle[y, x]
+            if t < 0:
+                continue
+            c1 = b1[y, x]
+            c2 = b2[y, x]
+            c0 = 1.0 - c1 - c2
+            p = c0 * corners[t, 0] + c1 * corners[t, 1] + c2 * corners[t, 2]
+            n = c0 * normals[t, 0] + c1 * normals[t, 1] + c2 * normals[t, 2]
+            n = n / max(math.sqrt(n[0] ** 2 + n[1] ** 2 + n[2] ** 2), 1e-30)
+            d = p - eye
+            d = d / math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
+            dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2]
+            for i in range(3):
+                q[y, x, i] = p[i]
+                r[y, x, i] = d[i] - 2.0 * dn * n[i]
+
+
+NONE, EXACT, BOUNDARY = 0, 1, 2
+
+
+def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q: np.ndarray,
+                   r: np.ndarray, eye: np.ndarray,
+                   iterations: int = 20) -> tuple[np.ndarray, np.ndarray]:
+    """Virtual vertices of `points` (N, 3) by the search above, from screen positions `seeds`
+    (N, 2, pixels; NaN: skip the point) within the pixels where `inside` (H, W) holds.
+    Returns (virtual points (N, 3), status (N,) int8): EXACT where the reflection was found,
+    BOUNDARY where the search left the part (the vertex sits on the eye ray through the last
+    part pixel it reached, so that polygons reaching past a silhouette fold onto it), NONE
+    (rows NaN) where it never sampled the part."""
+    out = np.full(points.shape, np.nan)
+    ok = np.zeros(points.shape[0], np.int8)
+    _refine(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(seeds, np.float64),
+            inside, q, r, np.asarray(eye, np.float64), iterations, out, ok)
+    return out, ok
+
+
+@njit(cache=True)
+def _sample(inside, q, r, sx, sy, out_q, out_r):
+    """Bilinear Q and R at screen point (sx, sy) from the four nearest pixel centers that lie
+    inside the part (missing ones take the weight of the others); False if none does."""
+    h, w = inside.shape
+    fx = sx - 0.5
+    fy = sy - 0.5
+    x0 = int(math.floor(fx))
+    y0 = int(math.floor(fy))
+    ax = fx - x0
+    ay = fy - y0
+    total = 0.0
+    for i in range(3):
+        out_q[i] = 0.0
+        out_r[i] = 0.0
+    for dy in range(2):
+        for dx in range(2):
+            x = x0 + dx
+            y = y0 + dy
+            if x < 0 or y < 0 or x >= w or y >= h or not inside[y, x]:
+                continue
+            wt = (ax if dx else 1.0 - ax) * (ay if dy else 1.0 - ay)
+            if wt <= 0.0:
+                continue
+            total += wt
+            for i in range(3):
+                out_q[i] += wt * q[y, x, i]
+                out_r[i] += wt * r[y, x, i]
+    if total <= 1e-9:
+        return False
+    norm = 0.0
+    for i in range(3):
+        out_q[i] /= total
+        norm += out_r[i] ** 2
+    norm = math.sqrt(norm)
+    for i in range(3):
+        out_r[i] /= norm
+    return True
+
+
+@njit(cache=True)
+def _residual(p, inside, q, r, sx, sy, res, qq, rr):
+    if not _sample(inside, q, r, sx, sy, qq, rr):
+        return False
+    d0 = p[0] - qq[0]
+    d1 = p[1] - qq[1]
+    d2 = p[2] - qq[2]
+    length = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    if length <= 0.0:
+        return False
+    res[0] = d0 / length - rr[0]
+    res[1] = d1 / length - rr[1]
+    res[2] = d2 / length - rr[2]
+    return True
+
+
+@njit(cache=True, parallel=True)
+def _refine(points, seeds, inside, q, r, eye, iterations, out, ok):
+    h, w = inside.shape
+    step_h = 0.5  # finite-difference step, pixels
+    for k in prange(points.shape[0]):
+        sx = seeds[k, 0]
+        sy = seeds[k, 1]
+        if not (np.isfinite(sx) and np.isfinite(sy)):
+            continue
+        if sx < 0.0 or sy < 0.0 or sx >= w or sy >= h:
+            continue
+        p = points[k]
+        c = np.empty(3)
+        cx = np.empty(3)
+        cy = np.empty(3)
+        q0 = np.empty(3)
+        qx = np.empty(3)
+        qy = np.empty(3)
+        rr = np.empty(3)
+        status = NONE
+        # where the walk leaves the part (the reflection lies past a silhouette, or on another
+        # part), the last Gauss-Newton step is taken on the linear model from the last point
+        # inside: Q extrapolated along its screen derivatives, so that the polygons reaching
+        # out there stretch past the part's edge (and are masked) as the exact ones would
+        q_ext = np.empty(3)
+        for _ in range(iterations):
+            if not _residual(p, inside, q, r, sx, sy, c, q0, rr):
+                break
+            status = BOUNDARY
+            for i in range(3):
+                q_ext[i] = q0[i]
+            sign_x = 1.0
+            if not _residual(p, inside, q, r, sx + step_h, sy, cx, qx, rr):
+                if not _residual(p, inside, q, r, sx - step_h, sy, cx, qx, rr):
+                    break
+                sign_x = -1.0
+            sign_y = 1.0
+            if not _residual(p, inside, q, r, sx, sy + step_h, cy, qy, rr):
+                if not _residual(p, inside, q, r, sx, sy - step_h, cy, qy, rr):
+                    break
+                sign_y = -1.0
+            # Jacobian columns (per pixel) and the 2x2 normal equations
+            a00 = a01 = a11 = g0 = g1 = 0.0
+            for i in range(3):
+                jx = sign_x * (cx[i] - c[i]) / step_h
+                jy = sign_y * (cy[i] - c[i]) / step_h
+                a00 += jx * jx
+                a01 += jx * jy
+                a11 += jy * jy
+                g0 += jx * c[i]
+                g1 += jy * c[i]
+            det = a00 * a11 - a01 * a01
+            if not det > 1e-30:
+                break
+            dx = -(a11 * g0 - a01 * g1) / det
+            dy = -(a00 * g1 - a01 * g0) / det
+            length = math.sqrt(dx * dx + dy * dy)
+            if length > 8.0:  # a trust region: no jumps across the part
+                dx *= 8.0 / length
+                dy *= 8.0 / length
+            for i in range(3):
+                q_ext[i] = q0[i] + (sign_x * (qx[i] - q0[i]) * dx
+                                    + sign_y * (qy[i] - q0[i]) * dy) / step_h
+            if length < 1e-3:
+                if c[0] ** 2 + c[1] ** 2 + c[2] ** 2 <= 1e-4:  # else a local minimum
+                    status = EXACT
+                    for i in range(3):
+                        q_ext[i] = q0[i]
+                break
+            sx += dx
+            sy += dy
+        if status == NONE:
+            continue
+        d = p - q_ext
+        if status == EXACT and d[0] * rr[0] + d[1] * rr[1] + d[2] * rr[2] <= 0.0:
+            status = BOUNDARY  # on the line of the ray, but behind its start
+        e = q_ext - eye
+        le = math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
+        lp = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
+        for i in range(3):
+            out[k, i] = eye[i] + e[i] / le * (le + lp)
+        ok[k] = status
