@@ -1,15 +1,19 @@
 """Write scenes/assets/mask.ply: a face-like mask reflector of convex and concave pieces.
 
 Stand-in for Ofek & Rappoport's Fig. 19 ("a mask composed of several convex and concave
-pieces"): a smooth height field z = h(x, y) over an elliptical outline about 2 wide (x) and
-2.4 high (y), front = +z (triangles counter-clockwise seen from +z):
+pieces"): a height field z = h(x, y) over an elliptical outline about 2 wide (x) and 2.4 high
+(y), front = +z (triangles counter-clockwise seen from +z), made of pieces that are each
+wholly convex or wholly concave, meeting along creases:
 
-- a gently convex base shell,
-- two convex cheeks (bumps) and a convex nose ridge,
-- concave hollows between the cheeks and the nose, and two concave eye sockets.
+- a convex shell (paraboloid) for the face,
+- two convex cheeks and a convex nose ridge standing out of it (the maximum of the shell and
+  their paraboloids: the pieces meet in valley creases),
+- two concave eye sockets sunk into it (the minimum with upward paraboloids: rim creases).
 
-Deterministic (no randomness): run `python scripts/make_mask.py` from the repository root
-(or pass an output path) and the same file comes out.
+Pieces rather than smooth bumps on purpose: a smooth bump on a shell is ringed by saddle
+regions, neither convex nor concave, where reflection cells overlap, which the paper
+leaves to manual decomposition. Deterministic: run `python scripts/make_mask.py` from the
+repository root (or pass an output path) and the same file comes out.
 """
 
 from __future__ import annotations
@@ -20,22 +24,24 @@ from pathlib import Path
 import numpy as np
 
 HALF_W, HALF_H = 1.0, 1.2  # outline semi-axes (x, y)
-CELLS_X, CELLS_Y = 40, 48  # grid cells (3,840 triangles)
+CELLS_X, CELLS_Y = 60, 72  # grid cells (8,640 triangles)
 
 
-def _bump(x, y, cx, cy, sx, sy, amplitude):
-    return amplitude * np.exp(-0.5 * (((x - cx) / sx) ** 2 + ((y - cy) / sy) ** 2))
+def _cap(x, y, cx, cy, rx, ry, top):
+    """A paraboloid with its apex `top` at (cx, cy) and radii of curvature rx, ry."""
+    return top - (x - cx) ** 2 / (2.0 * rx) - (y - cy) ** 2 / (2.0 * ry)
 
 
 def height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """The mask's relief z(x, y)."""
-    z = 0.3 * (1.0 - (x / 1.3) ** 2 - (y / 1.7) ** 2)  # convex shell
+    shell = _cap(x, y, 0.0, 0.0, 2.8, 4.8, 0.3)  # the convex face
+    z = shell
     for side in (-1.0, 1.0):
-        z = z + _bump(x, y, side * 0.5, -0.35, 0.25, 0.25, 0.15)  # cheeks
-        z = z + _bump(x, y, side * 0.25, -0.12, 0.1, 0.15, -0.06)  # hollow beside the nose
-        z = z + _bump(x, y, side * 0.42, 0.38, 0.18, 0.13, -0.1)  # eye sockets
-    z = z + _bump(x, y, 0.0, 0.05, 0.1, 0.3, 0.15)  # nose ridge
-    z = z + _bump(x, y, 0.0, -0.25, 0.1, 0.08, 0.05)  # nose tip
+        z = np.maximum(z, _cap(x, y, side * 0.5, -0.4, 0.35, 0.35, 0.38))  # cheeks
+    z = np.maximum(z, _cap(x, y, 0.0, 0.0, 0.06, 0.9, 0.42))  # nose ridge
+    for side in (-1.0, 1.0):  # eye sockets: bowls whose bottom sits 0.1 below the shell
+        bottom = _cap(side * 0.42, 0.4, 0.0, 0.0, 2.8, 4.8, 0.3) - 0.1
+        z = np.minimum(z, -_cap(x, y, side * 0.42, 0.4, 0.3, 0.3, -bottom))
     return z
 
 

@@ -52,14 +52,55 @@ def vertex_convexity(mesh: IndexedMesh) -> np.ndarray:
     return np.where(offset <= 0, 1, -1)
 
 
-def convexity_parts(mesh: IndexedMesh) -> list[np.ndarray]:
-    """Face index sets of connected regions of one convexity (a face takes the majority of its
-    vertices' signs). A single-signed mesh is one part."""
-    sign = vertex_convexity(mesh)
-    face_sign = np.sign(sign[mesh.faces].sum(axis=1))
-    face_sign[face_sign == 0] = 1
-    # connected components over shared edges, within one sign
-    nf = len(mesh.faces)
+def convexity_parts(mesh: IndexedMesh, flat_degrees: float = 0.5, smallest: float = 0.005,
+                    crease_factor: float = 4.0) -> list[np.ndarray]:
+    """Face index sets of connected regions of one convexity, grown across edges.
+
+    Each interior edge bends convexly (the vertex normals at its ends diverge: the normal
+    curvature along it is positive), concavely, or not at all (the normals turn by under
+    `flat_degrees`); being measured with the vertex normals, this does not depend on how a
+    surface was triangulated. A face takes the sign of its edges' summed normal turns. Faces
+    of one sign join across edges that bend their way or not at all, so pieces meeting in a
+    crease (a valley between two convex pieces, a ridge around a concave one) come apart.
+    Faces bending over `crease_factor` times more sharply than the mesh's median face (mean
+    normal turn per edge) are crease strips: they form parts of their own, whatever their
+    sign but one, so that a strip's wide fan of reflections does not overlap a smooth piece's.
+    Regions under `smallest` of the faces (the strip along a crease) join the neighbour they
+    share most edges with: they are too thin to show a reflection of their own. A
+    single-signed mesh is one part."""
+    v, f, vn = mesh.vertices, mesh.faces, mesh.normals
+    nf = len(f)
+    # interior edges as (face, neighbour, vertex, vertex)
+    pairs = np.stack([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]], 1).reshape(-1, 2)
+    keys = np.sort(pairs, 1)
+    owner = np.repeat(np.arange(nf), 3)
+    order = np.lexsort((keys[:, 1], keys[:, 0]))
+    k, o = keys[order], owner[order]
+    same = np.all(k[1:] == k[:-1], axis=1)
+    fa, fb = o[:-1][same], o[1:][same]
+    va, vb = k[:-1][same, 0], k[:-1][same, 1]
+    edge = v[vb] - v[va]
+    turn = np.einsum("ij,ij->i", vn[vb] - vn[va], edge) / np.maximum(
+        np.linalg.norm(edge, axis=1), 1e-30)  # ~ normal curvature x edge length (radians)
+    edge_sign = np.where(np.abs(turn) < np.radians(flat_degrees), 0, np.sign(turn))
+    signed = turn
+    face_sum = np.zeros(nf)
+    np.add.at(face_sum, fa, signed)
+    np.add.at(face_sum, fb, signed)
+    face_sign = np.where(face_sum < 0, -1, 1)
+    # how sharply each face bends: its edges' mean normal turn
+    sharp = np.zeros(nf)
+    edges_of = np.zeros(nf)
+    np.add.at(sharp, fa, np.abs(turn))
+    np.add.at(sharp, fb, np.abs(turn))
+    np.add.at(edges_of, fa, 1)
+    np.add.at(edges_of, fb, 1)
+    sharp = sharp / np.maximum(edges_of, 1) + np.radians(flat_degrees)
+    crease = sharp > crease_factor * np.median(sharp)
+    smooth = ~crease[fa] & ~crease[fb]
+    join = (smooth & (face_sign[fa] == face_sign[fb])
+            & ((edge_sign == 0) | (edge_sign == face_sign[fa]))) | (
+        crease[fa] & crease[fb] & (face_sign[fa] == face_sign[fb]))
     parent = np.arange(nf)
 
     def find(x):
@@ -68,18 +109,26 @@ def convexity_parts(mesh: IndexedMesh) -> list[np.ndarray]:
             x = parent[x]
         return x
 
-    edges = {}
-    for fi, (a, b, c) in enumerate(mesh.faces):
-        for e in ((a, b), (b, c), (c, a)):
-            key = (min(e), max(e))
-            if key in edges:
-                g = edges[key]
-                if face_sign[g] == face_sign[fi]:
-                    ra, rb = find(g), find(fi)
-                    if ra != rb:
-                        parent[ra] = rb
-            else:
-                edges[key] = fi
+    for a, b in zip(fa[join], fb[join], strict=True):
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            parent[ra] = rb
+    # fold regions that are too small into the neighbour sharing most edges with them
+    minimum = max(1, int(smallest * nf))
+    while True:
+        roots = np.array([find(i) for i in range(nf)])
+        sizes = np.bincount(roots, minlength=nf)
+        small = [r for r in np.unique(roots) if sizes[r] < minimum]
+        if not small or len(np.unique(roots)) == 1:
+            break
+        r = min(small, key=lambda x: (sizes[x], x))
+        ra, rb = roots[fa], roots[fb]
+        touching = np.concatenate([rb[ra == r], ra[rb == r]])
+        touching = touching[touching != r]
+        if touching.size == 0:
+            break  # an island: it stays a part of its own
+        counts = np.bincount(touching, minlength=nf)
+        parent[r] = int(np.argmax(counts))
     roots = np.array([find(i) for i in range(nf)])
     parts = [np.flatnonzero(roots == r) for r in np.unique(roots)]
     return sorted(parts, key=lambda p: int(p[0]))

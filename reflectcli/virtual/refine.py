@@ -63,18 +63,23 @@ NONE, EXACT, BOUNDARY = 0, 1, 2
 
 
 def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q: np.ndarray,
-                   r: np.ndarray, eye: np.ndarray,
-                   iterations: int = 20) -> tuple[np.ndarray, np.ndarray]:
+                   r: np.ndarray, eye: np.ndarray, iterations: int = 20,
+                   lattice_size: int = 256) -> tuple[np.ndarray, np.ndarray]:
     """Virtual vertices of `points` (N, 3) by the search above, from screen positions `seeds`
-    (N, 2, pixels; NaN: skip the point) within the pixels where `inside` (H, W) holds.
+    (N, 2, pixels; NaN: no seed) within the pixels where `inside` (H, W) holds. A point whose
+    seed does not lead to its reflection (outside the part, or a walk blocked by a hole in
+    it) tries again from the best of about `lattice_size` pixels spread over the part.
     Returns (virtual points (N, 3), status (N,) int8): EXACT where the reflection was found,
-    BOUNDARY where the search left the part (the vertex sits on the eye ray through the last
-    part pixel it reached, so that polygons reaching past a silhouette fold onto it), NONE
-    (rows NaN) where it never sampled the part."""
+    BOUNDARY where the search left the part (see _walk), NONE (rows NaN) where it never
+    sampled the part."""
     out = np.full(points.shape, np.nan)
     ok = np.zeros(points.shape[0], np.int8)
+    ys, xs = np.nonzero(inside)
+    stride = max(1, int(np.ceil(np.sqrt(xs.size / max(lattice_size, 1)))))
+    keep = (xs % stride == 0) & (ys % stride == 0)
+    lattice = np.stack([xs[keep] + 0.5, ys[keep] + 0.5], axis=1).astype(np.float64)
     _refine(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(seeds, np.float64),
-            inside, q, r, np.asarray(eye, np.float64), iterations, out, ok)
+            inside, q, r, np.asarray(eye, np.float64), iterations, lattice, out, ok)
     return out, ok
 
 
@@ -134,82 +139,117 @@ def _residual(p, inside, q, r, sx, sy, res, qq, rr):
     return True
 
 
-@njit(cache=True, parallel=True)
-def _refine(points, seeds, inside, q, r, eye, iterations, out, ok):
+@njit(cache=True)
+def _walk(p, inside, q, r, sx, sy, iterations, q_ext, rr):
+    """Gauss-Newton from screen point (sx, sy) toward the reflection point of p: EXACT with
+    q_ext = Q there, BOUNDARY where the walk leaves the part (the reflection lies past a
+    silhouette, or on another part): then the last step is taken on the linear model from
+    the last point inside, Q extrapolated along its screen derivatives, so that polygons
+    reaching out there stretch past the part's edge (and are masked) as exact ones would;
+    NONE if the part was never sampled. rr receives R at the last point inside."""
     h, w = inside.shape
     step_h = 0.5  # finite-difference step, pixels
+    c = np.empty(3)
+    cx = np.empty(3)
+    cy = np.empty(3)
+    q0 = np.empty(3)
+    qx = np.empty(3)
+    qy = np.empty(3)
+    scratch = np.empty(3)
+    status = NONE
+    for _ in range(iterations):
+        if not (0.0 <= sx < w and 0.0 <= sy < h):
+            break
+        if not _residual(p, inside, q, r, sx, sy, c, q0, rr):
+            break
+        status = BOUNDARY
+        for i in range(3):
+            q_ext[i] = q0[i]
+        sign_x = 1.0
+        if not _residual(p, inside, q, r, sx + step_h, sy, cx, qx, scratch):
+            if not _residual(p, inside, q, r, sx - step_h, sy, cx, qx, scratch):
+                break
+            sign_x = -1.0
+        sign_y = 1.0
+        if not _residual(p, inside, q, r, sx, sy + step_h, cy, qy, scratch):
+            if not _residual(p, inside, q, r, sx, sy - step_h, cy, qy, scratch):
+                break
+            sign_y = -1.0
+        # Jacobian columns (per pixel) and the 2x2 normal equations
+        a00 = a01 = a11 = g0 = g1 = 0.0
+        for i in range(3):
+            jx = sign_x * (cx[i] - c[i]) / step_h
+            jy = sign_y * (cy[i] - c[i]) / step_h
+            a00 += jx * jx
+            a01 += jx * jy
+            a11 += jy * jy
+            g0 += jx * c[i]
+            g1 += jy * c[i]
+        det = a00 * a11 - a01 * a01
+        if not det > 1e-30:
+            break
+        dx = -(a11 * g0 - a01 * g1) / det
+        dy = -(a00 * g1 - a01 * g0) / det
+        length = math.sqrt(dx * dx + dy * dy)
+        if length > 8.0:  # a trust region: no jumps across the part
+            dx *= 8.0 / length
+            dy *= 8.0 / length
+        for i in range(3):
+            q_ext[i] = q0[i] + (sign_x * (qx[i] - q0[i]) * dx
+                                + sign_y * (qy[i] - q0[i]) * dy) / step_h
+        if length < 1e-3:
+            if c[0] ** 2 + c[1] ** 2 + c[2] ** 2 <= 1e-4:  # else a local minimum
+                status = EXACT
+                for i in range(3):
+                    q_ext[i] = q0[i]
+            break
+        sx += dx
+        sy += dy
+    if status == EXACT:
+        d0 = p[0] - q_ext[0]
+        d1 = p[1] - q_ext[1]
+        d2 = p[2] - q_ext[2]
+        if d0 * rr[0] + d1 * rr[1] + d2 * rr[2] <= 0.0:
+            status = BOUNDARY  # on the line of the ray, but behind its start
+    return status
+
+
+@njit(cache=True, parallel=True)
+def _refine(points, seeds, inside, q, r, eye, iterations, lattice, out, ok):
     for k in prange(points.shape[0]):
-        sx = seeds[k, 0]
-        sy = seeds[k, 1]
-        if not (np.isfinite(sx) and np.isfinite(sy)):
-            continue
-        if sx < 0.0 or sy < 0.0 or sx >= w or sy >= h:
-            continue
         p = points[k]
-        c = np.empty(3)
-        cx = np.empty(3)
-        cy = np.empty(3)
-        q0 = np.empty(3)
-        qx = np.empty(3)
-        qy = np.empty(3)
+        q_ext = np.empty(3)
         rr = np.empty(3)
         status = NONE
-        # where the walk leaves the part (the reflection lies past a silhouette, or on another
-        # part), the last Gauss-Newton step is taken on the linear model from the last point
-        # inside: Q extrapolated along its screen derivatives, so that the polygons reaching
-        # out there stretch past the part's edge (and are masked) as the exact ones would
-        q_ext = np.empty(3)
-        for _ in range(iterations):
-            if not _residual(p, inside, q, r, sx, sy, c, q0, rr):
-                break
-            status = BOUNDARY
-            for i in range(3):
-                q_ext[i] = q0[i]
-            sign_x = 1.0
-            if not _residual(p, inside, q, r, sx + step_h, sy, cx, qx, rr):
-                if not _residual(p, inside, q, r, sx - step_h, sy, cx, qx, rr):
-                    break
-                sign_x = -1.0
-            sign_y = 1.0
-            if not _residual(p, inside, q, r, sx, sy + step_h, cy, qy, rr):
-                if not _residual(p, inside, q, r, sx, sy - step_h, cy, qy, rr):
-                    break
-                sign_y = -1.0
-            # Jacobian columns (per pixel) and the 2x2 normal equations
-            a00 = a01 = a11 = g0 = g1 = 0.0
-            for i in range(3):
-                jx = sign_x * (cx[i] - c[i]) / step_h
-                jy = sign_y * (cy[i] - c[i]) / step_h
-                a00 += jx * jx
-                a01 += jx * jy
-                a11 += jy * jy
-                g0 += jx * c[i]
-                g1 += jy * c[i]
-            det = a00 * a11 - a01 * a01
-            if not det > 1e-30:
-                break
-            dx = -(a11 * g0 - a01 * g1) / det
-            dy = -(a00 * g1 - a01 * g0) / det
-            length = math.sqrt(dx * dx + dy * dy)
-            if length > 8.0:  # a trust region: no jumps across the part
-                dx *= 8.0 / length
-                dy *= 8.0 / length
-            for i in range(3):
-                q_ext[i] = q0[i] + (sign_x * (qx[i] - q0[i]) * dx
-                                    + sign_y * (qy[i] - q0[i]) * dy) / step_h
-            if length < 1e-3:
-                if c[0] ** 2 + c[1] ** 2 + c[2] ** 2 <= 1e-4:  # else a local minimum
-                    status = EXACT
-                    for i in range(3):
-                        q_ext[i] = q0[i]
-                break
-            sx += dx
-            sy += dy
+        if np.isfinite(seeds[k, 0]) and np.isfinite(seeds[k, 1]):
+            status = _walk(p, inside, q, r, seeds[k, 0], seeds[k, 1], iterations, q_ext, rr)
+        if status != EXACT and lattice.shape[0] > 0:
+            # the pixel of the lattice whose reflected ray passes closest to p
+            best = np.inf
+            bi = 0
+            for j in range(lattice.shape[0]):
+                x = int(lattice[j, 0])
+                y = int(lattice[j, 1])
+                d0 = p[0] - q[y, x, 0]
+                d1 = p[1] - q[y, x, 1]
+                d2 = p[2] - q[y, x, 2]
+                inv = 1.0 / max(math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), 1e-30)
+                e = ((d0 * inv - r[y, x, 0]) ** 2 + (d1 * inv - r[y, x, 1]) ** 2
+                     + (d2 * inv - r[y, x, 2]) ** 2)
+                if e < best:
+                    best = e
+                    bi = j
+            q2 = np.empty(3)
+            r2 = np.empty(3)
+            again = _walk(p, inside, q, r, lattice[bi, 0], lattice[bi, 1], iterations, q2, r2)
+            if again == EXACT or (status == NONE and again != NONE):
+                status = again
+                for i in range(3):
+                    q_ext[i] = q2[i]
+                    rr[i] = r2[i]
         if status == NONE:
             continue
         d = p - q_ext
-        if status == EXACT and d[0] * rr[0] + d[1] * rr[1] + d[2] * rr[2] <= 0.0:
-            status = BOUNDARY  # on the line of the ray, but behind its start
         e = q_ext - eye
         le = math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
         lp = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)

@@ -325,3 +325,34 @@ def test_screen_refinement_finds_the_exact_reflection_points():
     off, _ = render_frame("four-spheres", "virtual", 0, ('technique.method="explosion"', *small,
                                                          'technique.explosion.refine="none"'))
     assert _mirror_psnr(on, ref) > _mirror_psnr(off, ref) + 3.0
+
+
+def test_mask_decomposes_into_its_pieces():
+    """The mask's cheeks, nose ridge and eye sockets each come out as a part of their own,
+    of the right convexity, apart from the shell they stand out of or sink into; crease
+    strips form thin parts of their own."""
+    from conftest import SCENES
+
+    from reflectcli.scene.mesh_file import load_mesh_file
+    from reflectcli.virtual.mesh import convexity_parts, vertex_convexity, weld
+
+    soup = load_mesh_file(SCENES / "assets" / "mask.ply")
+    mesh = weld(soup.corners, soup.normals)
+    parts = convexity_parts(mesh)
+    owner = np.empty(len(mesh.faces), np.int64)
+    for i, faces in enumerate(parts):
+        owner[faces] = i
+    centroids = mesh.vertices[mesh.faces].mean(axis=1)
+    sign = vertex_convexity(mesh)
+
+    def part_at(x, y):
+        i = owner[np.argmin(np.hypot(centroids[:, 0] - x, centroids[:, 1] - y))]
+        return i, np.sign(sign[mesh.faces[parts[i]]].sum())
+
+    pieces = {"shell": (0.0, 0.9), "left cheek": (-0.5, -0.4), "right cheek": (0.5, -0.4),
+              "nose": (0.0, 0.0), "left socket": (-0.42, 0.4), "right socket": (0.42, 0.4)}
+    found = {name: part_at(*xy) for name, xy in pieces.items()}
+    assert len({i for i, _ in found.values()}) == len(pieces), found
+    for name, (_, convexity) in found.items():
+        assert convexity == (-1 if "socket" in name else 1), name
+    assert len(parts) <= 20
