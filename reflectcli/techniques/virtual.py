@@ -24,7 +24,10 @@ Explosion maps (centered where the reflection rays come closest together, their 
 at the paper's vertex mean; near: a sphere `near_scale` times the reflector's bounding
 radius from there; far: one bounding the scene) and the hidden map (an item buffer and
 z-buffer of the reflector alone) are rebuilt per frame and part
-(reflectcli/virtual/explosion.py).
+(reflectcli/virtual/explosion.py); `explosion.refine = "screen"` then refines each map
+answer on the reflector's own pixels, Gauss-Newton on the reflection law
+(reflectcli/virtual/refine.py). Mixed reflectors are split into convex, concave and
+crease parts (reflectcli/virtual/mesh.py: convexity_parts), one image per part.
 Reflected objects are everything but the reflector, tessellated by `tessellation`; mirrors
 among them show their base color (one level of recursion, as in the paper's figures).
 `reflector_test`: `zbuffer` rejects virtual fragments at or in front of the reflector's own
