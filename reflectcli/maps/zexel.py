@@ -27,6 +27,9 @@ class ZexelMap:
     camera: Camera  # the map's camera (world space); its image is the map
     color: np.ndarray  # (H, W, 3) float32, linear
     depth: np.ndarray  # (H, W) float32, eye-space depth along the camera axis, +inf if empty
+    # (H, W) int32: the triangle (index into the scene's frame-0 triangles) each zexel saw,
+    # -1 if empty; lets `reconstruct = "surface"` shade the exact point under each pixel
+    triangle: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -116,7 +119,7 @@ def capture_map(scene: Scene, k: int, camera: Camera, frame_index: int = 0) -> Z
     color, _ = shade_buffers(buffers, tris, scene, camera.eye)
     depth = buffers.depth.copy()
     depth[buffers.triangle < 0] = np.inf
-    return ZexelMap(camera, color, depth)
+    return ZexelMap(camera, color, depth, buffers.triangle.astype(np.int32))
 
 
 def coarser(zmap: ZexelMap) -> ZexelMap:
@@ -142,10 +145,16 @@ def coarser(zmap: ZexelMap) -> ZexelMap:
         one_surface = np.isfinite(far) & (far <= near * (1.0 + SAME_SURFACE))
     new_depth[one_surface] = 1.0 / np.mean(1.0 / flat[one_surface], axis=1)
     new_color[one_surface] = colors[one_surface].mean(axis=1)
+    triangle = None
+    if zmap.triangle is not None:  # the picked zexel's (on one surface, any will do)
+        blocks = (zmap.triangle[: 2 * h2, : 2 * w2].reshape(h2, 2, w2, 2)
+                  .transpose(0, 2, 1, 3).reshape(h2, w2, 4))
+        triangle = np.ascontiguousarray(
+            np.take_along_axis(blocks, pick[..., None], axis=2)[..., 0])
     cam = zmap.camera
     camera = Camera(cam.eye, cam.target, cam.up, cam.fov_y, w2, h2, cam.near, cam.far)
     return ZexelMap(camera, np.ascontiguousarray(new_color, np.float32),
-                    np.ascontiguousarray(new_depth, np.float32))
+                    np.ascontiguousarray(new_depth, np.float32), triangle)
 
 
 def mip_pyramid(zmap: ZexelMap, smallest: int = 16) -> list[ZexelMap]:

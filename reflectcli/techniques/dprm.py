@@ -13,6 +13,7 @@ planar mirror, forward-warped into the mirror's pixels every frame.
 | `fill.splat` | 1, 3, 5, "adaptive" | 1 | splat footprint in pixels (adaptive: from the warp) |
 | `fill.temporal` | bool | false | keep the previous frame's reflection where no zexel lands |
 | `occlusion` | "zbuffer", "ordered" | "zbuffer" | nearest zexel wins, or McMillan's order |
+| `reconstruct` | "color", "surface" | "color" | zexel colors, or shade each pixel's own point |
 
 Per frame and visible planar mirror: the eye is reflected across the mirror (equations 1
 and 2: M = E - 2 (N.E + d) N; the reflected view direction R_d = E_d - 2 (N.E_d) N, which is
@@ -22,6 +23,14 @@ the mirror pixels get (1 - r) * base + r * reflected. The warp's cost depends on
 not on the scene's polygons. Maps are captured at frame 0: objects that move later are not
 in them (a warning says so). Pixels no zexel reached are `holes` (an EXR channel) and show
 the background. Curved mirrors show (1 - r) * base.
+
+`reconstruct = "surface"` (beyond the paper): maps also keep the triangle each zexel saw,
+and a reached pixel intersects its own reflected ray (from M through the pixel center) with
+that triangle's plane and shades the point there, as the rasterizer would. Point resampling
+of colors puts one-pixel seams along every texture edge (its error floor); this removes
+them wherever the zexel's triangle is the surface under the pixel center, or a coplanar
+neighbour with the same texture mapping. It costs a shading pass over the mirror's pixels
+and stays independent of the polygon count.
 """
 
 from __future__ import annotations
@@ -39,6 +48,7 @@ from ..config.base import Strict
 from ..frame import Frame
 from ..geometry import reflection_matrix
 from ..maps.cache import MapCache, cache_key
+from ..maps.surface import surface_colors
 from ..maps.warp import warp_maps
 from ..maps.zexel import (
     ZexelMap,
@@ -54,7 +64,7 @@ from .base import Technique, precompute_logged, warn_non_planar
 from .envmap import scene_extent
 
 log = logging.getLogger("reflect")
-MAP_FORMAT = 1
+MAP_FORMAT = 2  # 2: a T channel with each zexel's triangle
 
 
 class DprmMaps(Strict):
@@ -88,6 +98,8 @@ class DprmParams(Strict):
     maps: DprmMaps = Field(default_factory=DprmMaps, description="map capture and choice")
     fill: DprmFill = Field(default_factory=DprmFill, description="exposure filling")
     occlusion: Literal["zbuffer", "ordered"] = Field(default="zbuffer", description="visibility")
+    reconstruct: Literal["color", "surface"] = Field(
+        default="color", description="zexel colors, or shade each pixel's point of its surface")
 
 
 class Dprm(Technique):
@@ -124,8 +136,10 @@ class Dprm(Technique):
                     done += 1
                     if on_progress is not None:
                         on_progress(done, total)
+                # T: triangle ids, exact in float32 below 2^24
                 parts = [(f"map{j:03d}", {"R": m.color[:, :, 0], "G": m.color[:, :, 1],
-                                          "B": m.color[:, :, 2], "Z": m.depth})
+                                          "B": m.color[:, :, 2], "Z": m.depth,
+                                          "T": m.triangle.astype(np.float32)})
                          for j, m in enumerate(maps)]
                 cache.store("dprm", key, parts, {
                     "reflect:mirror": name, "reflect:maps": str(p.count),
@@ -135,7 +149,8 @@ class Dprm(Technique):
                      "reflect:projection_matrix": _numbers(cam.projection_matrix()),
                      "reflect:fov_y": repr(cam.fov_y)} for cam in cams])
             else:
-                maps = [ZexelMap(cam, np.stack([c["R"], c["G"], c["B"]], axis=-1), c["Z"])
+                maps = [ZexelMap(cam, np.stack([c["R"], c["G"], c["B"]], axis=-1), c["Z"],
+                                 c["T"].astype(np.int32))
                         for cam, (_, c, _) in zip(cams, parts, strict=True)]
                 done += len(maps)
                 if on_progress is not None:
@@ -156,7 +171,7 @@ class Dprm(Technique):
             log.warning("dprm: objects move in this scene, but its maps are captured at "
                         "frame 0: reflections show them where they were then")
         return {"scene": scene, "mirrors": records, "previous": {},
-                "precompute_seconds": seconds}
+                "precompute_seconds": seconds, "triangles": scene.geometry(0).all_triangles()}
 
     def render(self, state: dict, frame: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]
@@ -173,7 +188,8 @@ class Dprm(Technique):
             if not stencil.any():
                 continue
             t0 = time.perf_counter()
-            reflected, reached, n_maps, n_zexels = self._warp(record, camera, stencil)
+            reflected, reached, n_maps, n_zexels = self._warp(record, camera, stencil, scene,
+                                                              state["triangles"])
             t1 = time.perf_counter()
             filled = reached
             if params.fill.temporal:
@@ -217,7 +233,8 @@ class Dprm(Technique):
             maps.append(pyramid[min(level, len(pyramid) - 1)])
         return maps, level
 
-    def _warp(self, record: dict, camera: Camera, stencil: np.ndarray):
+    def _warp(self, record: dict, camera: Camera, stencil: np.ndarray,
+              scene: Scene | None = None, triangles=None):
         """Reflected colors over the stencil, and which pixels a zexel reached."""
         params: DprmParams = self.params
         k_maps: list[ZexelMap] = record["maps"]
@@ -241,6 +258,12 @@ class Dprm(Technique):
         ids = best_id[reached]
         colors = np.stack([m.color.reshape(-1, 3) for m in maps])
         reflected[reached] = colors[ids // stride, ids % stride]
+        if params.reconstruct == "surface" and scene is not None:
+            tri = np.full((h, w), -1, np.int32)
+            tri[reached] = np.stack([m.triangle.reshape(-1) for m in maps])[
+                ids // stride, ids % stride]
+            shaded, ok = surface_colors(tri, camera, reflect, mirrored_eye, triangles, scene)
+            reflected[ok] = shaded[ok]
         return reflected, reached, len(chosen), zexels
 
 
@@ -250,5 +273,5 @@ def _numbers(values) -> str:
 
 def _valid(parts, p: DprmMaps) -> bool:
     return len(parts) == p.count and all(
-        set(c) >= {"R", "G", "B", "Z"} and c["Z"].shape == (p.resolution, p.resolution)
+        set(c) >= {"R", "G", "B", "Z", "T"} and c["Z"].shape == (p.resolution, p.resolution)
         for _, c, _ in parts)
