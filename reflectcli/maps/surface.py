@@ -11,6 +11,8 @@ neighbour with the same texture mapping, is the surface under the pixel center.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, prange
 
@@ -25,44 +27,59 @@ def surface_colors(triangle: np.ndarray, camera: Camera, reflection: np.ndarray,
                    scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """(rgb (H, W, 3) float32, shaded (H, W) bool) for the pixels whose `triangle` (H, W,
     index into `triangles`, -1: none) their reflected ray meets in front of the mirror."""
-    dirs = camera.pixel_directions(1)[:, :, 0]  # world, through the pixel centers
     h, w = triangle.shape
     b1 = np.zeros((h, w), np.float32)
     b2 = np.zeros((h, w), np.float32)
     depth = np.full((h, w), np.inf, np.float32)
     hit = triangle.copy()
-    _intersect(triangle, np.ascontiguousarray(dirs, np.float64),
-               np.ascontiguousarray(reflection[:3, :3], np.float64),
-               np.asarray(mirrored_eye, np.float64), triangles.corners, hit, b1, b2, depth)
+    right, up, back = camera.basis()
+    t = math.tan(math.radians(camera.fov_y) / 2.0)
+    # the camera's pixel-center rays (world), reflected: d = x_ndc * X + y_ndc * Y - Z
+    r3 = np.asarray(reflection[:3, :3], np.float64)
+    axes = np.stack([r3 @ (right * t * camera.aspect), r3 @ (up * t), r3 @ back])
+    _intersect(triangle, axes, np.asarray(mirrored_eye, np.float64), triangles.corners, hit,
+               b1, b2, depth)
     rgb, _ = shade_buffers(RasterBuffers(hit, b1, b2, depth), triangles, scene, mirrored_eye)
     return rgb, hit >= 0
 
 
 @njit(cache=True, parallel=True)
-def _intersect(triangle, dirs, r3, origin, corners, hit, b1, b2, depth):
+def _intersect(triangle, axes, origin, corners, hit, b1, b2, depth):
     """Moller-Trumbore against the triangle's plane (barycentrics unbounded, clamped to
     [-1, 2] so that a neighbour's point a little past the edge extrapolates sanely)."""
     h, w = triangle.shape
+    ox, oy, oz = origin[0], origin[1], origin[2]
     for y in prange(h):
+        yn = 1.0 - 2.0 * (y + 0.5) / h
         for x in range(w):
             t = triangle[y, x]
             if t < 0:
                 continue
-            d = r3 @ dirs[y, x]
-            v0 = corners[t, 0].astype(np.float64)
-            e1 = corners[t, 1].astype(np.float64) - v0
-            e2 = corners[t, 2].astype(np.float64) - v0
-            p = np.cross(d, e2)
-            det = e1 @ p
-            if abs(det) < 1e-12 * (np.sqrt(e1 @ e1) * np.sqrt(e2 @ e2) * np.sqrt(d @ d)):
+            xn = 2.0 * (x + 0.5) / w - 1.0
+            dx = xn * axes[0, 0] + yn * axes[1, 0] - axes[2, 0]
+            dy = xn * axes[0, 1] + yn * axes[1, 1] - axes[2, 1]
+            dz = xn * axes[0, 2] + yn * axes[1, 2] - axes[2, 2]
+            v0x, v0y, v0z = corners[t, 0, 0], corners[t, 0, 1], corners[t, 0, 2]
+            e1x, e1y, e1z = corners[t, 1, 0] - v0x, corners[t, 1, 1] - v0y, corners[t, 1, 2] - v0z
+            e2x, e2y, e2z = corners[t, 2, 0] - v0x, corners[t, 2, 1] - v0y, corners[t, 2, 2] - v0z
+            px = dy * e2z - dz * e2y
+            py = dz * e2x - dx * e2z
+            pz = dx * e2y - dy * e2x
+            det = e1x * px + e1y * py + e1z * pz
+            scale = (math.sqrt(e1x * e1x + e1y * e1y + e1z * e1z)
+                     * math.sqrt(e2x * e2x + e2y * e2y + e2z * e2z)
+                     * math.sqrt(dx * dx + dy * dy + dz * dz))
+            if abs(det) <= 1e-12 * scale:
                 hit[y, x] = -1
                 continue
             inv = 1.0 / det
-            s = origin - v0
-            u = (s @ p) * inv
-            q = np.cross(s, e1)
-            v = (d @ q) * inv
-            dist = (e2 @ q) * inv
+            sx, sy, sz = ox - v0x, oy - v0y, oz - v0z
+            u = (sx * px + sy * py + sz * pz) * inv
+            qx = sy * e1z - sz * e1y
+            qy = sz * e1x - sx * e1z
+            qz = sx * e1y - sy * e1x
+            v = (dx * qx + dy * qy + dz * qz) * inv
+            dist = (e2x * qx + e2y * qy + e2z * qz) * inv
             if not dist > 0.0:
                 hit[y, x] = -1
                 continue
