@@ -82,14 +82,21 @@ def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, r
         for u in range(mw):
             k = v * mw + u
             d = depth[v, u]
-            delta = 0.0 if d == np.inf else 1.0 / d
-            cx = w[0, 0] * u + r0 + w[0, 3] * delta
-            cy = w[1, 0] * u + r1 + w[1, 3] * delta
-            cw = w[3, 0] * u + r3 + w[3, 3] * delta
-            if delta > 0.0:
-                zz = cw / delta
+            a0 = w[0, 0] * u + r0
+            a1 = w[1, 0] * u + r1
+            a3 = w[3, 0] * u + r3
+            if d < np.inf:
+                # d * clip: the same point (d > 0), without dividing by d; its w is then the
+                # eye depth in the target camera
+                cx = a0 * d + w[0, 3]
+                cy = a1 * d + w[1, 3]
+                cw = a3 * d + w[3, 3]
+                zz = cw
                 ok = zz > near
-            else:
+            else:  # delta = 0: a direction
+                cx = a0
+                cy = a1
+                cw = a3
                 zz = np.inf
                 ok = cw > 0.0
             if not ok:
