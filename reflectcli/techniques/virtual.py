@@ -13,6 +13,7 @@ reflector's pixels and blended.
 | `tessellation.subdivisions` | int | 7 | each reflected triangle split n x n (paper: 7x7) |
 | `tessellation.max_edge` | float | (unset) | and further until no edge is longer (world) |
 | `tessellation.max_edge_radii` | float | 1.0 | the same in reflector radii, if no max_edge |
+| `tessellation.min_edge_radii` | float | 0.05 | no split into edges shorter (reflector radii) |
 | `reflector_test` | "none", "clip_planes", "zbuffer" | "zbuffer" | front-of-reflector test |
 | `decompose` | "auto", "none" | "auto" | split mesh reflectors into convex and concave parts |
 | `decompose_overrides` | {mirror = "auto" or "none"} | {} | per-mirror choice |
@@ -37,6 +38,7 @@ reflector's bounding box that face the viewer, `none` leaves doubly virtual poly
 
 from __future__ import annotations
 
+import hashlib
 import time
 from typing import Literal
 
@@ -66,7 +68,7 @@ from ..virtual.mesh import (
     vertex_convexity,
     weld,
 )
-from ..virtual.refine import BOUNDARY, EXACT, NONE, refine_virtual, reflector_grid
+from ..virtual.refine import BOUNDARY, EXACT, NONE, PartTiles, refine_virtual, reflector_grid
 from .base import Technique
 
 
@@ -85,6 +87,8 @@ class TessellationParams(Strict):
     max_edge: float | None = Field(default=None, gt=0, description="longest edge (world)")
     max_edge_radii: float | None = Field(
         default=1.0, gt=0, description="longest edge in reflector radii (if no max_edge)")
+    min_edge_radii: float | None = Field(
+        default=0.05, ge=0, description="no split into edges shorter, in reflector radii")
 
 
 class VirtualParams(Strict):
@@ -137,7 +141,7 @@ class Virtual(Technique):
                 stencil, virtual_fn = item
                 t0 = time.perf_counter()
                 points = tess.points
-                virtual, hidden = virtual_fn(points)
+                virtual, hidden = virtual_fn(points, tess.corner_index)
                 virtual = virtual[tess.corner_index]
                 # polygons wholly in the hidden region are not reflected (the paper drops
                 # them); mixed ones keep their doubly virtual vertices
@@ -160,13 +164,16 @@ class Virtual(Technique):
         """Everything but reflector k, tessellated for it (cached per geometry state)."""
         t = self.params.tessellation
         sid = scene.n_objects + k
+        pts = geometry.mirror_tris.corners[geometry.mirror_tris.surface == sid]
+        pts = pts.reshape(-1, 3).astype(np.float64)
+        radius = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).max())
         max_edge = t.max_edge
         if max_edge is None and t.max_edge_radii is not None:
-            pts = geometry.mirror_tris.corners[geometry.mirror_tris.surface == sid]
-            pts = pts.reshape(-1, 3).astype(np.float64)
-            radius = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).max())
             max_edge = t.max_edge_radii * radius
-        key = (geometry.key, k, t.subdivisions, max_edge)
+        # a fine mesh (a sphere of 48 segments) gains nothing from n x n more: its triangles
+        # are split only as far as edges of min_edge_radii reflector radii
+        min_edge = (t.min_edge_radii or 0.0) * radius
+        key = (geometry.key, k, t.subdivisions, max_edge, min_edge)
         cache = state["tessellated"]
         if key not in cache:
             if len(cache) > 16:
@@ -180,7 +187,7 @@ class Virtual(Technique):
                                    1, None)):
                 parts.append(tessellate(Triangles(*(a[keep] for a in (
                     tris.corners, tris.uvs, tris.normals, tris.material, tris.surface))),
-                    n, edge))
+                    n, edge, min_edge))
             cache[key] = concatenate_tessellations(parts)
         return cache[key]
 
@@ -209,19 +216,19 @@ class Virtual(Technique):
                 n, d = -n, -d
             # points on or behind the plane (a wall the mirror hangs on) are not reflected:
             # they count as hidden, and _draw clips virtual geometry to behind the plane
-            yield stencil_all, lambda pts: (reflect_point(pts, n, d), pts @ n + d <= 0.0)
+            yield stencil_all, lambda pts, _=None: (reflect_point(pts, n, d), pts @ n + d <= 0.0)
             return
         if method == "sphere":
-            yield stencil_all, lambda pts: sphere_virtual_vertices(pts, eye, p[:3], p[3])
+            yield stencil_all, lambda pts, _=None: sphere_virtual_vertices(pts, eye, p[:3], p[3])
             return
         if method == "extrusion" and kind == CYLINDER:
-            yield stencil_all, lambda pts: cylinder_virtual_vertices(pts, eye, p[:3], p[3:6],
-                                                                     p[6])
+            yield stencil_all, lambda pts, _=None: cylinder_virtual_vertices(
+                pts, eye, p[:3], p[3:6], p[6])
             return
         if method == "extrusion":
             profile, normals, frame, _ = scene.mirror_profiles[k]
-            yield stencil_all, lambda pts: profile_virtual_vertices(pts, eye, profile, normals,
-                                                                    frame)
+            yield stencil_all, lambda pts, _=None: profile_virtual_vertices(
+                pts, eye, profile, normals, frame)
             return
         tris = primary.triangles
         first = int(np.flatnonzero(tris.surface == sid)[0])
@@ -229,7 +236,7 @@ class Virtual(Technique):
         mesh = weld(tris.corners[first:first + count], tris.normals[first:first + count])
         name = scene.mirrors.names[k]
         mode = self.params.decompose_overrides.get(name, self.params.decompose)
-        parts = convexity_parts(mesh) if mode == "auto" else [np.arange(len(mesh.faces))]
+        parts = self._decompose(mesh) if mode == "auto" else [np.arange(len(mesh.faces))]
         buffer_face = np.where(primary.buffers.triangle >= first,
                                primary.buffers.triangle - first, -1)
         buffer_face[buffer_face >= count] = -1
@@ -254,6 +261,18 @@ class Virtual(Technique):
             yield stencil, self._explosion_fn(part, faces, count, camera, alone, scene_points,
                                               grid)
 
+    def _decompose(self, mesh: IndexedMesh) -> list[np.ndarray]:
+        """convexity_parts, kept per reflector shape: it depends on the mesh alone, and a
+        reflector that does not deform keeps its parts from frame to frame."""
+        key = hashlib.blake2b(mesh.vertices.tobytes() + mesh.normals.tobytes()
+                              + mesh.faces.tobytes(), digest_size=16).hexdigest()
+        cache = self.__dict__.setdefault("_parts_cache", {})
+        if key not in cache:
+            if len(cache) > 16:
+                cache.clear()
+            cache[key] = convexity_parts(mesh)
+        return cache[key]
+
     def _explosion_fn(self, part: IndexedMesh, faces, count, camera, alone, scene_points,
                       grid=None):
         params = self.params.explosion
@@ -277,33 +296,59 @@ class Virtual(Technique):
         screen = _project(part.vertices, world_to_clip, camera)[:, :2]
         inside = (hidden_map >= 0) if grid is not None else None
 
-        def fn(points: np.ndarray) -> np.ndarray:
-            proj = _project(points, world_to_clip, camera)
-            finite = np.isfinite(proj[:, 0]) & np.isfinite(proj[:, 1]) & (proj[:, 2] > 0)
-            x = np.floor(np.where(finite, proj[:, 0], -1)).astype(np.int64)
-            y = np.floor(np.where(finite, proj[:, 1], -1)).astype(np.int64)
-            ok = finite & (x >= 0) & (y >= 0) & (x < camera.width) & (y < camera.height)
-            face = np.full(len(points), -1, np.int64)
-            xs, ys = x[ok], y[ok]
-            behind = proj[ok, 2] > depth[ys, xs]
-            face[np.flatnonzero(ok)[behind]] = hidden_map[ys[behind], xs[behind]]
-            virtual, flags = virtual_vertices(maps, points, face, proj[:, :2].copy(), screen,
-                                              flip)
-            if grid is not None:
-                # seeds: where the map's virtual vertices land on the screen (on the eye ray
-                # through the reflection point the map found)
-                seeds = _project(virtual, world_to_clip, camera)[:, :2]
-                # hidden points too: one behind the reflector may still be reflected near
-                # its silhouette; where no reflection is found it keeps its doubly virtual one
-                refined, status = refine_virtual(points, seeds, inside, grid[0], grid[1],
-                                                 camera.eye)
-                found = status != NONE
-                virtual[found] = refined[found]
-                flags = (flags & (status != EXACT)) | (status == BOUNDARY)
+        tiles = PartTiles(inside, grid[0], grid[1]) if grid is not None else None
+
+        def fn(points: np.ndarray, polygons: np.ndarray | None = None):
+            """(virtual points, flags). With `polygons` (T, 3) point indices, points no
+            ray of this part can reach are skipped (flagged, left in place) unless a polygon
+            joins them to one it can: most points of a scene miss most parts of a mixed
+            reflector."""
+            n = len(points)
+            todo = np.ones(n, bool)
+            retry = None
+            if tiles is not None:
+                reach, retry = tiles.scan(points, grid[0], grid[1])
+                if polygons is not None:
+                    todo = reach.copy()
+                    todo[polygons[reach[polygons].any(axis=1)].ravel()] = True
+            virtual = points.astype(np.float64).copy()
+            flags = np.ones(n, bool)
+            if todo.any():
+                virtual[todo], flags[todo] = self._part_vertices(
+                    points[todo], world_to_clip, camera, depth, hidden_map, maps, screen, flip,
+                    grid, inside, None if retry is None else retry[todo])
             return virtual, flags
 
         fn.maps = maps  # for tests and figures
         return fn
+
+    @staticmethod
+    def _part_vertices(points, world_to_clip, camera, depth, hidden_map, maps, screen, flip,
+                       grid, inside, retry):
+        """Virtual vertices of `points` on one part: explosion maps (hidden points through
+        the hidden map), then the refinement on the part's pixels."""
+        proj = _project(points, world_to_clip, camera)
+        finite = np.isfinite(proj[:, 0]) & np.isfinite(proj[:, 1]) & (proj[:, 2] > 0)
+        x = np.floor(np.where(finite, proj[:, 0], -1)).astype(np.int64)
+        y = np.floor(np.where(finite, proj[:, 1], -1)).astype(np.int64)
+        ok = finite & (x >= 0) & (y >= 0) & (x < camera.width) & (y < camera.height)
+        face = np.full(len(points), -1, np.int64)
+        xs, ys = x[ok], y[ok]
+        behind = proj[ok, 2] > depth[ys, xs]
+        face[np.flatnonzero(ok)[behind]] = hidden_map[ys[behind], xs[behind]]
+        virtual, flags = virtual_vertices(maps, points, face, proj[:, :2].copy(), screen, flip)
+        if grid is not None:
+            # seeds: where the map's virtual vertices land on the screen (on the eye ray
+            # through the reflection point the map found); hidden points too: one behind the
+            # reflector may still be reflected near its silhouette; where no reflection is
+            # found it keeps its doubly virtual vertex
+            seeds = _project(virtual, world_to_clip, camera)[:, :2]
+            refined, status = refine_virtual(points, seeds, inside, grid[0], grid[1],
+                                             camera.eye, retry)
+            found = status != NONE
+            virtual[found] = refined[found]
+            flags = (flags & (status != EXACT)) | (status == BOUNDARY)
+        return virtual, flags
 
     def _draw(self, scene, primary, camera, reflected, virtual, dropped, stencil,
               k) -> np.ndarray:

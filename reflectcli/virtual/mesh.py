@@ -183,14 +183,22 @@ def subdivide(tris: Triangles, n: int) -> Tessellation:
     return Tessellation(out, points, corner_index)
 
 
-def tessellate(tris: Triangles, subdivisions: int, max_edge: float | None) -> Tessellation:
-    """Each triangle split n x n, n = max(subdivisions, ceil(longest edge / max_edge)):
-    the paper's per-object grid, refined where triangles are large against the reflector."""
-    if max_edge is None or tris.count == 0:
+def tessellate(tris: Triangles, subdivisions: int, max_edge: float | None,
+               min_edge: float = 0.0) -> Tessellation:
+    """Each triangle split n x n, n = max(subdivisions, ceil(longest edge / max_edge)): the
+    paper's per-object grid, refined where triangles are large against the reflector; but
+    never into edges under `min_edge` (n <= longest / min_edge), so fine meshes stay fine
+    without multiplying their points."""
+    if tris.count == 0 or (max_edge is None and min_edge <= 0.0):
         return subdivide(tris, subdivisions)
     c = tris.corners.astype(np.float64)
     longest = np.max(np.linalg.norm(c - np.roll(c, 1, axis=1), axis=2), axis=1)
-    n = np.minimum(np.maximum(subdivisions, np.ceil(longest / max_edge)), 256).astype(np.int64)
+    n = np.full(tris.count, float(subdivisions))
+    if max_edge is not None:
+        n = np.maximum(n, np.ceil(longest / max_edge))
+    if min_edge > 0.0:
+        n = np.minimum(n, np.maximum(1.0, np.floor(longest / min_edge)))
+    n = np.minimum(n, 256).astype(np.int64)
     parts = []
     for value in np.unique(n):
         pick = n == value

@@ -63,23 +63,22 @@ NONE, EXACT, BOUNDARY = 0, 1, 2
 
 
 def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q: np.ndarray,
-                   r: np.ndarray, eye: np.ndarray, iterations: int = 20,
-                   lattice_size: int = 256) -> tuple[np.ndarray, np.ndarray]:
+                   r: np.ndarray, eye: np.ndarray, retry_seeds: np.ndarray | None = None,
+                   iterations: int = 20) -> tuple[np.ndarray, np.ndarray]:
     """Virtual vertices of `points` (N, 3) by the search above, from screen positions `seeds`
     (N, 2, pixels; NaN: no seed) within the pixels where `inside` (H, W) holds. A point whose
     seed does not lead to its reflection (outside the part, or a walk blocked by a hole in
-    it) tries again from the best of about `lattice_size` pixels spread over the part.
+    it) tries again from `retry_seeds` (N, 2; see PartTiles.scan).
     Returns (virtual points (N, 3), status (N,) int8): EXACT where the reflection was found,
     BOUNDARY where the search left the part (see _walk), NONE (rows NaN) where it never
     sampled the part."""
     out = np.full(points.shape, np.nan)
     ok = np.zeros(points.shape[0], np.int8)
-    ys, xs = np.nonzero(inside)
-    stride = max(1, int(np.ceil(np.sqrt(xs.size / max(lattice_size, 1)))))
-    keep = (xs % stride == 0) & (ys % stride == 0)
-    lattice = np.stack([xs[keep] + 0.5, ys[keep] + 0.5], axis=1).astype(np.float64)
+    if retry_seeds is None:
+        retry_seeds = np.full(points.shape[:1] + (2,), np.nan)
     _refine(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(seeds, np.float64),
-            inside, q, r, np.asarray(eye, np.float64), iterations, lattice, out, ok)
+            inside, q, r, np.asarray(eye, np.float64), iterations,
+            np.ascontiguousarray(retry_seeds, np.float64), out, ok)
     return out, ok
 
 
@@ -215,7 +214,7 @@ def _walk(p, inside, q, r, sx, sy, iterations, q_ext, rr):
 
 
 @njit(cache=True, parallel=True)
-def _refine(points, seeds, inside, q, r, eye, iterations, lattice, out, ok):
+def _refine(points, seeds, inside, q, r, eye, iterations, retry, out, ok):
     for k in prange(points.shape[0]):
         p = points[k]
         q_ext = np.empty(3)
@@ -223,25 +222,10 @@ def _refine(points, seeds, inside, q, r, eye, iterations, lattice, out, ok):
         status = NONE
         if np.isfinite(seeds[k, 0]) and np.isfinite(seeds[k, 1]):
             status = _walk(p, inside, q, r, seeds[k, 0], seeds[k, 1], iterations, q_ext, rr)
-        if status != EXACT and lattice.shape[0] > 0:
-            # the pixel of the lattice whose reflected ray passes closest to p
-            best = np.inf
-            bi = 0
-            for j in range(lattice.shape[0]):
-                x = int(lattice[j, 0])
-                y = int(lattice[j, 1])
-                d0 = p[0] - q[y, x, 0]
-                d1 = p[1] - q[y, x, 1]
-                d2 = p[2] - q[y, x, 2]
-                inv = 1.0 / max(math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), 1e-30)
-                e = ((d0 * inv - r[y, x, 0]) ** 2 + (d1 * inv - r[y, x, 1]) ** 2
-                     + (d2 * inv - r[y, x, 2]) ** 2)
-                if e < best:
-                    best = e
-                    bi = j
+        if status != EXACT and np.isfinite(retry[k, 0]):
             q2 = np.empty(3)
             r2 = np.empty(3)
-            again = _walk(p, inside, q, r, lattice[bi, 0], lattice[bi, 1], iterations, q2, r2)
+            again = _walk(p, inside, q, r, retry[k, 0], retry[k, 1], iterations, q2, r2)
             if again == EXACT or (status == NONE and again != NONE):
                 status = again
                 for i in range(3):
@@ -256,3 +240,97 @@ def _refine(points, seeds, inside, q, r, eye, iterations, lattice, out, ok):
         for i in range(3):
             out[k, i] = eye[i] + e[i] / le * (le + lp)
         ok[k] = status
+
+
+class PartTiles:
+    """A part's pixels in square tiles, each with a bound on where its reflected rays go:
+    (center, radius) of its points Q and (axis, half-angle) of its directions R. A ray from
+    Q along R through P leaves P - center within asin(radius / |P - center|) of R, and R is
+    within the half-angle of the axis, so a point outside every tile's cone (plus a margin
+    for directions between pixel centers) is reflected nowhere in the part."""
+
+    def __init__(self, inside: np.ndarray, q: np.ndarray, r: np.ndarray, size: int = 12,
+                 margin_degrees: float = 2.0) -> None:
+        ys, xs = np.nonzero(inside)
+        tile = (ys // size) * (inside.shape[1] // size + 1) + xs // size
+        order = np.argsort(tile, kind="stable")
+        ids, starts = np.unique(tile[order], return_index=True)
+        bounds = np.append(starts, order.size)
+        n = ids.size
+        self.center = np.empty((n, 3))
+        self.radius = np.empty(n)
+        self.axis = np.empty((n, 3))
+        self.half = np.empty(n)
+        self.pixel = np.empty((n, 2))
+        for j in range(n):
+            sel = order[bounds[j]:bounds[j + 1]]
+            pts = q[ys[sel], xs[sel]]
+            dirs = r[ys[sel], xs[sel]]
+            c = pts.mean(axis=0)
+            a = dirs.sum(axis=0)
+            a /= max(float(np.linalg.norm(a)), 1e-30)
+            self.center[j] = c
+            self.radius[j] = np.linalg.norm(pts - c, axis=1).max()
+            self.axis[j] = a
+            self.half[j] = np.arccos(np.clip(dirs @ a, -1.0, 1.0)).max()
+            mid = np.argmin(np.linalg.norm(pts - c, axis=1))  # the pixel nearest the middle
+            self.pixel[j] = xs[sel][mid] + 0.5, ys[sel][mid] + 0.5
+        self.margin = math.radians(margin_degrees)
+
+    def scan(self, points: np.ndarray, q: np.ndarray, r: np.ndarray):
+        """(reach (N,) bool: some tile's cone holds the point; seeds (N, 2): the middle pixel
+        of the tile whose ray passes closest to it, among the tiles that reach it, else
+        among all)."""
+        reach = np.zeros(points.shape[0], np.bool_)
+        seeds = np.full((points.shape[0], 2), np.nan)
+        _scan(np.ascontiguousarray(points, np.float64), self.center, self.radius, self.axis,
+              self.half, self.pixel, self.margin, q, r, reach, seeds)
+        return reach, seeds
+
+
+@njit(cache=True, parallel=True)
+def _scan(points, center, radius, axis, half, pixel, margin, q, r, reach, seeds):
+    cos_a = np.cos(half + margin)
+    sin_a = np.sin(half + margin)
+    for k in prange(points.shape[0]):
+        p = points[k]
+        best_in = np.inf
+        best_any = np.inf
+        j_in = -1
+        j_any = -1
+        for j in range(center.shape[0]):
+            v0 = p[0] - center[j, 0]
+            v1 = p[1] - center[j, 1]
+            v2 = p[2] - center[j, 2]
+            dist = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+            x = int(pixel[j, 0])
+            y = int(pixel[j, 1])
+            d0 = p[0] - q[y, x, 0]
+            d1 = p[1] - q[y, x, 1]
+            d2 = p[2] - q[y, x, 2]
+            inv = 1.0 / max(math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), 1e-30)
+            e = ((d0 * inv - r[y, x, 0]) ** 2 + (d1 * inv - r[y, x, 1]) ** 2
+                 + (d2 * inv - r[y, x, 2]) ** 2)
+            if e < best_any:
+                best_any = e
+                j_any = j
+            inside = dist <= radius[j] * 1.001
+            if not inside:
+                # angle <= half + margin + spread, as cosines (no trigonometry per test):
+                # cos(a + s) = cos a cos s - sin a sin s with sin s = radius / dist
+                a = half[j] + margin
+                sin_s = radius[j] / dist
+                if sin_s >= 1.0 or (a >= 0.5 * math.pi and a + math.asin(sin_s) >= math.pi):
+                    inside = True
+                else:
+                    c = (v0 * axis[j, 0] + v1 * axis[j, 1] + v2 * axis[j, 2]) / dist
+                    bound = (cos_a[j] * math.sqrt(1.0 - sin_s * sin_s) - sin_a[j] * sin_s)
+                    inside = c >= bound
+            if inside and e < best_in:
+                best_in = e
+                j_in = j
+        reach[k] = j_in >= 0
+        j = j_in if j_in >= 0 else j_any
+        if j >= 0:
+            seeds[k, 0] = pixel[j, 0]
+            seeds[k, 1] = pixel[j, 1]
