@@ -356,3 +356,62 @@ def test_mask_decomposes_into_its_pieces():
     for name, (_, convexity) in found.items():
         assert convexity == (-1 if "socket" in name else 1), name
     assert len(parts) <= 20
+
+
+def test_part_tiles_never_cull_a_reflected_point():
+    """Points put on reflected rays of the mask's pixels (P = Q + t R) are always within
+    some tile's cone of the part those pixels belong to, and the scan seeds them nearby."""
+    from conftest import SCENES
+
+    from reflectcli.camera import camera_from_config
+    from reflectcli.config.load import load_config
+    from reflectcli.raster.rasterize import rasterize
+    from reflectcli.scene.build import build_scene
+    from reflectcli.virtual.refine import PartTiles, reflector_grid
+
+    path = str(SCENES / "mask.toml")
+    cfg, _ = load_config(path, ["camera.width=160", "camera.height=160"], "virtual")
+    scene = build_scene(cfg, path)
+    cam = camera_from_config(cfg.camera, 0)
+    tris = scene.geometry(0).mirror_tris
+    alone = rasterize(tris.corners, np.zeros(tris.count, np.uint8),
+                      cam.projection_matrix() @ cam.view_matrix(), cam.width, cam.height)
+    q, r = reflector_grid(alone.triangle, alone.b1, alone.b2, tris.corners, tris.normals,
+                          cam.eye)
+    inside = alone.triangle >= 0
+    tiles = PartTiles(inside, q, r, size=8)
+    ys, xs = np.nonzero(inside)
+    rng = np.random.default_rng(0)
+    pick = rng.choice(len(ys), 500, replace=False)
+    t = rng.uniform(0.05, 5.0, 500)[:, None]
+    points = q[ys[pick], xs[pick]] + t * r[ys[pick], xs[pick]]
+    reach, seeds = tiles.scan(points, q, r)
+    assert reach.all()
+    assert np.isfinite(seeds).all()
+    far = np.array([[0.0, 1.75, -30.0]])  # far behind the mask: no ray goes there
+    assert not tiles.scan(far, q, r)[0].any()
+
+
+def test_fine_meshes_are_not_split_below_min_edge():
+    from reflectcli.scene.types import Triangles
+    from reflectcli.virtual.mesh import tessellate
+
+    def tri(size):
+        c = np.array([[[0, 0, 0], [size, 0, 0], [0, size, 0]]], np.float32)
+        return Triangles(c, np.zeros((1, 3, 2), np.float32), np.tile([0, 0, 1.0], (1, 3, 1)),
+                         np.zeros(1, np.int32), np.zeros(1, np.int32))
+
+    assert tessellate(tri(1.0), 7, 10.0, 0.05).triangles.count == 49  # 7 x 7
+    assert tessellate(tri(0.1), 7, 10.0, 0.05).triangles.count == 4  # 2 x 2 at most
+    assert tessellate(tri(0.04), 7, 10.0, 0.05).triangles.count == 1
+    assert tessellate(tri(0.04), 7, None).triangles.count == 49  # no floor: the paper's n
+
+
+def test_mask_virtual_beats_envmap():
+    """Fig. 19: the mixed reflector through its parts (measured at 512x512: 10.9 dB against
+    envmap's 4.6; 14.1 with max_edge_radii 0.25)."""
+    small = ("camera.width=256", "camera.height=256")
+    ref, _ = render_frame("mask", "raytrace", 0, ("technique.max_depth=1", *small))
+    out, _ = render_frame("mask", "virtual", 0, small)
+    env, _ = render_frame("mask", "envmap", 0, small)
+    assert _mirror_psnr(out, ref) > _mirror_psnr(env, ref) + 4.0
