@@ -23,10 +23,11 @@ from ..scene.types import Scene, Triangles
 
 
 def surface_colors(triangle: np.ndarray, camera: Camera, reflection: np.ndarray,
-                   mirrored_eye: np.ndarray, triangles: Triangles,
-                   scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+                   mirrored_eye: np.ndarray, plane: tuple[np.ndarray, float],
+                   triangles: Triangles, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """(rgb (H, W, 3) float32, shaded (H, W) bool) for the pixels whose `triangle` (H, W,
-    index into `triangles`, -1: none) their reflected ray meets in front of the mirror."""
+    index into `triangles`, -1: none) their reflected ray meets in front of the mirror
+    (`plane` = (unit normal, d), world)."""
     h, w = triangle.shape
     b1 = np.zeros((h, w), np.float32)
     b2 = np.zeros((h, w), np.float32)
@@ -37,18 +38,20 @@ def surface_colors(triangle: np.ndarray, camera: Camera, reflection: np.ndarray,
     # the camera's pixel-center rays (world), reflected: d = x_ndc * X + y_ndc * Y - Z
     r3 = np.asarray(reflection[:3, :3], np.float64)
     axes = np.stack([r3 @ (right * t * camera.aspect), r3 @ (up * t), r3 @ back])
-    _intersect(triangle, axes, np.asarray(mirrored_eye, np.float64), triangles.corners, hit,
-               b1, b2, depth)
+    n, d = plane
+    _intersect(triangle, axes, np.asarray(mirrored_eye, np.float64), triangles.corners,
+               np.asarray(n, np.float64), float(d), hit, b1, b2, depth)
     rgb, _ = shade_buffers(RasterBuffers(hit, b1, b2, depth), triangles, scene, mirrored_eye)
     return rgb, hit >= 0
 
 
 @njit(cache=True, parallel=True)
-def _intersect(triangle, axes, origin, corners, hit, b1, b2, depth):
+def _intersect(triangle, axes, origin, corners, normal, offset, hit, b1, b2, depth):
     """Moller-Trumbore against the triangle's plane (barycentrics unbounded, clamped to
     [-1, 2] so that a neighbour's point a little past the edge extrapolates sanely)."""
     h, w = triangle.shape
     ox, oy, oz = origin[0], origin[1], origin[2]
+    side = normal[0] * ox + normal[1] * oy + normal[2] * oz + offset  # the origin's, signed
     for y in prange(h):
         yn = 1.0 - 2.0 * (y + 0.5) / h
         for x in range(w):
@@ -80,7 +83,10 @@ def _intersect(triangle, axes, origin, corners, hit, b1, b2, depth):
             qz = sx * e1y - sy * e1x
             v = (dx * qx + dy * qy + dz * qz) * inv
             dist = (e2x * qx + e2y * qy + e2z * qz) * inv
-            if not dist > 0.0:
+            # beyond the mirror: where the ray crosses its plane, from the origin's side
+            dn = normal[0] * dx + normal[1] * dy + normal[2] * dz
+            crossing = -side / dn if dn != 0.0 else np.inf
+            if not (dist > 0.0 and dist > crossing):
                 hit[y, x] = -1
                 continue
             b1[y, x] = min(max(u, -1.0), 2.0)

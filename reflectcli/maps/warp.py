@@ -12,10 +12,12 @@ to the constant `near`, which the projective form absorbs; storing eye-space dep
 exact for the oblique capture projection, whose window z is not that of a plain one.
 
 Visibility: `zbuffer` keeps, per pixel, a zexel of the surface nearest the eye, and of that
-surface's zexels (eye depth within SAME_SURFACE of the nearest) the one that lands nearest
-the pixel's center (ties to the lower id). Keeping simply the nearest depth would pick, on a
-slanted surface, the zexel on the near edge of the pixel, a bias that grows as maps get
-denser; the center rule makes a denser map converge on the point sample at the center.
+surface's zexels (eye depth within SAME_SURFACE) the one that lands nearest the pixel's
+center (ties to the lower id); where a surface's zexels in one pixel span more than
+SAME_SURFACE in depth (grazing views), which of them is kept can depend on their order.
+Keeping simply the nearest depth would pick, on a slanted surface, the zexel on the near
+edge of the pixel, a bias that grows as maps get denser; the center rule makes a denser
+map converge on the point sample at the center.
 `ordered` paints each map in McMillan's occlusion-compatible order (later overwrite),
 z-testing only against other maps. Both run one band of screen rows per task over zexels
 skipping map rows that cannot reach it, so results do not depend on the thread count.
@@ -85,7 +87,13 @@ def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, r
             a0 = w[0, 0] * u + r0
             a1 = w[1, 0] * u + r1
             a3 = w[3, 0] * u + r3
-            if d < np.inf:
+            if d == np.inf:  # delta = 0: a direction
+                cx = a0
+                cy = a1
+                cw = a3
+                zz = np.inf
+                ok = cw > 0.0
+            elif d > 0.0:
                 # d * clip: the same point (d > 0), without dividing by d; its w is then the
                 # eye depth in the target camera
                 cx = a0 * d + w[0, 3]
@@ -93,12 +101,9 @@ def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, r
                 cw = a3 * d + w[3, 3]
                 zz = cw
                 ok = zz > near
-            else:  # delta = 0: a direction
-                cx = a0
-                cy = a1
-                cw = a3
-                zz = np.inf
-                ok = cw > 0.0
+            else:  # NaN or a non-positive depth: not a zexel
+                ok = False
+                cx = cy = cw = zz = 0.0
             if not ok:
                 sx[k] = np.nan
                 continue
@@ -188,7 +193,7 @@ SAME_SURFACE = 0.01  # relative eye-depth difference within which two zexels are
 
 
 def splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_zd, best_id,
-          ordered: bool) -> None:
+          ordered: bool, bands: int | None = None) -> None:
     """Write the zexels, visited run by run, into the per-pixel buffers over `stencil`:
     best_zd (H, W, 2) float32 (front depth, squared distance of the kept zexel to the pixel
     center) and best_id; ids are slot * stride + zexel index. `row_lo`/`row_hi`: per map row, the
@@ -196,12 +201,14 @@ def splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, bes
 
     One band of screen rows per task: each band visits every run but skips the map rows
     that cannot reach it, so the work per band stays close to the zexels that land in it,
-    and the result does not depend on the thread count."""
+    and the result does not depend on the thread count. `bands`: how many (default: two a
+    thread)."""
     rows = np.flatnonzero(stencil.any(axis=1))
     if rows.size == 0:
         return
     reach = int(radii.max()) if radii.size else 0
-    bands = max(1, numba.get_num_threads()) * 2
+    if bands is None:
+        bands = max(1, numba.get_num_threads()) * 2
     edges = np.linspace(rows[0], rows[-1] + 1, bands + 1).round().astype(np.int64)
     _splat(sx, sy, z, radii, runs, mw, row_lo - reach, row_hi + reach, slot, stride, stencil,
            best_zd, best_id, edges, ordered)
@@ -247,10 +254,11 @@ def _splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, be
 
 @njit(cache=True, inline="always")
 def _write(y, x, zk, dk, ident, slot, stride, best_zd, best_id, ordered):
-    """The visibility rule at one pixel. z-buffer: a zexel clearly nearer than the front
-    surface so far takes the pixel; one on the front surface (within SAME_SURFACE) takes it
-    if it lands nearer the pixel center (ties to the lower id); best_zd[..., 0] tracks the
-    front, best_zd[..., 1] the kept zexel's squared distance to the center (one cache line).
+    """The visibility rule at one pixel, against the zexel kept so far (its eye depth in
+    best_zd[..., 0], its squared distance to the pixel center in best_zd[..., 1]: one cache
+    line). z-buffer: a zexel more than SAME_SURFACE nearer takes the pixel; one within
+    SAME_SURFACE of it (the same surface) takes it if it lands nearer the center (ties to the
+    lower id). So the kept zexel is never more than SAME_SURFACE behind any that arrived.
     Ordered mode: a zexel of the same map wins regardless (McMillan's order)."""
     current = best_id[y, x]
     bz = best_zd[y, x, 0]
@@ -263,7 +271,7 @@ def _write(y, x, zk, dk, ident, slot, stride, best_zd, best_id, ordered):
         # selects, not branches: which zexel lands nearer the center is close to random
         bd = best_zd[y, x, 1]
         take = (dk < bd) | ((dk == bd) & (ident < current))
-        best_zd[y, x, 0] = min(zk, bz)
+        best_zd[y, x, 0] = zk if take else bz
         best_zd[y, x, 1] = dk if take else bd
         best_id[y, x] = ident if take else current
 

@@ -262,7 +262,8 @@ class Dprm(Technique):
             tri = np.full((h, w), -1, np.int32)
             tri[reached] = np.stack([m.triangle.reshape(-1) for m in maps])[
                 ids // stride, ids % stride]
-            shaded, ok = surface_colors(tri, camera, reflect, mirrored_eye, triangles, scene)
+            shaded, ok = surface_colors(tri, camera, reflect, mirrored_eye, (n, d), triangles,
+                                        scene)
             reflected[ok] = shaded[ok]
         return reflected, reached, len(chosen), zexels
 

@@ -115,10 +115,11 @@ def convexity_parts(mesh: IndexedMesh, flat_degrees: float = 0.5, smallest: floa
             parent[ra] = rb
     # fold regions that are too small into the neighbour sharing most edges with them
     minimum = max(1, int(smallest * nf))
+    islands = set()  # small regions with no neighbour: they stay parts of their own
     while True:
         roots = np.array([find(i) for i in range(nf)])
         sizes = np.bincount(roots, minlength=nf)
-        small = [r for r in np.unique(roots) if sizes[r] < minimum]
+        small = [r for r in np.unique(roots) if sizes[r] < minimum and r not in islands]
         if not small or len(np.unique(roots)) == 1:
             break
         r = min(small, key=lambda x: (sizes[x], x))
@@ -126,7 +127,8 @@ def convexity_parts(mesh: IndexedMesh, flat_degrees: float = 0.5, smallest: floa
         touching = np.concatenate([rb[ra == r], ra[rb == r]])
         touching = touching[touching != r]
         if touching.size == 0:
-            break  # an island: it stays a part of its own
+            islands.add(r)
+            continue
         counts = np.bincount(touching, minlength=nf)
         parent[r] = int(np.argmax(counts))
     roots = np.array([find(i) for i in range(nf)])

@@ -246,26 +246,31 @@ class PartTiles:
     """A part's pixels in square tiles, each with a bound on where its reflected rays go:
     (center, radius) of its points Q and (axis, half-angle) of its directions R. A ray from
     Q along R through P leaves P - center within asin(radius / |P - center|) of R, and R is
-    within the half-angle of the axis, so a point outside every tile's cone (plus a margin
-    for directions between pixel centers) is reflected nowhere in the part."""
+    within the half-angle of the axis, so a point outside every tile's cone is reflected
+    nowhere in the part. The search samples Q and R bilinearly from 2x2 blocks of pixels,
+    which may straddle tiles: each tile's bound therefore also takes in the pixel row above
+    and the column left of it, so that every block lies within one tile's pixels (whose ball
+    and cone, being convex, hold the block's blends); the margin covers rounding."""
 
     def __init__(self, inside: np.ndarray, q: np.ndarray, r: np.ndarray, size: int = 12,
-                 margin_degrees: float = 2.0) -> None:
+                 margin_degrees: float = 1.0) -> None:
+        h, w = inside.shape
         ys, xs = np.nonzero(inside)
-        tile = (ys // size) * (inside.shape[1] // size + 1) + xs // size
-        order = np.argsort(tile, kind="stable")
-        ids, starts = np.unique(tile[order], return_index=True)
-        bounds = np.append(starts, order.size)
-        n = ids.size
+        tiles = np.unique((ys // size) * (w // size + 1) + xs // size)
+        n = tiles.size
         self.center = np.empty((n, 3))
         self.radius = np.empty(n)
         self.axis = np.empty((n, 3))
         self.half = np.empty(n)
         self.pixel = np.empty((n, 2))
-        for j in range(n):
-            sel = order[bounds[j]:bounds[j + 1]]
-            pts = q[ys[sel], xs[sel]]
-            dirs = r[ys[sel], xs[sel]]
+        for j, t in enumerate(tiles):
+            ty, tx = divmod(int(t), w // size + 1)
+            y0, x0 = ty * size, tx * size
+            ey, ex = max(y0 - 1, 0), max(x0 - 1, 0)  # grown up and left by a pixel
+            block = inside[ey:y0 + size, ex:x0 + size]
+            by, bx = np.nonzero(block)
+            pts = q[by + ey, bx + ex]
+            dirs = r[by + ey, bx + ex]
             c = pts.mean(axis=0)
             a = dirs.sum(axis=0)
             a /= max(float(np.linalg.norm(a)), 1e-30)
@@ -273,8 +278,9 @@ class PartTiles:
             self.radius[j] = np.linalg.norm(pts - c, axis=1).max()
             self.axis[j] = a
             self.half[j] = np.arccos(np.clip(dirs @ a, -1.0, 1.0)).max()
-            mid = np.argmin(np.linalg.norm(pts - c, axis=1))  # the pixel nearest the middle
-            self.pixel[j] = xs[sel][mid] + 0.5, ys[sel][mid] + 0.5
+            own = (by + ey >= y0) & (bx + ex >= x0)  # the seed: the tile's own middle pixel
+            mid = np.flatnonzero(own)[np.argmin(np.linalg.norm(pts[own] - c, axis=1))]
+            self.pixel[j] = bx[mid] + ex + 0.5, by[mid] + ey + 0.5
         self.margin = math.radians(margin_degrees)
 
     def scan(self, points: np.ndarray, q: np.ndarray, r: np.ndarray):

@@ -358,38 +358,66 @@ def test_mask_decomposes_into_its_pieces():
     assert len(parts) <= 20
 
 
-def test_part_tiles_never_cull_a_reflected_point():
-    """Points put on reflected rays of the mask's pixels (P = Q + t R) are always within
-    some tile's cone of the part those pixels belong to, and the scan seeds them nearby."""
+@pytest.mark.parametrize(("scene", "size"), [("four-spheres", 64), ("four-spheres", 96),
+                                             ("mask", 96)])
+def test_part_tiles_never_cull_a_reflected_point(scene, size):
+    """Points on the rays the search can sample (Q and R blended bilinearly at sub-pixel
+    positions, across tile edges too: P = Q + t R) are within some tile's cone, at low
+    resolutions where R turns fast from pixel to pixel (the bound without the grown
+    tiles missed some on four-spheres)."""
     from conftest import SCENES
 
     from reflectcli.camera import camera_from_config
     from reflectcli.config.load import load_config
     from reflectcli.raster.rasterize import rasterize
     from reflectcli.scene.build import build_scene
-    from reflectcli.virtual.refine import PartTiles, reflector_grid
+    from reflectcli.virtual.refine import PartTiles, _sample, reflector_grid
 
-    path = str(SCENES / "mask.toml")
-    cfg, _ = load_config(path, ["camera.width=160", "camera.height=160"], "virtual")
-    scene = build_scene(cfg, path)
+    path = str(SCENES / f"{scene}.toml")
+    cfg, _ = load_config(path, [f"camera.width={size}", f"camera.height={size}"], "virtual")
+    built = build_scene(cfg, path)
     cam = camera_from_config(cfg.camera, 0)
-    tris = scene.geometry(0).mirror_tris
-    alone = rasterize(tris.corners, np.zeros(tris.count, np.uint8),
+    tris = built.geometry(0).mirror_tris
+    first = tris.surface == built.n_objects  # the first reflector
+    corners, normals = tris.corners[first], tris.normals[first]
+    alone = rasterize(corners, np.zeros(len(corners), np.uint8),
                       cam.projection_matrix() @ cam.view_matrix(), cam.width, cam.height)
-    q, r = reflector_grid(alone.triangle, alone.b1, alone.b2, tris.corners, tris.normals,
-                          cam.eye)
+    q, r = reflector_grid(alone.triangle, alone.b1, alone.b2, corners, normals, cam.eye)
     inside = alone.triangle >= 0
-    tiles = PartTiles(inside, q, r, size=8)
+    tiles = PartTiles(inside, q, r)
+    rng = np.random.default_rng(size)
     ys, xs = np.nonzero(inside)
-    rng = np.random.default_rng(0)
-    pick = rng.choice(len(ys), 500, replace=False)
-    t = rng.uniform(0.05, 5.0, 500)[:, None]
-    points = q[ys[pick], xs[pick]] + t * r[ys[pick], xs[pick]]
-    reach, seeds = tiles.scan(points, q, r)
-    assert reach.all()
+    pick = rng.choice(len(ys), 20000)
+    positions = np.stack([xs[pick], ys[pick]], 1) + rng.uniform(0.0, 1.5, (20000, 2))
+    points = []
+    qq, rr = np.empty(3), np.empty(3)
+    for sx, sy in positions:
+        if _sample(inside, q, r, sx, sy, qq, rr):
+            points.append(qq + rng.uniform(0.05, 5.0) * rr)
+    assert len(points) > 15000
+    reach, seeds = tiles.scan(np.array(points), q, r)
+    assert reach.all(), (~reach).sum()
     assert np.isfinite(seeds).all()
-    far = np.array([[0.0, 1.75, -30.0]])  # far behind the mask: no ray goes there
-    assert not tiles.scan(far, q, r)[0].any()
+    if scene == "mask":  # the culling does cull: nothing goes far behind the mask
+        assert not tiles.scan(np.array([[0.0, 1.75, -30.0]]), q, r)[0].any()
+
+
+def test_decomposition_merges_small_regions_past_an_island():
+    """A lone triangle far from the mask (an island) must not stop the crease slivers from
+    joining their neighbours."""
+    from conftest import SCENES
+
+    from reflectcli.scene.mesh_file import load_mesh_file
+    from reflectcli.virtual.mesh import IndexedMesh, convexity_parts, weld
+
+    soup = load_mesh_file(SCENES / "assets" / "mask.ply")
+    mesh = weld(soup.corners, soup.normals)
+    plain = len(convexity_parts(mesh))
+    v = np.vstack([mesh.vertices, [[10, 0, 0], [11, 0, 0], [10, 1, 0]]])
+    n = np.vstack([mesh.normals, np.tile([0, 0, 1.0], (3, 1))])
+    faces = np.vstack([mesh.faces, [[len(v) - 3, len(v) - 2, len(v) - 1]]])
+    island = IndexedMesh(v, n, faces, np.arange(len(faces)))
+    assert len(convexity_parts(island)) == plain + 1
 
 
 def test_fine_meshes_are_not_split_below_min_edge():
