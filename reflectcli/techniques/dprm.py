@@ -256,16 +256,25 @@ class Dprm(Technique):
         reflected = np.zeros((h, w, 3), np.float32)
         reached = best_id >= 0
         ids = best_id[reached]
-        colors = np.stack([m.color.reshape(-1, 3) for m in maps])
-        reflected[reached] = colors[ids // stride, ids % stride]
+        reflected[reached] = _gather([m.color.reshape(-1, 3) for m in maps], ids, stride)
         if params.reconstruct == "surface" and scene is not None:
             tri = np.full((h, w), -1, np.int32)
-            tri[reached] = np.stack([m.triangle.reshape(-1) for m in maps])[
-                ids // stride, ids % stride]
+            tri[reached] = _gather([m.triangle.reshape(-1) for m in maps], ids, stride)
             shaded, ok = surface_colors(tri, camera, reflect, mirrored_eye, (n, d), triangles,
                                         scene)
             reflected[ok] = shaded[ok]
         return reflected, reached, len(chosen), zexels
+
+
+def _gather(per_map: list[np.ndarray], ids: np.ndarray, stride: int) -> np.ndarray:
+    """Rows of the maps' arrays for warp ids (map slot * stride + zexel index), read map by
+    map rather than from a stack of all the maps (a copy of every zexel each frame)."""
+    slot, index = np.divmod(ids, stride)
+    out = np.empty((ids.size,) + per_map[0].shape[1:], per_map[0].dtype)
+    for j, values in enumerate(per_map):
+        pick = slot == j
+        out[pick] = values[index[pick]]
+    return out
 
 
 def _numbers(values) -> str:
