@@ -8,13 +8,14 @@ import pytest
 from conftest import psnr, render_frame
 
 from reflectcli.camera import Camera, camera_from_config
-from reflectcli.config.load import load_config
 from reflectcli.geometry import reflect_point, reflect_vector, reflection_matrix
+from reflectcli.loading import load_config
 from reflectcli.maps.warp import warp_maps
 from reflectcli.maps.zexel import capture_map, map_camera, mirror_frame
 from reflectcli.raster.primary import render_primary
 from reflectcli.scene.build import build_scene
-from reflectcli.techniques.dprm import Dprm, DprmParams
+from reflectcli.techniques.dprm import DprmParams
+from reflectcli.techniques.dprm.technique import Dprm
 from reflectcli.techniques.registry import TECHNIQUES
 
 BOX = "scenes/teapot-box.toml"

@@ -9,7 +9,7 @@ import trimesh
 from reflectcli.camera import camera_from_config
 from reflectcli.config.scene import SceneConfig
 from reflectcli.scene.build import build_scene
-from reflectcli.techniques.raytrace import Raytrace
+from reflectcli.techniques.raytrace.technique import Raytrace
 
 BASE = {
     "scene": {"name": "shapes"},

@@ -26,8 +26,8 @@ class Rerender(Technique):
         warn_non_planar(scene, "rerender")
         return scene
 
-    def render(self, scene: Scene, frame: int, camera: Camera) -> Frame:
-        primary = render_primary(scene, frame, camera)
+    def render(self, scene: Scene, frame_index: int, camera: Camera) -> Frame:
+        primary = render_primary(scene, frame_index, camera)
         result = primary.frame
         stats = {"passes": 1, "triangles_rasterized": primary.triangles.count,
                  "pass_seconds": []}
@@ -52,8 +52,7 @@ class Rerender(Technique):
             if not stencil.any():
                 continue
             start = time.perf_counter()
-            n = mirrors.params[k, :3].astype(np.float64)
-            d = float(mirrors.params[k, 3])
+            n, d = mirrors.plane(k)
             if n @ eye + d < 0:  # mirrors are two-sided: face the plane toward this eye
                 n, d = -n, -d
             reflect = reflection_matrix(n, d)
