@@ -17,9 +17,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 from conftest import psnr, render_frame  # noqa: E402
 
 from reflectcli.camera import camera_from_config  # noqa: E402
-from reflectcli.config.load import load_config  # noqa: E402
+from reflectcli.loading import load_config  # noqa: E402
 from reflectcli.scene.build import build_scene  # noqa: E402
-from reflectcli.techniques.envmap import Envmap  # noqa: E402
+from reflectcli.techniques.envmap.technique import Envmap  # noqa: E402
 
 
 def main() -> None:

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 from reflectcli.camera import camera_from_config  # noqa: E402
-from reflectcli.config.load import load_config  # noqa: E402
+from reflectcli.loading import load_config  # noqa: E402
 from reflectcli.scene.build import build_scene  # noqa: E402
 from reflectcli.techniques.registry import TECHNIQUES  # noqa: E402
 from reflectcli.trace.embree import TriangleScene  # noqa: E402

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 from reflectcli.camera import camera_from_config
-from reflectcli.config.load import load_config
+from reflectcli.loading import load_config
 from reflectcli.scene.build import build_scene
 from reflectcli.techniques.registry import TECHNIQUES
 

@@ -15,8 +15,8 @@ import numba
 import numpy as np
 
 from reflectcli.camera import camera_from_config
-from reflectcli.config.load import load_config
 from reflectcli.geometry import reflection_matrix
+from reflectcli.loading import load_config
 from reflectcli.maps.warp import warp_maps
 from reflectcli.maps.zexel import capture_map, map_camera, mirror_frame
 from reflectcli.raster.primary import render_primary

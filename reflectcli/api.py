@@ -13,17 +13,18 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from .camera import camera_from_config
-from .config.load import load_config
 from .config.scene import SceneConfig
 from .errors import Problem, Problems
 from .frame import Frame
+from .loading import load_config
 from .maps.cache import MapCache, default_cache_dir
 from .output.exr import write_exr
 from .output.log import append_jsonl
 from .output.png import write_png
 from .provenance import cpu_name, versions
 from .scene.build import build_scene
-from .techniques.registry import TECHNIQUES
+from .techniques.base import MapRecord, MapTechnique
+from .techniques.registry import TECHNIQUES, map_techniques
 
 
 @dataclass
@@ -220,7 +221,7 @@ def render(
 @dataclass
 class PrecomputeResult:
     cache: str
-    maps: list[dict] = field(default_factory=list)
+    maps: list[MapRecord] = field(default_factory=list)
 
 
 def precompute(
@@ -230,7 +231,7 @@ def precompute(
     overrides: tuple[str, ...] | list[str] = (),
     cache: str | None = None,
     threads: int | None = None,
-    on_map: Callable[[dict], None] | None = None,
+    on_map: Callable[[MapRecord], None] | None = None,
     on_progress: Callable[[int, int], None] | None = None,
 ) -> PrecomputeResult:
     """Capture (or find in the cache) every map the scene's technique needs."""
@@ -239,8 +240,8 @@ def precompute(
     config, _ = load_config(path, overrides, technique)
     name = config.technique.name
     cls = TECHNIQUES[name]
-    if not hasattr(cls, "precompute"):
-        map_based = sorted(n for n, c in TECHNIQUES.items() if hasattr(c, "precompute"))
+    if not issubclass(cls, MapTechnique):
+        map_based = map_techniques()
         raise Problems(
             [
                 Problem(

@@ -122,7 +122,7 @@ def _unknown_technique(name, techniques):
 
 
 def _load(path, overrides=(), technique=None):
-    from .config.load import load_config
+    from .loading import load_config
 
     return load_config(path, overrides, technique)
 
@@ -157,13 +157,13 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
             bar["bar"].update(done - bar["done"])
             bar["done"] = done
 
-    def on_map(record: dict) -> None:
+    def on_map(record) -> None:
         if bar.get("bar") is not None:
             bar["bar"].__exit__(None, None, None)
         bar.pop("bar", None)
         click.echo(
-            f"{record['status']:>8}  {record['mirror']}  {record['seconds']:.2f} s  "
-            f"{record['path']}"
+            f"{record.status:>8}  {record.mirror}  {record.seconds:.2f} s  "
+            f"{record.path}"
         )
 
     try:
@@ -182,7 +182,7 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
     except KeyboardInterrupt:
         click.echo("\ninterrupted: maps already stored are kept", err=True)
         sys.exit(EXIT_INTERRUPTED)
-    captured = sum(1 for m in result.maps if m["status"] == "captured")
+    captured = sum(1 for m in result.maps if m.status == "captured")
     click.echo(f"{captured} captured, {len(result.maps) - captured} cached in {result.cache}")
 
 
@@ -302,20 +302,22 @@ def validate(file) -> None:
 @cli.command()
 def techniques() -> None:
     """List the techniques with their parameters and defaults."""
-    from .techniques.base import parameter_table
-    from .techniques.registry import TECHNIQUES
+    from .techniques.params import parameter_table
+    from .techniques.registry import PARAMS, technique_doc
 
-    for name, cls in TECHNIQUES.items():
-        doc = (sys.modules[cls.__module__].__doc__ or "").strip()
+    for name, params in PARAMS.items():
+        doc = technique_doc(name).strip()
         summary = " ".join(doc.split("\n\n")[0].split())
         click.echo(f"{name}: {summary}")
-        rows = parameter_table(cls.Params)
+        rows = parameter_table(params)
         if not rows:
             click.echo("    (no parameters)")
         width = max((len(r[0]) for r in rows), default=0)
         type_width = max((len(r[1]) for r in rows), default=0)
-        for pname, ptype, default, desc in rows:
+        for pname, ptype, default, allowed, desc in rows:
             click.echo(f"    {pname:<{width}}  {ptype:<{type_width}}  = {default}"
+                       + (f"  in {allowed}" if allowed.startswith(("[", "(")) else
+                          f"  {allowed}" if allowed else "")
                        + (f"  ({desc})" if desc else ""))
         click.echo("")
 

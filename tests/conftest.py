@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from reflectcli.camera import camera_from_config
-from reflectcli.config.load import load_config
+from reflectcli.loading import load_config
 from reflectcli.scene.build import build_scene
 from reflectcli.techniques.registry import TECHNIQUES
 

@@ -47,7 +47,8 @@ def load_bench(path: str) -> BenchPlan:
     """Read and validate a bench file and every job in it (Problems name the bench file)."""
     from pydantic import ValidationError
 
-    from ..config.load import load_config, read_toml, validation_problems
+    from ..config.load import read_toml, validation_problems
+    from ..loading import load_config
 
     display = os.path.relpath(path)
     data = read_toml(path)

@@ -19,12 +19,12 @@ import numpy as np
 import pytest
 
 from reflectcli.camera import camera_from_config
-from reflectcli.config.load import load_config
+from reflectcli.loading import load_config
 from reflectcli.raster.primary import render_primary
 from reflectcli.scene.build import build_scene
 from reflectcli.scene.types import CHECKER, CYLINDER, SPHERE, TEXTURE
-from reflectcli.techniques.raster import Raster
-from reflectcli.techniques.raytrace import Raytrace
+from reflectcli.techniques.raster.technique import Raster
+from reflectcli.techniques.raytrace.technique import Raytrace
 
 SCENES = sorted((Path(__file__).resolve().parents[2] / "scenes").glob("*.toml"))
 

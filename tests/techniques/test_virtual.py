@@ -216,7 +216,7 @@ def test_reflector_tests_drop_geometry_in_front_of_the_reflector():
     virtual triangle lying between the eye and the reflector; neither removes one behind."""
     from reflectcli.camera import Camera
     from reflectcli.raster.rasterize import rasterize, standard_planes
-    from reflectcli.techniques.virtual import _box_planes
+    from reflectcli.techniques.virtual.technique import _box_planes
 
     cam = Camera(np.array([0.0, 0, 5]), np.zeros(3), np.array([0, 1.0, 0]), 40.0, 64, 64,
                  0.1, 100.0)
@@ -245,10 +245,10 @@ def test_concave_points_inside_the_focus_look_up_the_right_way():
     from conftest import SCENES
 
     from reflectcli.camera import camera_from_config
-    from reflectcli.config.load import load_config
+    from reflectcli.loading import load_config
     from reflectcli.raster.primary import render_primary
     from reflectcli.scene.build import build_scene
-    from reflectcli.techniques.virtual import Virtual
+    from reflectcli.techniques.virtual.technique import Virtual
 
     path = str(SCENES / "concave-mirror.toml")
     cfg, _ = load_config(path, ['technique.method="explosion"'], "virtual")
@@ -295,10 +295,10 @@ def test_screen_refinement_finds_the_exact_reflection_points():
     from conftest import SCENES
 
     from reflectcli.camera import camera_from_config
-    from reflectcli.config.load import load_config
+    from reflectcli.loading import load_config
     from reflectcli.raster.primary import render_primary
     from reflectcli.scene.build import build_scene
-    from reflectcli.techniques.virtual import Virtual
+    from reflectcli.techniques.virtual.technique import Virtual
     from reflectcli.virtual.direct import sphere_virtual_vertices
 
     path = str(SCENES / "four-spheres.toml")
@@ -368,7 +368,7 @@ def test_part_tiles_never_cull_a_reflected_point(scene, size):
     from conftest import SCENES
 
     from reflectcli.camera import camera_from_config
-    from reflectcli.config.load import load_config
+    from reflectcli.loading import load_config
     from reflectcli.raster.rasterize import rasterize
     from reflectcli.scene.build import build_scene
     from reflectcli.virtual.refine import PartTiles, _sample, reflector_grid

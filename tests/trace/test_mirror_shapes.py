@@ -7,9 +7,9 @@ import pytest
 import trimesh
 
 from reflectcli.camera import camera_from_config
-from reflectcli.config.scene import SceneConfig
 from reflectcli.scene.build import build_scene
-from reflectcli.techniques.raytrace import Raytrace
+from reflectcli.techniques.raytrace.technique import Raytrace
+from reflectcli.techniques.registry import scene_model
 
 BASE = {
     "scene": {"name": "shapes"},
@@ -19,6 +19,8 @@ BASE = {
     "objects": [{"name": "room", "shape": "room", "min": [-5, 0, -5], "max": [5, 5, 6],
                  "material": "checker"}],
 }
+
+SceneConfig = scene_model()  # the scene model with the technique union
 
 
 def _render(tmp_path, mirrors, objects=()):
