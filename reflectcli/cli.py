@@ -306,7 +306,7 @@ def techniques() -> None:
     from .techniques.registry import TECHNIQUES
 
     for name, cls in TECHNIQUES.items():
-        doc = (sys.modules[cls.__module__].__doc__ or "").strip()
+        doc = (sys.modules[cls.Params.__module__].__doc__ or "").strip()  # the package table
         summary = " ".join(doc.split("\n\n")[0].split())
         click.echo(f"{name}: {summary}")
         rows = parameter_table(cls.Params)

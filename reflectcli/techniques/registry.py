@@ -16,7 +16,7 @@ from .envmap import Envmap
 from .raster import Raster
 from .raytrace import Raytrace
 from .rerender import Rerender
-from .virtual import Virtual
+from .virtual.technique import Virtual
 
 TECHNIQUES: dict[str, type[Technique]] = {
     t.name: t for t in (Raytrace, Raster, Rerender, Envmap, Dprm, Virtual)

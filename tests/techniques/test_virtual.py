@@ -216,7 +216,7 @@ def test_reflector_tests_drop_geometry_in_front_of_the_reflector():
     virtual triangle lying between the eye and the reflector; neither removes one behind."""
     from reflectcli.camera import Camera
     from reflectcli.raster.rasterize import rasterize, standard_planes
-    from reflectcli.techniques.virtual import _box_planes
+    from reflectcli.virtual.raster import box_planes
 
     cam = Camera(np.array([0.0, 0, 5]), np.zeros(3), np.array([0, 1.0, 0]), 40.0, 64, 64,
                  0.1, 100.0)
@@ -231,7 +231,7 @@ def test_reflector_tests_drop_geometry_in_front_of_the_reflector():
         drawn = rasterize(triangle(z), np.zeros(1, np.uint8), w2c, 64, 64,
                           depth_floor=floor).triangle >= 0
         assert drawn.any() == visible
-        planes = np.vstack([standard_planes(), _box_planes(reflector, cam.eye, w2c)])
+        planes = np.vstack([standard_planes(), box_planes(reflector, cam.eye, w2c)])
         clipped = rasterize(triangle(z), np.zeros(1, np.uint8), w2c, 64, 64, planes)
         assert (clipped.triangle >= 0).any() == visible
     unfiltered = rasterize(triangle(2.0), np.zeros(1, np.uint8), w2c, 64, 64)
@@ -248,14 +248,17 @@ def test_concave_points_inside_the_focus_look_up_the_right_way():
     from reflectcli.config.load import load_config
     from reflectcli.raster.primary import render_primary
     from reflectcli.scene.build import build_scene
-    from reflectcli.techniques.virtual import Virtual
+    from reflectcli.techniques.virtual.technique import Virtual
+    from reflectcli.virtual.dispatch import reflector_parts
 
     path = str(SCENES / "concave-mirror.toml")
     cfg, _ = load_config(path, ['technique.method="explosion"'], "virtual")
     scene = build_scene(cfg, path)
     cam = camera_from_config(cfg.camera, 0)
     primary = render_primary(scene, 0, cam)
-    _, fn = next(iter(Virtual(cfg.technique)._parts(scene, primary, 0, cam)))
+    state = Virtual(cfg.technique).prepare(scene)
+    _, fn = next(reflector_parts(cfg.technique, scene, primary, 0, cam, state.scene_points,
+                                 state.shapes, state.views))
     mesh = fn.maps.mesh
     # brute force: dense points on the reflector with interpolated normals; the one whose
     # mirror of Q lies on the eye ray through it is the reflection point
@@ -298,8 +301,9 @@ def test_screen_refinement_finds_the_exact_reflection_points():
     from reflectcli.config.load import load_config
     from reflectcli.raster.primary import render_primary
     from reflectcli.scene.build import build_scene
-    from reflectcli.techniques.virtual import Virtual
+    from reflectcli.techniques.virtual.technique import Virtual
     from reflectcli.virtual.direct import sphere_virtual_vertices
+    from reflectcli.virtual.dispatch import reflector_parts
 
     path = str(SCENES / "four-spheres.toml")
     small = ["camera.width=256", "camera.height=256"]
@@ -309,9 +313,11 @@ def test_screen_refinement_finds_the_exact_reflection_points():
                                     f'technique.explosion.refine="{refine}"'], "virtual")
         scene = build_scene(cfg, path)
         cam = camera_from_config(cfg.camera, 0)
-        tech = Virtual(cfg.technique)
-        tess = tech._reflected(tech.prepare(scene), scene, scene.geometry(0), 0)
-        _, fn = next(iter(tech._parts(scene, render_primary(scene, 0, cam), 0, cam)))
+        state = Virtual(cfg.technique).prepare(scene)
+        tess = state.reflected.get(scene.geometry(0), scene.n_objects, 0,
+                                   cfg.technique.tessellation)
+        _, fn = next(reflector_parts(cfg.technique, scene, render_primary(scene, 0, cam), 0,
+                                     cam, state.scene_points, state.shapes, state.views))
         got, flagged = fn(tess.points)
         p = scene.mirrors.params[0]
         want, hidden = sphere_virtual_vertices(tess.points, cam.eye, p[:3], p[3])
@@ -371,7 +377,8 @@ def test_part_tiles_never_cull_a_reflected_point(scene, size):
     from reflectcli.config.load import load_config
     from reflectcli.raster.rasterize import rasterize
     from reflectcli.scene.build import build_scene
-    from reflectcli.virtual.refine import PartTiles, _sample, reflector_grid
+    from reflectcli.virtual.refine import _sample, reflector_grid
+    from reflectcli.virtual.tiles import PartTiles
 
     path = str(SCENES / f"{scene}.toml")
     cfg, _ = load_config(path, [f"camera.width={size}", f"camera.height={size}"], "virtual")
