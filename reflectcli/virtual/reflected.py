@@ -11,7 +11,7 @@ from typing import Protocol
 import numpy as np
 
 from ..scene.types import Geometry, Triangles
-from .mesh import Tessellation, concatenate_tessellations, tessellate
+from .tessellation import Tessellation, concatenate_tessellations, tessellate
 
 CACHE_SIZE = 16  # tessellations kept before the cache starts over
 

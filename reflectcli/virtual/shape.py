@@ -9,8 +9,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .convexity import convexity_parts, vertex_convexity
 from .explosion import boundary_edges
-from .mesh import IndexedMesh, convexity_parts, vertex_convexity, weld
+from .mesh import IndexedMesh, weld
 
 CACHE_SIZE = 16  # shapes kept before the cache starts over
 

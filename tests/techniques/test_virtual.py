@@ -10,7 +10,8 @@ from reflectcli.geometry import reflect_point
 from reflectcli.scene import primitives
 from reflectcli.virtual.direct import cylinder_virtual_vertices, sphere_virtual_vertices
 from reflectcli.virtual.explosion import build_explosion_maps, virtual_vertices
-from reflectcli.virtual.mesh import subdivide, weld
+from reflectcli.virtual.mesh import weld
+from reflectcli.virtual.tessellation import subdivide
 
 
 def _mirror_psnr(out, ref):
@@ -340,7 +341,8 @@ def test_mask_decomposes_into_its_pieces():
     from conftest import SCENES
 
     from reflectcli.scene.mesh_file import load_mesh_file
-    from reflectcli.virtual.mesh import convexity_parts, vertex_convexity, weld
+    from reflectcli.virtual.convexity import convexity_parts, vertex_convexity
+    from reflectcli.virtual.mesh import weld
 
     soup = load_mesh_file(SCENES / "assets" / "mask.ply")
     mesh = weld(soup.corners, soup.normals)
@@ -415,7 +417,8 @@ def test_decomposition_merges_small_regions_past_an_island():
     from conftest import SCENES
 
     from reflectcli.scene.mesh_file import load_mesh_file
-    from reflectcli.virtual.mesh import IndexedMesh, convexity_parts, weld
+    from reflectcli.virtual.convexity import convexity_parts
+    from reflectcli.virtual.mesh import IndexedMesh, weld
 
     soup = load_mesh_file(SCENES / "assets" / "mask.ply")
     mesh = weld(soup.corners, soup.normals)
@@ -429,7 +432,7 @@ def test_decomposition_merges_small_regions_past_an_island():
 
 def test_fine_meshes_are_not_split_below_min_edge():
     from reflectcli.scene.types import Triangles
-    from reflectcli.virtual.mesh import tessellate
+    from reflectcli.virtual.tessellation import tessellate
 
     def tri(size):
         c = np.array([[[0, 0, 0], [size, 0, 0], [0, size, 0]]], np.float32)
