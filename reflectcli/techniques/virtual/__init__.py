@@ -28,7 +28,7 @@ z-buffer of the reflector alone) are rebuilt per frame and part
 (reflectcli/virtual/explosion.py); `explosion.refine = "screen"` then refines each map
 answer on the reflector's own pixels, Gauss-Newton on the reflection law
 (reflectcli/virtual/refine.py). Mixed reflectors are split into convex, concave and
-crease parts (reflectcli/virtual/mesh.py: convexity_parts), one image per part.
+crease parts (reflectcli/virtual/convexity.py), one image per part.
 Reflected objects are everything but the reflector, tessellated by `tessellation`; mirrors
 among them show their base color (one level of recursion, as in the paper's figures).
 `reflector_test`: `zbuffer` rejects virtual fragments at or in front of the reflector's own
