@@ -11,6 +11,7 @@ from typing import Annotated, Union
 from pydantic import BaseModel, Field
 
 from .base import Technique
+from .distmap.technique import Distmap
 from .dprm import Dprm
 from .envmap import Envmap
 from .raster import Raster
@@ -19,7 +20,7 @@ from .rerender import Rerender
 from .virtual import Virtual
 
 TECHNIQUES: dict[str, type[Technique]] = {
-    t.name: t for t in (Raytrace, Raster, Rerender, Envmap, Dprm, Virtual)
+    t.name: t for t in (Raytrace, Raster, Rerender, Envmap, Dprm, Virtual, Distmap)
 }
 PARAMS: dict[str, type[BaseModel]] = {name: t.Params for name, t in TECHNIQUES.items()}
 
