@@ -25,9 +25,10 @@ with g_j < 0 whose stored distance differs from layer k's by at most CREASE_SLOP
 x the angle between the samples (two surfaces meeting at a crease, the floor and a wall); a
 larger jump is a silhouette, where the ray passes behind an object's edge, not a crossing.
 Samples where no surface is stored (open sky, or a one-texel crack between triangles) are
-skipped: the next sample is compared with the last one that saw something. Of the crossings in a step, the one with the
-smallest secant root wins. Refinement: `refine` regula-falsi steps on that surface (found by
-id in the layers at each new point), keeping a bracket; with refine = 0 the hit is t_{i+1}
+skipped: the next sample is compared with the last one that saw something. Of the
+crossings in a step, the one with the smallest secant root wins. Refinement: `refine`
+regula-falsi steps on that surface (found by id in the layers at each new point; at a crease
+either of the two), keeping a bracket; with refine = 0 the hit is t_{i+1}
 (the linear march alone). The colour is the bilinear colour of that surface's layer in the
 direction u(t_hit). No crossing: a hole (the background colour).
 """
@@ -69,8 +70,10 @@ def sample_layer(q, surface, bases, k, ux, uy, uz):
             and surface[k, face, y0 + 1, x0] == sid and surface[k, face, y0 + 1, x0 + 1] == sid):
         ax = fx - 0.5 - x0
         ay = fy - 0.5 - y0
-        qv = ((1.0 - ax) * (1.0 - ay) * q[k, face, y0, x0] + ax * (1.0 - ay) * q[k, face, y0, x0 + 1]
-              + (1.0 - ax) * ay * q[k, face, y0 + 1, x0] + ax * ay * q[k, face, y0 + 1, x0 + 1])
+        qv = ((1.0 - ax) * (1.0 - ay) * q[k, face, y0, x0]
+              + ax * (1.0 - ay) * q[k, face, y0, x0 + 1]
+              + (1.0 - ax) * ay * q[k, face, y0 + 1, x0]
+              + ax * ay * q[k, face, y0 + 1, x0 + 1])
     return face, su, sv, sid, qv
 
 
@@ -86,7 +89,7 @@ def _g_surface(q, surface, bases, sid_a, sid_b, ux, uy, uz, t):
     -1 if none)."""
     for k in range(q.shape[0]):
         face, su, sv, s, qv = sample_layer(q, surface, bases, k, ux, uy, uz)
-        if s >= 0 and (s == sid_a or s == sid_b):
+        if s >= 0 and (s == sid_a or s == sid_b):  # noqa: SIM109 (numba)
             return _g_of(bases, face, ux, uy, uz, qv, t), k
     return 0.0, -1
 

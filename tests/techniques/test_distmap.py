@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import OpenImageIO as oiio
-from conftest import SCENES, psnr, render_frame
+from conftest import psnr, render_frame
 
 
 def _smooth_texture(path, h=64, w=64):
@@ -83,3 +83,42 @@ def test_box_room_ball_equals_box_projection(tmp_path):
     dist, _ = render_frame(scene, "distmap", 0)
     assert mirror_psnr(dist, boxed) >= 40.0
     assert abs(mirror_psnr(dist, ref) - mirror_psnr(boxed, ref)) < 0.5
+
+
+SMALL = ("camera.width=160", "camera.height=160")
+
+
+def test_l_room_ranking_and_holes():
+    """envmap (no parallax) < envmap box < distmap layers 1 < distmap layers 4 (PSNR over the
+    mirror against the ray tracer), holes falling as layers grow."""
+    ref, _ = render_frame("l-room", "raytrace", 0, ("technique.max_depth=1",) + SMALL)
+    plain, _ = render_frame("l-room", "envmap", 0, SMALL)
+    boxed, _ = render_frame("l-room", "envmap", 0, ('technique.parallax="box"',) + SMALL)
+    runs = {n: render_frame("l-room", "distmap", 0, (f"technique.layers={n}",) + SMALL)[0]
+            for n in (1, 2, 4)}
+    p = [mirror_psnr(f, ref) for f in (plain, boxed, runs[1], runs[4])]
+    assert p[0] < p[1] < p[2] < p[3], p
+    holes = [runs[n].stats["hole_fraction"] for n in (1, 2, 4)]
+    assert holes[0] >= holes[1] >= holes[2] and holes[2] < holes[0] / 4, holes
+
+
+def test_steps_and_secant_refinement():
+    """Error non-increasing in steps; secant refinement beats the march alone."""
+    ref, _ = render_frame("l-room", "raytrace", 0, ("technique.max_depth=1",) + SMALL)
+    psnrs = []
+    for steps in (8, 16, 32, 64):  # (4 -> 8 loses 0.15 dB here: see the docstring)
+        out, _ = render_frame("l-room", "distmap", 0, (f"technique.steps={steps}",
+                                                       "technique.layers=4") + SMALL)
+        psnrs.append(mirror_psnr(out, ref))
+    assert all(b >= a - 0.05 for a, b in zip(psnrs, psnrs[1:], strict=False)), psnrs
+    assert psnrs[-1] > psnrs[0] + 1.0, psnrs
+    for steps in (8, 16):
+        march, _ = render_frame("l-room", "distmap", 0, (
+            f"technique.steps={steps}", "technique.refine_steps=0", "technique.layers=4") + SMALL)
+        secant, _ = render_frame("l-room", "distmap", 0, (
+            f"technique.steps={steps}", "technique.refine_steps=4", "technique.layers=4") + SMALL)
+        assert mirror_psnr(secant, ref) > mirror_psnr(march, ref) + 1.0
+
+
+def test_bundled_scene_is_l_room():
+    assert (SCENES / "l-room.toml").exists()

@@ -167,7 +167,8 @@ class Distmap(Technique):
         result.timings.update({"capture": t1 - t0, "search": t3 - t2,
                                "precompute": state["precompute_seconds"] if frame == 0 else 0.0})
         result.stats.update({
-            "maps": len(state["maps"]), "faces_captured": faces if frame else 6 * len(state["maps"]),
+            "maps": len(state["maps"]),
+            "faces_captured": faces if frame else 6 * len(state["maps"]),
             "holes": int(holes.sum()), "hole_fraction": float(holes.sum() / max(n_mirror, 1)),
             "search_steps": float(taken[mirror].mean()) if n_mirror else 0.0})
         return result
