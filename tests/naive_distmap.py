@@ -106,7 +106,7 @@ def naive_search(x, r, a, t_end, q, surface, color, steps, refine):
         if found:
             _, sid_a, sid_b, g_lo, g_hi = min(found, key=lambda f: f[0])
 
-            def on_surface(tt):
+            def on_surface(tt, sid_a=sid_a, sid_b=sid_b):
                 for k, (sid, g, _) in enumerate(look(tt)):
                     if sid >= 0 and sid in (sid_a, sid_b):
                         return g, k

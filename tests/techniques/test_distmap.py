@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import OpenImageIO as oiio
-from conftest import psnr, render_frame
+from conftest import SCENES, psnr, render_frame
 
 
 def _smooth_texture(path, h=64, w=64):
