@@ -277,7 +277,7 @@ class OpenedScene:
     def prepare(self) -> Any:
         """The technique's per-scene work (acceleration structures, maps), done once."""
         if not self._prepared:
-            technique, scene = self.technique, self.scene
+            scene, technique = self.scene, self.technique
             start = time.perf_counter()
             self._state = technique.prepare(scene)
             self.prepare_seconds = time.perf_counter() - start
@@ -287,10 +287,13 @@ class OpenedScene:
     # the pipeline
 
     def render_frame(self, frame_index: int) -> Frame:
-        """One frame of the camera path, in memory. The whole pipeline:"""
-        state = self.prepare()  # the scene in world space, with the technique's per-scene work
-        camera = self.camera(frame_index)  # this frame's world -> eye -> clip transforms
-        # the technique draws primary visibility and the mirrors; screen-space buffers back
+        """One frame of the camera path, rendered in memory (nothing is written)."""
+        # the scene in world space, with the technique's per-scene work (accelerators, maps)
+        state = self.prepare()
+        # this frame's camera: world -> eye (view), eye -> clip (projection), NDC -> screen
+        camera = self.camera(frame_index)
+        # the technique: first hits and the mirrors' reflections, as screen-space buffers
+        # (linear rgb, eye-space depth, surface ids, mirror mask)
         return self.technique.render(state, frame_index, camera)
 
     def output_folder(self, out: str | None = None) -> str:
@@ -419,7 +422,7 @@ def render(
 
 @dataclass
 class PrecomputeResult:
-    cache: str
+    cache: str | None  # None: maps kept in memory (cache=False)
     maps: list[dict] = field(default_factory=list)
 
 
