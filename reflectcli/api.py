@@ -178,17 +178,16 @@ class RenderResult:
 
 
 class OpenedScene:
-    """A scene file read once: overrides and technique applied, threads checked.
+    """A scene file read once: overrides and technique applied.
 
-    The scene is built, and the technique made and prepared, on first use, so that bad
-    input (frames, folders) is reported in the order a user would fix it and listing
-    frames costs no build.
+    The scene is built, and the technique made (threads checked and set) and prepared, on
+    first use: listing frames costs no build, and bad input is reported in a fixed order
+    (frames, threads, what the build rejects, folders) before anything is written.
     """
 
     def __init__(self, config: SceneConfig, path: str, *, threads: int | None = None,
                  cache: str | None | Literal[False] = None,
                  technique_option: str | None = None) -> None:
-        _check_threads(threads)
         self.config = config
         self.path = path
         self.threads = threads  # asked for; None: numba's own count
@@ -257,6 +256,7 @@ class OpenedScene:
         if self._technique is None:
             import numba
 
+            _check_threads(self.threads)
             if self.threads is not None:
                 numba.set_num_threads(self.threads)
             cls = technique_class(self.technique_name)
@@ -354,6 +354,7 @@ class OpenedScene:
                      on_frame: Callable[[int, str], None] | None = None) -> RenderResult:
         """Write the given frames into <out>/<scene>/<technique>/ (with `resume`, frames
         whose EXR exists are skipped)."""
+        _check_threads(self.threads)  # before the build and the folder, as any bad argument
         result = RenderResult(self.output_folder(out))
         result.compile_seconds = self.warm_up()
         self.prepare()
@@ -379,16 +380,18 @@ class OpenedScene:
                 f"(map-based: {', '.join(map_based)})")])
         if self.cache is not None:
             prepare_output(self.cache, "--cache" if self.cache_option else self.path, "")
-        return self.technique.precompute(self.scene, on_map, on_progress)
+        scene = self.build()
+        return self.technique.precompute(scene, on_map, on_progress)
 
 
 def open_scene(path: str, *, overrides: tuple[str, ...] | list[str] = (),
                technique: str | None = None, threads: int | None = None,
                cache: str | None | Literal[False] = None) -> OpenedScene:
-    """Read and validate a scene file (technique and overrides applied) and check `threads`.
+    """Read and validate a scene file (technique and overrides applied).
 
-    cache: the map folder; None: .reflect-cache/ beside the scene; False: maps in memory only.
-    Raises Problems for bad input; nothing is built or written yet.
+    threads: numba's thread count for this scene's work (None: numba's own), checked when
+    first needed. cache: the map folder (None: .reflect-cache/ beside the scene; False: maps
+    in memory only). Raises Problems for bad input; nothing is built or written yet.
     """
     config, _ = load_config(path, overrides, technique)
     return OpenedScene(config, path, threads=threads, cache=cache, technique_option=technique)
