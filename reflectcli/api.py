@@ -39,7 +39,7 @@ from .scene.types import Scene
 from .techniques.base import Technique
 from .techniques.registry import TECHNIQUES
 
-# --- the technique registry, as the api sees it --------------------------------------------
+# --- the technique registry, as the api sees it (the only place it reads the registry) ------
 
 
 def technique_class(name: str) -> type[Technique]:
@@ -57,7 +57,7 @@ def uses_maps(cls: type[Technique]) -> bool:
 
 def check_technique(name: str | None) -> None:
     """--technique must name a registered technique (one Problem, before anything is read)."""
-    if name is not None and name not in TECHNIQUES:
+    if name is not None and name not in technique_names():
         raise Problems([Problem("--technique", "", f"unknown technique '{name}' "
                                 f"(known: {', '.join(technique_names())})")])
 
@@ -373,7 +373,7 @@ class OpenedScene:
                    on_progress: Callable[[int, int], None] | None = None) -> list[dict]:
         """Capture (or find in the cache) every map the technique needs; one record each."""
         if not uses_maps(technique_class(self.technique_name)):
-            map_based = sorted(n for n, c in TECHNIQUES.items() if uses_maps(c))
+            map_based = [n for n in technique_names() if uses_maps(technique_class(n))]
             raise Problems([Problem(
                 "--technique" if self.technique_option else self.path, "technique.name",
                 f"'{self.technique_name}' uses no precomputed maps "
