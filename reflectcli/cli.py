@@ -56,30 +56,20 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
     progress = None
     done: list[str] = []
     try:
-        _check_technique(technique)
-        config, _ = _load(scene, overrides, technique)
-        count = len(api.parse_frames(frames, config.camera.frame_count))
-        if count > 1:
-            progress = _open_bar(count, "frames")
+        api.check_technique(technique)
+        opened = api.open_scene(scene, overrides=overrides, technique=technique,
+                                threads=threads, cache=cache)
+        selected = opened.frames(frames)
+        if len(selected) > 1:
+            progress = _open_bar(len(selected), "frames")
 
         def on_frame(index: int, path: str) -> None:
             done.append(path)
             if progress is not None:
                 progress.update(1)
 
-        result = api.render(
-            scene,
-            out=out,
-            frames=frames,
-            technique=technique,
-            overrides=overrides,
-            preview=preview,
-            threads=threads,
-            resume=resume,
-            on_frame=on_frame,
-            config=config,
-            cache=cache,
-        )
+        result = opened.write_frames(selected, out=out, preview=preview, resume=resume,
+                                     on_frame=on_frame)
     except Problems as e:
         _fail(e)
     except KeyboardInterrupt:
@@ -103,28 +93,6 @@ def _open_bar(length: int, label: str):
     bar = click.progressbar(length=length, label=label, file=sys.stderr)
     bar.__enter__()
     return bar
-
-
-def _check_technique(name: str | None) -> None:
-    """--technique must name a registered technique (one line, exit 2, otherwise)."""
-    from .techniques.registry import TECHNIQUES
-
-    if name is not None and name not in TECHNIQUES:
-        raise Problems([_unknown_technique(name, TECHNIQUES)])
-
-
-def _unknown_technique(name, techniques):
-    from .errors import Problem
-
-    return Problem(
-        "--technique", "", f"unknown technique '{name}' (known: {', '.join(sorted(techniques))})"
-    )
-
-
-def _load(path, overrides=(), technique=None):
-    from .loading import load_config
-
-    return load_config(path, overrides, technique)
 
 
 @cli.command("precompute-maps")
@@ -157,7 +125,7 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
             bar["bar"].update(done - bar["done"])
             bar["done"] = done
 
-    def on_map(record) -> None:
+    def on_map(record: dict) -> None:
         if bar.get("bar") is not None:
             bar["bar"].__exit__(None, None, None)
         bar.pop("bar", None)
@@ -167,7 +135,7 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
         )
 
     try:
-        _check_technique(technique)
+        api.check_technique(technique)
         result = api.precompute(
             scene,
             technique=technique,
@@ -203,12 +171,11 @@ def cache_clear(scene, folder) -> None:
     """Delete every cached map in SCENE's cache folder (shared by the scenes beside it), or
     in --cache DIR."""
     from . import api
-    from .maps.cache import default_cache_dir
 
     if folder is None and scene is None:
         click.echo("cache clear: give a SCENE or --cache DIR", err=True)
         sys.exit(EXIT_BAD_INPUT)
-    folder = folder if folder is not None else default_cache_dir(scene)
+    folder = folder if folder is not None else api.default_cache_dir(scene)
     click.echo(f"removed {api.clear_cache(folder)} map(s) from {folder}")
 
 
@@ -249,36 +216,15 @@ def bench(file, resume, workers, scheduler, threads) -> None:
               help="error above which a pixel counts as off")
 def compare(first, second, mask_channel, threshold) -> None:
     """Print PSNR, RMSE, max error and the fraction of pixels off between two EXRs."""
-    import numpy as np
+    from . import api
 
-    from .bench.metrics import image_metrics
-    from .output.exr import read_exr
-
-    images = []
-    for path in (first, second):
-        try:
-            channels, _ = read_exr(path)
-        except OSError as e:
-            click.echo(f"{path}: {str(e).splitlines()[0]}", err=True)
-            sys.exit(EXIT_BAD_INPUT)
-        missing = [c for c in ("R", "G", "B") if c not in channels]
-        if mask_channel and mask_channel not in channels:
-            missing.append(mask_channel)
-        if missing:
-            click.echo(f"{path}: channels: missing {', '.join(missing)}", err=True)
-            sys.exit(EXIT_BAD_INPUT)
-        images.append(channels)
-    a, b = (np.stack([c[k] for k in "RGB"], axis=-1) for c in images)
-    if a.shape != b.shape:
-        click.echo(f"{second}: size {b.shape[1]}x{b.shape[0]} differs from "
-                   f"{a.shape[1]}x{a.shape[0]}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
-    mask = None
-    if mask_channel:
-        mask = (images[0][mask_channel] > 0) & (images[1][mask_channel] > 0)
-    m = image_metrics(a, b, mask, threshold)
-    scope = f"{int(mask.sum())} pixels where {mask_channel} > 0" if mask is not None else (
-        f"all {a.shape[0] * a.shape[1]} pixels")
+    try:
+        c = api.compare(first, second, mask_channel=mask_channel, threshold=threshold)
+    except Problems as e:
+        _fail(e)
+    m = c.metrics
+    scope = (f"{c.pixels} pixels where {mask_channel} > 0" if c.mask_channel
+             else f"all {c.pixels} pixels")
     click.echo(f"over {scope}")
     click.echo(f"psnr      {m['psnr']:.4f} dB")
     click.echo(f"rmse      {m['rmse']:.6g}")

@@ -21,7 +21,6 @@ import numpy as np
 from ..errors import Problem, Problems
 from ..output.exr import read_exr
 from ..output.log import append_jsonl, read_jsonl
-from ..scene.build import scene_hashes
 from .config import BenchConfig, expand
 from .metrics import METRIC_NAMES, image_metrics
 
@@ -45,17 +44,10 @@ class BenchPlan:
 
 def load_bench(path: str) -> BenchPlan:
     """Read and validate a bench file and every job in it (Problems name the bench file)."""
-    from pydantic import ValidationError
-
-    from ..config.load import read_toml, validation_problems
-    from ..loading import load_config
+    from .. import api
 
     display = os.path.relpath(path)
-    data = read_toml(path)
-    try:
-        cfg = BenchConfig.model_validate(data)
-    except ValidationError as e:
-        raise Problems(validation_problems(e, data, {}, display)) from None
+    cfg = api.load_settings(path, BenchConfig)
     # an `out` written in the bench file is relative to it; the default is out/bench/<name>
     out = (os.path.join(os.path.dirname(os.path.abspath(path)), cfg.bench.out)
            if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
@@ -63,25 +55,26 @@ def load_bench(path: str) -> BenchPlan:
     problems = []
     for i, job in enumerate(expand(cfg, path)):
         try:
-            scene_cfg, _ = load_config(job["scene"], job["overrides"], job["technique"])
+            run = api.open_scene(job["scene"], overrides=job["overrides"],
+                                 technique=job["technique"])
         except Problems as e:
             where = f"runs ({job['technique']} on {os.path.relpath(job['scene'])})"
             problems += [Problem(display, where, str(p)) for p in e.problems]
             continue
         job["id"] = _digest(os.path.relpath(job["scene"]), job["technique"], job["overrides"],
                             cfg.bench.frames)
-        job["scene_name"] = scene_cfg.scene.name
-        job["parameters"] = scene_cfg.technique.model_dump(mode="json")
+        job["scene_name"] = run.name
+        job["parameters"] = run.params.model_dump(mode="json")
         ref_overrides = scene_overrides(job["overrides"]) + [
             f"technique.max_depth={cfg.bench.reference_depth}"]
-        ref_cfg, _ = load_config(job["scene"], ref_overrides, "raytrace")
+        ref = api.open_scene(job["scene"], overrides=ref_overrides, technique="raytrace")
         # the scene's content (files it reads included) is in the id: an edited scene gets a
         # new reference instead of being scored against the old one
         job["reference"] = {
             "id": _digest(os.path.relpath(job["scene"]), ref_overrides, cfg.bench.frames,
-                          scene_hashes(ref_cfg, job["scene"])[0]),
+                          ref.scene_hash),
             "overrides": ref_overrides,
-            "scene_name": ref_cfg.scene.name,
+            "scene_name": ref.name,
         }
         job["index"] = i
         plan.jobs.append(job)

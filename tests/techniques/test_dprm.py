@@ -5,26 +5,23 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import psnr, render_frame
+from conftest import open_scene, psnr, render_frame
 
 from reflectcli.camera import Camera, camera_from_config
 from reflectcli.geometry import reflect_point, reflect_vector, reflection_matrix
-from reflectcli.loading import load_config
 from reflectcli.maps.warp import warp_maps
 from reflectcli.maps.zexel import capture_map, map_camera, mirror_frame
 from reflectcli.raster.primary import render_primary
-from reflectcli.scene.build import build_scene
 from reflectcli.techniques.dprm import DprmParams
 from reflectcli.techniques.dprm.technique import Dprm, DprmRecord
-from reflectcli.techniques.registry import TECHNIQUES
 
 BOX = "scenes/teapot-box.toml"
 
 
 @pytest.fixture(scope="module")
 def box(scenes_root):
-    cfg, _ = load_config(str(scenes_root / "teapot-box.toml"), [], "dprm")
-    return cfg, build_scene(cfg, str(scenes_root / "teapot-box.toml"))
+    opened = open_scene(scenes_root / "teapot-box.toml", "dprm")
+    return opened.config, opened.scene
 
 
 @pytest.fixture(scope="module")
@@ -135,11 +132,8 @@ def test_ordered_traversal_against_zbuffer(box, motion):
 
 
 def _path(tech, overrides, frames, cache):
-    cfg, _ = load_config(BOX, list(overrides), tech)
-    scene = build_scene(cfg, BOX)
-    t = TECHNIQUES[tech](cfg.technique, 2, cache)
-    state = t.prepare(scene)
-    return [t.render(state, f, camera_from_config(cfg.camera, f)) for f in frames]
+    opened = open_scene(BOX, tech, overrides, cache=cache)
+    return [opened.render_frame(f) for f in frames]
 
 
 FRAMES = range(0, 48, 4)
@@ -234,8 +228,7 @@ def test_cache_recaptures_damaged_maps_and_warns_on_motion(tmp_path, scenes_root
         f.write(b"\0" * 64)  # damage inside the data
     with caplog.at_level("WARNING", logger="reflect"):
         third = api.precompute(scene, technique="dprm", overrides=small, cache=cache)
-        cfg, _ = load_config(scene, small, "dprm")
-        Dprm(cfg.technique, 1, cache).prepare(build_scene(cfg, scene))
+        open_scene(scene, "dprm", small, cache=cache).prepare()
     assert [m.status for m in third.maps] == ["captured"]
     messages = [r.getMessage() for r in caplog.records]
     assert any("damaged" in m for m in messages)

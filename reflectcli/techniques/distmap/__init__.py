@@ -5,13 +5,13 @@ Szirmay-Kalos, "Robust Multiple Specular Reflections and Refractions", GPU Gems 
 | parameter | type | default | meaning |
 |---|---|---|---|
 | `resolution` | int in [4, 4096] | 256 | texels per cube face side |
-| `layers` | int in [1, 8] | 1 | surfaces stored per texel by depth peeling (1: the distance impostor) |
-| `steps` | int in [1, 1024] | 16 | linear-march samples along the reflected ray (1 to 1024) |
-| `refine_steps` | int in [0, 64] | 4 | secant (regula falsi) steps after the march (0: the march alone) |
+| `layers` | int in [1, 8] | 1 | surfaces per texel, depth-peeled (1: the distance impostor) |
+| `steps` | int in [1, 1024] | 16 | linear-march samples along the reflected ray |
+| `refine_steps` | int in [0, 64] | 4 | secant steps after the march (0: the march alone) |
 | `filter` | "nearest", "bilinear" | "bilinear" | colour filter at the hit direction |
 | `capture_offset` | float >= 0.0 | 0.05 | planar mirrors: capture point in front of the center |
 | `capture` | {mirror = xyz} | {} | capture point per mirror name (default: the center) |
-| `update` | "once", "every", int >= 1 | "once" | capture at frame 0, every frame, or every N frames |
+| `update` | "once", "every", int >= 1 | "once" | capture at frame 0, every frame, or every N |
 | `faces_per_frame` | int in [1, 6] | 6 | cube faces refreshed per update (1 to 6, round robin) |
 
 Per reflector, a cube map is captured from a reference point (as envmap's, without the
