@@ -668,7 +668,9 @@ def adaptive_radii(sx, sy, z, mh, mw):
                 if not (0 <= uu < mw and 0 <= vv < mh):
                     continue
                 q = vv * mw + uu
-                if np.isnan(sx[q]) or not abs(z[q] - z[k]) <= 0.05 * min(z[q], z[k]):
+                with np.errstate(invalid="ignore"):  # inf - inf: two directions
+                    same = abs(z[q] - z[k]) <= 0.05 * min(z[q], z[k])
+                if np.isnan(sx[q]) or not same:
                     continue
                 steps += [abs(sx[q] - sx[k]), abs(sy[q] - sy[k])]
             reach = max(steps)
