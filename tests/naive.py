@@ -33,6 +33,12 @@ from reflectcli.scene.types import (
 # ================================================================================= shading
 
 
+def _bary(b1, b2):
+    """Barycentric weights (b0, b1, b2) in float64 (b0 = 1 - b1 - b2, worked in float64)."""
+    b1, b2 = float(b1), float(b2)
+    return np.array([1.0 - b1 - b2, b1, b2])
+
+
 def material_albedo(mat, u, v, mat_i, mat_f, texels):
     """Twin of shading.material_albedo (and shading._texel): the material's RGB at (u, v).
 
@@ -217,7 +223,7 @@ def shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
                 k = s - n_objects
                 rgb[y, x] = (1.0 - refl[k].astype(np.float64)) * base[k]
                 continue
-            bary = np.array([1.0 - b1[y, x] - b2[y, x], b1[y, x], b2[y, x]])
+            bary = _bary(b1[y, x], b2[y, x])
             uv = bary @ uvs[t].astype(np.float64)
             p = bary @ corners[t].astype(np.float64)
             n = bary @ normals[t].astype(np.float64)
@@ -388,7 +394,7 @@ def resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m,
             continue
         if which == 0:
             t, tri = float(t_o[i]), p_o[i]
-            bary = np.array([1.0 - float(u_o[i]) - float(v_o[i]), u_o[i], v_o[i]], np.float64)
+            bary = _bary(u_o[i], v_o[i])
             p = o + t * d
             uv = bary @ uvs[tri]
             nrm = bary @ normals[tri]
@@ -402,7 +408,7 @@ def resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m,
             k = m_surface[tri] - n_objects
             c = m_corners[tri].astype(np.float64)
             g = np.cross(c[1] - c[0], c[2] - c[0])
-            bary = np.array([1.0 - float(u_m[i]) - float(v_m[i]), u_m[i], v_m[i]], np.float64)
+            bary = _bary(u_m[i], v_m[i])
             nrm = bary @ m_normals[tri].astype(np.float64)
             p = o + t * d
         else:
@@ -548,7 +554,7 @@ def add_reflections(rgb, tri, b1, b2, surface_ids, surface, corners, normals, ki
             if surface_ids[y, x] != surface:
                 continue
             t = tri[y, x]
-            bary = np.array([1.0 - b1[y, x] - b2[y, x], b1[y, x], b2[y, x]], np.float64)
+            bary = _bary(b1[y, x], b2[y, x])
             p = bary @ corners[t].astype(np.float64)
             if kind == PLANAR:
                 n = params[0:3].copy()
@@ -782,7 +788,7 @@ def mirror_on_circle(e, q, c, r, axis=None):
     if 0.0 < first < 1.0:
         jv = ev + first * dv
         n = jv / np.linalg.norm(jv)
-        return _reflect_across(qv, r * n, n) + c, True
+        return _reflect_across(q - c, r * n, n) + c, True
     if not np.any(y_axis):
         n = x_axis
     else:
@@ -795,7 +801,7 @@ def mirror_on_circle(e, q, c, r, axis=None):
         theta = minimize_scalar(length, bounds=(0.0, phi), method="bounded",
                                 options={"xatol": 1e-12}).x
         n = math.cos(theta) * x_axis + math.sin(theta) * y_axis
-    return _reflect_across(qv, r * n, n) + c, False
+    return _reflect_across(q - c, r * n, n) + c, False  # n is across the axis
 
 
 def profile_point(profile, normals, t):
@@ -860,7 +866,7 @@ def reflector_grid(triangle, b1, b2, corners, normals, eye):
             t = triangle[y, x]
             if t < 0:
                 continue
-            bary = np.array([1.0 - b1[y, x] - b2[y, x], b1[y, x], b2[y, x]], np.float64)
+            bary = _bary(b1[y, x], b2[y, x])
             p = bary @ corners[t]
             n = bary @ normals[t]
             n = n / max(np.linalg.norm(n), 1e-30)
