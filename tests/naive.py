@@ -819,7 +819,10 @@ def profile_law(profile, normals, t, e, q):
     j, n = profile_point(profile, normals, t)
     ue, uq = (e - j) / max(np.linalg.norm(e - j), 1e-300), (q - j) / max(
         np.linalg.norm(q - j), 1e-300)
-    return float(np.cross(n, ue) + np.cross(n, uq))
+    def cross(a, b):  # 2-D cross product
+        return a[0] * b[1] - a[1] * b[0]
+
+    return float(cross(n, ue) + cross(n, uq))
 
 
 def profile_one(q3, e3, profile, normals):
