@@ -30,8 +30,9 @@ lint: install
 KERNEL_TESTS ?= tests/twins tests/raster tests/maps tests/trace tests/test_twins.py tests/test_camera.py
 KERNEL_SOURCES := reflectcli/raster/*,reflectcli/trace/*,reflectcli/maps/*,reflectcli/virtual/*,reflectcli/shading.py,reflectcli/camera.py
 coverage: install
-	NUMBA_DISABLE_JIT=1 $(BIN)/pytest -q -p no:cacheprovider --cov=reflectcli --cov-report= $(KERNEL_TESTS)
-	$(BIN)/coverage report -m --include='$(KERNEL_SOURCES)'
+	NUMBA_DISABLE_JIT=1 $(BIN)/pytest -q -p no:cacheprovider --cov=reflectcli --cov-report= \
+		$(KERNEL_TESTS); status=$$?; \
+		$(BIN)/coverage report -m --include='$(KERNEL_SOURCES)'; exit $$status
 
 render: install
 	$(BIN)/reflect render $(SCENE) --preview
