@@ -19,6 +19,7 @@ SR = "tests/twins/test_shading_raster_twins.py::"
 T = "tests/twins/test_trace_twins.py::"
 M = "tests/twins/test_maps_twins.py::"
 V = "tests/twins/test_virtual_twins.py::"
+D = "tests/maps/test_distance_search.py::"
 
 RASTER = [R + "test_matches_reference_on_random_scenes",
           R + "test_near_plane_clipping_matches_ray_casting",
@@ -33,6 +34,7 @@ SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
 PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
 REFINE = [V + "test_screen_refinement_matches_twin"]
 FILL = [V + "test_fill_kernels_match_twin"]
+SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
 LOOKUP = [V + "test_explosion_lookup_matches_twin"]
 
 # kernel -> (tests comparing it with its twin, the kernel it is reached through or None)
@@ -40,7 +42,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "shading.py:_texel": ([SR + "test_material_albedo_matches_twin"], "material_albedo"),
     "shading.py:material_albedo": ([SR + "test_material_albedo_matches_twin"], None),
     "shading.py:surface_color": ([SR + "test_surface_color_matches_twin"], None),
-    "camera.py:_primary_rays": ([SR + "test_primary_rays_match_pixel_directions"], None),
+    "trace/rays.py:_primary_rays": ([SR + "test_primary_rays_match_pixel_directions"], None),
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/rasterize.py:_setup": (RASTER, "rasterize"),
     "raster/rasterize.py:_setup_one": (RASTER, "_setup"),
@@ -85,7 +87,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/refine.py:_residual": (REFINE, "_walk"),
     "virtual/refine.py:_walk": (REFINE, "_refine"),
     "virtual/refine.py:_refine": (REFINE, "refine_virtual"),
-    "virtual/refine.py:_scan": ([V + "test_tile_scan_matches_twin"], "PartTiles.scan"),
+    "virtual/tiles.py:_scan": ([V + "test_tile_scan_matches_twin"], "PartTiles.scan"),
     "virtual/explosion.py:map_coords": ([V + "test_map_coords_and_vertex_coords_match_twin"],
                                         None),
     "virtual/explosion.py:_vertex_coords": (
@@ -100,6 +102,15 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
         [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
     "virtual/explosion.py:_mirror": (LOOKUP, "_virtual"),
     "virtual/explosion.py:_virtual": (LOOKUP, "virtual_vertices"),
+    "maps/distance_search.py:search_ray": (SEARCH, "_search_pixels"),
+    "maps/distance_search.py:_search_pixels": (SEARCH, None),
+    "maps/distance_search.py:sample_layer": (SEARCH, "search_ray"),
+    "maps/distance_search.py:mirror_ray": ([D + "test_mirror_ray_matches_twin"], None),
+    "maps/distance_search.py:_g_of": (SEARCH, "search_ray"),
+    "maps/distance_search.py:_g_surface": (SEARCH, "search_ray"),
+    "maps/distance_search.py:_distance": (SEARCH, "search_ray"),
+    "maps/distance_search.py:_point": (SEARCH, "search_ray"),
+    "maps/distance_search.py:_angle": (SEARCH, "search_ray"),
 }
 
 

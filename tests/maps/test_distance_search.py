@@ -1,4 +1,4 @@
-"""The distance-map search kernel against its slow twin (tests/naive_distmap.py), and the
+"""The distance-map search kernel against its slow twin (tests/naive.py), and the
 depth-peeled capture against a ray-cast definition of its layers."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from reflectcli.maps.distance_search import search_ray
 from reflectcli.maps.update import face_capture_frames, faces_updated, map_capture_frame
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from naive_distmap import face_uv, naive_search  # noqa: E402
+from naive import face_uv, naive_search  # noqa: E402
 
 
 def _box_map(res=16, layers=2, seed=0):
@@ -77,7 +77,7 @@ def test_box_room_hit_is_exact_on_planes():
     hit, _ = search_ray(*x, *r, a, 40.0 / (40.0 + a), q, surface, color, bases, 8, 3, True, out)
     d = min((4.0 - np.sign(r[i]) * x[i]) / abs(r[i]) for i in range(3))
     face, s, t = face_uv(x + d * r)
-    from naive_distmap import bilinear
+    from naive import bilinear
     assert hit
     np.testing.assert_allclose(out, bilinear(color[0, face], s, t), atol=1e-5)
 
@@ -121,3 +121,32 @@ def test_depth_peeling_layers(tmp_path):
     behind = surf[1][surf[0] == pedestal]
     # (a texel on the edge where the pedestal stands on the floor peels all three at once)
     assert behind.size > 0 and (behind >= 0).mean() > 0.95
+
+
+def test_mirror_ray_matches_twin():
+    """The reflected ray of a reflector pixel, for each reflector kind, on random triangles."""
+    from naive import reflected_ray
+
+    from reflectcli.maps.distance_search import mirror_ray
+    from reflectcli.scene.types import CYLINDER, MESH, PLANAR, SPHERE
+
+    rng = np.random.default_rng(3)
+    corners = rng.normal(size=(8, 3, 3)).astype(np.float32)
+    normals = rng.normal(size=(8, 3, 3)).astype(np.float32)
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    plane_n = rng.normal(size=3)
+    plane_n /= np.linalg.norm(plane_n)
+    params = {PLANAR: np.r_[plane_n, 0.3, np.zeros(4)],
+              SPHERE: np.r_[rng.normal(size=3), 1.0, np.zeros(4)],
+              CYLINDER: np.r_[rng.normal(size=3), axis, 0.0, 0.0],
+              MESH: np.zeros(8)}  # a mesh: interpolated normals
+    for kind, p in params.items():
+        p = p.astype(np.float32)
+        for t in range(8):
+            b1, b2 = rng.random(2) * 0.5
+            eye = (rng.normal(size=3) * 5).astype(np.float32)
+            got = mirror_ray(t, np.float32(b1), np.float32(b2), corners, normals, kind, p, eye)
+            point, r = reflected_ray(t, b1, b2, corners, normals, kind, p, eye)
+            np.testing.assert_allclose(got[:3], point, atol=1e-5)
+            np.testing.assert_allclose(got[3:], r, atol=1e-4)

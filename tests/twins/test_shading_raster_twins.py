@@ -8,7 +8,6 @@ import pytest
 from naive import material_albedo, primary_rays, rasterize, shade, surface_color
 
 from reflectcli.camera import Camera
-from reflectcli.camera import primary_rays as fast_primary_rays
 from reflectcli.raster.rasterize import (
     CULL_BACK,
     CULL_FRONT,
@@ -22,6 +21,7 @@ from reflectcli.raster.shade import _shade
 from reflectcli.scene.types import CHECKER, DIRECTIONAL, LAMBERT, POINT, SOLID, TEXTURE, UNLIT
 from reflectcli.shading import material_albedo as fast_albedo
 from reflectcli.shading import surface_color as fast_surface_color
+from reflectcli.trace.rays import primary_rays as fast_primary_rays
 
 
 def materials(rng):

@@ -26,6 +26,7 @@ from reflectcli.camera import Camera
 from reflectcli.scene import primitives
 from reflectcli.virtual import direct, explosion, refine
 from reflectcli.virtual.mesh import weld
+from reflectcli.virtual.tiles import PartTiles
 
 
 def circle_cases(rng, n=150):
@@ -157,7 +158,7 @@ def test_screen_refinement_matches_twin():
 def test_tile_scan_matches_twin():
     rng = np.random.default_rng(3)
     _, inside, q, r = sphere_grid()
-    tiles = refine.PartTiles(inside, q, r, size=8)
+    tiles = PartTiles(inside, q, r, size=8)
     pts = np.concatenate([rng.normal(size=(200, 3)) * 3.0, [tiles.center[0]]])
     reach, seeds = tiles.scan(pts, q, r)
     want_reach, want_seeds = scan(pts, tiles.center, tiles.radius, tiles.axis, tiles.half,
