@@ -244,46 +244,34 @@ def bench(file, resume, workers, scheduler, threads) -> None:
 @cli.command()
 @click.argument("first", type=click.Path(dir_okay=False, exists=True))
 @click.argument("second", type=click.Path(dir_okay=False, exists=True))
-@click.option("--mask-channel", help="score only pixels where this channel is > 0 in both")
+@click.option("--mask-channel", help="also score only pixels where this channel is > 0 in both")
 @click.option("--threshold", type=float, default=0.1, show_default=True,
               help="error above which a pixel counts as off")
-def compare(first, second, mask_channel, threshold) -> None:
-    """Print PSNR, RMSE, max error and the fraction of pixels off between two EXRs."""
-    import numpy as np
+@click.option("--metrics", "metrics", default="all", show_default=True,
+              help="comma-separated: psnr, rmse, max_error, frac_off, relmse, p50, p95, p99, "
+                   "flip, flip_ldr, ssim")
+def compare(first, second, mask_channel, threshold, metrics) -> None:
+    """Score SECOND against FIRST (the reference): PSNR, RMSE, max error, pixels off, relMSE,
+    error percentiles, FLIP (HDR and LDR) and SSIM, over the whole image and the mask."""
+    from .errors import Problem
+    from .metrics import parse_metrics
+    from .metrics.compare import compare_files, format_value
 
-    from .bench.metrics import image_metrics
-    from .output.exr import read_exr
-
-    images = []
-    for path in (first, second):
-        try:
-            channels, _ = read_exr(path)
-        except OSError as e:
-            click.echo(f"{path}: {str(e).splitlines()[0]}", err=True)
-            sys.exit(EXIT_BAD_INPUT)
-        missing = [c for c in ("R", "G", "B") if c not in channels]
-        if mask_channel and mask_channel not in channels:
-            missing.append(mask_channel)
-        if missing:
-            click.echo(f"{path}: channels: missing {', '.join(missing)}", err=True)
-            sys.exit(EXIT_BAD_INPUT)
-        images.append(channels)
-    a, b = (np.stack([c[k] for k in "RGB"], axis=-1) for c in images)
-    if a.shape != b.shape:
-        click.echo(f"{second}: size {b.shape[1]}x{b.shape[0]} differs from "
-                   f"{a.shape[1]}x{a.shape[0]}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
-    mask = None
-    if mask_channel:
-        mask = (images[0][mask_channel] > 0) & (images[1][mask_channel] > 0)
-    m = image_metrics(a, b, mask, threshold)
-    scope = f"{int(mask.sum())} pixels where {mask_channel} > 0" if mask is not None else (
-        f"all {a.shape[0] * a.shape[1]} pixels")
-    click.echo(f"over {scope}")
-    click.echo(f"psnr      {m['psnr']:.4f} dB")
-    click.echo(f"rmse      {m['rmse']:.6g}")
-    click.echo(f"max_error {m['max_error']:.6g}")
-    click.echo(f"frac_off  {m['frac_off']:.6g} (> {threshold})")
+    try:
+        chosen = parse_metrics(metrics)
+    except ValueError as e:
+        _fail(Problems([Problem("--metrics", "", str(e))]))
+    try:
+        result = compare_files(first, second, metrics=chosen, mask_channel=mask_channel,
+                               threshold=threshold)
+    except Problems as e:
+        _fail(e)
+    for warning in result.warnings:
+        click.echo(f"warning: {warning}", err=True)
+    for scope, values in result.scopes.items():
+        click.echo(f"over {scope}")
+        for name, value in values.items():
+            click.echo(f"{name:<9} {format_value(name, value, threshold)}")
 
 
 @cli.command()
