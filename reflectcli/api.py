@@ -140,10 +140,14 @@ def render(
     on_frame: Callable[[int, str], None] | None = None,
     config: SceneConfig | None = None,
     cache: str | None = None,
+    repeats: int = 1,
 ) -> RenderResult:
     """Render the selected frames of a scene file into out/<scene>/<technique>/.
 
-    Raises Problems for bad input before anything is written.
+    `repeats` > 1 renders each frame that many times in a row (for timing a scene of one
+    frame: the bench's warm-up and timed samples); the first render is written and every
+    render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
+    the repeats as extra frames. Raises Problems for bad input before anything is written.
     """
     import numba
 
@@ -189,6 +193,11 @@ def render(
         start = time.perf_counter()
         frame = tech.render(state, index, camera)
         render_seconds = time.perf_counter() - start
+        repeat_seconds = [render_seconds]
+        for _ in range(repeats - 1):
+            start = time.perf_counter()
+            tech.render(state, index, camera)
+            repeat_seconds.append(time.perf_counter() - start)
         row = {
             "scene": config.scene.name,
             "technique": name,
@@ -204,6 +213,7 @@ def render(
             "cpu": cpu_name(),
             "versions": versions(),
             "scene_hash": scene.scene_hash,
+            **({"repeat_seconds": repeat_seconds} if repeats > 1 else {}),
         }
         with interrupts_deferred():  # a frame is kept with its log line, or not at all
             t1 = time.perf_counter()

@@ -113,7 +113,23 @@ class Virtual(Technique):
     Params = VirtualParams
 
     def prepare(self, scene: Scene) -> dict:
-        return {"scene": scene, "tessellated": {}}
+        state = {"scene": scene, "tessellated": {}}
+        # one-time work, kept out of frame time: at frame 0, what every reflector reflects
+        # tessellated, and each mesh reflector's convex parts (both cached and reused while
+        # the geometry does not change)
+        geometry = scene.geometry(0)
+        tris = geometry.all_triangles()
+        for k in range(scene.mirrors.count):
+            self._reflected(state, scene, geometry, k)
+            method = self._method(int(scene.mirrors.kind[k]), k in scene.mirror_profiles)
+            mode = self.params.decompose_overrides.get(scene.mirrors.names[k],
+                                                       self.params.decompose)
+            mine = np.flatnonzero(tris.surface == scene.n_objects + k)
+            if method == "explosion" and mode == "auto" and mine.size:
+                first, count = int(mine[0]), int(mine.size)
+                self._decompose(weld(tris.corners[first:first + count],
+                                     tris.normals[first:first + count]))
+        return state
 
     def render(self, state: dict, frame: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]
