@@ -68,3 +68,25 @@ def test_plot_lines_never_join_scenes_or_other_values():
     groups = _lines(rows, {"technique.n"})
     assert sorted(len(g) for g in groups.values()) == [1, 1, 2]
     assert all(len({r["scene"] for r in g}) == 1 for g in groups.values())
+
+
+def test_render_repeats_write_the_first_render_and_log_every_time(tmp_path):
+    from pathlib import Path
+
+    from reflectcli import api
+    from reflectcli.output.exr import read_exr
+    from reflectcli.output.log import read_jsonl
+
+    scene = str(Path(__file__).resolve().parents[2] / "scenes" / "teapot-box.toml")
+    small = ["camera.width=32", "camera.height=24"]
+    once = api.render(scene, out=str(tmp_path / "a"), frames="0", technique="rerender",
+                      overrides=small)
+    thrice = api.render(scene, out=str(tmp_path / "b"), frames="0", technique="rerender",
+                        overrides=small, repeats=3)
+    log = read_jsonl(str(Path(thrice.folder) / "timings.jsonl"))
+    assert len(log) == 1 and len(log[0]["repeat_seconds"]) == 3
+    assert log[0]["repeat_seconds"][0] == log[0]["frame_seconds"]
+    assert "repeat_seconds" not in read_jsonl(str(Path(once.folder) / "timings.jsonl"))[0]
+    a, _ = read_exr(once.written[0])
+    b, _ = read_exr(thrice.written[0])
+    assert all((a[c] == b[c]).all() for c in a)
