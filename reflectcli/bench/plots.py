@@ -78,7 +78,8 @@ def write_plots(out: str, rows: list[dict]) -> list[str]:
                 ax.plot(*zip(*refs, strict=True), marker="s", linestyle="--",
                         label=f"raytrace (ref) / {scene}")
         ax.set(xscale="log", yscale="log", xlabel="triangles", ylabel="frame time (ms)")
-        ax.legend(fontsize=7)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
         ax.grid(True, which="both", alpha=0.3)
         written.append(os.path.join(out, "time-vs-triangles.png"))
         _save(fig, written[-1])
