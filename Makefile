@@ -13,7 +13,7 @@ demo: install
 $(BIN)/reflect: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev,plots,dask]'
+	$(BIN)/pip install --quiet -e '.[dev,plots,dask,metrics]'
 	touch $(BIN)/reflect
 
 install: $(BIN)/reflect

@@ -30,7 +30,7 @@ from .errors import Problem, Problems
 from .frame import Frame
 from .loading import load_config
 from .maps.cache import MapCache, default_cache_dir
-from .output.exr import read_exr, write_exr
+from .output.exr import write_exr
 from .output.log import append_jsonl
 from .output.png import write_png
 from .provenance import cpu_name, versions
@@ -307,14 +307,25 @@ class OpenedScene:
                        "" if out is not None else "output.dir")
         return folder
 
-    def write_frame(self, frame_index: int, folder: str, *, preview: bool | None = None) -> str:
+    def write_frame(self, frame_index: int, folder: str, *, preview: bool | None = None,
+                    repeats: int = 1) -> str:
         """Render a frame and write it into `folder`: EXR, optional PNG preview and its log
-        row, all or nothing (Ctrl-C waits until the three are written). The EXR's path."""
+        row, all or nothing (Ctrl-C waits until the three are written). The EXR's path.
+
+        `repeats` > 1 renders the frame that many times in a row (timing a scene of one frame:
+        the bench's warm-up and timed samples); the first render is written and every
+        render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
+        the repeats as extra frames."""
         exr = os.path.join(folder, f"frame_{frame_index:04d}.exr")
         self.prepare()
         start = time.perf_counter()
         frame = self.render_frame(frame_index)
         render_seconds = time.perf_counter() - start
+        repeat_seconds = [render_seconds]
+        for _ in range(repeats - 1):
+            start = time.perf_counter()
+            self.render_frame(frame_index)
+            repeat_seconds.append(time.perf_counter() - start)
         params = json.loads(self.params.model_dump_json())
         row = {
             "scene": self.name,
@@ -331,6 +342,7 @@ class OpenedScene:
             "cpu": cpu_name(),
             "versions": versions(),
             "scene_hash": self.scene_hash,
+            **({"repeat_seconds": repeat_seconds} if repeats > 1 else {}),
         }
         attributes = {
             "reflect:technique": self.technique_name,
@@ -352,7 +364,8 @@ class OpenedScene:
 
     def write_frames(self, frame_indices: range | list[int], *, out: str | None = None,
                      preview: bool | None = None, resume: bool = False,
-                     on_frame: Callable[[int, str], None] | None = None) -> RenderResult:
+                     on_frame: Callable[[int, str], None] | None = None,
+                     repeats: int = 1) -> RenderResult:
         """Write the given frames into <out>/<scene>/<technique>/ (with `resume`, frames
         whose EXR exists are skipped)."""
         _check_threads(self.threads)  # before the build and the folder, as any bad argument
@@ -364,7 +377,7 @@ class OpenedScene:
             if resume and os.path.exists(exr):
                 result.skipped.append(frame_index)
                 continue
-            self.write_frame(frame_index, result.folder, preview=preview)
+            self.write_frame(frame_index, result.folder, preview=preview, repeats=repeats)
             result.written.append(exr)
             if on_frame is not None:
                 on_frame(frame_index, exr)
@@ -413,15 +426,19 @@ def render(
     resume: bool = False,
     on_frame: Callable[[int, str], None] | None = None,
     cache: str | None = None,
+    repeats: int = 1,
 ) -> RenderResult:
     """Render the selected frames of a scene file into out/<scene>/<technique>/.
 
-    Raises Problems for bad input before anything is written.
+    `repeats` > 1 renders each frame that many times in a row (for timing a scene of one
+    frame: the bench's warm-up and timed samples); the first render is written and every
+    render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
+    the repeats as extra frames. Raises Problems for bad input before anything is written.
     """
     scene = open_scene(path, overrides=overrides, technique=technique, threads=threads,
                        cache=cache)
     return scene.write_frames(scene.frames(frames), out=out, preview=preview, resume=resume,
-                              on_frame=on_frame)
+                              on_frame=on_frame, repeats=repeats)
 
 
 @dataclass
@@ -451,44 +468,17 @@ def clear_cache(folder: str) -> int:
     return MapCache(folder).clear()
 
 
-@dataclass
-class Comparison:
-    metrics: dict[str, float]  # psnr, rmse, max_error, frac_off (bench.metrics)
-    pixels: int  # how many were scored
-    mask_channel: str | None
-    threshold: float
+def compare(first: str, second: str, *, metrics: tuple[str, ...] | None = None,
+            mask_channel: str | None = None, threshold: float = 0.1):
+    """Score `second` against `first` (the reference EXR or PNG): every chosen metric over
+    the whole image and, with `mask_channel`, over the pixels where it is > 0 in both; plus
+    warnings (an sRGB PNG against a linear EXR, differing scenes or frames). Raises Problems
+    naming the file."""
+    from .metrics import DEFAULT_METRICS
+    from .metrics.compare import compare_files
 
-
-def compare(first: str, second: str, *, mask_channel: str | None = None,
-            threshold: float = 0.1) -> Comparison:
-    """Error metrics of `first` against `second` (two EXRs of the same size), over the
-    pixels where `mask_channel` is > 0 in both if given. Raises Problems naming the file."""
-    import numpy as np
-
-    from .bench.metrics import image_metrics
-
-    images = []
-    for path in (first, second):
-        try:
-            channels, _ = read_exr(path)
-        except OSError as e:
-            raise Problems([Problem(path, "", str(e).splitlines()[0])]) from None
-        missing = [c for c in ("R", "G", "B") if c not in channels]
-        if mask_channel and mask_channel not in channels:
-            missing.append(mask_channel)
-        if missing:
-            raise Problems([Problem(path, "channels", f"missing {', '.join(missing)}")])
-        images.append(channels)
-    a, b = (np.stack([c[k] for k in "RGB"], axis=-1) for c in images)
-    if a.shape != b.shape:
-        raise Problems([Problem(second, "", f"size {b.shape[1]}x{b.shape[0]} differs from "
-                                f"{a.shape[1]}x{a.shape[0]}")])
-    mask = None
-    if mask_channel:
-        mask = (images[0][mask_channel] > 0) & (images[1][mask_channel] > 0)
-    pixels = int(mask.sum()) if mask is not None else a.shape[0] * a.shape[1]
-    return Comparison(image_metrics(a, b, mask, threshold), pixels, mask_channel or None,
-                      threshold)
+    return compare_files(first, second, metrics=metrics or DEFAULT_METRICS,
+                         mask_channel=mask_channel, threshold=threshold)
 
 
 M = TypeVar("M", bound=BaseModel)

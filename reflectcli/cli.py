@@ -211,25 +211,35 @@ def bench(file, resume, workers, scheduler, threads) -> None:
 @cli.command()
 @click.argument("first", type=click.Path(dir_okay=False, exists=True))
 @click.argument("second", type=click.Path(dir_okay=False, exists=True))
-@click.option("--mask-channel", help="score only pixels where this channel is > 0 in both")
+@click.option("--mask-channel", help="also score only pixels where this channel is > 0 in both")
 @click.option("--threshold", type=float, default=0.1, show_default=True,
               help="error above which a pixel counts as off")
-def compare(first, second, mask_channel, threshold) -> None:
-    """Print PSNR, RMSE, max error and the fraction of pixels off between two EXRs."""
+@click.option("--metrics", "metrics", default="all", show_default=True,
+              help="comma-separated: psnr, rmse, max_error, frac_off, relmse, p50, p95, p99, "
+                   "flip, flip_ldr, ssim")
+def compare(first, second, mask_channel, threshold, metrics) -> None:
+    """Score SECOND against FIRST (the reference): PSNR, RMSE, max error, pixels off, relMSE,
+    error percentiles, FLIP (HDR and LDR) and SSIM, over the whole image and the mask."""
     from . import api
+    from .errors import Problem
+    from .metrics import parse_metrics
+    from .metrics.compare import format_value
 
     try:
-        c = api.compare(first, second, mask_channel=mask_channel, threshold=threshold)
+        chosen = parse_metrics(metrics)
+    except ValueError as e:
+        _fail(Problems([Problem("--metrics", "", str(e))]))
+    try:
+        result = api.compare(first, second, metrics=chosen, mask_channel=mask_channel,
+                             threshold=threshold)
     except Problems as e:
         _fail(e)
-    m = c.metrics
-    scope = (f"{c.pixels} pixels where {mask_channel} > 0" if c.mask_channel
-             else f"all {c.pixels} pixels")
-    click.echo(f"over {scope}")
-    click.echo(f"psnr      {m['psnr']:.4f} dB")
-    click.echo(f"rmse      {m['rmse']:.6g}")
-    click.echo(f"max_error {m['max_error']:.6g}")
-    click.echo(f"frac_off  {m['frac_off']:.6g} (> {threshold})")
+    for warning in result.warnings:
+        click.echo(f"warning: {warning}", err=True)
+    for scope, values in result.scopes.items():
+        click.echo(f"over {scope}")
+        for name, value in values.items():
+            click.echo(f"{name:<9} {format_value(name, value, threshold)}")
 
 
 @cli.command()

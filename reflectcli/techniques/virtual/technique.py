@@ -14,10 +14,10 @@ from ...camera import Camera
 from ...frame import Frame
 from ...raster.primary import render_primary
 from ...scene.types import PLANAR, Scene
-from ...virtual.dispatch import facing_plane, reflector_parts
+from ...virtual.dispatch import choose_method, facing_plane, reflector_parts
 from ...virtual.raster import draw_virtual
 from ...virtual.reflected import ReflectedCache
-from ...virtual.shape import ShapeCache
+from ...virtual.shape import ShapeCache, soup_key
 from ...virtual.view import ViewCache
 from ..base import Technique
 from . import Params
@@ -44,7 +44,26 @@ class Virtual(Technique):
     Params = Params
 
     def prepare(self, scene: Scene) -> VirtualState:
-        return VirtualState(scene)
+        """One-time work, kept out of frame time: at frame 0, what every reflector reflects
+        tessellated, and each mesh reflector's shape (welded, decomposed into parts, boundary
+        edges); both are cached and reused while the geometry does not change."""
+        state = VirtualState(scene)
+        geometry = scene.geometry(0)
+        tris = geometry.all_triangles()
+        for k in range(scene.mirrors.count):
+            state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation)
+            method = choose_method(self.params.method, int(scene.mirrors.kind[k]),
+                                   k in scene.mirror_profiles)
+            mine = np.flatnonzero(tris.surface == scene.n_objects + k)
+            if method != "explosion" or not mine.size:
+                continue
+            first, count = int(mine[0]), int(mine.size)  # a reflector's triangles are contiguous
+            corners = tris.corners[first:first + count]
+            normals = tris.normals[first:first + count]
+            mode = self.params.decompose_overrides.get(scene.mirrors.names[k],
+                                                       self.params.decompose)
+            state.shapes.get(soup_key(corners, normals), corners, normals, mode == "auto")
+        return state
 
     def render(self, state: VirtualState, frame_index: int, camera: Camera) -> Frame:
         scene = state.scene
