@@ -232,7 +232,7 @@ class BenchResult:
 def run_bench(path: str, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, threads: int | None = None,
               on_row: Callable[[dict], None] | None = None) -> BenchResult:
-    from .report import write_outputs
+    from .outputs import write_outputs
 
     plan = load_bench(path)
     os.makedirs(plan.out, exist_ok=True)
