@@ -25,6 +25,7 @@ from ...maps.zexel import (
     viewpoints,
 )
 from ...raster.primary import render_primary
+from ...raster.rasterize import RasterWorkspace
 from ...scene.types import PLANAR, Scene, Triangles, scene_extent
 from ..base import MapRecord, MapTechnique, precompute_logged, warn_non_planar
 from . import DprmMaps, DprmParams
@@ -53,6 +54,7 @@ class DprmState:
     # per mirror index: (reflected colors, filled pixels) of the previous frame
     previous: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     buffers: FrameBuffers | None = None  # per-frame arrays kept across frames
+    buffers_raster: RasterWorkspace = field(default_factory=RasterWorkspace)
 
 
 class FrameBuffers:
@@ -145,7 +147,7 @@ class Dprm(MapTechnique):
     def render(self, state: DprmState, frame_index: int, camera: Camera) -> Frame:
         scene = state.scene
         params: DprmParams = self.params
-        primary = render_primary(scene, frame_index, camera)
+        primary = render_primary(scene, frame_index, camera, state.buffers_raster)
         result = primary.frame
         self.last_lod_level = 0
         h, w = result.surface.shape
