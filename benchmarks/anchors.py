@@ -30,6 +30,7 @@ import argparse
 import importlib.util
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -45,17 +46,24 @@ TABLE: list[tuple[str, str, str, str]] = []  # (row, anchor, reflect, ratio)
 
 
 def load_anchor(folder: Path, name: str):
-    path = folder / f"{name}.py"
-    if not path.exists():
+    """The anchor script, imported from a copy under the user's cache folder: numba caches
+    its kernels beside the copy, never in the (shared, maybe read-only) anchors folder, and
+    under the script's own module name (its cache finds the kernels again only by it)."""
+    source = folder / f"{name}.py"
+    if not source.exists():
         return None
-    spec = importlib.util.spec_from_file_location(f"anchor_{name}", path)
-    module = importlib.util.module_from_spec(spec)
+    copy_dir = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "reflect-anchors"
+    copy_dir.mkdir(parents=True, exist_ok=True)
+    copy = copy_dir / source.name
+    if not copy.exists() or copy.read_bytes() != source.read_bytes():
+        shutil.copyfile(source, copy)
+    if str(copy_dir) not in sys.path:
+        sys.path.insert(0, str(copy_dir))
     try:
-        spec.loader.exec_module(module)
+        return importlib.import_module(name)
     except Exception as exc:  # noqa: BLE001 - an anchor that does not run is reported, skipped
         print(f"  anchor {name} does not load: {exc!r}")
         return None
-    return module
 
 
 def round_robin(fns: dict, reps: int, warm: int = 2) -> dict[str, np.ndarray]:
@@ -153,7 +161,7 @@ def bench_warp(anchors: Path, reps: int) -> None:
             s = 0 if splat == 1 else 1
             fns["anchor"] = (lambda s=s, b=b, a_=a_, e_=e_, cst=cst, col4=col4: aw.warp_final(
                 depth, col4, a_, e_, cst, b.zd, b.cd, b.zt, b.ct, b.pix, b.zmap, b.rlo, b.rhi,
-                b.rcnt, s, 2, b.vzs, b.vqs))
+                b.rcnt, s, numba.get_num_threads(), b.vzs, b.vqs))
         t = round_robin(fns, reps)
         anchor = ms(t["anchor"]) if "anchor" in t else f"(none; numpy copy {ms(t['copy'])})"
         base = t.get("anchor", t["copy"])
@@ -286,6 +294,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--reps", type=int, default=15)
     ap.add_argument("--rows", default="warp,raster,rerender,raytrace")
+    ap.add_argument("--threads", type=int, default=2,
+                    help="numba threads for reflect and the numba anchors (1 shows the work "
+                         "without waits on a busy machine)")
     ap.add_argument("--anchors", type=Path, default=DEFAULT_ANCHORS)
     ap.add_argument("--gl-python", default=os.environ.get("REFLECT_GL_PYTHON"),
                     help="a python with moderngl for the OpenGL peer (default: "
@@ -293,7 +304,7 @@ def main() -> None:
     args = ap.parse_args()
     if args.gl_python is None and importlib.util.find_spec("moderngl") is not None:
         args.gl_python = sys.executable
-    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+    numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     print(f"anchors: {args.anchors} ({'found' if args.anchors.exists() else 'missing'}); "
           f"numba threads {numba.get_num_threads()}; reps {args.reps}")
     rows = args.rows.split(",")
