@@ -15,7 +15,7 @@ from ...frame import Frame
 from ...geometry import reflection_matrix
 from ...maps.cache import MapCache, cache_key
 from ...maps.surface import surface_colors
-from ...maps.warp import warp_maps
+from ...maps.warp import WarpBuffers, fill_blend, gather_colors, stencil_box, warp_maps
 from ...maps.zexel import (
     ZexelMap,
     capture_map,
@@ -25,6 +25,7 @@ from ...maps.zexel import (
     viewpoints,
 )
 from ...raster.primary import render_primary
+from ...raster.rasterize import RasterWorkspace
 from ...scene.types import PLANAR, Scene, Triangles, scene_extent
 from ..base import MapRecord, MapTechnique, precompute_logged, warn_non_planar
 from . import DprmMaps, DprmParams
@@ -52,6 +53,26 @@ class DprmState:
     triangles: Triangles  # the frame-0 triangles the maps' T channel indexes
     # per mirror index: (reflected colors, filled pixels) of the previous frame
     previous: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    buffers: FrameBuffers | None = None  # per-frame arrays kept across frames
+    buffers_raster: RasterWorkspace = field(default_factory=RasterWorkspace)
+
+
+class FrameBuffers:
+    """The arrays a frame's warp and fill write, kept across frames (one screen size)."""
+
+    def __init__(self, height: int, width: int) -> None:
+        self.shape = (height, width)
+        self.warp = WarpBuffers(height, width)
+        self.reflected = np.zeros((height, width, 3), np.float32)
+        self.dirty: tuple[int, int, int, int] | None = None  # (x0, x1, y0, y1) of reflected
+        self.spare: tuple[np.ndarray, np.ndarray] | None = None  # a free temporal pair
+
+    def clear_reflected(self) -> np.ndarray:
+        if self.dirty is not None:
+            x0, x1, y0, y1 = self.dirty
+            self.reflected[y0:y1, x0:x1] = 0.0
+            self.dirty = None
+        return self.reflected
 
 
 class Dprm(MapTechnique):
@@ -126,10 +147,14 @@ class Dprm(MapTechnique):
     def render(self, state: DprmState, frame_index: int, camera: Camera) -> Frame:
         scene = state.scene
         params: DprmParams = self.params
-        primary = render_primary(scene, frame_index, camera)
+        primary = render_primary(scene, frame_index, camera, state.buffers_raster)
         result = primary.frame
         self.last_lod_level = 0
-        holes = np.zeros(result.surface.shape, bool)
+        h, w = result.surface.shape
+        if state.buffers is None or state.buffers.shape != (h, w):
+            state.buffers = FrameBuffers(h, w)
+            state.previous.clear()
+        holes = np.zeros((h, w), np.float32)
         warp_s = fill_s = 0.0
         used, warped = 0, 0
         for record in state.mirrors:
@@ -138,33 +163,39 @@ class Dprm(MapTechnique):
             if not stencil.any():
                 continue
             t0 = time.perf_counter()
-            reflected, reached, n_maps, n_zexels = self._warp(record, camera, stencil, scene,
-                                                              state.triangles)
+            reflected, reached, n_maps, n_zexels = self._warp(
+                record, camera, stencil, scene, state.triangles, state.buffers)
             t1 = time.perf_counter()
-            filled = reached
+            prev = state.previous.get(k) if params.fill.temporal else None
             if params.fill.temporal:
-                prev = state.previous.get(k)
-                if prev is not None:
-                    reuse = stencil & ~reached & prev[1]
-                    reflected[reuse] = prev[0][reuse]
-                    filled = reached | reuse
-                state.previous[k] = (reflected.copy(), filled & stencil)
-            hole = stencil & ~filled
-            reflected[hole] = scene.background
-            result.rgb[stencil] += scene.mirrors.reflectance[k] * reflected[stencil]
-            holes |= hole
+                # the previous frame's pair is read while this frame's is written: two pairs
+                spare = state.buffers.spare
+                if spare is None:
+                    spare = (np.empty((h, w, 3), np.float32), np.empty((h, w), bool))
+                state.buffers.spare = prev
+                save_rgb, save_filled = spare
+            empty = (np.empty((0, 0, 3), np.float32), np.empty((0, 0), bool))
+            if not params.fill.temporal:
+                save_rgb, save_filled = empty
+            prev_rgb, prev_filled = prev if prev is not None else empty
+            fill_blend(stencil, state.buffers.warp.best_id, reflected, prev is not None,
+                        prev_rgb, prev_filled, params.fill.temporal, save_rgb, save_filled,
+                        scene.background, scene.mirrors.reflectance[k], result.rgb, holes)
+            if params.fill.temporal:
+                state.previous[k] = (save_rgb, save_filled)
             fill_s += time.perf_counter() - t1
             warp_s += t1 - t0
             used += n_maps
             warped += n_zexels
         mirror_pixels = int(np.count_nonzero(result.surface >= scene.n_objects))
-        result.extra["holes"] = holes.astype(np.float32)
+        hole_count = int(np.count_nonzero(holes))
+        result.extra["holes"] = holes
         result.timings.update({"warp": warp_s, "fill": fill_s,
                                "precompute": state.precompute_seconds if frame_index == 0 else 0.0})
         result.stats.update({"maps_used": used, "zexels_warped": warped,
                              "lod_level": getattr(self, "last_lod_level", 0),
-                             "holes": int(holes.sum()),
-                             "hole_fraction": float(holes.sum() / max(mirror_pixels, 1))})
+                             "holes": hole_count,
+                             "hole_fraction": float(hole_count / max(mirror_pixels, 1))})
         return result
 
     def _lod(self, record: DprmRecord, chosen, stencil: np.ndarray):
@@ -182,7 +213,7 @@ class Dprm(MapTechnique):
         return maps, level
 
     def _warp(self, record: DprmRecord, camera: Camera, stencil: np.ndarray,
-              scene: Scene | None = None, triangles=None):
+              scene: Scene | None = None, triangles=None, buffers: FrameBuffers | None = None):
         """Reflected colors over the stencil, and which pixels a zexel reached."""
         params: DprmParams = self.params
         k_maps: list[ZexelMap] = record.maps
@@ -199,30 +230,28 @@ class Dprm(MapTechnique):
             maps, level = self._lod(record, chosen, stencil)
         self.last_lod_level = level
         _, best_id, stride, zexels = warp_maps(maps, camera, reflect, mirrored_eye, stencil,
-                                               params.fill.splat, params.occlusion == "ordered")
+                                               params.fill.splat, params.occlusion == "ordered",
+                                               buffers.warp if buffers is not None else None)
         h, w = stencil.shape
-        reflected = np.zeros((h, w, 3), np.float32)
+        _, box = stencil_box(stencil)
+        if buffers is not None:
+            reflected = buffers.clear_reflected()
+            buffers.dirty = box
+        else:
+            reflected = np.zeros((h, w, 3), np.float32)
         reached = best_id >= 0
-        ids = best_id[reached]
-        reflected[reached] = _gather([m.color.reshape(-1, 3) for m in maps], ids, stride)
+        if box is not None:
+            gather_colors(best_id, stride, [m.color.reshape(-1, 3) for m in maps], box,
+                          reflected)
         if params.reconstruct == "surface" and scene is not None:
-            tri = np.full((h, w), -1, np.int32)
-            tri[reached] = _gather([m.triangle.reshape(-1) for m in maps], ids, stride)
-            shaded, ok = surface_colors(tri, camera, reflect, mirrored_eye, (n, d), triangles,
-                                        scene)
-            reflected[ok] = shaded[ok]
+            tri = np.full((h, w, 1), -1, np.int32)
+            if box is not None:
+                gather_colors(best_id, stride, [m.triangle.reshape(-1, 1) for m in maps], box,
+                              tri)
+            shaded, ok = surface_colors(tri[:, :, 0], camera, reflect, mirrored_eye, (n, d),
+                                        triangles, scene)
+            reflected[ok] = shaded[ok]  # ok: pixels a zexel reached, inside the box
         return reflected, reached, len(chosen), zexels
-
-
-def _gather(per_map: list[np.ndarray], ids: np.ndarray, stride: int) -> np.ndarray:
-    """Rows of the maps' arrays for warp ids (map slot * stride + zexel index), read map by
-    map rather than from a stack of all the maps (a copy of every zexel each frame)."""
-    slot, index = np.divmod(ids, stride)
-    out = np.empty((ids.size,) + per_map[0].shape[1:], per_map[0].dtype)
-    for j, values in enumerate(per_map):
-        pick = slot == j
-        out[pick] = values[index[pick]]
-    return out
 
 
 def _numbers(values) -> str:

@@ -11,7 +11,7 @@ from ...camera import Camera, reflection_pass_matrices
 from ...frame import Frame
 from ...geometry import reflection_matrix
 from ...raster.primary import render_primary
-from ...raster.rasterize import FLAG_SKIP, rasterize
+from ...raster.rasterize import FLAG_SKIP, RasterWorkspace, rasterize
 from ...raster.shade import shade_buffers
 from ...scene.types import PLANAR, Scene, Triangles
 from ..base import Technique, warn_non_planar
@@ -21,13 +21,20 @@ from . import RerenderParams
 class Rerender(Technique):
     name = "rerender"
     Params = RerenderParams
+    _primary_ws: RasterWorkspace | None = None
+    _pass_ws: RasterWorkspace | None = None
 
     def prepare(self, scene: Scene) -> Scene:
         warn_non_planar(scene, "rerender")
+        # rasterizer scratch kept across frames; reflection passes' buffers are shaded at once
+        self._primary_ws = RasterWorkspace()
+        self._pass_ws = RasterWorkspace(outputs=True)
         return scene
 
     def render(self, scene: Scene, frame_index: int, camera: Camera) -> Frame:
-        primary = render_primary(scene, frame_index, camera)
+        if self._pass_ws is None:
+            self.prepare(scene)
+        primary = render_primary(scene, frame_index, camera, self._primary_ws)
         result = primary.frame
         stats = {"passes": 1, "triangles_rasterized": primary.triangles.count,
                  "pass_seconds": []}
@@ -66,7 +73,7 @@ class Rerender(Technique):
                 camera, new_chain, np.append(n, d - offset), self.params.clip)
             pass_flags = flags | np.where(tris.surface == sid, FLAG_SKIP, 0).astype(np.uint8)
             buffers = rasterize(tris.corners, pass_flags, world_to_clip, camera.width,
-                                camera.height, planes, mask=stencil)
+                                camera.height, planes, mask=stencil, workspace=self._pass_ws)
             reflected, reflected_surface = shade_buffers(buffers, tris, scene, new_eye)
             stats["passes"] += 1
             stats["triangles_rasterized"] += tris.count
