@@ -1260,3 +1260,39 @@ def reflected_ray(tri, b1, b2, corners, normals, kind, p, eye):
     if n @ v < 0:
         n = -n
     return point, 2.0 * (n @ v) * n - v
+
+
+# --- dprm's colour gather and fill (maps/warp.py)
+
+
+def gather_rows(best_id, stride, per_map, box, out):
+    """Twin of maps.warp.gather_colors (and its _gather4): out[y, x] = per_map[id // stride]
+    [id % stride] where a zexel reached pixel (x, y) of box (x0, x1, y0, y1)."""
+    out = out.copy()
+    x0, x1, y0, y1 = box
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            ident = int(best_id[y, x])
+            if ident >= 0:
+                out[y, x] = per_map[ident // stride][ident % stride]
+    return out
+
+
+def fill_and_blend(stencil, best_id, reflected, prev_rgb, prev_filled, background,
+                   reflectance, rgb):
+    """Twin of maps.warp.fill_blend, in numpy masks: the warped colour where a zexel landed,
+    else the previous frame's where that was filled (prev_rgb None: no previous frame), else
+    the background, a hole; rgb += reflectance * that over the stencil. Returns (rgb,
+    holes, reflected, filled)."""
+    reached = stencil & (best_id >= 0)
+    reflected = reflected.copy()
+    filled = reached.copy()
+    if prev_rgb is not None:
+        reuse = stencil & ~reached & prev_filled
+        reflected[reuse] = prev_rgb[reuse]
+        filled |= reuse
+    hole = stencil & ~filled
+    reflected[hole] = background
+    rgb = rgb.copy()
+    rgb[stencil] += np.asarray(reflectance) * reflected[stencil]
+    return rgb, hole.astype(np.float32), reflected, filled
