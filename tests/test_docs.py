@@ -17,10 +17,10 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "reflectcli"
 TOP = ("reflectcli", "scenes", "configs", "scripts", "benchmarks", "docs", "tests")
 END = r"(?!<|[\w/-]|\.[\w/])"  # a path ends where no path character (or placeholder) follows
-PATH = re.compile(r"(?<![\w./-])((?:%s)/[\w./-]*[\w/]|[A-Z][A-Z_]*\.md)%s" % ("|".join(TOP), END))
+PATH = re.compile(r"(?<![\w./-])((?:" + "|".join(TOP) + r")/[\w./-]*[\w/]|[A-Z][A-Z_]*\.md)" + END)
 # package-relative module paths in docstrings: `maps/lookup.py`, `virtual/`
 SUBPACKAGES = tuple(p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name != "__pycache__")
-RELATIVE = re.compile(r"(?<![\w./-])((?:%s)/[\w./-]*\.py)%s" % ("|".join(SUBPACKAGES), END))
+RELATIVE = re.compile(r"(?<![\w./-])((?:" + "|".join(SUBPACKAGES) + r")/[\w./-]*\.py)" + END)
 
 
 def mentioned(text: str, relative: bool = False) -> set[str]:

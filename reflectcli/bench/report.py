@@ -6,7 +6,6 @@ import csv
 import io
 import json
 import math
-import os
 
 from ..output.atomic import atomic_path
 
@@ -157,15 +156,3 @@ def report_markdown(name: str, rows: list[dict]) -> str:
                              f"{_fmt(r['psnr_mirror'])} |")
             lines.append("")
     return "\n".join(lines) + "\n"
-
-
-def write_outputs(plan, rows: list[dict]) -> None:
-    out = plan.out
-    write_csv(os.path.join(out, "results.csv"), rows)
-    write_text(os.path.join(out, "report.md"), report_markdown(plan.config.bench.name, rows))
-    if plan.config.bench.plots:
-        try:
-            from .plots import write_plots
-        except ImportError:
-            return  # matplotlib is an optional extra
-        write_plots(out, rows)
