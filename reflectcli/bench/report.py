@@ -156,4 +156,3 @@ def report_markdown(name: str, rows: list[dict]) -> str:
                              f"{_fmt(r['psnr_mirror'])} |")
             lines.append("")
     return "\n".join(lines) + "\n"
-

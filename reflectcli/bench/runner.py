@@ -232,8 +232,6 @@ class BenchResult:
 def run_bench(path: str, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, threads: int | None = None,
               on_row: Callable[[dict], None] | None = None) -> BenchResult:
-    from .outputs import write_outputs
-
     plan = load_bench(path)
     os.makedirs(plan.out, exist_ok=True)
     rows_path = os.path.join(plan.out, "results.jsonl")
@@ -292,3 +290,19 @@ def _execute(jobs, settings, workers, scheduler):
         return
     for job in jobs:
         yield execute_job(job, settings)
+
+
+def write_outputs(plan, rows: list[dict]) -> None:
+    """results.csv, report.md and (with the plots extra) the plots of a bench's rows. Here,
+    not in report.py: plots.py builds on report.py, so report.py must not import it."""
+    from .report import report_markdown, write_csv, write_text
+
+    out = plan.out
+    write_csv(os.path.join(out, "results.csv"), rows)
+    write_text(os.path.join(out, "report.md"), report_markdown(plan.config.bench.name, rows))
+    if plan.config.bench.plots:
+        try:
+            from .plots import write_plots
+        except ImportError:
+            return  # matplotlib is an optional extra
+        write_plots(out, rows)

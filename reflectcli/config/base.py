@@ -17,7 +17,7 @@ class Strict(BaseModel):
     """Unknown keys are errors (pbrt-style): a typo must not silently fall back to a default.
     NaN and infinity are errors too: every range check would let them through."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True)
 
 
 # ---------------------------------------------------------------- parameter tables

@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from ..camera import Camera
-from ..raster.rasterize import FLAG_SKIP, rasterize
+from ..raster.rasterize import FLAG_SKIP, rasterize, screen_from_ndc
 from ..raster.shade import shade_buffers
 from ..scene.types import Scene, Triangles
 
@@ -75,7 +75,8 @@ def cube_face_coords(bases, rx, ry, rz):
     fwd = rx * bases[face, 2, 0] + ry * bases[face, 2, 1] + rz * bases[face, 2, 2]
     x_ndc = (rx * bases[face, 0, 0] + ry * bases[face, 0, 1] + rz * bases[face, 0, 2]) / fwd
     y_ndc = (rx * bases[face, 1, 0] + ry * bases[face, 1, 1] + rz * bases[face, 1, 2]) / fwd
-    return face, (x_ndc + 1.0) * 0.5, (1.0 - y_ndc) * 0.5
+    sx, sy = screen_from_ndc(x_ndc, y_ndc, 1, 1)  # a face 1 pixel wide
+    return face, sx, sy
 
 
 @njit(cache=True)

@@ -67,13 +67,6 @@ class _Classes(Mapping):
 TECHNIQUES: Mapping[str, type[Technique]] = _Classes()
 
 
-def map_techniques() -> list[str]:
-    """Names of the techniques that precompute maps (imports their classes)."""
-    from .base import MapTechnique
-
-    return sorted(n for n in CLASSES if issubclass(technique_class(n), MapTechnique))
-
-
 def default_technique() -> BaseModel:
     """A scene that names no technique renders with the ray tracer."""
     return PARAMS[DEFAULT_TECHNIQUE]()

@@ -70,7 +70,7 @@ class Virtual(Technique):
         primary = render_primary(scene, frame_index, camera)
         result = primary.frame
         geometry = scene.geometry(frame_index)
-        clip_from_world = camera.projection_matrix() @ camera.view_matrix()
+        clip_from_world = camera.clip_from_world()
         stats = {"virtual_vertices": 0, "virtual_triangles": 0, "reflector_parts": 0}
         seconds = dict.fromkeys(("tessellate", "maps", "virtual_vertices", "virtual_raster"),
                                 0.0)
@@ -82,7 +82,7 @@ class Virtual(Technique):
             seconds["tessellate"] += time.perf_counter() - t_start
             mirror_plane = None
             if scene.mirrors.kind[k] == PLANAR:
-                mirror_plane = np.append(*facing_plane(scene.mirrors.params[k], camera.eye))
+                mirror_plane = np.append(*facing_plane(scene.mirrors, k, camera.eye))
             parts = reflector_parts(self.params, scene, primary, k, camera, state.scene_points,
                                     state.shapes, state.views)
             while True:
