@@ -14,6 +14,7 @@ CSV_COLUMNS = [
     "run", "scene", "technique", "sweep", "psnr_mirror", "rmse_mirror", "max_error_mirror",
     "frac_off_mirror", "psnr_image", "rmse_image", "max_error_image", "frac_off_image",
     "hole_fraction", "frame_ms_median", "frame_ms_p25", "frame_ms_p75", "reference_ms_median",
+    "capture_ms_per_frame",
     "precompute_seconds", "numba_compile_seconds", "triangles", "frames", "timed_frames",
     "threads", "cpu", "parameters", "overrides", "scene_file",
 ]
