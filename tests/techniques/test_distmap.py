@@ -138,7 +138,7 @@ def _ranking(scene: str) -> dict[str, float]:
 
 def test_off_center_probe_needs_parallax_correction():
     """A ball near a box room's corner: without parallax correction the map is far off
-    (8.5 dB); box projection from the capture point is as good as distance maps (26.1)."""
+    (8.5 dB); box projection from the capture point is as good as distance maps (25.7)."""
     p = _ranking("off-center-probe")
     assert p["box"] > p["envmap"] + 12.0, p
     assert abs(p["distmap"] - p["box"]) < 0.5, p
