@@ -15,7 +15,8 @@ _METRIC_COLUMNS = [f"{m}_{scope}" for scope in ("mirror", "image") for m in (
 CSV_COLUMNS = [
     "run", "scene", "technique", "sweep", *_METRIC_COLUMNS,
     "hole_fraction", "frame_ms_median", "frame_ms_p25", "frame_ms_p75", "timing_warning",
-    "reference_ms_median", "prepare_seconds", "first_frame_ms", "numba_compile_seconds",
+    "reference_ms_median", "capture_ms_per_frame", "prepare_seconds", "first_frame_ms",
+    "numba_compile_seconds",
     "triangles", "frames", "repeats", "warmup_renders", "timed_frames", "threads", "cpu",
     "parameters", "overrides", "scene_file",
 ]

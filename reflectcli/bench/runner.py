@@ -62,7 +62,7 @@ def load_bench(path: str) -> BenchPlan:
             problems += [Problem(display, where, str(p)) for p in e.problems]
             continue
         job["id"] = _digest(os.path.relpath(job["scene"]), job["technique"], job["overrides"],
-                            cfg.bench.frames)
+                            job["frames"])
         job["scene_name"] = run.name
         job["parameters"] = run.params.model_dump(mode="json")
         ref_overrides = scene_overrides(job["overrides"]) + [
@@ -71,7 +71,7 @@ def load_bench(path: str) -> BenchPlan:
         # the scene's content (files it reads included) is in the id: an edited scene gets a
         # new reference instead of being scored against the old one
         job["reference"] = {
-            "id": _digest(os.path.relpath(job["scene"]), ref_overrides, cfg.bench.frames,
+            "id": _digest(os.path.relpath(job["scene"]), ref_overrides, job["frames"],
                           ref.scene_hash),
             "overrides": ref_overrides,
             "scene_name": ref.name,
@@ -88,7 +88,7 @@ def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> 
     from .. import api
 
     folder = os.path.join(plan.out, "references", job["reference"]["id"])
-    result = api.render(job["scene"], out=folder, frames=plan.config.bench.frames,
+    result = api.render(job["scene"], out=folder, frames=job["frames"],
                         technique="raytrace", overrides=job["reference"]["overrides"],
                         resume=True, threads=threads, repeats=plan.config.bench.repeats)
     return result.folder
@@ -139,7 +139,7 @@ def execute_job(job: dict, settings: dict) -> dict:
 
     folder = os.path.join(settings["out"], "runs", job["id"])
     shutil.rmtree(folder, ignore_errors=True)  # a run without a result row starts over
-    result = api.render(job["scene"], out=folder, frames=settings["frames"],
+    result = api.render(job["scene"], out=folder, frames=job.get("frames", settings["frames"]),
                         technique=job["technique"], overrides=job["overrides"],
                         cache=os.path.join(settings["out"], "cache"),
                         threads=settings.get("threads"), repeats=settings.get("repeats", 1))
@@ -184,6 +184,11 @@ def execute_job(job: dict, settings: dict) -> dict:
         # one-time work, never in frame time: everything the technique does before its first
         # frame (map capture, decomposition, ...); first_frame_ms shows first-frame caches
         "prepare_seconds": float(first.get("prepare_seconds", 0.0)),
+        # maps (re)captured, amortised over every frame of the run (frame 0's precompute
+        # included): what an update policy costs per frame
+        "capture_ms_per_frame": 1e3 * sum(
+            r.get("stages", {}).get("capture", 0.0) + r.get("stages", {}).get("precompute", 0.0)
+            for r in log) / len(log),
         "numba_compile_seconds": float(first["numba_compile_seconds"]),
         "triangles": int(first.get("triangles", 0)),
         "threads": first["threads"], "cpu": first["cpu"], "versions": first["versions"],

@@ -38,13 +38,15 @@ def face_bases(point=(0.0, 0.0, 0.0)) -> np.ndarray:
 
 def capture_cube(
     scene: Scene, tris: Triangles, flags: np.ndarray, point: np.ndarray, resolution: int,
-    exclude_surface: int, near: float, far: float,
+    exclude_surface: int, near: float, far: float, which=range(6), out: np.ndarray | None = None,
 ) -> np.ndarray:
     """(6, R, R, 3) float32 linear colors seen from `point`, without surface `exclude_surface`
-    (the reflector itself). Mirrors in view show (1 - r) * base: maps hold no reflections."""
-    faces = np.empty((6, resolution, resolution, 3), np.float32)
+    (the reflector itself). Mirrors in view show (1 - r) * base: maps hold no reflections.
+    Only the faces in `which` are captured; with `out` the others keep their contents
+    (time-sliced updates), else they stay uninitialized."""
+    faces = np.empty((6, resolution, resolution, 3), np.float32) if out is None else out
     pass_flags = flags | np.where(tris.surface == exclude_surface, FLAG_SKIP, 0).astype(np.uint8)
-    for f in range(6):
+    for f in which:
         cam = face_camera(f, point, resolution, near, far)
         buffers = rasterize(tris.corners, pass_flags, cam.clip_from_world(),
                             resolution, resolution)

@@ -79,3 +79,11 @@ def precompute_logged(technique: MapTechnique, scene: Scene,
         log.info("%s: captured maps of %s; cached %d", label, ", ".join(captured),
                  len(records) - len(captured))
     return records, time.perf_counter() - start
+
+
+def warn_stale(scene: Scene, technique: str, update="once") -> None:
+    """Map techniques captured once say that objects moving later are missing from them."""
+    if update == "once" and scene.frame_count > 1 and scene.geometry(0).key[1]:
+        log.warning("%s: objects move in this scene, but its maps are captured at frame 0 "
+                    "(update = \"once\"): reflections show them where they were then",
+                    technique)

@@ -12,6 +12,7 @@ planar mirror, forward-warped into the mirror's pixels every frame.
 | `maps.lod` | bool | false | warp the mip level whose density matches the mirror on screen |
 | `fill.splat` | 1, 3, 5, "adaptive" | 1 | splat footprint in pixels (adaptive: from the warp) |
 | `fill.temporal` | bool | false | keep the previous frame's reflection where no zexel lands |
+| `update` | "once", "every", int >= 1 | "once" | capture at frame 0, every frame, or every N |
 | `occlusion` | "zbuffer", "ordered" | "zbuffer" | nearest zexel wins, or McMillan's order |
 | `reconstruct` | "color", "surface" | "color" | zexel colors, or shade each pixel's own point |
 
@@ -21,8 +22,9 @@ the paper's 2 (N.E_d) N - E_d with E_d pointing toward the eye), the `per_frame`
 viewpoints are nearest M are warped (reflectcli/maps/warp.py), holes are filled as asked, and
 the mirror pixels get (1 - r) * base + r * reflected. The warp's cost depends on the zexels,
 not on the scene's polygons. Maps are captured at frame 0: objects that move later are not
-in them (a warning says so). Pixels no zexel reached are `holes` (an EXR channel) and show
-the background. Curved mirrors show (1 - r) * base.
+in them (a warning says so), unless `update` recaptures them every N frames or every frame
+(reflectcli/maps/update.py; the cache key holds the capture frame). Pixels no zexel
+reached are `holes` (an EXR channel) and show the background. Curved mirrors show (1 - r) * base.
 
 `reconstruct = "surface"` (beyond the paper): maps also keep the triangle each zexel saw,
 and a reached pixel intersects its own reflected ray (from M through the pixel center) with
@@ -40,7 +42,7 @@ from typing import Literal
 
 from pydantic import ConfigDict, Field, model_validator
 
-from ...config.base import Strict, described
+from ...config.base import Strict, UpdatePolicy, described
 
 
 class DprmMaps(Strict):
@@ -73,6 +75,7 @@ class DprmParams(Strict):
     name: Literal["dprm"] = "dprm"
     maps: DprmMaps = Field(default_factory=DprmMaps)
     fill: DprmFill = Field(default_factory=DprmFill)
+    update: UpdatePolicy = "once"
     occlusion: Literal["zbuffer", "ordered"] = "zbuffer"
     reconstruct: Literal["color", "surface"] = "color"
 
