@@ -16,10 +16,12 @@ from .envmap import Envmap
 from .raster import Raster
 from .raytrace import Raytrace
 from .rerender import Rerender
+from .ppr.technique import Ppr
+from .ssr.technique import Ssr
 from .virtual import Virtual
 
 TECHNIQUES: dict[str, type[Technique]] = {
-    t.name: t for t in (Raytrace, Raster, Rerender, Envmap, Dprm, Virtual)
+    t.name: t for t in (Raytrace, Raster, Rerender, Envmap, Dprm, Virtual, Ssr, Ppr)
 }
 PARAMS: dict[str, type[BaseModel]] = {name: t.Params for name, t in TECHNIQUES.items()}
 
