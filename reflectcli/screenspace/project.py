@@ -10,9 +10,9 @@ to the lower index. The paper packs an offset into a 32-bit atomic min; here the
 made in parallel and the min taken in one serial pass (a min is order-free, so the result
 does not depend on the thread count either way; numba has no 64-bit atomics).
 
-Reflection pass: a mirror pixel no source reached takes the smallest key among its eight
-neighbours that one did (the one-pixel holes of the scatter), read from the unfilled
-buffer so the fill is order-free too.
+Reflection pass: a mirror pixel no source reached, lying between two reached pixels on
+opposite sides (a one-pixel hole of the scatter), takes the smaller of their keys, read
+from the unfilled buffer so the fill is order-free too.
 """
 
 from __future__ import annotations
@@ -77,10 +77,20 @@ def scatter_min(targets, keys, buffer):
             buffer[t] = keys[i]
 
 
+@njit(cache=True)
+def _key_at(buffer, surface_ids, s, w, h, x, y):
+    """The key at (x, y) if it is a pixel of surface s, else EMPTY."""
+    if y < 0 or x < 0 or y >= h or x >= w or surface_ids[y, x] != s:
+        return EMPTY
+    return buffer[y * w + x]
+
+
 @njit(cache=True, parallel=True)
 def fill_holes(buffer, surface_ids, n_objects, w, out, filled):
-    """out = buffer, and each empty mirror pixel takes the smallest key of its 8 neighbours
-    (read from `buffer`) whose target is the same mirror; `filled` marks those."""
+    """out = buffer, and each empty mirror pixel between two reached pixels of the same
+    mirror on opposite sides (left and right, above and below, or across a diagonal) takes
+    the smallest of their keys: one-pixel holes close, the border of the reflection does
+    not grow. Reads only `buffer`, so the fill is order-free; `filled` marks those."""
     h = surface_ids.shape[0]
     for y in prange(h):
         for x in range(w):
@@ -91,17 +101,11 @@ def fill_holes(buffer, surface_ids, n_objects, w, out, filled):
             if buffer[i] != EMPTY or s < n_objects:
                 continue
             best = EMPTY
-            for dy in range(-1, 2):
-                for dx in range(-1, 2):
-                    yy = y + dy
-                    xx = x + dx
-                    if yy < 0 or xx < 0 or yy >= h or xx >= w:
-                        continue
-                    if surface_ids[yy, xx] != s:
-                        continue
-                    v = buffer[yy * w + xx]
-                    if v < best:
-                        best = v
+            for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
+                a = _key_at(buffer, surface_ids, s, w, h, x + dx, y + dy)
+                b = _key_at(buffer, surface_ids, s, w, h, x - dx, y - dy)
+                if a != EMPTY and b != EMPTY:
+                    best = min(best, min(a, b))
             if best != EMPTY:
                 out[i] = best
                 filled[y, x] = True

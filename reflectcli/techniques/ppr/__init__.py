@@ -2,7 +2,7 @@
 
 | parameter | type | default | meaning |
 |---|---|---|---|
-| `fill` | bool | true | fill one-pixel holes of the scatter from the eight neighbours |
+| `fill` | bool | true | fill one-pixel holes of the scatter (a pixel between two reached ones) |
 | `resolve` | "pixel", "surface" | "pixel" | reflected colour: the source pixel's, or its triangle's plane shaded where the mirror pixel's ray meets it |
 | `fallback` | "none", "envmap", "rerender" | "none" | what a mirror pixel no source reached shows |
 

@@ -1,0 +1,225 @@
+"""Slow, obviously correct twins of the screen-space kernels (reflectcli/screenspace/), and
+the ground truth their hit masks are measured against. Plain Python and numpy, float64."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+EMPTY = 0xFFFFFFFFFFFFFFFF
+
+
+def pyramid(depth: np.ndarray) -> list[np.ndarray]:
+    """Min-depth pyramid: each level the minimum of 2x2 blocks, odd edges padded with +inf
+    (the same as clamping: min(a, a) = a)."""
+    levels = [depth.astype(np.float32)]
+    while levels[-1].shape != (1, 1) and len(levels) < 16:
+        d = levels[-1]
+        h, w = d.shape
+        p = np.full((h + h % 2, w + w % 2), np.inf, np.float32)
+        p[:h, :w] = d
+        levels.append(np.minimum.reduce([p[0::2, 0::2], p[1::2, 0::2], p[0::2, 1::2],
+                                         p[1::2, 1::2]]))
+    return levels
+
+
+def pixel_walk(r, depth, surface_ids, own, thickness):
+    """The hiz twin: visit every pixel the screen-space ray crosses, in order (Amanatides &
+    Woo), from the pixel after the origin's; hit at the first whose segment of the ray has
+    a depth range overlapping [s, s + thickness] (not on the ray's own surface).
+    Returns (hit, x, y)."""
+    h, w = depth.shape
+    x0, y0, q0, x1, y1, q1 = (float(v) for v in r[14:20])
+    dx, dy, dq = x1 - x0, y1 - y0, q1 - q0
+    if max(abs(dx), abs(dy)) < 1e-6:
+        return 0, -1, -1
+
+    def exit_u(cx, cy):
+        ux = ((cx + 1) - x0) / dx if dx > 0 else ((cx - x0) / dx if dx < 0 else math.inf)
+        uy = ((cy + 1) - y0) / dy if dy > 0 else ((cy - y0) / dy if dy < 0 else math.inf)
+        return min(ux, uy)
+
+    eps = 1e-4 / max(abs(dx), abs(dy))
+    u = exit_u(int(x0), int(y0)) + eps
+    while u <= 1.0:
+        x, y = x0 + dx * u, y0 + dy * u
+        if not (0 <= x < w and 0 <= y < h):
+            break
+        cx, cy = int(x), int(y)
+        u_out = min(exit_u(cx, cy), 1.0)
+        da = 1.0 / (q0 + dq * u)
+        qb = q0 + dq * u_out
+        db = 1.0 / qb if qb > 0 else math.inf
+        s = float(depth[cy, cx])
+        if max(da, db) >= s and min(da, db) <= s + thickness and surface_ids[cy, cx] != own:
+            return 1, cx, cy
+        u = u_out + eps
+    return 0, -1, -1
+
+
+def dda_listing(r, depth, surface_ids, own, thickness, stride=1.0, max_steps=1 << 30):
+    """The dda twin: McGuire & Mara 2014's traceScreenSpaceRay listing, line by line in
+    Python, in reflect's conventions (positive depth d = 1/k; their `rayZMax >= sceneZMax -
+    zThickness` and `rayZMin <= sceneZMax` with negative z read `d_min <= s + thickness`
+    and `d_max >= s` here). No jitter; the march starts one pixel past the origin.
+    Returns (hit, x, y) of the step that hit (before the bisection, so stride = 1 only)."""
+    h, w = depth.shape
+    x0, y0, k0, x1, y1, k1 = (float(v) for v in r[14:20])
+    if (x1 - x0) ** 2 + (y1 - y0) ** 2 < 1e-4:
+        x1 += 0.01
+    delta = [x1 - x0, y1 - y0]
+    permute = abs(delta[0]) < abs(delta[1])
+    p0, p1 = [x0, y0], [x1, y1]
+    if permute:
+        delta.reverse()
+        p0.reverse()
+        p1.reverse()
+    step_dir = math.copysign(1.0, delta[0])
+    inv_dx = step_dir / delta[0]
+    dk = (k1 - k0) * inv_dx * stride
+    dp = [step_dir * stride, delta[1] * inv_dx * stride]
+    end = abs(delta[0])
+    pos = 1.0  # pixels along the major axis from the origin
+    p = [p0[0] + step_dir * pos, p0[1] + delta[1] * inv_dx * pos]
+    k = k0 + (k1 - k0) * inv_dx * pos
+    prev_zmax = 1.0 / k0
+    steps = 0
+    while pos <= end and steps < max_steps:
+        steps += 1
+        zmin = prev_zmax
+        kh = k + 0.5 * dk
+        zmax = 1.0 / kh if kh > 0 else math.inf
+        prev_zmax = zmax
+        zmin, zmax = min(zmin, zmax), max(zmin, zmax)
+        hx, hy = (p[1], p[0]) if permute else (p[0], p[1])
+        if not (0 <= hx < w and 0 <= hy < h):
+            break
+        cx, cy = int(hx), int(hy)
+        s = float(depth[cy, cx])
+        if zmax >= s and zmin <= s + thickness and surface_ids[cy, cx] != own:
+            return 1, cx, cy
+        p = [p[0] + dp[0], p[1] + dp[1]]
+        k += dk
+        pos += stride
+    return 0, -1, -1
+
+
+def linear_march(r, depth, surface_ids, own, thickness, steps, p00, p11):
+    """The linear twin without refinement: the first of `steps` equal eye-space steps whose
+    projected pixel has its surface within [d - thickness, d]."""
+    h, w = depth.shape
+    o, dvec, length = np.asarray(r[6:9], float), np.asarray(r[9:12], float), float(r[13])
+    for i in range(1, steps + 1):
+        p = o + dvec * (length * i / steps)
+        d = -p[2]
+        sx = (p00 * p[0] / d + 1.0) * 0.5 * w
+        sy = (1.0 - p11 * p[1] / d) * 0.5 * h
+        if not (0 <= sx < w and 0 <= sy < h):
+            break
+        cx, cy = int(sx), int(sy)
+        s = float(depth[cy, cx])
+        if s <= d <= s + thickness and surface_ids[cy, cx] != own:
+            return 1, i
+    return 0, -1
+
+
+def ppr_buffer(tri, b1, b2, surface_ids, n_objects, corners, plane, sid, world_to_clip):
+    """The projection + scatter twin: a dict target index -> min key, from a Python loop."""
+    h, w = tri.shape
+    out: dict[int, int] = {}
+    n, d = np.asarray(plane[:3], float), float(plane[3])
+    for y in range(h):
+        for x in range(w):
+            s = surface_ids[y, x]
+            if s < 0 or s >= n_objects:
+                continue
+            t = tri[y, x]
+            c = np.array([1.0 - b1[y, x] - b2[y, x], b1[y, x], b2[y, x]])
+            p = c @ corners[t].astype(np.float64)
+            dist = float(n @ p + d)
+            if not dist > 0:
+                continue
+            clip = world_to_clip @ np.append(p - 2 * dist * n, 1.0)
+            if clip[3] <= 0 or not (-clip[3] <= clip[2] <= clip[3]):
+                continue
+            sx = (clip[0] / clip[3] + 1.0) * 0.5 * w
+            sy = (1.0 - clip[1] / clip[3]) * 0.5 * h
+            if not (0 <= sx < w and 0 <= sy < h):
+                continue
+            tx, ty = int(sx), int(sy)
+            if surface_ids[ty, tx] != sid:
+                continue
+            bits = int(np.float32(dist).view(np.uint32))
+            key = (bits << 32) | (y * w + x)
+            target = ty * w + tx
+            out[target] = min(out.get(target, EMPTY), key)
+    return out
+
+
+def truth_hits(rays, valid, geometry, depth, surface_ids, camera, rel_tol=0.02):
+    """Where the ray tracer's reflected ray lands on a surface visible in the primary frame:
+    (visible (H, W) bool, landed (H, W) bool). Rays of the mirror pixels (world origin and
+    direction from the ray table) are traced against the objects with Embree; the hit is
+    visible if it projects on screen within one pixel of a pixel of the same surface whose
+    depth is within rel_tol of its own (a pixel's center sees another point of a slanted
+    face than the exact landing point)."""
+    from reflectcli.trace.embree import TriangleScene
+
+    h, w = valid.shape
+    idx = np.flatnonzero(valid.reshape(-1))
+    table = rays.reshape(-1, rays.shape[-1])[idx]
+    origins = table[:, 0:3] + 1e-4 * table[:, 3:6]
+    scene = TriangleScene(geometry.objects.corners)
+    t, prim, _, _ = scene.intersect(origins.astype(np.float32), table[:, 3:6].astype(np.float32),
+                                    np.full(len(idx), 1e30, np.float32))
+    landed = np.zeros(h * w, bool)
+    visible = np.zeros(h * w, bool)
+    view, proj = camera.view_matrix(), camera.projection_matrix()
+    for j, i in enumerate(idx):
+        if prim[j] < 0:
+            continue
+        landed[i] = True
+        x = origins[j] + float(t[j]) * table[j, 3:6]
+        e = view @ np.append(x, 1.0)
+        dz = -e[2]
+        if dz <= camera.near:
+            continue
+        c = proj @ e
+        sx = (c[0] / c[3] + 1.0) * 0.5 * w
+        sy = (1.0 - c[1] / c[3]) * 0.5 * h
+        if not (0 <= sx < w and 0 <= sy < h):
+            continue
+        px, py = int(sx), int(sy)
+        sid = geometry.objects.surface[prim[j]]
+        ys = slice(max(py - 1, 0), py + 2)
+        xs = slice(max(px - 1, 0), px + 2)
+        near = (surface_ids[ys, xs] == sid) & (np.abs(depth[ys, xs] - dz) <= rel_tol * dz)
+        visible[i] = bool(near.any())
+    return visible.reshape(h, w), landed.reshape(h, w)
+
+
+def fill_twin(buffer: np.ndarray, surface_ids: np.ndarray, n_objects: int) -> np.ndarray:
+    """The hole-fill twin: an empty mirror pixel with reached pixels of the same mirror on
+    both sides along a row, a column or a diagonal takes the smallest of those keys."""
+    h, w = surface_ids.shape
+    b = buffer.reshape(h, w)
+    out = b.copy()
+    for y in range(h):
+        for x in range(w):
+            s = surface_ids[y, x]
+            if b[y, x] != EMPTY or s < n_objects:
+                continue
+            keys = []
+            for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
+                pair = []
+                for sgn in (1, -1):
+                    xx, yy = x + sgn * dx, y + sgn * dy
+                    if 0 <= xx < w and 0 <= yy < h and surface_ids[yy, xx] == s \
+                            and b[yy, xx] != EMPTY:
+                        pair.append(int(b[yy, xx]))
+                if len(pair) == 2:
+                    keys += pair
+            if keys:
+                out[y, x] = min(keys)
+    return out.reshape(-1)
