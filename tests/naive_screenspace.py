@@ -135,9 +135,11 @@ def ppr_buffer(tri, b1, b2, surface_ids, n_objects, corners, plane, sid, world_t
             if s < 0 or s >= n_objects:
                 continue
             t = tri[y, x]
-            c = np.array([1.0 - b1[y, x] - b2[y, x], b1[y, x], b2[y, x]])
-            p = c @ corners[t].astype(np.float64)
-            dist = float(n @ p + d)
+            c1, c2 = float(b1[y, x]), float(b2[y, x])
+            c0 = 1.0 - c1 - c2
+            a, b, c = (corners[t, i].astype(np.float64) for i in range(3))
+            p = c0 * a + c1 * b + c2 * c  # the kernel's order of operations, so equal bits
+            dist = n[0] * p[0] + n[1] * p[1] + n[2] * p[2] + d
             if not dist > 0:
                 continue
             clip = world_to_clip @ np.append(p - 2 * dist * n, 1.0)

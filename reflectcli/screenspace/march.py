@@ -104,9 +104,9 @@ def march_dda(r, depth, surface_ids, own, thickness, stride, jitter, max_steps):
     permute = abs(ddx) < abs(ddy)
     if permute:
         ddx, ddy = ddy, ddx
-        a0, b0, a1 = y0, x0, y1
+        a0, b0 = y0, x0
     else:
-        a0, b0, a1 = x0, y0, x1
+        a0, b0 = x0, y0
     step_dir = 1.0 if ddx > 0.0 else -1.0
     inv_dx = step_dir / ddx  # screen parameter u per pixel along the major axis
     db = ddy * inv_dx

@@ -10,8 +10,6 @@ the error against the ray tracer is the hit itself, not resampling.
 
 from __future__ import annotations
 
-
-
 from numba import njit, prange
 
 from ..shading import surface_color

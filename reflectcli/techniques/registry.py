@@ -13,10 +13,10 @@ from pydantic import BaseModel, Field
 from .base import Technique
 from .dprm import Dprm
 from .envmap import Envmap
+from .ppr.technique import Ppr
 from .raster import Raster
 from .raytrace import Raytrace
 from .rerender import Rerender
-from .ppr.technique import Ppr
 from .ssr.technique import Ssr
 from .virtual import Virtual
 

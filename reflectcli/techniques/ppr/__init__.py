@@ -2,9 +2,12 @@
 
 | parameter | type | default | meaning |
 |---|---|---|---|
-| `fill` | bool | true | fill one-pixel holes of the scatter (a pixel between two reached ones) |
-| `resolve` | "pixel", "surface" | "pixel" | reflected colour: the source pixel's, or its triangle's plane shaded where the mirror pixel's ray meets it |
-| `fallback` | "none", "envmap", "rerender" | "none" | what a mirror pixel no source reached shows |
+| `fill` | bool | true | close one-pixel holes (an empty pixel between two reached ones) |
+| `resolve` | "pixel", "surface" | "pixel" | colour: source pixel's, or its triangle shaded |
+| `fallback` | "none", "envmap", "rerender" | "none" | what a pixel no source reached shows |
+
+`resolve` and `fallback` work as in `ssr` ("surface": the mirror pixel's reflected ray
+meets the plane of the source pixel's triangle, shaded there).
 
 A projection pass mirrors every object pixel of the primary frame across each planar mirror
 plane and scatters it to the screen pixel where it appears reflected, keeping per target the

@@ -2,14 +2,19 @@
 
 | parameter | type | default | meaning |
 |---|---|---|---|
-| `march` | "linear", "dda", "hiz" | "hiz" | fixed eye-space steps; McGuire & Mara's pixel DDA; min-depth pyramid traversal |
-| `thickness` | float > 0 | 0.1 | eye-space depth a surface is assumed to extend behind its front face |
-| `stride` | float >= 1 | 1.0 | dda: pixels per step (bisection refines a hit) |
-| `jitter` | float in [0, 1] | 0.0 | dda: start offset, a fixed per-pixel fraction of a stride |
+| `march` | "linear", "dda", "hiz" | "hiz" | eye-space steps; pixel DDA; min-depth pyramid |
+| `thickness` | float > 0 | 0.1 | eye-space depth a surface extends behind its front |
+| `stride` | float in [1, 64] | 1.0 | dda: pixels per step (bisection refines a hit) |
+| `jitter` | float in [0, 1] | 0.0 | dda: start offset, a fixed per-pixel stride fraction |
 | `max_steps` | int >= 1 | 1024 | steps (linear, dda) or cell lookups (hiz) per ray |
-| `max_distance` | float > 0 | 20.0 | ray length in eye-space units (clipped at the near plane) |
-| `resolve` | "pixel", "surface" | "pixel" | hit colour: the primary pixel's, or the hit triangle's plane shaded where the ray meets it |
-| `fallback` | "none", "envmap", "rerender" | "none" | what a miss shows: base only, a box-projected cube map, or the re-rendered reflection (planar) |
+| `max_distance` | float > 0 | 20.0 | ray length, eye-space units (clipped at near) |
+| `resolve` | "pixel", "surface" | "pixel" | hit colour: hit pixel's, or its triangle shaded |
+| `fallback` | "none", "envmap", "rerender" | "none" | what a miss shows (see below) |
+
+`resolve = "surface"` intersects the ray with the plane of the triangle the primary pass
+left at the hit pixel and shades that point (beyond the papers). `fallback`: "none" leaves
+(1 - r) * base, "envmap" a box-projected cube map per mirror (`envmap` with parallax =
+"box"), "rerender" the re-rendered reflection (planar mirrors; curved ones keep the base).
 
 Every mirror pixel (planar or curved) starts a ray at its point with the mirror's normal
 there (r = 2 n (n.v) - v); the ray is marched over the primary pass's eye-space depth
