@@ -24,7 +24,7 @@ RAY_COLS = 20
 
 
 def mirror_rays(buffers, surface_ids, n_objects, tris, mirrors, camera, max_distance):
-    """(rays (H, W, RAY_COLS) float64, valid (H, W) bool): one reflected ray per mirror pixel.
+    """(rays (H, W, RAY_COLS) float32, valid (H, W) bool): one reflected ray per mirror pixel.
 
     The ray starts at the mirror pixel's point (barycentric on the rasterized triangle) with
     the mirror's normal there (exact for planes, spheres and cylinders, interpolated for
@@ -32,7 +32,7 @@ def mirror_rays(buffers, surface_ids, n_objects, tris, mirrors, camera, max_dist
     where it would cross the near plane.
     """
     h, w = surface_ids.shape
-    rays = np.zeros((h, w, RAY_COLS), np.float64)
+    rays = np.zeros((h, w, RAY_COLS), np.float32)
     valid = np.zeros((h, w), np.bool_)
     p = camera.projection_matrix()
     _rays(buffers.triangle, buffers.b1, buffers.b2, surface_ids, n_objects, tris.corners,
