@@ -15,7 +15,7 @@ point nearest the mirror (a packed 64-bit key min: distance bits, then the sourc
 the result is the same on any thread count); a reflection pass resolves each mirror pixel
 from that buffer, filling the one-pixel holes the scatter leaves. Channels `ppr_hit`,
 `ppr_distance` (mirror point to the source point) and `source` (as `ssr`: 0 not a mirror,
-1 projected, 2 rerender, 3 envmap, 4 base only).
+1 projected, 2 rerender, 3 envmap, 4 base only) and `holes` (source 4).
 
 What it cannot see: anything off screen or occluded in the primary frame (the backs of
 objects, what stands behind another object), and where the reflection magnifies the frame

@@ -16,7 +16,7 @@ from ...screenspace.rays import mirror_rays
 from ...screenspace.resolve import resolve_hits
 from .. import ppr as _package
 from ..base import Technique, warn_non_planar
-from ..ssr.fallback import Fallback
+from ..ssr.fallback import BASE, Fallback
 
 __doc__ = _package.__doc__  # the parameter table, for `reflect techniques`
 
@@ -95,6 +95,7 @@ class Ppr(Technique):
         result.extra["ppr_hit"] = hit.astype(np.float32)
         result.extra["ppr_distance"] = np.where(hit != 0, p["dist"], 0.0).astype(np.float32)
         result.extra["source"] = source
+        result.extra["holes"] = (source == BASE).astype(np.float32)  # base only
         mirror = int(result.mirror_mask.sum())
         result.stats["projected"] = p["projected"]
         result.stats["filled"] = int(p["filled"].sum())

@@ -22,7 +22,8 @@ buffer and a hit shows the colour at the hit pixel, times the reflectance. Chann
 `ssr_hit` (1 hit, 0 miss), `ssr_distance` (eye-space distance along the ray to the hit),
 `confidence` (the engines' fade: screen border, grazing and camera-facing rays, depth gap;
 written, not applied) and `source` (0 not a mirror, 1 screen space, 2 rerender, 3 envmap,
-4 base only). The log gets `cells_per_ray` (depth lookups per marched ray) and
+4 base only), `holes` (1 where a mirror pixel shows only its base: the bench's holes
+column). The log gets `cells_per_ray` (depth lookups per marched ray) and
 `hit_fraction`.
 
 What it cannot see: anything off screen (tops of tall objects above the frame, everything

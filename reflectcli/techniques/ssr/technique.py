@@ -16,7 +16,7 @@ from ...screenspace.rays import mirror_rays
 from ...screenspace.resolve import confidence, resolve_hits
 from .. import ssr as _package
 from ..base import Technique
-from .fallback import Fallback
+from .fallback import BASE, Fallback
 
 # the package docstring (its parameter table) is this module's too, for `reflect techniques`
 __doc__ = _package.__doc__
@@ -90,6 +90,7 @@ class Ssr(Technique):
             np.float32)
         result.extra["confidence"] = conf
         result.extra["source"] = source
+        result.extra["holes"] = (source == BASE).astype(np.float32)  # base only
         n = marched["ray_count"]
         result.stats["ssr_rays"] = n
         result.stats["cells_per_ray"] = float(marched["lookups"].sum()) / n if n else 0.0
