@@ -96,6 +96,9 @@ class Ppr(Technique):
         result.extra["ppr_distance"] = np.where(hit != 0, p["dist"], 0.0).astype(np.float32)
         result.extra["source"] = source
         result.extra["holes"] = (source == BASE).astype(np.float32)  # base only
+        mirror_pixels = int(result.mirror_mask.sum())
+        result.stats["hole_fraction"] = (float((source == BASE).sum()) / mirror_pixels
+                                         if mirror_pixels else 0.0)
         mirror = int(result.mirror_mask.sum())
         result.stats["projected"] = p["projected"]
         result.stats["filled"] = int(p["filled"].sum())

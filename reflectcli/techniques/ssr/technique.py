@@ -91,6 +91,9 @@ class Ssr(Technique):
         result.extra["confidence"] = conf
         result.extra["source"] = source
         result.extra["holes"] = (source == BASE).astype(np.float32)  # base only
+        mirror_pixels = int(result.mirror_mask.sum())
+        result.stats["hole_fraction"] = (float((source == BASE).sum()) / mirror_pixels
+                                         if mirror_pixels else 0.0)
         n = marched["ray_count"]
         result.stats["ssr_rays"] = n
         result.stats["cells_per_ray"] = float(marched["lookups"].sum()) / n if n else 0.0
