@@ -16,12 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from reflectcli.camera import camera_from_config
-from reflectcli.config.load import load_config
+from reflectcli import api
 from reflectcli.raster.primary import render_primary
-from reflectcli.scene.build import build_scene
 from reflectcli.screenspace.rays import mirror_rays
-from reflectcli.techniques.registry import TECHNIQUES
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
@@ -39,11 +36,12 @@ PRIMARY = ("rasterize", "shade")
 
 
 def run(path, technique, overrides, repeats):
-    cfg, _ = load_config(path, overrides, technique)
-    built = build_scene(cfg, path)
-    tech = TECHNIQUES[technique](cfg.technique, 2)
+    opened = api.open_scene(path, overrides=overrides, technique=technique, threads=2,
+                            cache=False)
+    built = opened.scene
+    tech = opened.technique
     state = tech.prepare(built)
-    cam = camera_from_config(cfg.camera, 0)
+    cam = opened.camera(0)
     tech.render(state, 0, cam)
     rows = []
     for _ in range(repeats):
@@ -80,7 +78,6 @@ def main() -> None:
             f = rows[-1][1]
             if technique == "rerender":
                 ref = f
-                cfg, _ = load_config(path, size, "ssr")
                 primary = render_primary(built, 0, cam)
                 rays, valid = mirror_rays(primary.buffers, primary.frame.surface,
                                           built.n_objects, primary.triangles, built.mirrors,

@@ -6,8 +6,9 @@ import os
 
 from pydantic import TypeAdapter, ValidationError
 
-from .config.load import load_config, load_raw, validation_problems
+from .config.load import load_raw, validation_problems
 from .errors import Problems
+from .loading import load_config
 
 
 def validate_file(path: str) -> None:
@@ -21,9 +22,9 @@ def validate_file(path: str) -> None:
 
         build_scene(cfg, path)
         return
-    from .config.scene import SceneConfig
+    from .techniques.registry import scene_model
 
-    fields = SceneConfig.model_fields
+    fields = scene_model().model_fields
     problems = []
     for key, value in raw.items():
         if key not in fields:

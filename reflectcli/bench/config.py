@@ -23,7 +23,9 @@ class RunGroup(Strict):
 class BenchSection(Strict):
     name: str = Field(pattern=r"^[A-Za-z0-9._-]+$")
     frames: str = Field(default="0:3", description="frames of each run: N or A:B")
-    warmup: int = Field(default=1, ge=0, description="leading frames left out of timings")
+    warmup: int = Field(default=1, ge=0, description="leading renders left out of timings")
+    repeats: int = Field(default=1, ge=1, le=100, description="renders of each frame (a "
+                         "one-frame scene needs warmup + 3 for an honest median)")
     threshold: float = Field(default=0.1, gt=0, description="error counted as 'off'")
     reference_depth: int = Field(default=1, ge=0, description="raytrace max_depth")
     out: str | None = Field(default=None, description="relative to this file; default: "

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import shutil
 import statistics
@@ -21,9 +22,7 @@ import numpy as np
 from ..errors import Problem, Problems
 from ..output.exr import read_exr
 from ..output.log import append_jsonl, read_jsonl
-from ..scene.build import scene_hashes
 from .config import BenchConfig, expand
-from .metrics import METRIC_NAMES, image_metrics
 
 
 def _digest(*parts) -> str:
@@ -45,16 +44,10 @@ class BenchPlan:
 
 def load_bench(path: str) -> BenchPlan:
     """Read and validate a bench file and every job in it (Problems name the bench file)."""
-    from pydantic import ValidationError
-
-    from ..config.load import load_config, read_toml, validation_problems
+    from .. import api
 
     display = os.path.relpath(path)
-    data = read_toml(path)
-    try:
-        cfg = BenchConfig.model_validate(data)
-    except ValidationError as e:
-        raise Problems(validation_problems(e, data, {}, display)) from None
+    cfg = api.load_settings(path, BenchConfig)
     # an `out` written in the bench file is relative to it; the default is out/bench/<name>
     out = (os.path.join(os.path.dirname(os.path.abspath(path)), cfg.bench.out)
            if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
@@ -62,25 +55,26 @@ def load_bench(path: str) -> BenchPlan:
     problems = []
     for i, job in enumerate(expand(cfg, path)):
         try:
-            scene_cfg, _ = load_config(job["scene"], job["overrides"], job["technique"])
+            run = api.open_scene(job["scene"], overrides=job["overrides"],
+                                 technique=job["technique"])
         except Problems as e:
             where = f"runs ({job['technique']} on {os.path.relpath(job['scene'])})"
             problems += [Problem(display, where, str(p)) for p in e.problems]
             continue
         job["id"] = _digest(os.path.relpath(job["scene"]), job["technique"], job["overrides"],
                             cfg.bench.frames)
-        job["scene_name"] = scene_cfg.scene.name
-        job["parameters"] = scene_cfg.technique.model_dump(mode="json")
+        job["scene_name"] = run.name
+        job["parameters"] = run.params.model_dump(mode="json")
         ref_overrides = scene_overrides(job["overrides"]) + [
             f"technique.max_depth={cfg.bench.reference_depth}"]
-        ref_cfg, _ = load_config(job["scene"], ref_overrides, "raytrace")
+        ref = api.open_scene(job["scene"], overrides=ref_overrides, technique="raytrace")
         # the scene's content (files it reads included) is in the id: an edited scene gets a
         # new reference instead of being scored against the old one
         job["reference"] = {
             "id": _digest(os.path.relpath(job["scene"]), ref_overrides, cfg.bench.frames,
-                          scene_hashes(ref_cfg, job["scene"])[0]),
+                          ref.scene_hash),
             "overrides": ref_overrides,
-            "scene_name": ref_cfg.scene.name,
+            "scene_name": ref.name,
         }
         job["index"] = i
         plan.jobs.append(job)
@@ -96,67 +90,125 @@ def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> 
     folder = os.path.join(plan.out, "references", job["reference"]["id"])
     result = api.render(job["scene"], out=folder, frames=plan.config.bench.frames,
                         technique="raytrace", overrides=job["reference"]["overrides"],
-                        resume=True, threads=threads)
+                        resume=True, threads=threads, repeats=plan.config.bench.repeats)
     return result.folder
+
+
+MIN_TIMED = 3  # frame times are medians of at least this many timed renders...
+MIN_WARMUP = 1  # ...after at least this many warm-up renders
+SCOPES = ("mirror", "image")
+MEAN_OF_FRAMES = ("rmse", "frac_off", "relmse", "p50", "p95", "p99", "flip", "flip_ldr", "ssim")
+
+
+def timing_samples(log: list[dict]) -> list[float]:
+    """Every render's seconds in the order rendered (repeats of a frame included)."""
+    return [t for row in log for t in row.get("repeat_seconds", [row["frame_seconds"]])]
+
+
+def timing_stats(samples: list[float], warmup: int) -> dict:
+    """Median and p25-p75 (ms) of the renders after `warmup`; `timing_warning` says when
+    fewer than MIN_TIMED renders were timed after fewer than MIN_WARMUP warm-up renders.
+    Asked for more warm-up renders than there are, the last render is timed anyway."""
+    warm = min(warmup, len(samples) - 1)
+    timed = samples[warm:]
+    problems = []
+    if warm < MIN_WARMUP:
+        problems.append(f"{warm} warm-up")
+    if len(timed) < MIN_TIMED:
+        problems.append(f"{len(timed)} timed")
+    return {
+        "frame_ms_median": 1e3 * statistics.median(timed),
+        "frame_ms_p25": 1e3 * float(np.percentile(timed, 25)),
+        "frame_ms_p75": 1e3 * float(np.percentile(timed, 75)),
+        "first_frame_ms": 1e3 * samples[0],
+        "warmup_renders": warm, "timed_frames": len(timed),
+        "timing_warning": (", ".join(problems) + f" (want >= {MIN_WARMUP} warm-up, "
+                           f">= {MIN_TIMED} timed)") if problems else "",
+    }
+
+
+def _rgb(channels: dict) -> np.ndarray:
+    return np.stack([channels[c] for c in "RGB"], axis=-1)
 
 
 def execute_job(job: dict, settings: dict) -> dict:
     """Render one run, score it against its reference; the result row (plain JSON data)."""
     from .. import api
+    from ..metrics import METRICS, score
+    from ..metrics.temporal import temporal_errors
 
     folder = os.path.join(settings["out"], "runs", job["id"])
     shutil.rmtree(folder, ignore_errors=True)  # a run without a result row starts over
     result = api.render(job["scene"], out=folder, frames=settings["frames"],
                         technique=job["technique"], overrides=job["overrides"],
                         cache=os.path.join(settings["out"], "cache"),
-                        threads=settings.get("threads"))
+                        threads=settings.get("threads"), repeats=settings.get("repeats", 1))
     frames_dir = result.folder
     log = read_jsonl(os.path.join(frames_dir, "timings.jsonl"))
     ref_dir = settings["reference_dirs"][job["reference"]["id"]]
     ref_log = {r["file"]: r for r in read_jsonl(os.path.join(ref_dir, "timings.jsonl"))}
     per_frame = []
+    images: dict[str, list] = {"test": [], "ref": [], "mirror": []}
     for row in log:
         ours, _ = read_exr(os.path.join(frames_dir, row["file"]))
         ref, _ = read_exr(os.path.join(ref_dir, row["file"]))
-        a = np.stack([ours[c] for c in "RGB"], axis=-1)
-        b = np.stack([ref[c] for c in "RGB"], axis=-1)
+        a, b = _rgb(ours), _rgb(ref)
         mirror = (ours["mirror"] > 0) & (ref["mirror"] > 0)
-        m_all = image_metrics(a, b, None, settings["threshold"])
-        m_mir = image_metrics(a, b, mirror, settings["threshold"])
+        scores = score(a, b, {"mirror": mirror, "image": None},
+                       threshold=settings["threshold"], metrics=METRICS)
         per_frame.append({
-            **{f"{k}_image": v for k, v in m_all.items()},
-            **{f"{k}_mirror": v for k, v in m_mir.items()},
+            "frame": row["frame"],
+            **{f"{k}_{scope}": v for scope in SCOPES for k, v in scores[scope].items()},
             "hole_fraction": float(row.get("hole_fraction", 0.0)),
-            "frame_seconds": row["frame_seconds"],
-            "reference_seconds": ref_log[row["file"]]["frame_seconds"],
         })
-    warm = min(settings["warmup"], len(per_frame) - 1)
-    timed = per_frame[warm:]
-    times = sorted(f["frame_seconds"] for f in timed)
-    ref_times = [f["reference_seconds"] for f in timed]
+        for key, value in (("test", a), ("ref", b), ("mirror", mirror)):
+            images[key].append(value)
+    # temporal error: frame t against t-1, over the mirror in both images at both frames
+    both = [None] + [images["mirror"][t] & images["mirror"][t - 1]
+                     for t in range(1, len(per_frame))]
+    for scope, masks in (("mirror", both), ("image", None)):
+        errors, total = temporal_errors(images["test"], images["ref"], masks)
+        for f, e in zip(per_frame, [None, *errors], strict=True):  # frame 0 has no change
+            f[f"temporal_{scope}"] = e
+        per_frame[0][f"temporal_{scope}_total"] = total
     first = log[0]
     out = {
         "run": job["id"], "scene": job["scene_name"],
         "scene_file": os.path.relpath(job["scene"]), "technique": job["technique"],
         "sweep": job["sweep"], "overrides": job["overrides"], "parameters": job["parameters"],
-        "frames": len(per_frame), "timed_frames": len(timed),
-        "frame_ms_median": 1e3 * statistics.median(times),
-        "frame_ms_p25": 1e3 * float(np.percentile(times, 25)),
-        "frame_ms_p75": 1e3 * float(np.percentile(times, 75)),
-        "reference_ms_median": 1e3 * statistics.median(ref_times),
-        "precompute_seconds": float(first.get("stages", {}).get("precompute", 0.0)),
+        "frames": len(per_frame), "repeats": settings.get("repeats", 1),
+        **timing_stats(timing_samples(log), settings["warmup"]),
+        "reference_ms_median": timing_stats(
+            timing_samples([ref_log[r["file"]] for r in log]),
+            settings["warmup"])["frame_ms_median"],
+        # one-time work, never in frame time: everything the technique does before its first
+        # frame (map capture, decomposition, ...); first_frame_ms shows first-frame caches
+        "prepare_seconds": float(first.get("prepare_seconds", 0.0)),
         "numba_compile_seconds": float(first["numba_compile_seconds"]),
         "triangles": int(first.get("triangles", 0)),
         "threads": first["threads"], "cpu": first["cpu"], "versions": first["versions"],
         "images": [os.path.join(frames_dir, r["file"]) for r in log],
         "reference_images": [os.path.join(ref_dir, r["file"]) for r in log],
     }
-    for key in [f"{m}_{part}" for m in METRIC_NAMES for part in ("mirror", "image")]:
-        values = [f[key] for f in per_frame]
-        out[key] = float(np.mean(values)) if key.startswith(("rmse", "frac")) else (
-            float(np.max(values)) if key.startswith("max") else _mean_psnr(values))
+    for scope in SCOPES:
+        for m in METRICS:
+            values = [f[f"{m}_{scope}"] for f in per_frame]
+            key = f"{m}_{scope}"
+            if m == "psnr":
+                out[key] = _mean_psnr(values)
+            elif m == "max_error":
+                out[key] = _nan_reduce(np.max, values)
+            else:
+                out[key] = _nan_reduce(np.mean, values)
+        out[f"temporal_{scope}"] = per_frame[0].pop(f"temporal_{scope}_total")
     out["hole_fraction"] = float(np.mean([f["hole_fraction"] for f in per_frame]))
+    out["per_frame"] = per_frame
     return out
+
+
+def _nan_reduce(fn, values: list[float]) -> float:
+    finite = [v for v in values if not math.isnan(v)]
+    return float(fn(finite)) if finite else math.nan
 
 
 def _mean_psnr(values: list[float]) -> float:
@@ -180,7 +232,7 @@ class BenchResult:
 def run_bench(path: str, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, threads: int | None = None,
               on_row: Callable[[dict], None] | None = None) -> BenchResult:
-    from .report import write_outputs
+    from .outputs import write_outputs
 
     plan = load_bench(path)
     os.makedirs(plan.out, exist_ok=True)
@@ -198,7 +250,8 @@ def run_bench(path: str, *, resume: bool = False, workers: int = 1,
         if ref not in reference_dirs:
             reference_dirs[ref] = render_reference(plan, job, threads)
     settings = {"out": plan.out, "frames": plan.config.bench.frames,
-                "warmup": plan.config.bench.warmup, "threshold": plan.config.bench.threshold,
+                "warmup": plan.config.bench.warmup, "repeats": plan.config.bench.repeats,
+                "threshold": plan.config.bench.threshold,
                 "reference_dirs": reference_dirs, "threads": threads}
 
     def keep(row: dict) -> None:

@@ -10,13 +10,13 @@ writes them. Every value remembers the file it came from, so an error names that
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from typing import Any
 
 import tomli
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from ..errors import Problem, Problems
-from .scene import SceneConfig
 
 SECTION_FILES = ("camera", "mirrors", "technique", "materials", "lights", "objects", "output")
 
@@ -234,10 +234,18 @@ def validation_problems(e: ValidationError, data: dict, prov: Provenance, defaul
     return problems
 
 
-def load_config(
-    path: str, overrides: list[str] | tuple = (), technique: str | None = None
-) -> tuple[SceneConfig, Provenance]:
-    """Read, merge, override and validate a scene file. Raises Problems."""
+def load_document(
+    path: str,
+    overrides: list[str] | tuple = (),
+    technique: str | None = None,
+    *,
+    model: type[BaseModel],
+    default_technique: str,
+    checks: Callable[[Any, str, Provenance, str], list[Problem]] | None = None,
+) -> tuple[Any, Provenance]:
+    """Read, merge, override and validate a scene file against `model` (the scene model with
+    the technique union, built above config); then `checks(cfg, path, prov, display)` for
+    what a schema cannot express. Raises Problems."""
     prov: Provenance = {}
     display = os.path.relpath(path) if not os.path.relpath(path).startswith("..") else path
     data = load_raw(path, prov)
@@ -250,16 +258,12 @@ def load_config(
         apply_override(data, assignment, prov)
     current = data.get("technique")
     if isinstance(current, dict) and "name" not in current:
-        from ..techniques.registry import default_technique
-
-        current["name"] = default_technique().name  # a scene that names none: the default
+        current["name"] = default_technique  # a scene that names none: the default
     try:
-        cfg = SceneConfig.model_validate(data)
+        cfg = model.model_validate(data)
     except ValidationError as e:
         raise Problems(validation_problems(e, data, prov, display)) from None
-    from .checks import semantic_problems
-
-    problems = semantic_problems(cfg, path, prov, display)
+    problems = checks(cfg, path, prov, display) if checks is not None else []
     if problems:
         raise Problems(problems)
     return cfg, prov

@@ -46,7 +46,7 @@ def capture_cube(
     pass_flags = flags | np.where(tris.surface == exclude_surface, FLAG_SKIP, 0).astype(np.uint8)
     for f in range(6):
         cam = face_camera(f, point, resolution, near, far)
-        buffers = rasterize(tris.corners, pass_flags, cam.projection_matrix() @ cam.view_matrix(),
+        buffers = rasterize(tris.corners, pass_flags, cam.clip_from_world(),
                             resolution, resolution)
         faces[f], _ = shade_buffers(buffers, tris, scene, cam.eye)
     return faces

@@ -32,6 +32,9 @@ import numpy as np
 from numba import njit, prange
 
 from ..camera import Camera
+from ..camera import screen_from_ndc as _screen_from_ndc
+
+screen_from_ndc = njit(cache=True, inline="always")(_screen_from_ndc)
 
 
 def pixel_to_eye(camera: Camera) -> np.ndarray:
@@ -49,7 +52,7 @@ def pixel_to_eye(camera: Camera) -> np.ndarray:
 
 def warp_matrix(map_camera: Camera, camera: Camera, reflection: np.ndarray) -> np.ndarray:
     """W = P V R V_map^-1 D (see the module docstring)."""
-    return (camera.projection_matrix() @ camera.view_matrix() @ reflection
+    return (camera.clip_from_world() @ reflection
             @ np.linalg.inv(map_camera.view_matrix()) @ pixel_to_eye(map_camera))
 
 
@@ -108,8 +111,7 @@ def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, r
                 sx[k] = np.nan
                 continue
             inv = 1.0 / cw
-            x = (cx * inv + 1.0) * 0.5 * width
-            y = (1.0 - cy * inv) * 0.5 * height
+            x, y = screen_from_ndc(cx * inv, cy * inv, width, height)
             if not (xmin <= x < xmax and ymin <= y < ymax):
                 sx[k] = np.nan
                 continue
@@ -302,10 +304,9 @@ def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.nda
         radii = splat_radii(sx, sy, z, zmap.depth.shape, splat_mode)
         if ordered:
             c = zmap.camera
-            e = c.projection_matrix() @ c.view_matrix() @ np.append(mirrored_eye, 1.0)
+            e = c.clip_from_world() @ np.append(mirrored_eye, 1.0)
             with np.errstate(divide="ignore", invalid="ignore"):
-                ex = (e[0] / e[3] + 1.0) * 0.5 * c.width
-                ey = (1.0 - e[1] / e[3]) * 0.5 * c.height
+                ex, ey = _screen_from_ndc(e[0] / e[3], e[1] / e[3], c.width, c.height)
             runs = ordered_runs(*zmap.depth.shape, ex, ey, e[3] > 0)
         else:
             runs = raster_runs(*zmap.depth.shape)

@@ -22,11 +22,11 @@ class Primary:
     flags: np.ndarray  # per-triangle rasterizer flags (mirrors marked)
 
 
-def render_primary(scene: Scene, frame: int, camera: Camera) -> Primary:
+def render_primary(scene: Scene, frame_index: int, camera: Camera) -> Primary:
     t0 = time.perf_counter()
-    tris = scene.geometry(frame).all_triangles()
+    tris = scene.geometry(frame_index).all_triangles()
     flags = np.where(tris.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
-    world_to_clip = camera.projection_matrix() @ camera.view_matrix()
+    world_to_clip = camera.clip_from_world()
     buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height)
     t1 = time.perf_counter()
     rgb, surface = shade_buffers(buffers, tris, scene, camera.eye)

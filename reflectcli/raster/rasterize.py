@@ -19,6 +19,8 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from ..camera import screen_from_ndc as _screen_from_ndc
+from ..camera import standard_planes
 from ..scene.types import MIRROR_TIE
 
 _MAX_PLANES = 8
@@ -33,6 +35,8 @@ FLAG_MIRROR, FLAG_SKIP = 1, 2
 # triangle status after setup
 _CULLED, _SIMPLE, _CLIPPED = 0, 1, 2
 
+screen_from_ndc = njit(cache=True, inline="always")(_screen_from_ndc)
+
 
 @dataclass
 class RasterBuffers:
@@ -40,11 +44,6 @@ class RasterBuffers:
     b1: np.ndarray  # (H, W) float32, barycentric weight of corner 1
     b2: np.ndarray  # (H, W) float32, barycentric weight of corner 2
     depth: np.ndarray  # (H, W) float32, eye-space depth, +inf where nothing was drawn
-
-
-def standard_planes() -> np.ndarray:
-    """Clip-space planes (a, b, c, e): keep a*x + b*y + c*z + e*w >= 0. Near, then far."""
-    return np.array([[0.0, 0.0, 1.0, 1.0], [0.0, 0.0, -1.0, 1.0]])
 
 
 def rasterize(
@@ -154,8 +153,8 @@ def _setup_one(corners, t, m, planes, width, height, cull, screen, status, rows,
         return
     for k in range(3):
         iw = 1.0 / c[k, 3]
-        screen[t, 3 * k] = (c[k, 0] * iw + 1.0) * 0.5 * width
-        screen[t, 3 * k + 1] = (1.0 - c[k, 1] * iw) * 0.5 * height
+        screen[t, 3 * k], screen[t, 3 * k + 1] = screen_from_ndc(c[k, 0] * iw, c[k, 1] * iw,
+                                                                  width, height)
         screen[t, 3 * k + 2] = iw
     ylo = min(screen[t, 1], screen[t, 4], screen[t, 7])
     yhi = max(screen[t, 1], screen[t, 4], screen[t, 7])
@@ -255,8 +254,8 @@ def _clip_polygon(corners, t, m, planes, width, height, out_xyw, out_bary):
             return 0
     for i in range(n):
         iw = 1.0 / poly[i, 3]
-        out_xyw[i, 0] = (poly[i, 0] * iw + 1.0) * 0.5 * width
-        out_xyw[i, 1] = (1.0 - poly[i, 1] * iw) * 0.5 * height
+        out_xyw[i, 0], out_xyw[i, 1] = screen_from_ndc(poly[i, 0] * iw, poly[i, 1] * iw, width,
+                                                       height)
         out_xyw[i, 2] = iw
         for b in range(3):
             out_bary[i, b] = poly[i, 4 + b]

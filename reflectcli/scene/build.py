@@ -4,25 +4,24 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-from functools import lru_cache
 
 import numpy as np
 
 from ..config.mirrors import (
-    CapMirror,
     CylinderMirror,
     ExtrusionMirror,
     MeshMirror,
-    QuadMirror,
     SphereMirror,
 )
 from ..config.objects import TransformKey
 from ..config.scene import SceneConfig
 from ..errors import Problem, Problems
 from ..geometry import trs_matrix
-from . import primitives, reflectors
+from . import primitives
 from .mesh import Mesh
+from .mesh_file import cached_mesh_file as _mesh_file
+from .mesh_file import resolve
+from .mirrors import extrusion_profile, mirror_corners, mirror_mesh, mirror_plane
 from .textures import load_texture
 from .types import (
     CHECKER,
@@ -44,11 +43,6 @@ from .types import (
     Scene,
     Triangles,
 )
-
-
-def resolve(source: str, path: str) -> str:
-    """A path written in a config file is relative to that file."""
-    return os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(source)), path))
 
 
 def object_mesh(obj, source: str) -> Mesh:
@@ -85,13 +79,6 @@ def object_mesh(obj, source: str) -> Mesh:
 
         return music_room_clutter(obj.triangles, obj.min, obj.max, seed=obj.seed)
     raise AssertionError(s)
-
-
-@lru_cache(maxsize=32)
-def _mesh_file(path: str) -> Mesh:
-    from .mesh_file import load_mesh_file
-
-    return load_mesh_file(path)
 
 
 def transform_at(obj, frame: int) -> np.ndarray:
@@ -140,68 +127,6 @@ def _concat(parts: list[Triangles]) -> Triangles:
         *(np.concatenate([getattr(p, f) for p in parts]) for f in
           ("corners", "uvs", "normals", "material", "surface"))
     )
-
-
-def mirror_corners(m) -> np.ndarray:
-    """A planar mirror's four corners p00, p10, p11, p01 (world)."""
-    if isinstance(m, QuadMirror):
-        return np.array(m.corners, float)
-    n = np.array(m.normal, float)
-    n /= np.linalg.norm(n)
-    up = np.array(m.up, float)
-    up = up - (up @ n) * n
-    up /= np.linalg.norm(up)
-    right = np.cross(up, n)
-    c = np.array(m.center, float)
-    hw, hh = m.size[0] / 2, m.size[1] / 2
-    return np.array([c - hw * right - hh * up, c + hw * right - hh * up,
-                     c + hw * right + hh * up, c - hw * right + hh * up])
-
-
-def mirror_plane(m) -> tuple[np.ndarray, float]:
-    """A planar mirror's plane (n, d), n = (p10 - p00) x (p01 - p00) normalised."""
-    c = mirror_corners(m)
-    n = np.cross(c[1] - c[0], c[3] - c[0])
-    n /= np.linalg.norm(n)
-    return n, float(-n @ c[0])
-
-
-def mirror_mesh(m, source: str) -> tuple[Mesh, bool]:
-    """World-space triangles of a mirror, and whether the ray tracer intersects them (mesh,
-    extrusion and cap mirrors) rather than the exact shape (planar, sphere and cylinder
-    mirrors, in numba)."""
-    if m.planar:
-        return primitives.quad(mirror_corners(m)), False
-    if isinstance(m, SphereMirror):
-        mesh = primitives.uv_sphere(m.radius, m.segments)
-        return mesh.transformed(trs_matrix(m.center, (0, 0, 0), 1.0)), False
-    if isinstance(m, CylinderMirror):
-        mesh = primitives.cylinder(m.radius, m.height, m.segments, caps=False)
-        return mesh.transformed(_axis_frame(m.origin, m.axis)), False
-    if isinstance(m, ExtrusionMirror):
-        return reflectors.extrusion_mesh(m), True
-    if isinstance(m, CapMirror):
-        return reflectors.cap_mesh(m), True
-    assert isinstance(m, MeshMirror)
-    mesh = _mesh_file(resolve(source, m.path))
-    t = m.transform
-    mesh = mesh.transformed(trs_matrix(t.translate, t.rotate, t.scale))
-    if not m.smooth:
-        mesh = Mesh.flat(mesh.corners, mesh.uvs)
-    return mesh, True
-
-
-def _axis_frame(origin, axis) -> np.ndarray:
-    """A rigid transform taking local +y to `axis` and the origin to `origin`."""
-    a = np.array(axis, float)
-    a /= np.linalg.norm(a)
-    helper = np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 0, 1.0])
-    x = np.cross(a, helper)
-    x /= np.linalg.norm(x)
-    z = np.cross(x, a)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, a, z, origin
-    return m
 
 
 class TextureError(Exception):
@@ -256,14 +181,14 @@ def _mirrors(cfg: SceneConfig) -> Mirrors:
         if m.planar:
             kinds.append(PLANAR)
             n, d = mirror_plane(m)
-            p[:16] = (*n, d, *mirror_corners(m).reshape(-1))
+            p = Mirrors.planar_row(n, d, mirror_corners(m))
         elif isinstance(m, SphereMirror):
             kinds.append(SPHERE)
-            p[:4] = (*m.center, m.radius)
+            p = Mirrors.sphere_row(m.center, m.radius)
         elif isinstance(m, CylinderMirror):
             kinds.append(CYLINDER)
             a = np.array(m.axis, float)
-            p[:8] = (*m.origin, *(a / np.linalg.norm(a)), m.radius, m.height)
+            p = Mirrors.cylinder_row(m.origin, a / np.linalg.norm(a), m.radius, m.height)
         else:
             kinds.append(MESH)
         params.append(p)
@@ -381,6 +306,6 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         content_hash=hashes[1],
         room_bounds=_room_bounds(cfg, meshes),
         geometry_at=geometry_at,
-        mirror_profiles={j: reflectors.extrusion_profile(m) for j, m in enumerate(cfg.mirrors)
+        mirror_profiles={j: extrusion_profile(m) for j, m in enumerate(cfg.mirrors)
                          if isinstance(m, ExtrusionMirror)},
     )

@@ -66,6 +66,42 @@ class Mirrors:
     def count(self) -> int:
         return len(self.names)
 
+    # named views of `params` (read them through these, not by column)
+    def plane(self, k: int) -> tuple[np.ndarray, float]:
+        """Planar mirror k's plane (n, d): unit n (float64 copy), n.x + d = 0 on it."""
+        return self.params[k, :3].astype(np.float64), float(self.params[k, 3])
+
+    def corners(self, k: int) -> np.ndarray:
+        """Planar mirror k's corners p00, p10, p11, p01 (4, 3), world."""
+        return self.params[k, 4:16].reshape(4, 3)
+
+    def sphere(self, k: int) -> tuple[np.ndarray, float]:
+        """Sphere mirror k's (center (3,), radius)."""
+        return self.params[k, :3], self.params[k, 3]
+
+    def cylinder(self, k: int) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """Cylinder mirror k's (origin (3,), unit axis (3,), radius, height)."""
+        p = self.params[k]
+        return p[:3], p[3:6], p[6], p[7]
+
+    @staticmethod
+    def planar_row(n, d: float, corners) -> np.ndarray:
+        row = np.zeros(MIRROR_PARAMS)
+        row[:16] = (*n, d, *np.asarray(corners).reshape(-1))
+        return row
+
+    @staticmethod
+    def sphere_row(center, radius: float) -> np.ndarray:
+        row = np.zeros(MIRROR_PARAMS)
+        row[:4] = (*center, radius)
+        return row
+
+    @staticmethod
+    def cylinder_row(origin, axis, radius: float, height: float) -> np.ndarray:
+        row = np.zeros(MIRROR_PARAMS)
+        row[:8] = (*origin, *axis, radius, height)
+        return row
+
 
 @dataclass(frozen=True)
 class Triangles:
@@ -127,5 +163,12 @@ class Scene:
     # unit normals (N, 2), local -> world 4x4, height); the virtual technique searches them
     mirror_profiles: dict = field(default_factory=dict)
 
-    def geometry(self, frame: int) -> Geometry:
-        return self.geometry_at(frame)
+    def geometry(self, frame_index: int) -> Geometry:
+        return self.geometry_at(frame_index)
+
+
+def scene_extent(scene: Scene) -> tuple[float, float]:
+    """(near, far) for map captures: from the size of the scene's geometry at frame 0."""
+    tris = scene.geometry(0).all_triangles().corners.reshape(-1, 3)
+    diag = float(np.linalg.norm(tris.max(axis=0) - tris.min(axis=0))) if len(tris) else 1.0
+    return 1e-4 * diag, 4.0 * diag

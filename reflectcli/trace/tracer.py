@@ -14,12 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from ..camera import Camera, primary_rays
+from ..camera import Camera
 from ..frame import Frame
 from ..scene.types import MIRROR_TIE, PLANAR, SPHERE, Geometry, Scene
 from ..shading import surface_color
 from .analytic import intersect_analytic
 from .embree import TriangleScene
+from .rays import primary_rays
 
 _FAR_AWAY = np.float32(1e30)
 

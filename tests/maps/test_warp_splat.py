@@ -5,32 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from naive import splat_zbuffer
 
 from reflectcli.maps.warp import SAME_SURFACE, raster_runs, splat
-
-
-def _reference(sx, sy, z, radii, mw, stencil):
-    """The rule as documented, in two passes: per pixel, the nearest depth among the zexels
-    that reach it; then, of those within SAME_SURFACE of it, the one landing nearest the
-    pixel center (ties to the lower index). The kernel does it in one pass; the zexels here
-    keep each surface's depths within SAME_SURFACE / 2, where the two must agree."""
-    h, w = stencil.shape
-    hits = {}
-    for k in range(sx.size):
-        if np.isnan(sx[k]):
-            continue
-        px, py, r = int(np.floor(sx[k])), int(np.floor(sy[k])), int(radii[k])
-        for y in range(py - r, py + r + 1):
-            for x in range(px - r, px + r + 1):
-                if 0 <= y < h and 0 <= x < w and stencil[y, x]:
-                    d = (np.float32(sx[k]) - x - 0.5) ** 2 + (np.float32(sy[k]) - y - 0.5) ** 2
-                    hits.setdefault((y, x), []).append((z[k], d, k))
-    best = np.full((h, w), -1)
-    for (y, x), cands in hits.items():
-        front = min(c[0] for c in cands)
-        same = [c for c in cands if c[0] <= front * (1 + SAME_SURFACE)]
-        best[y, x] = min(same, key=lambda c: (c[1], c[2]))[2]
-    return best
 
 
 def _zexels(seed, mh=24, mw=24, width=20, height=16):
@@ -66,7 +43,7 @@ def test_splat_matches_the_reference(seed, radius):
     stencil = np.random.default_rng(seed + 10).random(shape) < 0.8
     radii = np.full(sx.size, radius, np.int8)
     np.testing.assert_array_equal(_kernel(sx, sy, z, radii, mh, mw, shape, stencil),
-                                  _reference(sx, sy, z, radii, mw, stencil))
+                                  splat_zbuffer(sx, sy, z, radii, mw, stencil))
 
 
 @pytest.mark.parametrize("bands", [2, 3, 7])

@@ -4,13 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from conftest import SCENES
+from conftest import open_scene
 from naive_screenspace import truth_hits
 
-from reflectcli.camera import camera_from_config
-from reflectcli.config.load import load_config
 from reflectcli.raster.primary import render_primary
-from reflectcli.scene.build import build_scene
 from reflectcli.screenspace.rays import mirror_rays
 
 # a planar mirror whose whole reflection is on screen and unoccluded: a floor mirror, a
@@ -77,10 +74,9 @@ def clean_scene(tmp_path: Path) -> Path:
 
 def primary_of(scene: str | Path, frame: int = 0, overrides=(), technique="ssr"):
     """(primary pass, built scene, camera) of a scene file or bundled scene name."""
-    path = Path(scene) if Path(scene).suffix else SCENES / f"{scene}.toml"
-    cfg, _ = load_config(str(path), list(overrides), technique)
-    built = build_scene(cfg, str(path))
-    camera = camera_from_config(cfg.camera, frame)
+    opened = open_scene(scene, technique, overrides)
+    built = opened.scene
+    camera = opened.camera(frame)
     return render_primary(built, frame, camera), built, camera
 
 

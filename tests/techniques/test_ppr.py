@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+import pytest
 from conftest import psnr, render_frame
-from naive_screenspace import fill_twin, ppr_buffer
+from naive_screenspace import decode_key, fill_twin, ppr_buffer
 from screenspace_util import clean_scene, precision_recall, primary_of, truth
 
 from reflectcli.screenspace.project import EMPTY, fill_holes, project_sources, scatter_min
@@ -17,7 +18,8 @@ SMALL = ("camera.width=160", "camera.height=120")
 def _buffer(primary, built, camera, k=0):
     f = primary.frame
     h, w = f.depth.shape
-    plane = built.mirrors.params[k, :4].astype(np.float64).copy()
+    n, d = built.mirrors.plane(k)
+    plane = np.append(n, d)
     if plane[:3] @ camera.eye + plane[3] < 0:
         plane = -plane
     world_to_clip = camera.projection_matrix() @ camera.view_matrix()
@@ -125,3 +127,27 @@ def test_deterministic_across_runs_and_threads():
         assert other.rgb.tobytes() == outs[0].rgb.tobytes()
         for key in ("ppr_hit", "ppr_distance", "source"):
             assert other.extra[key].tobytes() == outs[0].extra[key].tobytes()
+
+
+def test_decode_matches_twin(tmp_path):
+    from reflectcli.screenspace.march import new_outputs
+    from reflectcli.screenspace.project import decode
+    from reflectcli.screenspace.rays import mirror_rays
+
+    primary, built, camera = primary_of(clean_scene(tmp_path), 0, SMALL)
+    buffer, _ = _buffer(primary, built, camera)
+    f, buf = primary.frame, primary.buffers
+    h, w = f.depth.shape
+    rays, _ = mirror_rays(buf, f.surface, built.n_objects, primary.triangles, built.mirrors,
+                          camera, camera.far)
+    hit, hx, hy, dist, _, _ = new_outputs(h, w)
+    decode(buffer, w, rays, buf.triangle, buf.b1, buf.b2, primary.triangles.corners, hit, hx,
+           hy, dist)
+    targets = np.flatnonzero(buffer != EMPTY)
+    assert len(targets) > 500 and hit.sum() == len(targets)
+    for t in targets:
+        y, x = divmod(int(t), w)
+        sx, sy, d = decode_key(buffer[t], w, rays[y, x], buf.triangle, buf.b1, buf.b2,
+                               primary.triangles.corners)
+        assert (hx[y, x], hy[y, x]) == (sx, sy)
+        assert dist[y, x] == pytest.approx(d, rel=1e-5, abs=1e-6)

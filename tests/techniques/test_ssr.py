@@ -7,7 +7,17 @@ import numba
 import numpy as np
 import pytest
 from conftest import psnr, render_frame
-from naive_screenspace import dda_listing, linear_march, pixel_walk, pyramid
+from naive_screenspace import (
+    confidence_of,
+    dda_listing,
+    distance_along,
+    jitter_numbers,
+    linear_march,
+    pixel_walk,
+    pyramid,
+    ray_row,
+    resolve_pixel,
+)
 from screenspace_util import clean_scene, precision_recall, primary_of, truth
 
 from reflectcli.screenspace.hiz import build_pyramid, march_hiz
@@ -215,3 +225,87 @@ def test_march_kernels_run_on_rays_of_nothing():
     for kind in (LINEAR, DDA):
         march_all(kind, rays, valid, depth, surf, 0.1, 1.0, 0.0, 16, 1.0, 1.0, *outs)
         assert outs[0].sum() == 0 and (outs[1] == -1).all()
+
+
+def _rows_of(scene, overrides=("camera.width=64", "camera.height=48"), max_distance=20.0):
+    from reflectcli.screenspace.rays import mirror_rays
+
+    primary, built, camera = primary_of(scene, 0, overrides)
+    rays, valid = mirror_rays(primary.buffers, primary.frame.surface, built.n_objects,
+                              primary.triangles, built.mirrors, camera, max_distance)
+    return primary, built, camera, rays, valid
+
+
+@pytest.mark.parametrize("scene", ["teapot-floor", "four-spheres", "cylinder", "mask"])
+def test_mirror_rays_match_twin(scene):
+    """Planar, sphere, cylinder and mesh normals; screen ends through the camera's own
+    projection matrix; rays stopped at the near plane."""
+    primary, built, camera, rays, valid = _rows_of(scene)
+    ys, xs = np.nonzero(primary.frame.mirror_mask)
+    assert len(ys) > 100
+    for y, x in zip(ys, xs, strict=True):
+        want = ray_row(primary, built, camera, y, x, 20.0)
+        assert valid[y, x] == (want is not None)
+        if want is not None:
+            np.testing.assert_allclose(rays[y, x], want, rtol=2e-5, atol=1e-3)  # float32
+
+
+def test_distance_at_matches_twin():
+    from reflectcli.screenspace.rays import distance_at
+
+    primary, built, camera, rays, valid = _rows_of("teapot-floor")
+    rng = np.random.default_rng(1)
+    ys, xs = np.nonzero(valid)
+    for i in rng.choice(len(ys), 60, replace=False):
+        row = rays[ys[i], xs[i]]
+        for u in (0.0, rng.uniform(), 1.0):
+            got = distance_at(row.astype(np.float64), u)
+            assert got == pytest.approx(distance_along(row, u, camera), rel=1e-4, abs=1e-5)
+
+
+def test_jitter_offset_matches_twin():
+    from reflectcli.screenspace.march import jitter_offset
+
+    rng = np.random.default_rng(2)
+    xs = np.concatenate([rng.integers(0, 8192, 500), [0, 1, 8191]])
+    ys = np.concatenate([rng.integers(0, 8192, 500), [0, 8191, 1]])
+    got = np.array([jitter_offset(int(x), int(y)) for x, y in zip(xs, ys, strict=True)])
+    np.testing.assert_array_equal(got, jitter_numbers(xs, ys))
+    assert got.min() >= 0.0 and got.max() < 1.0 and 0.4 < got.mean() < 0.6
+
+
+@pytest.mark.parametrize("surface_mode", [False, True])
+def test_resolve_and_confidence_match_twins(surface_mode):
+    from reflectcli.screenspace.resolve import confidence, resolve_hits
+
+    primary, built, camera = primary_of("teapot-box", 0, ("camera.width=96", "camera.height=72"))
+    m = march_frame(primary, built, camera, Params(march="dda", thickness=0.3))
+    f = primary.frame
+    tris, mats = primary.triangles, built.materials
+    colors = f.rgb.copy()
+    rgb = f.rgb.copy()
+    dist = m["dist"].copy()
+    resolve_hits(surface_mode, m["hit"], m["hx"], m["hy"], dist, m["rays"], colors,
+                 primary.buffers.triangle, f.surface, built.n_objects, tris.corners, tris.uvs,
+                 tris.normals, tris.material, mats.mat_i, mats.mat_f, mats.texels,
+                 built.lights.light_f, built.shading, built.ambient,
+                 built.mirrors.reflectance, rgb)
+    conf = np.zeros(f.depth.shape, np.float32)
+    confidence(m["hit"], m["hx"], m["hy"], m["gap"], m["rays"], 0.3, conf)
+    h, w = f.depth.shape
+    ys, xs = np.nonzero(m["hit"])
+    assert len(ys) > 100
+    for y, x in zip(ys, xs, strict=True):
+        k = f.surface[y, x] - built.n_objects
+        col, d = resolve_pixel(surface_mode, m["rays"][y, x], m["hx"][y, x], m["hy"][y, x],
+                               colors, primary.buffers.triangle, f.surface, built.n_objects,
+                               tris, built)
+        want = colors[y, x] + built.mirrors.reflectance[k] * col
+        np.testing.assert_allclose(rgb[y, x], want, rtol=1e-5, atol=1e-5)
+        if d is not None:
+            assert dist[y, x] == pytest.approx(d, rel=1e-4)
+        assert conf[y, x] == pytest.approx(confidence_of(
+            1, m["hx"][y, x], m["hy"][y, x], m["gap"][y, x], m["rays"][y, x], 0.3, w, h),
+            abs=1e-6)
+    miss = m["hit"] == 0
+    assert (conf[miss] == 0).all() and (rgb[miss] == colors[miss]).all()

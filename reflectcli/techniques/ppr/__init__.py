@@ -28,16 +28,18 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import ConfigDict, Field
+from pydantic import ConfigDict
 
-from ...config.base import Strict
+from ...config.base import Strict, described
 
 
-class Params(Strict):
+class PprParams(Strict):
     model_config = ConfigDict(title="ppr")
 
     name: Literal["ppr"] = "ppr"
-    fill: bool = Field(default=True, description="fill one-pixel holes")
-    resolve: Literal["pixel", "surface"] = Field(default="pixel", description="colour")
-    fallback: Literal["none", "envmap", "rerender"] = Field(default="none",
-                                                             description="what a miss shows")
+    fill: bool = True
+    resolve: Literal["pixel", "surface"] = "pixel"
+    fallback: Literal["none", "envmap", "rerender"] = "none"
+
+
+Params = described(PprParams, __doc__)

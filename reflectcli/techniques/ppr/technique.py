@@ -1,4 +1,5 @@
-"""The ppr technique class (kernels in reflectcli/screenspace/project.py)."""
+"""The pixel-projected reflection technique class (parameters and method: the package
+docstring; kernels in reflectcli/screenspace/project.py)."""
 
 from __future__ import annotations
 
@@ -14,11 +15,9 @@ from ...screenspace.march import new_outputs
 from ...screenspace.project import EMPTY, decode, fill_holes, project_sources, scatter_min
 from ...screenspace.rays import mirror_rays
 from ...screenspace.resolve import resolve_hits
-from .. import ppr as _package
 from ..base import Technique, warn_non_planar
 from ..ssr.fallback import BASE, Fallback
-
-__doc__ = _package.__doc__  # the parameter table, for `reflect techniques`
+from . import PprParams
 
 
 def project_frame(primary, scene: Scene, camera: Camera, fill: bool) -> dict:
@@ -39,7 +38,8 @@ def project_frame(primary, scene: Scene, camera: Camera, fill: bool) -> dict:
         sid = scene.n_objects + k
         if mirrors.kind[k] != PLANAR or not (frame.surface == sid).any():
             continue
-        plane = mirrors.params[k, :4].astype(np.float64).copy()
+        n, d = mirrors.plane(k)
+        plane = np.append(np.asarray(n, np.float64), float(d))
         if plane[:3] @ eye + plane[3] < 0:  # face the plane toward the eye
             plane = -plane
         project_sources(buf.triangle, buf.b1, buf.b2, frame.surface, scene.n_objects,
@@ -64,7 +64,7 @@ def project_frame(primary, scene: Scene, camera: Camera, fill: bool) -> dict:
 
 class Ppr(Technique):
     name = "ppr"
-    Params = _package.Params
+    Params = PprParams
 
     def prepare(self, scene: Scene) -> dict:
         warn_non_planar(scene, "ppr")
@@ -72,10 +72,10 @@ class Ppr(Technique):
         fallback.prepare(scene)
         return {"scene": scene, "fallback": fallback}
 
-    def render(self, state: dict, frame: int, camera: Camera) -> Frame:
+    def render(self, state: dict, frame_index: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]
         params = self.params
-        primary = render_primary(scene, frame, camera)
+        primary = render_primary(scene, frame_index, camera)
         result = primary.frame
         p = project_frame(primary, scene, camera, params.fill)
         t0 = time.perf_counter()

@@ -3,11 +3,11 @@
 | parameter | type | default | meaning |
 |---|---|---|---|
 | `march` | "linear", "dda", "hiz" | "hiz" | eye-space steps; pixel DDA; min-depth pyramid |
-| `thickness` | float > 0 | 0.1 | eye-space depth a surface extends behind its front |
-| `stride` | float in [1, 64] | 1.0 | dda: pixels per step (bisection refines a hit) |
-| `jitter` | float in [0, 1] | 0.0 | dda: start offset, a fixed per-pixel stride fraction |
-| `max_steps` | int >= 1 | 1024 | steps (linear, dda) or cell lookups (hiz) per ray |
-| `max_distance` | float > 0 | 20.0 | ray length, eye-space units (clipped at near) |
+| `thickness` | float > 0.0 | 0.1 | eye-space depth a surface extends behind its front |
+| `stride` | float in [1.0, 64.0] | 1.0 | dda: pixels per step (bisection refines a hit) |
+| `jitter` | float in [0.0, 1.0] | 0.0 | dda: start offset, a fixed per-pixel stride fraction |
+| `max_steps` | int in [1, 65536] | 1024 | steps (linear, dda) or cell lookups (hiz) per ray |
+| `max_distance` | float > 0.0 | 20.0 | ray length, eye-space units (clipped at near) |
 | `resolve` | "pixel", "surface" | "pixel" | hit colour: hit pixel's, or its triangle shaded |
 | `fallback` | "none", "envmap", "rerender" | "none" | what a miss shows (see below) |
 
@@ -42,19 +42,21 @@ from typing import Literal
 
 from pydantic import ConfigDict, Field
 
-from ...config.base import Strict
+from ...config.base import Strict, described
 
 
-class Params(Strict):
+class SsrParams(Strict):
     model_config = ConfigDict(title="ssr")
 
     name: Literal["ssr"] = "ssr"
-    march: Literal["linear", "dda", "hiz"] = Field(default="hiz", description="march")
-    thickness: float = Field(default=0.1, gt=0.0, description="depth thickness")
-    stride: float = Field(default=1.0, ge=1.0, le=64.0, description="dda pixels per step")
-    jitter: float = Field(default=0.0, ge=0.0, le=1.0, description="dda start jitter")
-    max_steps: int = Field(default=1024, ge=1, le=65536, description="steps per ray")
-    max_distance: float = Field(default=20.0, gt=0.0, description="ray length")
-    resolve: Literal["pixel", "surface"] = Field(default="pixel", description="hit colour")
-    fallback: Literal["none", "envmap", "rerender"] = Field(default="none",
-                                                             description="what a miss shows")
+    march: Literal["linear", "dda", "hiz"] = "hiz"
+    thickness: float = Field(default=0.1, gt=0.0)
+    stride: float = Field(default=1.0, ge=1.0, le=64.0)
+    jitter: float = Field(default=0.0, ge=0.0, le=1.0)
+    max_steps: int = Field(default=1024, ge=1, le=65536)
+    max_distance: float = Field(default=20.0, gt=0.0)
+    resolve: Literal["pixel", "surface"] = "pixel"
+    fallback: Literal["none", "envmap", "rerender"] = "none"
+
+
+Params = described(SsrParams, __doc__)

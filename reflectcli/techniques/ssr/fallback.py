@@ -23,12 +23,14 @@ class Fallback:
 
     def prepare(self, scene: Scene) -> None:
         if self.kind == "envmap":
-            from ..envmap import Envmap, EnvmapParams
+            from ..envmap import EnvmapParams
+            from ..envmap.technique import Envmap
 
             self.helper = Envmap(EnvmapParams(parallax="box"), self.threads, self.cache_dir)
             self.state = self.helper.prepare(scene)
         elif self.kind == "rerender":
-            from ..rerender import Rerender, RerenderParams
+            from ..rerender import RerenderParams
+            from ..rerender.technique import Rerender
 
             self.helper = Rerender(RerenderParams(max_depth=1), self.threads, self.cache_dir)
             self.state = self.helper.prepare(scene)
@@ -58,13 +60,13 @@ class Fallback:
 
             base = rgb.copy()  # missed pixels hold (1 - r) * base; lookups add r * map
             dummy = np.zeros((1, 1, 3), np.float32)
-            box = self.state["box"]
-            for k, record in enumerate(self.state["maps"]):
+            box = self.state.box
+            for k, record in enumerate(self.state.maps):
                 add_reflections(base, primary.buffers, surface, scene.n_objects + k,
                                 primary.triangles, int(scene.mirrors.kind[k]),
                                 scene.mirrors.params[k], scene.mirrors.reflectance[k],
-                                camera.eye, record["point"], box[0], box[1], True, CUBE,
-                                record["images"], dummy, face_bases(), True)
+                                camera.eye, record.point, box[0], box[1], True, CUBE,
+                                record.images, dummy, face_bases(), True)
             rgb[miss] = base[miss]
             source[miss] = ENVMAP
         timings["fallback"] = time.perf_counter() - start

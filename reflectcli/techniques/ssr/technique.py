@@ -1,4 +1,5 @@
-"""The ssr technique class (kernels in reflectcli/screenspace/)."""
+"""The screen-space reflection technique class (parameters and method: the package
+docstring; kernels in reflectcli/screenspace/)."""
 
 from __future__ import annotations
 
@@ -14,12 +15,9 @@ from ...screenspace.hiz import build_pyramid, march_hiz_all
 from ...screenspace.march import DDA, LINEAR, march_all, new_outputs
 from ...screenspace.rays import mirror_rays
 from ...screenspace.resolve import confidence, resolve_hits
-from .. import ssr as _package
 from ..base import Technique
+from . import SsrParams
 from .fallback import BASE, Fallback
-
-# the package docstring (its parameter table) is this module's too, for `reflect techniques`
-__doc__ = _package.__doc__
 
 
 def march_frame(primary, scene: Scene, camera: Camera, params) -> dict:
@@ -55,17 +53,17 @@ def march_frame(primary, scene: Scene, camera: Camera, params) -> dict:
 
 class Ssr(Technique):
     name = "ssr"
-    Params = _package.Params
+    Params = SsrParams
 
     def prepare(self, scene: Scene) -> dict:
         fallback = Fallback(self.params.fallback, self.threads, self.cache_dir)
         fallback.prepare(scene)
         return {"scene": scene, "fallback": fallback}
 
-    def render(self, state: dict, frame: int, camera: Camera) -> Frame:
+    def render(self, state: dict, frame_index: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]
         params = self.params
-        primary = render_primary(scene, frame, camera)
+        primary = render_primary(scene, frame_index, camera)
         result = primary.frame
         marched = march_frame(primary, scene, camera, params)
         t0 = time.perf_counter()

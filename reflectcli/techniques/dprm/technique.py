@@ -1,56 +1,22 @@
-"""Depth-preserving reflection maps (Bastos & Stuerzlinger): precomputed zexel maps per
-planar mirror, forward-warped into the mirror's pixels every frame.
-
-| parameter | type | default | meaning |
-|---|---|---|---|
-| `maps.count` | int | 1 | maps per mirror, on a hemisphere behind it (1: on its axis) |
-| `maps.resolution` | int | 512 | zexels per map side |
-| `maps.layout` | "grid", "fibonacci" | "grid" | viewpoint layout (grid needs a square count) |
-| `maps.radius` | float | mirror diagonal | viewpoint distance from the mirror's center |
-| `maps.spread` | degrees | 45.0 | half-angle of the cap of viewpoints around the axis |
-| `maps.per_frame` | int | 1 | maps warped per frame: those nearest the reflected eye |
-| `maps.lod` | bool | false | warp the mip level whose density matches the mirror on screen |
-| `fill.splat` | 1, 3, 5, "adaptive" | 1 | splat footprint in pixels (adaptive: from the warp) |
-| `fill.temporal` | bool | false | keep the previous frame's reflection where no zexel lands |
-| `occlusion` | "zbuffer", "ordered" | "zbuffer" | nearest zexel wins, or McMillan's order |
-| `reconstruct` | "color", "surface" | "color" | zexel colors, or shade each pixel's own point |
-
-Per frame and visible planar mirror: the eye is reflected across the mirror (equations 1
-and 2: M = E - 2 (N.E + d) N; the reflected view direction R_d = E_d - 2 (N.E_d) N, which is
-the paper's 2 (N.E_d) N - E_d with E_d pointing toward the eye), the `per_frame` maps whose
-viewpoints are nearest M are warped (reflectcli/maps/warp.py), holes are filled as asked, and
-the mirror pixels get (1 - r) * base + r * reflected. The warp's cost depends on the zexels,
-not on the scene's polygons. Maps are captured at frame 0: objects that move later are not
-in them (a warning says so). Pixels no zexel reached are `holes` (an EXR channel) and show
-the background. Curved mirrors show (1 - r) * base.
-
-`reconstruct = "surface"` (beyond the paper): maps also keep the triangle each zexel saw,
-and a reached pixel intersects its own reflected ray (from M through the pixel center) with
-that triangle's plane and shades the point there, as the rasterizer would. Point resampling
-of colors puts one-pixel seams along every texture edge (its error floor); this removes
-them wherever the zexel's triangle is the surface under the pixel center, or a coplanar
-neighbour with the same texture mapping. It costs a shading pass over the mirror's pixels
-and stays independent of the polygon count.
-"""
+"""The depth-preserving reflection maps technique class (parameters and method: the
+package docstring)."""
 
 from __future__ import annotations
 
 import logging
 import math
 import time
-from typing import Literal
+from dataclasses import dataclass, field
 
 import numpy as np
-from pydantic import ConfigDict, Field, model_validator
 
-from ..camera import Camera
-from ..config.base import Strict
-from ..frame import Frame
-from ..geometry import reflection_matrix
-from ..maps.cache import MapCache, cache_key
-from ..maps.surface import surface_colors
-from ..maps.warp import warp_maps
-from ..maps.zexel import (
+from ...camera import Camera
+from ...frame import Frame
+from ...geometry import reflection_matrix
+from ...maps.cache import MapCache, cache_key
+from ...maps.surface import surface_colors
+from ...maps.warp import warp_maps
+from ...maps.zexel import (
     ZexelMap,
     capture_map,
     map_camera,
@@ -58,55 +24,41 @@ from ..maps.zexel import (
     mirror_frame,
     viewpoints,
 )
-from ..raster.primary import render_primary
-from ..scene.types import PLANAR, Scene
-from .base import Technique, precompute_logged, warn_non_planar
-from .envmap import scene_extent
+from ...raster.primary import render_primary
+from ...scene.types import PLANAR, Scene, Triangles, scene_extent
+from ..base import MapRecord, MapTechnique, precompute_logged, warn_non_planar
+from . import DprmMaps, DprmParams
 
 log = logging.getLogger("reflect")
 MAP_FORMAT = 2  # 2: a T channel with each zexel's triangle
 
 
-class DprmMaps(Strict):
-    count: int = Field(default=1, ge=1, le=4096, description="maps per mirror")
-    resolution: int = Field(default=512, ge=8, le=8192, description="zexels per map side")
-    layout: Literal["grid", "fibonacci"] = Field(default="grid", description="viewpoints")
-    radius: float | None = Field(default=None, gt=0, description="default: mirror diagonal")
-    spread: float = Field(default=45.0, gt=0, lt=90, description="cap half-angle, degrees")
-    per_frame: int = Field(default=1, ge=1, le=64, description="maps warped per frame")
-    lod: bool = Field(default=False, description="warp the mip level matching the mirror")
+@dataclass
+class DprmRecord(MapRecord):
+    """One planar mirror's zexel maps."""
 
-    @model_validator(mode="after")
-    def _count_fits_layout(self) -> DprmMaps:
-        if self.layout == "grid" and self.count != math.isqrt(self.count) ** 2:
-            raise ValueError(f"count = {self.count} does not fit layout 'grid' (needs a "
-                             "square: 1, 4, 9, 16, ...)")
-        if self.per_frame > self.count:
-            raise ValueError(f"per_frame = {self.per_frame} exceeds count = {self.count}")
-        return self
+    index: int  # the mirror's index k
+    maps: list[ZexelMap]
+    plane: tuple[np.ndarray, float]  # (n, d) of the mirror, world
+    viewpoints: np.ndarray  # (count, 3) the maps' viewpoints, world
+    pyramids: dict[int, list[ZexelMap]] = field(default_factory=dict)  # map j -> mip levels
 
 
-class DprmFill(Strict):
-    splat: Literal[1, 3, 5, "adaptive"] = Field(default=1, description="splat footprint")
-    temporal: bool = Field(default=False, description="reuse the previous frame in holes")
+@dataclass
+class DprmState:
+    scene: Scene
+    mirrors: list[DprmRecord]
+    precompute_seconds: float
+    triangles: Triangles  # the frame-0 triangles the maps' T channel indexes
+    # per mirror index: (reflected colors, filled pixels) of the previous frame
+    previous: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
-class DprmParams(Strict):
-    model_config = ConfigDict(title="dprm")
-
-    name: Literal["dprm"] = "dprm"
-    maps: DprmMaps = Field(default_factory=DprmMaps, description="map capture and choice")
-    fill: DprmFill = Field(default_factory=DprmFill, description="exposure filling")
-    occlusion: Literal["zbuffer", "ordered"] = Field(default="zbuffer", description="visibility")
-    reconstruct: Literal["color", "surface"] = Field(
-        default="color", description="zexel colors, or shade each pixel's point of its surface")
-
-
-class Dprm(Technique):
+class Dprm(MapTechnique):
     name = "dprm"
     Params = DprmParams
 
-    def precompute(self, scene: Scene, on_map=None, on_progress=None) -> list[dict]:
+    def precompute(self, scene: Scene, on_map=None, on_progress=None) -> list[DprmRecord]:
         """Capture (or load) every planar mirror's maps; one record per mirror.
         on_progress(maps done, maps in all) follows the capture map by map."""
         p: DprmMaps = self.params.maps
@@ -155,50 +107,48 @@ class Dprm(Technique):
                 done += len(maps)
                 if on_progress is not None:
                     on_progress(done, total)
-            record = {"mirror": name, "index": k, "status": status, "maps": maps,
-                      "plane": (mf.normal, float(-mf.normal @ mf.center)),
-                      "viewpoints": points, "seconds": time.perf_counter() - start,
-                      "path": cache.path("dprm", key)}
+            record = DprmRecord(name, status, time.perf_counter() - start,
+                                cache.path("dprm", key), k, maps,
+                                (mf.normal, float(-mf.normal @ mf.center)), points)
             records.append(record)
             if on_map is not None:
                 on_map(record)
         return records
 
-    def prepare(self, scene: Scene) -> dict:
+    def prepare(self, scene: Scene) -> DprmState:
         warn_non_planar(scene, "dprm")
         records, seconds = precompute_logged(self, scene, "dprm")
         if scene.frame_count > 1 and scene.geometry(0).key[1]:
             log.warning("dprm: objects move in this scene, but its maps are captured at "
                         "frame 0: reflections show them where they were then")
-        return {"scene": scene, "mirrors": records, "previous": {},
-                "precompute_seconds": seconds, "triangles": scene.geometry(0).all_triangles()}
+        return DprmState(scene, records, seconds, scene.geometry(0).all_triangles())
 
-    def render(self, state: dict, frame: int, camera: Camera) -> Frame:
-        scene: Scene = state["scene"]
+    def render(self, state: DprmState, frame_index: int, camera: Camera) -> Frame:
+        scene = state.scene
         params: DprmParams = self.params
-        primary = render_primary(scene, frame, camera)
+        primary = render_primary(scene, frame_index, camera)
         result = primary.frame
         self.last_lod_level = 0
         holes = np.zeros(result.surface.shape, bool)
         warp_s = fill_s = 0.0
         used, warped = 0, 0
-        for record in state["mirrors"]:
-            k = record["index"]
+        for record in state.mirrors:
+            k = record.index
             stencil = result.surface == scene.n_objects + k
             if not stencil.any():
                 continue
             t0 = time.perf_counter()
             reflected, reached, n_maps, n_zexels = self._warp(record, camera, stencil, scene,
-                                                              state["triangles"])
+                                                              state.triangles)
             t1 = time.perf_counter()
             filled = reached
             if params.fill.temporal:
-                prev = state["previous"].get(k)
+                prev = state.previous.get(k)
                 if prev is not None:
                     reuse = stencil & ~reached & prev[1]
                     reflected[reuse] = prev[0][reuse]
                     filled = reached | reuse
-                state["previous"][k] = (reflected.copy(), filled & stencil)
+                state.previous[k] = (reflected.copy(), filled & stencil)
             hole = stencil & ~filled
             reflected[hole] = scene.background
             result.rgb[stencil] += scene.mirrors.reflectance[k] * reflected[stencil]
@@ -210,40 +160,38 @@ class Dprm(Technique):
         mirror_pixels = int(np.count_nonzero(result.surface >= scene.n_objects))
         result.extra["holes"] = holes.astype(np.float32)
         result.timings.update({"warp": warp_s, "fill": fill_s,
-                               "precompute": state["precompute_seconds"] if frame == 0 else 0.0})
+                               "precompute": state.precompute_seconds if frame_index == 0 else 0.0})
         result.stats.update({"maps_used": used, "zexels_warped": warped,
                              "lod_level": getattr(self, "last_lod_level", 0),
                              "holes": int(holes.sum()),
                              "hole_fraction": float(holes.sum() / max(mirror_pixels, 1))})
         return result
 
-    def _lod(self, record: dict, chosen, stencil: np.ndarray):
+    def _lod(self, record: DprmRecord, chosen, stencil: np.ndarray):
         """The coarsest mip level that still has a zexel per mirror pixel across the mirror
         (the maps' frustums cover the mirror, so their side spans about its width)."""
-        if "pyramids" not in record:
-            record["pyramids"] = {}
         pixels_across = math.sqrt(max(int(stencil.sum()), 1))
         level = max(0, int(math.floor(math.log2(
-            record["maps"][0].depth.shape[0] / pixels_across))))
+            record.maps[0].depth.shape[0] / pixels_across))))
         maps = []
         for j in chosen:
-            if j not in record["pyramids"]:
-                record["pyramids"][j] = mip_pyramid(record["maps"][j])
-            pyramid = record["pyramids"][j]
+            if j not in record.pyramids:
+                record.pyramids[j] = mip_pyramid(record.maps[j])
+            pyramid = record.pyramids[j]
             maps.append(pyramid[min(level, len(pyramid) - 1)])
         return maps, level
 
-    def _warp(self, record: dict, camera: Camera, stencil: np.ndarray,
+    def _warp(self, record: DprmRecord, camera: Camera, stencil: np.ndarray,
               scene: Scene | None = None, triangles=None):
         """Reflected colors over the stencil, and which pixels a zexel reached."""
         params: DprmParams = self.params
-        k_maps: list[ZexelMap] = record["maps"]
-        n, d = record["plane"]
+        k_maps: list[ZexelMap] = record.maps
+        n, d = record.plane
         # equations 1 and 2: the eye mirrored across the plane
         reflect = reflection_matrix(n, d)
         mirrored_eye = camera.eye - 2.0 * (n @ camera.eye + d) * n
         order_by_distance = np.argsort(
-            np.linalg.norm(record["viewpoints"] - mirrored_eye, axis=1), kind="stable")
+            np.linalg.norm(record.viewpoints - mirrored_eye, axis=1), kind="stable")
         chosen = order_by_distance[: params.maps.per_frame]
         maps = [k_maps[j] for j in chosen]
         level = 0
