@@ -16,7 +16,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "reflectcli"
 TOP = ("reflectcli", "scenes", "configs", "scripts", "benchmarks", "docs", "tests")
-END = r"(?!<|[\w/-]|\.[\w/])"  # a path ends where no path character (or placeholder) follows
+END = r"(?!<|\*|[\w/-]|\.[\w/])"  # a path ends where no path character, placeholder or glob follows
 PATH = re.compile(r"(?<![\w./-])((?:" + "|".join(TOP) + r")/[\w./-]*[\w/]|[A-Z][A-Z_]*\.md)" + END)
 # package-relative module paths in docstrings: `maps/lookup.py`, `virtual/`
 SUBPACKAGES = tuple(p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name != "__pycache__")
