@@ -212,6 +212,18 @@ def test_planar_mirrors_are_the_exact_special_case():
     assert psnr(out.rgb[m], ref.rgb[m]) >= 40.0
 
 
+def test_lit_planar_reflection_is_shaded_from_the_mirrored_eye():
+    """Lambert shading is two-sided: the normal is turned toward the viewer. The floor
+    mirror of teapot-floor shows the teapot's underside, so shading its fragments from the
+    real eye (above) lit them as the top side: up to 3.5x too bright, 24.9 dB (issue 12)."""
+    size = ("camera.width=320", "camera.height=240")
+    ref, _ = render_frame("teapot-floor", "rerender", 0, ("technique.max_depth=1", *size))
+    out, _ = render_frame("teapot-floor", "virtual", 0, size)
+    m = ref.mirror_mask & out.mirror_mask
+    assert m.sum() > 5000
+    assert psnr(out.rgb[m], ref.rgb[m]) >= 40.0
+
+
 def test_reflector_tests_drop_geometry_in_front_of_the_reflector():
     """The second z-buffer (depth floor) and the bounding-box clip planes both remove a
     virtual triangle lying between the eye and the reflector; neither removes one behind."""

@@ -15,7 +15,7 @@ from ...frame import Frame
 from ...raster.primary import render_primary
 from ...scene.types import PLANAR, Scene
 from ...virtual.dispatch import choose_method, facing_plane, reflector_parts
-from ...virtual.raster import draw_virtual
+from ...virtual.raster import draw_virtual, reflected_rays
 from ...virtual.reflected import ReflectedCache
 from ...virtual.shape import ShapeCache, soup_key
 from ...virtual.view import ViewCache
@@ -74,9 +74,12 @@ class Virtual(Technique):
         stats = {"virtual_vertices": 0, "virtual_triangles": 0, "reflector_parts": 0}
         seconds = dict.fromkeys(("tessellate", "maps", "virtual_vertices", "virtual_raster"),
                                 0.0)
+        incoming = None  # per pixel, the reflected ray shading sees its fragment along
         for k in range(scene.mirrors.count):
             if not (result.surface == scene.n_objects + k).any():
                 continue  # not in view
+            if incoming is None:
+                incoming = reflected_rays(primary, camera.eye)
             t_start = time.perf_counter()
             tess = state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation)
             seconds["tessellate"] += time.perf_counter() - t_start
@@ -101,7 +104,7 @@ class Virtual(Technique):
                 colors = draw_virtual(scene, primary, camera, clip_from_world, tess.triangles,
                                       virtual[tess.corner_index], dropped, stencil,
                                       scene.n_objects + k, mirror_plane,
-                                      self.params.reflector_test)
+                                      self.params.reflector_test, incoming)
                 result.rgb[stencil] += scene.mirrors.reflectance[k] * colors[stencil]
                 seconds["virtual_vertices"] += t1 - t0
                 seconds["virtual_raster"] += time.perf_counter() - t1
