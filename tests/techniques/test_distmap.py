@@ -72,7 +72,7 @@ def test_box_room_equals_box_projection_and_raytrace(tmp_path):
     assert mirror_psnr(dist, boxed) >= 40.0
     assert mirror_psnr(dist, ref) >= 35.0
     assert mirror_psnr(boxed, ref) >= 35.0
-    assert dist.stats["hole_fraction"] < 1e-3
+    assert dist.stats["unreached_fraction"] < 1e-3
 
 
 def test_box_room_ball_equals_box_projection(tmp_path):
@@ -98,7 +98,7 @@ def test_l_room_ranking_and_holes():
             for n in (1, 2, 4)}
     p = [mirror_psnr(f, ref) for f in (plain, boxed, runs[1], runs[4])]
     assert p[0] < p[1] < p[2] < p[3], p
-    holes = [runs[n].stats["hole_fraction"] for n in (1, 2, 4)]
+    holes = [runs[n].stats["unreached_fraction"] for n in (1, 2, 4)]
     assert holes[0] >= holes[1] >= holes[2] and holes[2] < holes[0] / 4, holes
 
 

@@ -171,7 +171,7 @@ def path_runs(tmp_path_factory, scenes_root):
 
 
 def _holes(frames):
-    return np.array([f.stats["hole_fraction"] for f in frames])
+    return np.array([f.stats["unreached_fraction"] for f in frames])
 
 
 @pytest.mark.parametrize("chain", [("splat1", "splat3", "splat5"), ("per1", "per2", "per4"),
@@ -198,13 +198,13 @@ def test_surface_reconstruction_beats_zexel_colors_on_every_frame(path_runs):
                                    strict=True):
         m = ref.mirror_mask
         assert psnr(surface.rgb[m], ref.rgb[m]) > psnr(color.rgb[m], ref.rgb[m])
-        assert surface.stats["holes"] == color.stats["holes"]
+        assert surface.stats["unreached"] == color.stats["unreached"]
 
 
 def test_holes_channel_and_stats(path_runs):
     frame = path_runs["splat1"][0]
     holes = frame.extra["holes"] > 0
-    assert holes.sum() == frame.stats["holes"] > 0
+    assert holes.sum() == frame.stats["unreached"] > 0
     assert np.all(frame.mirror_mask[holes])
     assert frame.stats["maps_used"] == 1 and frame.stats["zexels_warped"] > 100_000
 

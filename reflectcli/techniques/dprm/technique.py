@@ -163,8 +163,11 @@ class Dprm(MapTechnique):
                                "precompute": state.precompute_seconds if frame_index == 0 else 0.0})
         result.stats.update({"maps_used": used, "zexels_warped": warped,
                              "lod_level": getattr(self, "last_lod_level", 0),
-                             "holes": int(holes.sum()),
-                             "hole_fraction": float(holes.sum() / max(mirror_pixels, 1))})
+                             # raw: mirror pixels no zexel reached, including those
+                             # whose reflection is the background (the bench's
+                             # hole_fraction counts only where geometry should show)
+                             "unreached": int(holes.sum()),
+                             "unreached_fraction": float(holes.sum() / max(mirror_pixels, 1))})
         return result
 
     def _lod(self, record: DprmRecord, chosen, stencil: np.ndarray):
