@@ -39,7 +39,8 @@ set = ["camera.width=48", "camera.height=36"]
 [[runs]]
 scenes = ["{scenes / 'teapot-box.toml'}"]
 techniques = ["dprm"]
-set = ["camera.width=48", "camera.height=36"]
+set = ["camera.width=48", "camera.height=36", "technique.maps.count=1",
+       "technique.maps.per_frame=1", 'technique.reconstruct="color"']
 [runs.sweep]
 "technique.maps.resolution" = [16, 32]
 """)
