@@ -120,7 +120,8 @@ def test_matches_rerender_where_reflection_is_visible(tmp_path, march):
     ref, _ = render_frame(path, "rerender", 0, ("technique.max_depth=1",))
     out, _ = render_frame(path, "ssr", 0, (f'technique.march="{march}"',
                                            'technique.resolve="surface"'))
-    pixel, _ = render_frame(path, "ssr", 0, (f'technique.march="{march}"',))
+    pixel, _ = render_frame(path, "ssr", 0, (f'technique.march="{march}"',
+                                             'technique.resolve="pixel"'))
     hit = out.extra["ssr_hit"] > 0
     assert hit.sum() > 3000
     assert psnr(ref.rgb[hit], out.rgb[hit]) >= 35.0  # measured 38.3 at 160x120
@@ -180,7 +181,7 @@ def test_cannot_see_off_screen_content():
 
 
 def test_fallback_fills_misses_and_says_so():
-    base, _ = render_frame("ssr-shapes", "ssr", 0, SMALL)
+    base, _ = render_frame("ssr-shapes", "ssr", 0, (*SMALL, 'technique.fallback="none"'))
     rer, _ = render_frame("ssr-shapes", "ssr", 0, (*SMALL, 'technique.fallback="rerender"'))
     ref, _ = render_frame("ssr-shapes", "rerender", 0, (*SMALL, "technique.max_depth=1"))
     env, _ = render_frame("ssr-shapes", "ssr", 0, (*SMALL, 'technique.fallback="envmap"'))

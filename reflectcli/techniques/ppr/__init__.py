@@ -3,8 +3,8 @@
 | parameter | type | default | meaning |
 |---|---|---|---|
 | `fill` | bool | true | close one-pixel holes (an empty pixel between two reached ones) |
-| `resolve` | "pixel", "surface" | "pixel" | colour: source pixel's, or its triangle shaded |
-| `fallback` | "none", "envmap", "rerender" | "none" | what a pixel no source reached shows |
+| `resolve` | "pixel", "surface" | "surface" | colour: source pixel's, or its triangle shaded |
+| `fallback` | "none", "envmap", "rerender" | "envmap" | what a pixel no source reached shows |
 
 `resolve` and `fallback` work as in `ssr` ("surface": the mirror pixel's reflected ray
 meets the plane of the source pixel's triangle, shaded there).
@@ -38,8 +38,8 @@ class PprParams(Strict):
 
     name: Literal["ppr"] = "ppr"
     fill: bool = True
-    resolve: Literal["pixel", "surface"] = "pixel"
-    fallback: Literal["none", "envmap", "rerender"] = "none"
+    resolve: Literal["pixel", "surface"] = "surface"
+    fallback: Literal["none", "envmap", "rerender"] = "envmap"
 
 
 Params = described(PprParams, __doc__)

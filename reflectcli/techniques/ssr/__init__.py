@@ -8,8 +8,8 @@
 | `jitter` | float in [0.0, 1.0] | 0.0 | dda: start offset, a fixed per-pixel stride fraction |
 | `max_steps` | int in [1, 65536] | 1024 | steps (linear, dda) or cell lookups (hiz) per ray |
 | `max_distance` | float > 0.0 | 20.0 | ray length, eye-space units (clipped at near) |
-| `resolve` | "pixel", "surface" | "pixel" | hit colour: hit pixel's, or its triangle shaded |
-| `fallback` | "none", "envmap", "rerender" | "none" | a miss: base, box-projected probe, rerender |
+| `resolve` | "pixel", "surface" | "surface" | hit colour: hit pixel's, or its triangle shaded |
+| `fallback` | "none", "envmap", "rerender" | "envmap" | a miss: base, box-projected probe, rerender |
 
 `resolve = "surface"` intersects the ray with the plane of the triangle the primary pass
 left at the hit pixel and shades that point (beyond the papers). `fallback`: "none" leaves
@@ -55,8 +55,8 @@ class SsrParams(Strict):
     jitter: float = Field(default=0.0, ge=0.0, le=1.0)
     max_steps: int = Field(default=1024, ge=1, le=65536)
     max_distance: float = Field(default=20.0, gt=0.0)
-    resolve: Literal["pixel", "surface"] = "pixel"
-    fallback: Literal["none", "envmap", "rerender"] = "none"
+    resolve: Literal["pixel", "surface"] = "surface"
+    fallback: Literal["none", "envmap", "rerender"] = "envmap"
 
 
 Params = described(SsrParams, __doc__)
