@@ -16,6 +16,8 @@ import tomli
 from pydantic import ValidationError
 
 from ..errors import Problem, Problems
+from .files import file_problem, read_toml_file
+from .limits import MAX_INCLUDE_DEPTH, MAX_TOML_BYTES
 from .scene import SceneConfig
 
 SECTION_FILES = ("camera", "mirrors", "technique", "materials", "lights", "objects", "output")
@@ -24,21 +26,7 @@ Provenance = dict[tuple, str]
 
 
 def read_toml(path: str, field: str = "", referrer: str | None = None) -> dict:
-    rel = os.path.relpath(path)
-    display = path if rel.startswith("..") else rel  # as every other message names files
-    try:
-        with open(path, "rb") as f:
-            return tomli.load(f)
-    except FileNotFoundError:
-        raise Problems([Problem(referrer or display, field, f"file not found: {path}")]) from None
-    except OSError as e:
-        raise Problems(
-            [Problem(referrer or display, field, f"cannot read {path}: {e.strerror}")]
-        ) from None
-    except UnicodeDecodeError as e:
-        raise Problems([Problem(display, "", f"not UTF-8 text: {e.reason}")]) from None
-    except tomli.TOMLDecodeError as e:
-        raise Problems([Problem(display, "", f"TOML syntax error: {e}")]) from None
+    return read_toml_file(path, field, referrer)
 
 
 def _mark(data: Any, source: str, prefix: tuple, prov: Provenance) -> None:
@@ -65,6 +53,9 @@ def load_raw(path: str, prov: Provenance, stack: tuple = ()) -> dict:
     display = os.path.relpath(path) if not os.path.relpath(path).startswith("..") else path
     if path in stack:
         raise Problems([Problem(display, "include", "include cycle")])
+    if len(stack) >= MAX_INCLUDE_DEPTH:
+        raise Problems([Problem(display, "include", f"includes nested more than "
+                                                    f"{MAX_INCLUDE_DEPTH} files deep")])
     data = read_toml(path)
     here = os.path.dirname(path)
     merged: dict = {}
@@ -77,8 +68,10 @@ def load_raw(path: str, prov: Provenance, stack: tuple = ()) -> dict:
     for inc in includes:
         sub: Provenance = {}
         inc_path = os.path.join(here, inc)
-        if not os.path.exists(inc_path):
-            raise Problems([Problem(display, "include", f"file not found: {inc}")])
+        reason = file_problem(inc_path, MAX_TOML_BYTES, "TOML file")
+        if reason is not None:
+            shown = f": {inc}" if "\0" not in inc else ""
+            raise Problems([Problem(display, "include", reason + shown)])
         included = load_raw(inc_path, sub, (*stack, path))
         _rebase(included, os.path.dirname(os.path.abspath(inc_path)), here)
         merged = _merge(merged, included)
