@@ -19,6 +19,7 @@ from .errors import Problem, Problems
 from .frame import Frame
 from .maps.cache import MapCache, default_cache_dir
 from .output.exr import write_exr
+from .output.finite import check_finite
 from .output.log import append_jsonl
 from .output.png import write_png
 from .provenance import cpu_name, versions
@@ -205,9 +206,11 @@ def render(
             "versions": versions(),
             "scene_hash": scene.scene_hash,
         }
+        channels = frame_channels(frame)
+        check_finite(channels, display, index)
         with interrupts_deferred():  # a frame is kept with its log line, or not at all
             t1 = time.perf_counter()
-            write_exr(exr, frame_channels(frame), {**attributes, "reflect:frame": str(index)})
+            write_exr(exr, channels, {**attributes, "reflect:frame": str(index)})
             if preview:
                 write_png(exr[:-4] + ".png", frame.rgb)
             append_jsonl(log_path, {**row, "write_seconds": time.perf_counter() - t1})

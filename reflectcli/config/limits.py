@@ -151,3 +151,27 @@ def _item(add, loc, item) -> None:
             add((*loc, "corners"), f"coordinates must be within +-{MAX_COORDINATE:g}")
         elif len(set(corners)) < len(corners):
             add((*loc, "corners"), "a corner is repeated")
+
+
+def limit_problems(cfg, prov: dict, display: str, source: str | None = None) -> list:
+    """check_config's findings as Problems naming the file each value came from."""
+    from ..errors import Problem
+
+    problems: list = []
+
+    def add(loc: tuple, message: str) -> None:
+        file = display
+        for n in range(len(loc), -1, -1):
+            if loc[:n] in prov:
+                file = prov[loc[:n]]
+                break
+        problems.append(Problem(file, ".".join(str(p) for p in loc), message))
+
+    check_config(cfg, add)
+    if not problems and source is not None:
+        from .memory import memory_problem
+
+        found = memory_problem(cfg, source)
+        if found is not None:
+            add(*found)
+    return problems

@@ -17,7 +17,7 @@ from pydantic import ValidationError
 
 from ..errors import Problem, Problems
 from .files import file_problem, read_toml_file
-from .limits import MAX_INCLUDE_DEPTH, MAX_TOML_BYTES
+from .limits import MAX_INCLUDE_DEPTH, MAX_TOML_BYTES, limit_problems
 from .scene import SceneConfig
 
 SECTION_FILES = ("camera", "mirrors", "technique", "materials", "lights", "objects", "output")
@@ -252,7 +252,8 @@ def load_config(
         raise Problems(validation_problems(e, data, prov, display)) from None
     from .checks import semantic_problems
 
-    problems = semantic_problems(cfg, path, prov, display)
+    problems = (limit_problems(cfg, prov, display, path)
+                or semantic_problems(cfg, path, prov, display))
     if problems:
         raise Problems(problems)
     return cfg, prov
