@@ -149,7 +149,8 @@ def _item(add, loc, item) -> None:
     if corners is not None:
         if not all(_finite_small(c) for c in corners):
             add((*loc, "corners"), f"coordinates must be within +-{MAX_COORDINATE:g}")
-        elif len(set(corners)) < len(corners):
+        elif len(set(corners)) < len(corners) and hasattr(item, "material"):
+            # objects only: a mirror with a repeated corner is reported as "zero area"
             add((*loc, "corners"), "a corner is repeated")
 
 
