@@ -111,12 +111,12 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
     key = (technique_name, params_json)
     if key in _warmed:
         return 0.0
-    from .warmup import warm_scene
+    from .warmup import warm_params, warm_scene
 
     start = time.perf_counter()
     scene, camera = warm_scene()
     cls = TECHNIQUES[technique_name]
-    technique = cls(cls.Params.model_validate_json(params_json), threads)
+    technique = cls(cls.Params.model_validate_json(warm_params(params_json)), threads)
     logger = logging.getLogger("reflect")
     level = logger.level
     logger.setLevel(logging.ERROR)  # the warm-up scene's notices are nobody's business
