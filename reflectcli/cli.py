@@ -293,10 +293,12 @@ def validate(file) -> None:
     from .validate import validate_file
 
     try:
-        validate_file(file)
+        kind = validate_file(file)
     except Problems as e:
         _fail(e, stream=sys.stdout)
     click.echo("ok")
+    if kind != "scene":
+        click.echo(f"checked as a {kind}", err=True)
 
 
 @cli.command()

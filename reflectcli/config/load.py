@@ -19,6 +19,7 @@ from ..errors import Problem, Problems
 from .files import file_problem, read_toml_file
 from .limits import MAX_INCLUDE_DEPTH, MAX_TOML_BYTES, limit_problems
 from .scene import SceneConfig
+from .suggest import by_name, plain_message
 
 SECTION_FILES = ("camera", "mirrors", "technique", "materials", "lights", "objects", "output")
 
@@ -137,6 +138,8 @@ def apply_override(data: dict, assignment: str, prov: Provenance) -> None:
             raise Problems([Problem("--set", key, "not a table")])
         path.append(part)
         if last:
+            for stale in [k for k in prov if k[: len(path)] == tuple(path)]:
+                del prov[stale]  # what the file had there is replaced, items included
             node[part] = parse_value(text.strip())
             _mark(node[part], "--set", tuple(path), prov)
         else:
@@ -156,6 +159,7 @@ def _list_index(items: list, part: str) -> int | None:
 
 
 _TAG_KEYS = ("shape", "kind", "name")
+_DEFAULT_TAGS = ("solid",)  # a material without `kind` is solid: pydantic names the tag
 
 
 def field_path(loc: tuple, data: Any) -> tuple:
@@ -168,7 +172,9 @@ def field_path(loc: tuple, data: Any) -> tuple:
             isinstance(node, dict)
             and not tag_dropped
             and part not in node
-            and any(node.get(k) == part for k in _TAG_KEYS)
+            and (any(node.get(k) == part for k in _TAG_KEYS)
+                 or (isinstance(part, str) and part is not loc[-1] and "kind" not in node
+                     and part in _DEFAULT_TAGS))
         ):
             tag_dropped = True
             continue
@@ -187,7 +193,10 @@ def field_path(loc: tuple, data: Any) -> tuple:
     return tuple(out)
 
 
-def _message(err: dict) -> str:
+def _message(err: dict, root=None, loc: tuple = (), data: Any = None) -> str:
+    plain = plain_message(err, root, loc, data)
+    if plain is not None:
+        return plain
     ctx = err.get("ctx") or {}
     kind = err["type"]
     simple = {
@@ -213,17 +222,20 @@ def origin(prov: Provenance, loc: tuple, default: str) -> str:
     return default
 
 
-def validation_problems(e: ValidationError, data: dict, prov: Provenance, default: str):
+def validation_problems(e: ValidationError, data: dict, prov: Provenance, default: str,
+                        root=None):
     problems = []
     seen = set()
     for err in e.errors():
         loc = field_path(tuple(err["loc"]), data)
+        if err["type"] in ("union_tag_invalid", "union_tag_not_found"):
+            loc = (*loc, str((err.get("ctx") or {}).get("discriminator", "")).strip("'"))
         field = ".".join(str(p) for p in loc)
         file = origin(prov, loc, default)
         if (file, field) in seen:
             continue  # the other members of a union (`1.5` vs `[r, g, b]`): report the first
         seen.add((file, field))
-        problems.append(Problem(file, field, _message(err)))
+        problems.append(Problem(file, field, _message(err, root, loc, data)))
     return problems
 
 
@@ -249,11 +261,12 @@ def load_config(
     try:
         cfg = SceneConfig.model_validate(data)
     except ValidationError as e:
-        raise Problems(validation_problems(e, data, prov, display)) from None
+        problems = validation_problems(e, data, prov, display, SceneConfig)
+        raise Problems(by_name(problems, overrides, data)) from None
     from .checks import semantic_problems
 
     problems = (limit_problems(cfg, prov, display, path)
                 or semantic_problems(cfg, path, prov, display))
     if problems:
-        raise Problems(problems)
+        raise Problems(by_name(problems, overrides, data))
     return cfg, prov
