@@ -21,6 +21,7 @@ from .maps.cache import MapCache, default_cache_dir
 from .output.exr import write_exr
 from .output.finite import check_finite
 from .output.log import append_jsonl
+from .output.paths import inside, remove_stale_temps
 from .output.png import write_png
 from .provenance import cpu_name, versions
 from .scene.build import build_scene
@@ -156,10 +157,12 @@ def render(
     if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
         raise Problems([Problem("--threads", "", f"must be 1..{numba.config.NUMBA_NUM_THREADS}")])
     scene = build_scene(config, path)  # before any folder is made: it may still reject input
-    folder = os.path.join(out if out is not None else config.output.dir, config.scene.name, name)
+    root = out if out is not None else config.output.dir
+    folder = inside(inside(root, config.scene.name, display, "scene.name"), name, display)
     prepare_output(
         folder, "--out" if out is not None else display, "" if out is not None else "output.dir"
     )
+    remove_stale_temps(folder)
     if threads is not None:
         numba.set_num_threads(threads)
     threads = numba.get_num_threads()
@@ -180,7 +183,7 @@ def render(
         "reflect:scene_hash": scene.scene_hash,
         "reflect:version": versions()["reflect"],
     }
-    log_path = os.path.join(folder, config.output.log)
+    log_path = inside(folder, config.output.log, display, "output.log")
     for index in selected:
         exr = os.path.join(folder, f"frame_{index:04d}.exr")
         if resume and os.path.exists(exr):

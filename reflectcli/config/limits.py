@@ -51,6 +51,7 @@ MIN_SCALE = 1e-6
 def check_config(cfg, add) -> None:
     """Call add(loc, message) for every value past a documented limit or too degenerate to
     render (a zero scale, a zero light direction, a repeated quad corner)."""
+    output_names(cfg, add)
     cam = cfg.camera
     for key in ("width", "height"):
         if getattr(cam, key) > MAX_IMAGE_SIDE:
@@ -84,6 +85,23 @@ def check_config(cfg, add) -> None:
     for section, items in (("objects", cfg.objects), ("mirrors", cfg.mirrors)):
         for i, item in enumerate(items):
             _item(add, (section, i), item)
+
+
+def output_names(cfg, add) -> None:
+    """Outputs stay inside the output folder and never replace one another: the scene name is
+    a folder name, the log a plain file name that is not a frame's."""
+    import re
+
+    if cfg.scene.name in (".", ".."):
+        add(("scene", "name"), "must name a folder ('.' and '..' are not names)")
+    log = cfg.output.log
+    if (not log or "/" in log or "\\" in log or "\0" in log or log in (".", "..")
+            or log.startswith(".")):
+        add(("output", "log"), "must be a plain file name inside the frame folder")
+    elif re.fullmatch(r"(?i)frame_\d+\.(exr|png)|.*\.(exr|png)", log):
+        add(("output", "log"), "must not be named like a frame (.exr or .png)")
+    if "\0" in cfg.output.dir:
+        add(("output", "dir"), "path contains a NUL byte")
 
 
 def _finite_small(values) -> bool:
