@@ -19,6 +19,7 @@ from .errors import Problem, Problems
 from .frame import Frame
 from .maps.cache import MapCache, default_cache_dir
 from .output.exr import write_exr
+from .output.failures import discard, write_failure
 from .output.finite import check_finite
 from .output.log import append_jsonl
 from .output.paths import inside, remove_stale_temps
@@ -213,10 +214,17 @@ def render(
         check_finite(channels, display, index)
         with interrupts_deferred():  # a frame is kept with its log line, or not at all
             t1 = time.perf_counter()
-            write_exr(exr, channels, {**attributes, "reflect:frame": str(index)})
-            if preview:
-                write_png(exr[:-4] + ".png", frame.rgb)
-            append_jsonl(log_path, {**row, "write_seconds": time.perf_counter() - t1})
+            target = exr
+            try:
+                write_exr(exr, channels, {**attributes, "reflect:frame": str(index)})
+                if preview:
+                    target = exr[:-4] + ".png"
+                    write_png(target, frame.rgb)
+                target = log_path
+                append_jsonl(log_path, {**row, "write_seconds": time.perf_counter() - t1})
+            except OSError as e:
+                discard(exr, *([exr[:-4] + ".png"] if preview else []))
+                raise write_failure(e, target) from None
         result.written.append(exr)
         if on_frame is not None:
             on_frame(index, exr)

@@ -13,6 +13,7 @@ from .errors import Problems
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
+EXIT_WRITE_FAILED = 1
 
 
 def _fail(problems: Problems, stream=None) -> None:
@@ -88,12 +89,19 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
         click.echo(f"\ninterrupted: {len(done)} completed frame(s) kept", err=True)
         sys.exit(EXIT_INTERRUPTED)
     except OSError as e:
-        click.echo(f"error: {e}", err=True)
-        sys.exit(1)
+        _write_failed(e)
     if progress is not None:
         progress.__exit__(None, None, None)
     skipped = f", {len(result.skipped)} skipped (--resume)" if result.skipped else ""
     click.echo(f"wrote {len(result.written)} frame(s) to {result.folder}{skipped}")
+
+
+def _write_failed(e: OSError) -> None:
+    """A write failure (full disk, read-only folder): one line naming the file, exit 1."""
+    from .output.failures import one_line
+
+    click.echo(f"\n{one_line(e)}" if sys.stderr.isatty() else one_line(e), err=True)
+    sys.exit(EXIT_WRITE_FAILED)
 
 
 def _open_bar(length: int, label: str):
@@ -182,6 +190,8 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
     except KeyboardInterrupt:
         click.echo("\ninterrupted: maps already stored are kept", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except OSError as e:
+        _write_failed(e)
     captured = sum(1 for m in result.maps if m["status"] == "captured")
     click.echo(f"{captured} captured, {len(result.maps) - captured} cached in {result.cache}")
 
@@ -235,6 +245,8 @@ def bench(file, resume, workers, scheduler, threads) -> None:
     except KeyboardInterrupt:
         click.echo("\ninterrupted: finished runs are kept (--resume continues)", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except OSError as e:
+        _write_failed(e)
     finally:
         if progress is not None:
             progress.__exit__(None, None, None)

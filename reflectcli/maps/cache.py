@@ -16,6 +16,7 @@ import re
 from collections.abc import Callable
 
 from ..output.exr import read_exr_parts, write_exr_parts
+from ..output.failures import write_failure
 from ..output.paths import remove_stale_temps
 
 log = logging.getLogger("reflect")
@@ -70,9 +71,15 @@ class MapCache:
         path = self.path(kind, key)
         if path is None:
             return None
-        os.makedirs(self.root, exist_ok=True)
-        remove_stale_temps(self.root)
-        write_exr_parts(path, parts, {**attributes, KEY_ATTRIBUTE: key}, part_attributes)
+        try:
+            os.makedirs(self.root, exist_ok=True)
+            remove_stale_temps(self.root)
+            write_exr_parts(path, parts, {**attributes, KEY_ATTRIBUTE: key}, part_attributes)
+        except FileNotFoundError:  # the temp file vanished mid-write: captured, not stored
+            log.warning("cache: %s could not be stored (its temporary file vanished)", path)
+            return None
+        except OSError as e:
+            raise write_failure(e, path) from None
         return path
 
     def clear(self) -> int:
