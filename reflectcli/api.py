@@ -45,11 +45,13 @@ def interrupts_deferred():
         yield
         return
     caught: list = []
-    previous = signal.signal(signal.SIGINT, lambda *args: caught.append(args))
+    previous = {sig: signal.signal(sig, lambda *args: caught.append(args))
+                for sig in (signal.SIGINT, signal.SIGTERM)}  # SIGTERM is handled like Ctrl-C
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     if caught:
         raise KeyboardInterrupt
 
@@ -225,9 +227,9 @@ def render(
             except OSError as e:
                 discard(exr, *([exr[:-4] + ".png"] if preview else []))
                 raise write_failure(e, target) from None
-        result.written.append(exr)
-        if on_frame is not None:
-            on_frame(index, exr)
+            result.written.append(exr)  # counted before an interrupt held meanwhile is raised
+            if on_frame is not None:
+                on_frame(index, exr)
     return result
 
 

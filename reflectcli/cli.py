@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import os
+import signal
 import sys
 
 import click
@@ -343,7 +344,23 @@ def main() -> None:
     logger = logging.getLogger("reflect")
     logger.addHandler(handler)
     logger.setLevel(logging.INFO)
-    cli(prog_name="reflect")
+    signal.signal(signal.SIGTERM, _terminated)  # handled like Ctrl-C: same exit, same promises
+    try:
+        code = cli(prog_name="reflect", standalone_mode=False)
+    except KeyboardInterrupt:  # during start-up (imports, loading), before a command's handler
+        click.echo("\ninterrupted", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except click.exceptions.Abort:
+        click.echo("\ninterrupted", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except click.ClickException as e:
+        e.show()
+        sys.exit(e.exit_code)
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+def _terminated(signum, frame) -> None:
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":
