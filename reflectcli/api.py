@@ -21,6 +21,13 @@ from .maps.cache import MapCache, default_cache_dir
 from .output.exr import write_exr
 from .output.failures import discard, write_failure
 from .output.finite import check_finite
+from .output.identity import (
+    check_same_overrides,
+    logged_rows,
+    matches,
+    new_run_id,
+    scene_identity,
+)
 from .output.log import append_jsonl
 from .output.paths import inside, remove_stale_temps
 from .output.png import write_png
@@ -92,6 +99,16 @@ def prepare_output(folder: str, source: str, field: str) -> None:
         raise Problems(
             [Problem(source, field, f"cannot write to '{folder}': {e.strerror}")]
         ) from None
+
+
+def write_missing_preview(exr: str) -> None:
+    """--resume --preview: the PNG of a kept frame, from its EXR."""
+    import numpy as np
+
+    from .output.exr import read_exr
+
+    channels, _ = read_exr(exr)
+    write_png(exr[:-4] + ".png", np.stack([channels[c] for c in "RGB"], axis=-1))
 
 
 def frame_channels(frame: Frame) -> dict:
@@ -179,17 +196,24 @@ def render(
     state = tech.prepare(scene)
     prepare_seconds = time.perf_counter() - t0
     preview = config.output.preview if preview is None else preview
+    scene_hash = scene_identity(scene.content_hash, config)
+    run_id = new_run_id()
     attributes = {
         "reflect:technique": name,
         "reflect:parameters": params_json,
         "reflect:scene": config.scene.name,
-        "reflect:scene_hash": scene.scene_hash,
+        "reflect:scene_hash": scene_hash,
         "reflect:version": versions()["reflect"],
     }
     log_path = inside(folder, config.output.log, display, "output.log")
+    stored = logged_rows(log_path)
+    check_same_overrides(stored, list(overrides), folder, "--set" if overrides else display)
     for index in selected:
         exr = os.path.join(folder, f"frame_{index:04d}.exr")
-        if resume and os.path.exists(exr):
+        if resume and os.path.exists(exr) and matches(
+                stored.get(os.path.basename(exr)), scene_hash, json.loads(params_json)):
+            if preview and not os.path.exists(exr[:-4] + ".png"):
+                write_missing_preview(exr)
             result.skipped.append(index)
             continue
         camera = camera_from_config(config.camera, index)
@@ -210,7 +234,9 @@ def render(
             "threads": threads,
             "cpu": cpu_name(),
             "versions": versions(),
-            "scene_hash": scene.scene_hash,
+            "scene_hash": scene_hash,
+            "run_id": run_id,
+            "overrides": list(overrides),
         }
         channels = frame_channels(frame)
         check_finite(channels, display, index)

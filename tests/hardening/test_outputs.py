@@ -4,6 +4,7 @@ are recaptured, never trusted."""
 
 from __future__ import annotations
 
+import logging
 import os
 
 import numpy as np
@@ -63,6 +64,7 @@ def test_temp_files_of_killed_runs_are_removed(tmp_path):
 
 
 def test_cache_file_with_matching_key_but_wrong_content_is_recaptured(tmp_path, caplog):
+    caplog.set_level(logging.WARNING, logger="reflect")
     scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "dprm"\n'
                   '[technique.maps]\nresolution = 16\n')
     cache = tmp_path / "cache"
