@@ -230,16 +230,20 @@ def cache_clear(scene, folder) -> None:
               help="run jobs in this many local processes")
 @click.option("--scheduler", metavar="ADDRESS", help="run jobs on a Dask cluster")
 @click.option("--threads", type=int, help="numba threads per job")
-def bench(file, resume, workers, scheduler, threads) -> None:
+@click.option("--out", "out", type=click.Path(file_okay=False),
+              help="output folder (default: the bench file's bench.out, or out/bench/<name>)")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+              help="override a config field in every run (repeatable)")
+def bench(file, resume, workers, scheduler, threads, out, overrides) -> None:
     """Run the bench matrix in FILE; write results.csv/.jsonl, report.md and plots."""
     from .bench.runner import load_bench, run_bench
 
     progress = None
     try:
-        plan = load_bench(file)
+        plan = load_bench(file, out, overrides)
         progress = _open_bar(len(plan.jobs), "runs")
         result = run_bench(file, resume=resume, workers=workers, scheduler=scheduler,
-                           threads=threads,
+                           threads=threads, out=out, overrides=overrides,
                            on_row=(lambda row: progress.update(1)) if progress else None)
     except Problems as e:
         _fail(e)

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import Problem, Problems
 from ..output.exr import read_exr
+from ..output.lock import folder_lock
 from ..output.log import append_jsonl, read_jsonl
 from ..scene.build import scene_hashes
 from .config import BenchConfig, expand
@@ -43,7 +44,8 @@ class BenchPlan:
     jobs: list[dict] = field(default_factory=list)
 
 
-def load_bench(path: str) -> BenchPlan:
+def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple = ()
+               ) -> BenchPlan:
     """Read and validate a bench file and every job in it (Problems name the bench file)."""
     from pydantic import ValidationError
 
@@ -56,11 +58,12 @@ def load_bench(path: str) -> BenchPlan:
     except ValidationError as e:
         raise Problems(validation_problems(e, data, {}, display)) from None
     # an `out` written in the bench file is relative to it; the default is out/bench/<name>
-    out = (os.path.join(os.path.dirname(os.path.abspath(path)), cfg.bench.out)
-           if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
-    plan = BenchPlan(cfg, path, out)
+    default_out = (os.path.join(os.path.dirname(os.path.abspath(path)), cfg.bench.out)
+                   if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
+    plan = BenchPlan(cfg, path, out if out is not None else default_out)
     problems = []
     for i, job in enumerate(expand(cfg, path)):
+        job["overrides"] = job["overrides"] + list(overrides)  # `bench --set`: on top
         try:
             scene_cfg, _ = load_config(job["scene"], job["overrides"], job["technique"])
         except Problems as e:
@@ -179,10 +182,18 @@ class BenchResult:
 
 def run_bench(path: str, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, threads: int | None = None,
-              on_row: Callable[[dict], None] | None = None) -> BenchResult:
+              on_row: Callable[[dict], None] | None = None, out: str | None = None,
+              overrides: list[str] | tuple = ()) -> BenchResult:
+    plan = load_bench(path, out, overrides)
+    if scheduler is not None:
+        check_scheduler(scheduler)
+    with folder_lock(plan.out, "--out" if out is not None else os.path.relpath(path)):
+        return _run_plan(plan, resume, workers, scheduler, threads, on_row)
+
+
+def _run_plan(plan, resume, workers, scheduler, threads, on_row) -> BenchResult:
     from .report import write_outputs
 
-    plan = load_bench(path)
     os.makedirs(plan.out, exist_ok=True)
     rows_path = os.path.join(plan.out, "results.jsonl")
     done: dict[str, dict] = {}
@@ -214,6 +225,26 @@ def run_bench(path: str, *, resume: bool = False, workers: int = 1,
     return BenchResult(plan.out, rows, len(pending), len(plan.jobs) - len(pending))
 
 
+def _connect(client_class, scheduler: str):
+    """A Dask client, or one line within seconds when no scheduler answers."""
+    try:
+        return client_class(scheduler, timeout="5s")
+    except (OSError, TimeoutError, ValueError) as e:
+        reason = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise Problems([Problem("--scheduler", "", f"no Dask scheduler answers at "
+                                f"'{scheduler}' ({reason[:120]})")]) from None
+
+
+def check_scheduler(scheduler: str) -> None:
+    """Fail fast, before any reference is rendered."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise Problems([Problem("--scheduler", "", "needs the dask extra: "
+                                "pip install 'reflect[dask]'")]) from None
+    _connect(Client, scheduler).close()
+
+
 def _execute(jobs, settings, workers, scheduler):
     """Yield result rows in job order: serially, in local processes, or on a Dask cluster."""
     if scheduler is not None:
@@ -222,7 +253,7 @@ def _execute(jobs, settings, workers, scheduler):
         except ImportError:
             raise Problems([Problem("--scheduler", "", "needs the dask extra: "
                                     "pip install 'reflect[dask]'")]) from None
-        with Client(scheduler) as client:
+        with _connect(Client, scheduler) as client:
             futures = client.map(execute_job, jobs, settings=settings, pure=False)
             for f in futures:
                 yield f.result()
