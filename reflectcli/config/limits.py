@@ -16,6 +16,7 @@ render run for hours before its first frame or allocate more memory than a machi
 | teapot `subdivisions`                  | 64                    |
 | extrusion `subdivisions`               | 4096                  |
 | triangles in a scene (built)           | 20,000,000            |
+| virtual: tessellated reflected objects | 1,000,000 (splits scaled down, with a notice) |
 | coordinates (any position, size)       | magnitude <= 1e6      |
 | camera `near`                          | >= 1e-6, far / near <= 1e9 |
 | camera `fov_y`                         | >= 0.01 degrees       |
@@ -41,6 +42,7 @@ MAX_FRAMES = 100_000
 MAX_SEGMENTS = 4096
 MAX_TEAPOT_SUBDIVISIONS = 64
 MAX_TRIANGLES = 20_000_000
+MAX_TESSELLATED_TRIANGLES = 1_000_000  # virtual: reflected objects split for a reflector
 MAX_COORDINATE = 1e6
 MIN_NEAR = 1e-6
 MAX_DEPTH_RATIO = 1e9
