@@ -135,6 +135,11 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
     from .warmup import warm_params, warm_scene
 
     start = time.perf_counter()
+    notice = threading.Timer(3.0, logging.getLogger("reflect").info, (
+        "compiling the numba kernels (the first run takes about 20 s; later runs load them "
+        "from the cache)",))
+    notice.daemon = True
+    notice.start()
     scene, camera = warm_scene()
     cls = TECHNIQUES[technique_name]
     technique = cls(cls.Params.model_validate_json(warm_params(params_json)), threads)
@@ -145,6 +150,7 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
         technique.render(technique.prepare(scene), 0, camera)
     finally:
         logger.setLevel(level)
+        notice.cancel()
     _warmed[key] = time.perf_counter() - start
     return _warmed[key]
 

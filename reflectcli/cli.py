@@ -61,6 +61,7 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
         _check_technique(technique)
         config, _ = _load(scene, overrides, technique)
         count = len(api.parse_frames(frames, config.camera.frame_count))
+        _warn_frames_past_end(frames, config.camera.frame_count)
         if count > 1:
             progress = _open_bar(count, "frames")
 
@@ -95,6 +96,15 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
         progress.__exit__(None, None, None)
     skipped = f", {len(result.skipped)} skipped (--resume)" if result.skipped else ""
     click.echo(f"wrote {len(result.written)} frame(s) to {result.folder}{skipped}")
+
+
+def _warn_frames_past_end(spec: str | None, count: int) -> None:
+    """`--frames A:B` with B past the path's end renders up to its end: say so."""
+    if spec and ":" in spec:
+        end = spec.split(":")[1]
+        if end.lstrip("-").isdigit() and int(end) > count:
+            click.echo(f"--frames: the camera path has {count} frame(s) (0..{count - 1}); "
+                       f"rendering up to frame {count - 1}", err=True)
 
 
 def _write_failed(e: OSError) -> None:
@@ -271,6 +281,10 @@ def compare(first, second, mask_channel, threshold) -> None:
     from .bench.metrics import image_metrics
     from .output.exr import read_exr
 
+    kinds = {os.path.splitext(str(p))[1].lower() for p in (first, second)}
+    if ".exr" in kinds and kinds & {".png", ".jpg", ".jpeg", ".tif", ".tiff"}:
+        click.echo("warning: comparing an sRGB-encoded image with a linear EXR; compare the "
+                   "EXRs (previews are sRGB)", err=True)
     images = []
     for path in (first, second):
         try:
@@ -316,6 +330,16 @@ def validate(file) -> None:
     click.echo("ok")
     if kind != "scene":
         click.echo(f"checked as a {kind}", err=True)
+
+
+@cli.command()
+def schema() -> None:
+    """Print the JSON schema of scene files (for editors; docs/scene-reference.md)."""
+    import json
+
+    from .config.reference import scene_schema
+
+    click.echo(json.dumps(scene_schema(), indent=2))
 
 
 @cli.command()

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 import shutil
 import statistics
@@ -49,7 +50,7 @@ def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple =
     """Read and validate a bench file and every job in it (Problems name the bench file)."""
     from pydantic import ValidationError
 
-    from ..config.load import load_config, read_toml, validation_problems
+    from ..config.load import read_toml, validation_problems
 
     display = os.path.relpath(path)
     data = read_toml(path)
@@ -62,6 +63,21 @@ def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple =
                    if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
     plan = BenchPlan(cfg, path, out if out is not None else default_out)
     problems = []
+    quiet = logging.getLogger("reflect")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)  # per-job --technique notices: the bench chooses on purpose
+    try:
+        _plan_jobs(plan, cfg, path, display, overrides, problems)
+    finally:
+        quiet.setLevel(level)
+    if problems:
+        raise Problems(problems[:20])
+    return plan
+
+
+def _plan_jobs(plan, cfg, path, display, overrides, problems) -> None:
+    from ..config.load import load_config
+
     for i, job in enumerate(expand(cfg, path)):
         job["overrides"] = job["overrides"] + list(overrides)  # `bench --set`: on top
         try:
@@ -87,9 +103,6 @@ def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple =
         }
         job["index"] = i
         plan.jobs.append(job)
-    if problems:
-        raise Problems(problems[:20])
-    return plan
 
 
 def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> str:

@@ -19,7 +19,7 @@ from ..errors import Problem, Problems
 from .files import file_problem, read_toml_file
 from .limits import MAX_INCLUDE_DEPTH, MAX_TOML_BYTES, limit_problems
 from .scene import SceneConfig
-from .suggest import by_name, plain_message
+from .suggest import by_name, note_dropped_parameters, plain_message
 
 SECTION_FILES = ("camera", "mirrors", "technique", "materials", "lights", "objects", "output")
 
@@ -250,6 +250,7 @@ def load_config(
         current = data.get("technique")
         if not (isinstance(current, dict) and current.get("name") == technique):
             data["technique"] = {"name": technique}
+            note_dropped_parameters(current, technique, SceneConfig)
             _mark(data["technique"], "--technique", ("technique",), prov)
     for assignment in overrides:
         apply_override(data, assignment, prov)

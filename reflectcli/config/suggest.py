@@ -160,3 +160,22 @@ def by_name(problems: list, overrides, data: dict) -> list:
 
 
 
+
+
+def note_dropped_parameters(current, technique: str, root) -> None:
+    """--technique replaces the scene's [technique]: say which of its parameters the new
+    technique does not take over (each technique falls back to its own defaults)."""
+    import logging
+
+    if not isinstance(current, dict) or not current.get("name"):
+        return
+    dropped = sorted(k for k in current if k != "name")
+    if not dropped:
+        return
+    fields = set(known_keys(root, ("technique",), {"technique": {"name": technique}}))
+    shared = [k for k in dropped if k in fields]
+    message = (f"--technique {technique}: the scene's {current['name']} parameters do not "
+               f"apply ({', '.join(dropped)}); {technique} uses its own defaults")
+    if shared:
+        message += f" (set them with --set technique.{shared[0]}=...)"
+    logging.getLogger("reflect").warning(message)

@@ -79,7 +79,9 @@ def object_mesh(obj, source: str) -> Mesh:
 
         return teapot(obj.subdivisions)
     if s == "mesh":
-        return _mesh_file(resolve(source, obj.path))
+        from .fit import fit_mesh
+
+        return fit_mesh(_mesh_file(resolve(source, obj.path)), obj.name, obj.path, obj.fit)
     if s == "clutter":
         from .procedural import music_room_clutter
 
