@@ -46,7 +46,9 @@ def check_same_overrides(rows: dict[str, dict], overrides: list[str], folder: st
     """Refuse to mix frames of other --set overrides into `folder`."""
     mine = sorted(overrides)
     for row in rows.values():
-        theirs = sorted(row.get("overrides") or [])
+        if "overrides" not in row:  # written before rows recorded them: unknown, not refused
+            continue
+        theirs = sorted(row["overrides"] or [])
         if theirs != mine and os.path.exists(os.path.join(folder, row["file"])):
             shown = " ".join(theirs) if theirs else "no --set"
             raise Problems([Problem(source, "", (
