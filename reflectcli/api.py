@@ -189,6 +189,9 @@ def render(
         folder, "--out" if out is not None else display, "" if out is not None else "output.dir"
     )
     remove_stale_temps(folder)
+    log_path = inside(folder, config.output.log, display, "output.log")
+    stored = logged_rows(log_path)
+    check_same_overrides(stored, list(overrides), folder, "--set" if overrides else display)
     if threads is not None:
         numba.set_num_threads(threads)
     threads = numba.get_num_threads()
@@ -211,9 +214,6 @@ def render(
         "reflect:scene_hash": scene_hash,
         "reflect:version": versions()["reflect"],
     }
-    log_path = inside(folder, config.output.log, display, "output.log")
-    stored = logged_rows(log_path)
-    check_same_overrides(stored, list(overrides), folder, "--set" if overrides else display)
     for index in selected:
         exr = os.path.join(folder, f"frame_{index:04d}.exr")
         if resume and os.path.exists(exr) and matches(

@@ -20,6 +20,7 @@ render run for hours before its first frame or allocate more memory than a machi
 | coordinates (any position, size)       | magnitude <= 1e6      |
 | camera `near`                          | >= 1e-6, far / near <= 1e9 |
 | camera `fov_y`                         | >= 0.01 degrees       |
+| any other number (colors, intensities) | magnitude <= 1e9      |
 
 These are checked before anything is allocated (`check_config`); the memory a render will
 need is estimated from them before it starts (`reflectcli/config/memory.py`).
@@ -48,12 +49,23 @@ MIN_NEAR = 1e-6
 MAX_DEPTH_RATIO = 1e9
 MIN_FOV_Y = 0.01
 MIN_SCALE = 1e-6
+MAX_NUMBER = 1e9  # any number in a scene (colors, intensities, parameters)
 
 
 def check_config(cfg, add) -> None:
     """Call add(loc, message) for every value past a documented limit or too degenerate to
     render (a zero scale, a zero light direction, a repeated quad corner)."""
     output_names(cfg, add)
+    if _huge_numbers(cfg.model_dump(mode="python"), (), add):
+        return  # one line per huge number is enough; the checks below assume sane ones
+    capture = getattr(cfg.technique, "capture", None)  # envmap: points by mirror name
+    if isinstance(capture, dict):
+        names = {m.name for m in cfg.mirrors}
+        for name, point in capture.items():
+            if name not in names:
+                add(("technique", "capture", name), "no mirror of that name")
+            else:
+                _points(add, ("technique", "capture", name), [point])
     cam = cfg.camera
     for key in ("width", "height"):
         if getattr(cam, key) > MAX_IMAGE_SIDE:
@@ -87,6 +99,31 @@ def check_config(cfg, add) -> None:
     for section, items in (("objects", cfg.objects), ("mirrors", cfg.mirrors)):
         for i, item in enumerate(items):
             _item(add, (section, i), item)
+
+
+def _huge_numbers(node, loc: tuple, add) -> bool:
+    """Every number anywhere in the scene within +-MAX_NUMBER (colors, intensities,
+    parameters: 1e308 overflows to infinity in the kernels); True if one is not."""
+    found = False
+    stack = [(node, loc)]
+    while stack:
+        value, where = stack.pop()
+        if isinstance(value, dict):
+            stack.extend((v, (*where, k)) for k, v in value.items())
+        elif isinstance(value, (list, tuple)):
+            numbers = [v for v in value if isinstance(v, (int, float))
+                       and not isinstance(v, bool)]
+            if numbers and len(numbers) == len(value):
+                if any(abs(v) > MAX_NUMBER for v in numbers):
+                    add(where, f"numbers must be within +-{MAX_NUMBER:g}")
+                    found = True
+            else:
+                stack.extend((v, (*where, i)) for i, v in enumerate(value))
+        elif (isinstance(value, (int, float)) and not isinstance(value, bool)
+              and abs(value) > MAX_NUMBER and where[-1:] != ("seed",)):
+            add(where, f"must be within +-{MAX_NUMBER:g}")
+            found = True
+    return found
 
 
 def output_names(cfg, add) -> None:

@@ -77,3 +77,23 @@ def test_nothing_non_finite_is_written():
     check_finite(good, "s.toml", 0)
     with pytest.raises(Problems, match="channel R has 1 non-finite"):
         check_finite({"R": np.array([[0.0, np.nan]])}, "s.toml", 3)
+
+
+def test_huge_color_is_refused_not_rendered_to_nan(tmp_path):
+    """fuzz seed 105258: a color component of 1e308 gave NaN pixels on the mask scene."""
+    scene = write(tmp_path, "s.toml", LAMBERT.replace("color = [0.8, 0.1, 0.1]",
+                                                      "color = [0.8, 0.1, 1e308]")
+                  + '\n[[lights]]\nkind = "point"\nposition = [0, 3, 2]\n')
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: materials.red.color: numbers must be within")
+
+
+def test_envmap_without_objects_renders(tmp_path):
+    """fuzz seed 105598: envmap's default proxy box over no objects was a traceback."""
+    from .common import invoke
+
+    text = TINY.split("[[objects]]")[0] + "[[mirrors]]" + TINY.split("[[mirrors]]")[1]
+    scene = write(tmp_path, "s.toml", text + '\n[technique]\nname = "envmap"\nresolution = 8\n')
+    with chdir(tmp_path):
+        result = invoke("render", scene, "--out", tmp_path / "o", "--cache", tmp_path / "c")
+    assert result.exit_code == 0, result.output

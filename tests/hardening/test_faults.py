@@ -122,3 +122,18 @@ def test_render_precompute_and_bench_on_a_tiny_filesystem(tmp_path):
     with chdir(tmp_path):
         result = invoke("render", scene, "--out", tmp_path / "o", "--frames", "0")
         assert result.exit_code == 0
+
+
+def test_cache_temp_file_vanishing_mid_write_is_survived(tmp_path, monkeypatch, caplog):
+    import numpy as np
+
+    from reflectcli.maps import cache as cachemod
+
+    def vanish(path, *args, **kwargs):
+        raise FileNotFoundError(2, "No such file or directory")
+
+    monkeypatch.setattr(cachemod, "write_exr_parts", vanish)
+    store = cachemod.MapCache(str(tmp_path / "cache"))
+    parts = [("face", {"R": np.zeros((2, 2), np.float32)})]
+    assert store.store("envmap", "ab" * 16, parts, {}) is None
+    assert "could not be stored" in caplog.text
