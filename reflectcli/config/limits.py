@@ -111,9 +111,10 @@ def _huge_numbers(node, loc: tuple, add) -> bool:
         if isinstance(value, dict):
             stack.extend((v, (*where, k)) for k, v in value.items())
         elif isinstance(value, (list, tuple)):
-            numbers = [v for v in value if isinstance(v, (int, float))
+            flat = [x for v in value for x in (v if isinstance(v, (list, tuple)) else [v])]
+            numbers = [v for v in flat if isinstance(v, (int, float))
                        and not isinstance(v, bool)]
-            if numbers and len(numbers) == len(value):
+            if numbers and len(numbers) == len(flat):  # a vector, or a list of vectors
                 if any(abs(v) > MAX_NUMBER for v in numbers):
                     add(where, f"numbers must be within +-{MAX_NUMBER:g}")
                     found = True
