@@ -1,8 +1,9 @@
 """`make fuzz`: many mutated bundled scenes through validate and render (reflectcli/fuzz.py).
 
-Each config runs in a worker process with a time limit, so a hang is caught and counted (the
-worker is killed and replaced). Prints the figure: configs, tracebacks, hangs, validate/render
-disagreements, other failures; writes every failure with its seed to --report.
+Each config runs in a worker process with a time limit (CPU seconds of the worker, or ten
+times that of wall time), so a hang is caught and counted (the worker is killed and
+replaced). Prints the figure: configs, tracebacks, hangs, validate/render disagreements,
+other failures; writes every failure with its seed to --report.
 
     .venv/bin/python scripts/fuzz.py --count 10000 --timeout 60 --report out/fuzz.jsonl
 """
@@ -40,6 +41,26 @@ def worker(conn, folder: str) -> None:
         conn.send(result)
 
 
+def _cpu_seconds(pid: int) -> float:
+    """CPU time (user + system, all threads) of a process so far; 0 if unknown."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return 0.0
+
+
+def _answered(conn, pid: int, limit: float) -> bool:
+    """Wait for the worker's answer. A hang is `limit` seconds of the worker's CPU time (on
+    a shared, loaded machine wall time says little), or ten times `limit` of wall time."""
+    start_cpu, start = _cpu_seconds(pid), time.time()
+    while not conn.poll(1.0):
+        if (_cpu_seconds(pid) - start_cpu > limit or time.time() - start > 10 * limit):
+            return False
+    return True
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--count", type=int, default=10000)
@@ -63,7 +84,7 @@ def main() -> int:
                 first = True
             conn.send(seed)
             # the first config of a worker also loads numba's kernels: allow for it
-            if conn.poll(args.timeout + (120 if first else 0)):
+            if _answered(conn, proc.pid, args.timeout + (120 if first else 0)):
                 try:
                     result = conn.recv()
                 except EOFError:  # the worker died (a crash in native code)
