@@ -338,7 +338,9 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         problems.append(Problem(source, f"materials.{e.material}.path", e.message))
     if problems:
         raise Problems(problems)
+    from .fit import warn_textured_without_uvs
 
+    warn_textured_without_uvs(cfg, meshes)
     mirror_tris = _concat(mirror_parts)
     mirror_exact = np.concatenate(exact) if exact else np.zeros(0, bool)
     static_parts: dict[int, Triangles] = {}

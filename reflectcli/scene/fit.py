@@ -21,9 +21,6 @@ def fit_mesh(mesh: Mesh, name: str, path: str, fit) -> Mesh:
     log.info("objects.%s: %s: %d triangles, bounds [%s] .. [%s]", name, path,
              len(mesh.corners), ", ".join(f"{v:.4g}" for v in lo),
              ", ".join(f"{v:.4g}" for v in hi))
-    if not np.any(np.abs(mesh.uvs) > 0):
-        log.info("objects.%s: %s has no texture coordinates (a texture shows one texel)",
-                 name, path)
     if fit is None:
         return mesh
     extent = float((hi - lo).max())
@@ -32,3 +29,13 @@ def fit_mesh(mesh: Mesh, name: str, path: str, fit) -> Mesh:
     matrix[:3, :3] *= scale
     matrix[:3, 3] = np.asarray(fit.center, float) - scale * (lo + hi) / 2.0
     return mesh.transformed(matrix)
+
+
+def warn_textured_without_uvs(cfg, meshes) -> None:
+    """A texture on a mesh without texture coordinates shows one texel: say so."""
+    for obj, mesh in zip(cfg.objects, meshes, strict=True):
+        material = cfg.materials.get(obj.material)
+        if (obj.shape == "mesh" and mesh is not None and material is not None
+                and material.kind == "texture" and not np.any(mesh.uvs != 0)):
+            log.warning("objects.%s: %s has no texture coordinates; its texture '%s' shows "
+                        "one texel", obj.name, obj.path, obj.material)

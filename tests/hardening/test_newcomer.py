@@ -76,3 +76,14 @@ def test_compare_warns_on_srgb_png_against_linear_exr(tmp_path):
     folder = tmp_path / "o" / "tiny" / "raster"
     result = invoke("compare", folder / "frame_0000.exr", folder / "frame_0000.png")
     assert "sRGB-encoded image with a linear EXR" in result.output
+
+
+def test_textured_mesh_without_uvs_warns(tmp_path, caplog):
+    example = ROOT / "docs" / "examples" / "own-content.toml"
+    result = invoke("validate", example)
+    assert result.exit_code == 0 and "texture coordinates" not in caplog.text
+    text = example.read_text().replace('material = "clay"', 'material = "picture"')
+    text = text.replace("../../scenes/", str(ROOT / "scenes") + "/")
+    scene = write(tmp_path, "s.toml", text)
+    assert invoke("validate", scene).exit_code == 0
+    assert "objects.model:" in caplog.text and "has no texture coordinates" in caplog.text
