@@ -5,7 +5,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 SCENE ?= scenes/teapot-box.toml
 
-.PHONY: demo install test lint render bench figures smoke fuzz clean
+.PHONY: demo install test lint coverage render bench figures smoke fuzz clean
 
 demo: install
 	$(BIN)/reflect render $(SCENE) --frames 0 --preview
@@ -13,7 +13,7 @@ demo: install
 $(BIN)/reflect: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev,plots,dask]'
+	$(BIN)/pip install --quiet -e '.[dev,plots,dask,metrics]'
 	touch $(BIN)/reflect
 
 install: $(BIN)/reflect
@@ -23,6 +23,16 @@ test: install
 
 lint: install
 	$(BIN)/ruff check reflectcli tests benchmarks scripts
+
+# Kernel line coverage with numba's JIT off (the kernels run as Python, so coverage sees
+# them). Only the kernel tests run: the whole suite renders full scenes and is far too slow
+# without the JIT. Prints the kernel lines no test reaches.
+KERNEL_TESTS ?= tests/twins tests/raster tests/maps tests/trace tests/test_twins.py tests/test_camera.py
+KERNEL_SOURCES := reflectcli/raster/*,reflectcli/trace/*,reflectcli/maps/*,reflectcli/virtual/*,reflectcli/shading.py,reflectcli/camera.py
+coverage: install
+	NUMBA_DISABLE_JIT=1 $(BIN)/pytest -q -p no:cacheprovider --cov=reflectcli --cov-report= \
+		$(KERNEL_TESTS); status=$$?; \
+		$(BIN)/coverage report -m --include='$(KERNEL_SOURCES)'; exit $$status
 
 render: install
 	$(BIN)/reflect render $(SCENE) --preview

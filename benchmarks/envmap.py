@@ -7,47 +7,46 @@ PSNR against raytrace for plain and box-projected lookups, measured in one run.
 from __future__ import annotations
 
 import statistics
-import sys
 import time
 from pathlib import Path
 
+from reflectcli import api
+from reflectcli.bench.metrics import image_metrics
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
 
-from conftest import psnr, render_frame  # noqa: E402
 
-from reflectcli.camera import camera_from_config  # noqa: E402
-from reflectcli.config.load import load_config  # noqa: E402
-from reflectcli.scene.build import build_scene  # noqa: E402
-from reflectcli.techniques.envmap import Envmap  # noqa: E402
+def open_scene(name: str, technique: str, overrides: list[str]) -> api.OpenedScene:
+    """A shipped scene, maps kept in memory (every capture is a real one)."""
+    return api.open_scene(str(ROOT / "scenes" / f"{name}.toml"), technique=technique,
+                          overrides=overrides, threads=2, cache=False)
+
+
+def mirror_psnr(frame, ref) -> float:
+    """PSNR over the pixels that are mirror in both frames."""
+    return image_metrics(frame.rgb, ref.rgb, ref.mirror_mask & frame.mirror_mask)["psnr"]
 
 
 def main() -> None:
-    path = str(ROOT / "scenes" / "teapot-box.toml")
     for res in (128, 256, 512, 1024):
-        cfg, _ = load_config(path, [f"technique.resolution={res}"], "envmap")
-        scene = build_scene(cfg, path)
-        tech = Envmap(cfg.technique, 2)
-        tech.precompute(scene)  # warm-up
+        scene = open_scene("teapot-box", "envmap", [f"technique.resolution={res}"])
+        scene.precompute()  # warm-up
         captures = []
         for _ in range(3):
             t = time.perf_counter()
-            records = tech.precompute(scene)
+            records = scene.precompute()
             captures.append(time.perf_counter() - t)
-        state = tech.prepare(scene)
-        cam = camera_from_config(cfg.camera, 0)
-        tech.render(state, 0, cam)
-        lookups = [tech.render(state, 0, cam).timings["lookup"] for _ in range(7)]
+        scene.render_frame(0)
+        lookups = [scene.render_frame(0).timings["lookup"] for _ in range(7)]
         print(f"resolution {res:5d}: capture {1e3 * statistics.median(captures):7.1f} ms per "
               f"map ({len(records)} map), lookup {1e3 * statistics.median(lookups):6.2f} ms "
               f"per frame")
     for scene_name in ("teapot-box", "four-spheres"):
-        ref, _ = render_frame(scene_name, "raytrace", 0, ("technique.max_depth=1",))
+        ref = open_scene(scene_name, "raytrace", ["technique.max_depth=1"]).render_frame(0)
         for parallax in ("none", "box"):
-            out, _ = render_frame(scene_name, "envmap", 0, (f'technique.parallax="{parallax}"',))
-            m = ref.mirror_mask & out.mirror_mask
+            out = open_scene(scene_name, "envmap", [f'technique.parallax="{parallax}"'])
             print(f"{scene_name} parallax {parallax}: PSNR over mirrors "
-                  f"{psnr(out.rgb[m], ref.rgb[m]):.1f} dB")
+                  f"{mirror_psnr(out.render_frame(0), ref):.1f} dB")
 
 
 if __name__ == "__main__":

@@ -16,15 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from reflectcli import api
+from reflectcli.trace.embree import TriangleScene
+
 ROOT = Path(__file__).resolve().parents[1]
-
-
-
-from reflectcli.camera import camera_from_config  # noqa: E402
-from reflectcli.config.load import load_config  # noqa: E402
-from reflectcli.scene.build import build_scene  # noqa: E402
-from reflectcli.techniques.registry import TECHNIQUES  # noqa: E402
-from reflectcli.trace.embree import TriangleScene  # noqa: E402
 
 
 def median_time(fn, repeats):
@@ -37,23 +32,21 @@ def median_time(fn, repeats):
     return statistics.median(times), min(times), max(times)
 
 
-def setup(scene, technique, overrides=()):
-    path = ROOT / "scenes" / f"{scene}.toml"
-    cfg, _ = load_config(str(path), list(overrides), technique)
-    built = build_scene(cfg, str(path))
-    cls = TECHNIQUES[cfg.technique.name]
-    tech = cls(cfg.technique, 2)
-    state = tech.prepare(built)
-    camera = camera_from_config(cfg.camera, 0)
-    return tech, state, built, camera
+def setup(scene, technique, overrides=()) -> api.OpenedScene:
+    """A shipped scene opened with the technique, prepared (frame times are frames only)."""
+    opened = api.open_scene(str(ROOT / "scenes" / f"{scene}.toml"), technique=technique,
+                            overrides=list(overrides), threads=2, cache=False)
+    opened.prepare()
+    return opened
 
 
 def throughput(scene, repeats):
-    tech, state, built, camera = setup(scene, "raytrace", ("technique.max_depth=4",))
-    frame = tech.render(state, 0, camera)
+    opened = setup(scene, "raytrace", ("technique.max_depth=4",))
+    camera = opened.camera(0)
+    frame = opened.render_frame(0)
     rays = frame.stats["rays"]
-    med, lo, hi = median_time(lambda: tech.render(state, 0, camera), repeats)
-    tris = built.geometry(0).all_triangles()
+    med, lo, hi = median_time(lambda: opened.render_frame(0), repeats)
+    tris = opened.scene.geometry(0).all_triangles()
     t = time.perf_counter()
     embree = TriangleScene(tris.corners)
     build = time.perf_counter() - t
@@ -70,9 +63,9 @@ def throughput(scene, repeats):
 
 
 def frame_time(scene, technique, repeats, overrides=()):
-    tech, state, built, camera = setup(scene, technique, overrides)
-    med, _, _ = median_time(lambda: tech.render(state, 0, camera), repeats)
-    return med, built.geometry(0).all_triangles().count
+    opened = setup(scene, technique, overrides)
+    med, _, _ = median_time(lambda: opened.render_frame(0), repeats)
+    return med, opened.scene.geometry(0).all_triangles().count
 
 
 def main():

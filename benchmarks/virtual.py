@@ -11,26 +11,19 @@ import statistics
 import time
 from pathlib import Path
 
-from reflectcli.camera import camera_from_config
-from reflectcli.config.load import load_config
-from reflectcli.scene.build import build_scene
-from reflectcli.techniques.registry import TECHNIQUES
+from reflectcli import api
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def frames(scene: str, technique: str, overrides: list[str], repeats: int):
-    path = str(ROOT / "scenes" / f"{scene}.toml")
-    cfg, _ = load_config(path, overrides, technique)
-    built = build_scene(cfg, path)
-    tech = TECHNIQUES[technique](cfg.technique, 2)
-    state = tech.prepare(built)
-    cam = camera_from_config(cfg.camera, 0)
-    tech.render(state, 0, cam)  # warm-up (and cached tessellation)
+    opened = api.open_scene(str(ROOT / "scenes" / f"{scene}.toml"), technique=technique,
+                            overrides=overrides, threads=2, cache=False)
+    opened.render_frame(0)  # warm-up (and cached tessellation)
     out = []
     for _ in range(repeats):
         t = time.perf_counter()
-        f = tech.render(state, 0, cam)
+        f = opened.render_frame(0)
         out.append((time.perf_counter() - t, f))
     return out
 

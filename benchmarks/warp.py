@@ -14,13 +14,11 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from reflectcli.camera import camera_from_config
-from reflectcli.config.load import load_config
+from reflectcli import api
 from reflectcli.geometry import reflection_matrix
 from reflectcli.maps.warp import warp_maps
 from reflectcli.maps.zexel import capture_map, map_camera, mirror_frame
 from reflectcli.raster.primary import render_primary
-from reflectcli.scene.build import build_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -40,10 +38,10 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=21)
     args = ap.parse_args()
-    path = str(ROOT / "scenes" / "teapot-box.toml")
-    cfg, _ = load_config(path, [], "dprm")
-    scene = build_scene(cfg, path)
-    cam = camera_from_config(cfg.camera, 0)
+    # the kernels by hand below; the scene and its camera come from the api like any render's
+    opened = api.open_scene(str(ROOT / "scenes" / "teapot-box.toml"), technique="dprm",
+                            cache=False)
+    scene, cam = opened.scene, opened.camera(0)
     mf = mirror_frame(scene, 0)
     n, d = mf.normal, float(-mf.normal @ mf.center)
     zmap = capture_map(scene, 0, map_camera(mf, mf.center - mf.diagonal * n, 512, 0.01, 100.0))

@@ -1,4 +1,13 @@
-"""The library face: load a scene, render its frames, write them. The CLI and bench call this."""
+"""The library face: open a scene file once, then list, render and write its frames.
+
+    scene = api.open_scene("scenes/teapot-box.toml", technique="dprm", threads=2)
+    frame = scene.render_frame(0)                          # a Frame in memory
+    scene.write_frames(scene.frames("0:3"), out="out")     # EXR + preview + log row each
+
+`render`, `precompute` and `compare` are what the CLI and the bench call; the tests and the
+scripts in benchmarks/ open scenes the same way. Nothing else wires config -> scene ->
+technique -> camera -> frame.
+"""
 
 from __future__ import annotations
 
@@ -11,12 +20,15 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any, Literal, TypeVar
 
-from .camera import camera_from_config
-from .config.load import load_config
+from pydantic import BaseModel
+
+from .camera import Camera, camera_from_config
 from .config.scene import SceneConfig
 from .errors import Problem, Problems
 from .frame import Frame
+from .loading import load_config
 from .maps.cache import MapCache, default_cache_dir
 from .output.exr import write_exr
 from .output.failures import discard, write_failure
@@ -32,35 +44,43 @@ from .output.log import append_jsonl
 from .output.paths import inside, remove_stale_temps
 from .output.png import write_png
 from .provenance import cpu_name, versions
-from .scene.build import build_scene
-from .techniques.registry import TECHNIQUES
+from .scene.build import build_scene, scene_hashes
+from .scene.types import Scene
+from .techniques import registry
+from .techniques.base import MapTechnique, Technique
+
+# --- the technique registry, as the api sees it (the only place it reads the registry) ------
 
 
-@dataclass
-class RenderResult:
-    folder: str
-    written: list[str] = field(default_factory=list)
-    skipped: list[int] = field(default_factory=list)
-    compile_seconds: float = 0.0
+def technique_class(name: str) -> type[Technique]:
+    """The technique's class (its kernels are imported now, not before)."""
+    return registry.technique_class(name)
 
 
-@contextlib.contextmanager
-def interrupts_deferred():
-    """Hold Ctrl-C until the block ends, so an interrupted run never keeps a frame without
-    its log line. Signal handlers can only be set from the main thread."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list = []
-    previous = {sig: signal.signal(sig, lambda *args: caught.append(args))
-                for sig in (signal.SIGINT, signal.SIGTERM)}  # SIGTERM is handled like Ctrl-C
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-    if caught:
-        raise KeyboardInterrupt
+def technique_names() -> list[str]:
+    return sorted(registry.CLASSES)
+
+
+def uses_maps(cls: type[Technique]) -> bool:
+    """Whether a technique captures maps before rendering (`reflect precompute-maps`)."""
+    return issubclass(cls, MapTechnique)
+
+
+def check_technique(name: str | None) -> None:
+    """--technique must name a registered technique (one Problem, before anything is read)."""
+    if name is not None and name not in technique_names():
+        raise Problems([Problem("--technique", "", f"unknown technique '{name}' "
+                                f"(known: {', '.join(technique_names())})")])
+
+
+def _check_threads(threads: int | None) -> None:
+    import numba
+
+    if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
+        raise Problems([Problem("--threads", "", f"must be 1..{numba.config.NUMBA_NUM_THREADS}")])
+
+
+# --- frames, folders, channels --------------------------------------------------------------
 
 
 def parse_frames(spec: str | None, count: int) -> range:
@@ -124,11 +144,31 @@ def frame_channels(frame: Frame) -> dict:
     return channels
 
 
+@contextlib.contextmanager
+def interrupts_deferred():
+    """Hold Ctrl-C until the block ends, so an interrupted run never keeps a frame without
+    its log line. Signal handlers can only be set from the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list = []
+    previous = {sig: signal.signal(sig, lambda *args: caught.append(args))
+                for sig in (signal.SIGINT, signal.SIGTERM)}  # SIGTERM is handled like Ctrl-C
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    if caught:
+        raise KeyboardInterrupt
+
+
 _warmed: dict[tuple, float] = {}
 
 
 def warm_up(technique_name: str, params_json: str, threads: int) -> float:
-    """Compile (or load from cache) the technique's numba kernels on a tiny scene; seconds."""
+    """Compile (or load from cache) the technique's numba kernels on a tiny scene; seconds
+    (0 when this process already did it for these parameters)."""
     key = (technique_name, params_json)
     if key in _warmed:
         return 0.0
@@ -141,7 +181,7 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
     notice.daemon = True
     notice.start()
     scene, camera = warm_scene()
-    cls = TECHNIQUES[technique_name]
+    cls = technique_class(technique_name)
     technique = cls(cls.Params.model_validate_json(warm_params(params_json)), threads)
     logger = logging.getLogger("reflect")
     level = logger.level
@@ -155,6 +195,293 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
     return _warmed[key]
 
 
+# --- the opened scene -----------------------------------------------------------------------
+
+
+@dataclass
+class RenderResult:
+    folder: str
+    written: list[str] = field(default_factory=list)
+    skipped: list[int] = field(default_factory=list)
+    compile_seconds: float = 0.0
+
+
+class OpenedScene:
+    """A scene file read once: overrides and technique applied.
+
+    The scene is built, and the technique made (threads checked and set) and prepared, on
+    first use: listing frames costs no build, and bad input is reported in a fixed order
+    (frames, threads, what the build rejects, folders) before anything is written.
+    """
+
+    def __init__(self, config: SceneConfig, path: str, *, threads: int | None = None,
+                 cache: str | None | Literal[False] = None,
+                 technique_option: str | None = None,
+                 overrides: tuple[str, ...] | list[str] = ()) -> None:
+        self.config = config
+        self.overrides = list(overrides)  # --set, recorded in the log rows
+        self.path = path
+        self.threads = threads  # asked for; None: numba's own count
+        self.cache_option = cache  # as asked for, for the names in messages
+        # where maps live: the folder given, .reflect-cache/ beside the scene, or memory only
+        self.cache = default_cache_dir(path) if cache is None else (cache or None)
+        self.technique_option = technique_option  # --technique, if it overrode the scene's
+        self.compile_seconds = 0.0
+        self.prepare_seconds = 0.0
+        self._scene: Scene | None = None
+        self._technique: Technique | None = None
+        self._state: Any = None
+        self._prepared = False
+        self.run_id = new_run_id()  # one per opened scene: the log rows of one run
+
+    # what the file says
+
+    @property
+    def name(self) -> str:
+        return self.config.scene.name
+
+    @property
+    def technique_name(self) -> str:
+        return self.config.technique.name
+
+    @property
+    def params(self) -> BaseModel:
+        return self.config.technique
+
+    @property
+    def frame_count(self) -> int:
+        return self.config.camera.frame_count
+
+    def frames(self, spec: str | None = None) -> range:
+        """The frame indices a `--frames` spec selects (all of them for None)."""
+        return parse_frames(spec, self.frame_count)
+
+    @property
+    def display(self) -> str:
+        """The scene file as messages name it."""
+        rel = os.path.relpath(self.path)
+        return self.path if rel.startswith("..") else rel
+
+    @property
+    def scene_hash(self) -> str:
+        """sha256 of the scene alone (its content, the files it reads, its name and camera;
+        not the technique or the output section), so an image pairs with its reference."""
+        content = (self._scene.content_hash if self._scene is not None
+                   else scene_hashes(self.config, self.path)[1])
+        return scene_identity(content, self.config)
+
+    # what is built from it
+
+    def build(self) -> Scene:
+        """The flattened world-space arrays of every object and mirror, built once; raises
+        Problems for what cannot be built (mesh files, degenerate mirrors)."""
+        if self._scene is None:
+            self._scene = build_scene(self.config, self.path)
+        return self._scene
+
+    @property
+    def scene(self) -> Scene:
+        return self.build()
+
+    @property
+    def technique(self) -> Technique:
+        """The technique with the scene's parameters (numba's thread count set first)."""
+        if self._technique is None:
+            import numba
+
+            _check_threads(self.threads)
+            if self.threads is not None:
+                numba.set_num_threads(self.threads)
+            cls = technique_class(self.technique_name)
+            self._technique = cls(self.params, numba.get_num_threads(), self.cache)
+        return self._technique
+
+    def camera(self, frame_index: int) -> Camera:
+        """The camera of one frame of the path: world -> eye (view) -> clip (projection)."""
+        return camera_from_config(self.config.camera, frame_index)
+
+    def warm_up(self) -> float:
+        """Compile the technique's kernels on a tiny scene, so compile time stays out of
+        the frame timings; seconds."""
+        self.compile_seconds = warm_up(self.technique_name, self.params.model_dump_json(),
+                                       self.technique.threads)
+        return self.compile_seconds
+
+    def prepare(self) -> Any:
+        """The technique's per-scene work (acceleration structures, maps), done once."""
+        if not self._prepared:
+            scene, technique = self.scene, self.technique
+            start = time.perf_counter()
+            self._state = technique.prepare(scene)
+            self.prepare_seconds = time.perf_counter() - start
+            self._prepared = True
+        return self._state
+
+    # the pipeline
+
+    def render_frame(self, frame_index: int) -> Frame:
+        """One frame of the camera path, rendered in memory (nothing is written)."""
+        # the scene in world space, with the technique's per-scene work (accelerators, maps)
+        state = self.prepare()
+        # this frame's camera: world -> eye (view), eye -> clip (projection), NDC -> screen
+        camera = self.camera(frame_index)
+        # the technique: first hits and the mirrors' reflections, as screen-space buffers
+        # (linear rgb, eye-space depth, surface ids, mirror mask)
+        return self.technique.render(state, frame_index, camera)
+
+    def output_folder(self, out: str | None = None) -> str:
+        """<out or output.dir>/<scene>/<technique>/, created and proven writable (the scene
+        is built first: it may still reject input before any folder is made)."""
+        self.build()
+        root = out if out is not None else self.config.output.dir
+        folder = inside(inside(root, self.name, self.display, "scene.name"),
+                        self.technique_name, self.display)
+        prepare_output(folder, "--out" if out is not None else self.display,
+                       "" if out is not None else "output.dir")
+        remove_stale_temps(folder)
+        return folder
+
+    def log_path(self, folder: str) -> str:
+        """The folder's log (output.log), refused if it would leave the folder."""
+        return inside(folder, self.config.output.log, self.display, "output.log")
+
+    def write_frame(self, frame_index: int, folder: str, *, preview: bool | None = None,
+                    repeats: int = 1,
+                    on_written: Callable[[str], None] | None = None) -> str:
+        """Render a frame and write it into `folder`: EXR, optional PNG preview and its log
+        row, all or nothing (Ctrl-C waits until the three are written). The EXR's path.
+
+        `repeats` > 1 renders the frame that many times in a row (timing a scene of one frame:
+        the bench's warm-up and timed samples); the first render is written and every
+        render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
+        the repeats as extra frames. `on_written(exr)` runs once the three are written, before
+        an interrupt held meanwhile is raised (so a count of kept frames is exact)."""
+        exr = os.path.join(folder, f"frame_{frame_index:04d}.exr")
+        self.prepare()
+        start = time.perf_counter()
+        frame = self.render_frame(frame_index)
+        render_seconds = time.perf_counter() - start
+        repeat_seconds = [render_seconds]
+        for _ in range(repeats - 1):
+            start = time.perf_counter()
+            self.render_frame(frame_index)
+            repeat_seconds.append(time.perf_counter() - start)
+        params = json.loads(self.params.model_dump_json())
+        row = {
+            "scene": self.name,
+            "technique": self.technique_name,
+            "parameters": params,
+            "frame": frame_index,
+            "file": os.path.basename(exr),
+            "frame_seconds": render_seconds,
+            "prepare_seconds": self.prepare_seconds,
+            "numba_compile_seconds": self.compile_seconds,
+            "stages": frame.timings,
+            **frame.stats,
+            "threads": self.technique.threads,
+            "cpu": cpu_name(),
+            "versions": versions(),
+            "scene_hash": self.scene_hash,
+            "run_id": self.run_id,
+            "overrides": self.overrides,
+            **({"repeat_seconds": repeat_seconds} if repeats > 1 else {}),
+        }
+        attributes = {
+            "reflect:technique": self.technique_name,
+            "reflect:parameters": self.params.model_dump_json(),
+            "reflect:scene": self.name,
+            "reflect:scene_hash": self.scene_hash,
+            "reflect:version": versions()["reflect"],
+            "reflect:frame": str(frame_index),
+        }
+        preview = self.config.output.preview if preview is None else preview
+        log_path = self.log_path(folder)
+        channels = frame_channels(frame)
+        check_finite(channels, self.display, frame_index)  # nothing non-finite is written
+        with interrupts_deferred():  # a frame is kept with its log line, or not at all
+            t1 = time.perf_counter()
+            target = exr
+            try:
+                write_exr(exr, channels, attributes)
+                if preview:
+                    target = exr[:-4] + ".png"
+                    write_png(target, frame.rgb)
+                target = log_path
+                append_jsonl(log_path, {**row, "write_seconds": time.perf_counter() - t1})
+            except OSError as e:
+                discard(exr, *([exr[:-4] + ".png"] if preview else []))
+                raise write_failure(e, target) from None
+            if on_written is not None:
+                on_written(exr)
+        return exr
+
+    def write_frames(self, frame_indices: range | list[int], *, out: str | None = None,
+                     preview: bool | None = None, resume: bool = False,
+                     on_frame: Callable[[int, str], None] | None = None,
+                     repeats: int = 1) -> RenderResult:
+        """Write the given frames into <out>/<scene>/<technique>/ (with `resume`, frames
+        whose EXR exists and whose log row has this scene hash and these parameters are
+        skipped, their missing previews written). A folder holding frames of other --set
+        overrides is refused before anything is rendered."""
+        _check_threads(self.threads)  # before the build and the folder, as any bad argument
+        result = RenderResult(self.output_folder(out))
+        stored = logged_rows(self.log_path(result.folder))
+        check_same_overrides(stored, self.overrides, result.folder,
+                             "--set" if self.overrides else self.display)
+        result.compile_seconds = self.warm_up()
+        self.prepare()
+        wants_preview = self.config.output.preview if preview is None else preview
+        scene_hash = self.scene_hash
+        params = json.loads(self.params.model_dump_json())
+        for frame_index in frame_indices:
+            exr = os.path.join(result.folder, f"frame_{frame_index:04d}.exr")
+            if resume and os.path.exists(exr) and matches(
+                    stored.get(os.path.basename(exr)), scene_hash, params):
+                if wants_preview and not os.path.exists(exr[:-4] + ".png"):
+                    write_missing_preview(exr)
+                result.skipped.append(frame_index)
+                continue
+            def kept(path: str, frame_index: int = frame_index) -> None:
+                result.written.append(path)  # counted before an interrupt held meanwhile
+                if on_frame is not None:
+                    on_frame(frame_index, path)
+
+            self.write_frame(frame_index, result.folder, preview=preview, repeats=repeats,
+                             on_written=kept)
+        return result
+
+    def precompute(self, on_map: Callable[[dict], None] | None = None,
+                   on_progress: Callable[[int, int], None] | None = None) -> list[dict]:
+        """Capture (or find in the cache) every map the technique needs; one record each."""
+        if not uses_maps(technique_class(self.technique_name)):
+            map_based = [n for n in technique_names() if uses_maps(technique_class(n))]
+            raise Problems([Problem(
+                "--technique" if self.technique_option else self.path, "technique.name",
+                f"'{self.technique_name}' uses no precomputed maps "
+                f"(map-based: {', '.join(map_based)})")])
+        if self.cache is not None:
+            prepare_output(self.cache, "--cache" if self.cache_option else self.path, "")
+        scene = self.build()
+        return self.technique.precompute(scene, on_map, on_progress)
+
+
+def open_scene(path: str, *, overrides: tuple[str, ...] | list[str] = (),
+               technique: str | None = None, threads: int | None = None,
+               cache: str | None | Literal[False] = None) -> OpenedScene:
+    """Read and validate a scene file (technique and overrides applied).
+
+    threads: numba's thread count for this scene's work (None: numba's own), checked when
+    first needed. cache: the map folder (None: .reflect-cache/ beside the scene; False: maps
+    in memory only). Raises Problems for bad input; nothing is built or written yet.
+    """
+    config, _ = load_config(path, overrides, technique)
+    return OpenedScene(config, path, threads=threads, cache=cache, technique_option=technique,
+                       overrides=overrides)
+
+
+# --- what the CLI and the bench call --------------------------------------------------------
+
+
 def render(
     path: str,
     *,
@@ -166,108 +493,25 @@ def render(
     threads: int | None = None,
     resume: bool = False,
     on_frame: Callable[[int, str], None] | None = None,
-    config: SceneConfig | None = None,
     cache: str | None = None,
+    repeats: int = 1,
 ) -> RenderResult:
     """Render the selected frames of a scene file into out/<scene>/<technique>/.
 
-    Raises Problems for bad input before anything is written.
+    `repeats` > 1 renders each frame that many times in a row (for timing a scene of one
+    frame: the bench's warm-up and timed samples); the first render is written and every
+    render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
+    the repeats as extra frames. Raises Problems for bad input before anything is written.
     """
-    import numba
-
-    display = os.path.relpath(path) if not os.path.relpath(path).startswith("..") else path
-    if config is None:
-        config, _ = load_config(path, overrides, technique)
-    selected = parse_frames(frames, config.camera.frame_count)
-    name = config.technique.name
-    if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
-        raise Problems([Problem("--threads", "", f"must be 1..{numba.config.NUMBA_NUM_THREADS}")])
-    scene = build_scene(config, path)  # before any folder is made: it may still reject input
-    root = out if out is not None else config.output.dir
-    folder = inside(inside(root, config.scene.name, display, "scene.name"), name, display)
-    prepare_output(
-        folder, "--out" if out is not None else display, "" if out is not None else "output.dir"
-    )
-    remove_stale_temps(folder)
-    log_path = inside(folder, config.output.log, display, "output.log")
-    stored = logged_rows(log_path)
-    check_same_overrides(stored, list(overrides), folder, "--set" if overrides else display)
-    if threads is not None:
-        numba.set_num_threads(threads)
-    threads = numba.get_num_threads()
-    params = config.technique
-    params_json = params.model_dump_json()
-    result = RenderResult(folder)
-    result.compile_seconds = warm_up(name, params_json, threads)
-    cls = TECHNIQUES[name]
-    tech = cls(params, threads, cache if cache is not None else default_cache_dir(path))
-    t0 = time.perf_counter()
-    state = tech.prepare(scene)
-    prepare_seconds = time.perf_counter() - t0
-    preview = config.output.preview if preview is None else preview
-    scene_hash = scene_identity(scene.content_hash, config)
-    run_id = new_run_id()
-    attributes = {
-        "reflect:technique": name,
-        "reflect:parameters": params_json,
-        "reflect:scene": config.scene.name,
-        "reflect:scene_hash": scene_hash,
-        "reflect:version": versions()["reflect"],
-    }
-    for index in selected:
-        exr = os.path.join(folder, f"frame_{index:04d}.exr")
-        if resume and os.path.exists(exr) and matches(
-                stored.get(os.path.basename(exr)), scene_hash, json.loads(params_json)):
-            if preview and not os.path.exists(exr[:-4] + ".png"):
-                write_missing_preview(exr)
-            result.skipped.append(index)
-            continue
-        camera = camera_from_config(config.camera, index)
-        start = time.perf_counter()
-        frame = tech.render(state, index, camera)
-        render_seconds = time.perf_counter() - start
-        row = {
-            "scene": config.scene.name,
-            "technique": name,
-            "parameters": json.loads(params_json),
-            "frame": index,
-            "file": os.path.basename(exr),
-            "frame_seconds": render_seconds,
-            "prepare_seconds": prepare_seconds,
-            "numba_compile_seconds": result.compile_seconds,
-            "stages": frame.timings,
-            **frame.stats,
-            "threads": threads,
-            "cpu": cpu_name(),
-            "versions": versions(),
-            "scene_hash": scene_hash,
-            "run_id": run_id,
-            "overrides": list(overrides),
-        }
-        channels = frame_channels(frame)
-        check_finite(channels, display, index)
-        with interrupts_deferred():  # a frame is kept with its log line, or not at all
-            t1 = time.perf_counter()
-            target = exr
-            try:
-                write_exr(exr, channels, {**attributes, "reflect:frame": str(index)})
-                if preview:
-                    target = exr[:-4] + ".png"
-                    write_png(target, frame.rgb)
-                target = log_path
-                append_jsonl(log_path, {**row, "write_seconds": time.perf_counter() - t1})
-            except OSError as e:
-                discard(exr, *([exr[:-4] + ".png"] if preview else []))
-                raise write_failure(e, target) from None
-            result.written.append(exr)  # counted before an interrupt held meanwhile is raised
-            if on_frame is not None:
-                on_frame(index, exr)
-    return result
+    scene = open_scene(path, overrides=overrides, technique=technique, threads=threads,
+                       cache=cache)
+    return scene.write_frames(scene.frames(frames), out=out, preview=preview, resume=resume,
+                              on_frame=on_frame, repeats=repeats)
 
 
 @dataclass
 class PrecomputeResult:
-    cache: str
+    cache: str | None  # None: maps kept in memory (cache=False)
     maps: list[dict] = field(default_factory=list)
 
 
@@ -282,36 +526,41 @@ def precompute(
     on_progress: Callable[[int, int], None] | None = None,
 ) -> PrecomputeResult:
     """Capture (or find in the cache) every map the scene's technique needs."""
-    import numba
-
-    config, _ = load_config(path, overrides, technique)
-    name = config.technique.name
-    cls = TECHNIQUES[name]
-    if not hasattr(cls, "precompute"):
-        map_based = sorted(n for n, c in TECHNIQUES.items() if hasattr(c, "precompute"))
-        raise Problems(
-            [
-                Problem(
-                    "--technique" if technique else path,
-                    "technique.name",
-                    f"'{name}' uses no precomputed maps (map-based: {', '.join(map_based)})",
-                )
-            ]
-        )
-    folder = cache if cache is not None else default_cache_dir(path)
-    prepare_output(folder, "--cache" if cache is not None else path, "")
-    scene = build_scene(config, path)
-    if threads is not None:
-        if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
-            raise Problems([Problem("--threads", "",
-                                    f"must be 1..{numba.config.NUMBA_NUM_THREADS}")])
-        numba.set_num_threads(threads)
-    tech = cls(config.technique, numba.get_num_threads(), folder)
-    result = PrecomputeResult(folder)
-    result.maps = tech.precompute(scene, on_map, on_progress)
-    return result
+    scene = open_scene(path, overrides=overrides, technique=technique, threads=threads,
+                       cache=cache)
+    return PrecomputeResult(scene.cache, scene.precompute(on_map, on_progress))
 
 
 def clear_cache(folder: str) -> int:
     """Delete the maps in a cache folder; how many."""
     return MapCache(folder).clear()
+
+
+def compare(first: str, second: str, *, metrics: tuple[str, ...] | None = None,
+            mask_channel: str | None = None, threshold: float = 0.1):
+    """Score `second` against `first` (the reference EXR or PNG): every chosen metric over
+    the whole image and, with `mask_channel`, over the pixels where it is > 0 in both; plus
+    warnings (an sRGB PNG against a linear EXR, differing scenes or frames). Raises Problems
+    naming the file."""
+    from .metrics import DEFAULT_METRICS
+    from .metrics.compare import compare_files
+
+    return compare_files(first, second, metrics=metrics or DEFAULT_METRICS,
+                         mask_channel=mask_channel, threshold=threshold)
+
+
+M = TypeVar("M", bound=BaseModel)
+
+
+def load_settings(path: str, model: type[M]) -> M:
+    """A TOML settings file (a bench matrix) validated against `model`; Problems name the
+    file and field."""
+    from pydantic import ValidationError
+
+    from .config.load import read_toml, validation_problems
+
+    data = read_toml(path)
+    try:
+        return model.model_validate(data)
+    except ValidationError as e:
+        raise Problems(validation_problems(e, data, {}, os.path.relpath(path))) from None

@@ -11,14 +11,20 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
 
 from .config.camera import CameraConfig
+from .geometry import far_plane_clip, oblique_projection, transform_plane
 
 
 def normalize(v: np.ndarray) -> np.ndarray:
     v = np.asarray(v, dtype=np.float64)
     return v / np.linalg.norm(v)
+
+
+def screen_from_ndc(x_ndc: float, y_ndc: float, width: int, height: int) -> tuple[float, float]:
+    """NDC ([-1, 1], y up) -> screen (pixels, y down): the one place this mapping is written.
+    Kernels compile this very function (`njit(inline="always")(screen_from_ndc)`)."""
+    return (x_ndc + 1.0) * 0.5 * width, (1.0 - y_ndc) * 0.5 * height
 
 
 @dataclass(frozen=True)
@@ -63,6 +69,10 @@ class Camera:
         p[3, 2] = -1.0
         return p
 
+    def clip_from_world(self) -> np.ndarray:
+        """World -> clip (4x4): the view-projection product, written here once."""
+        return self.projection_matrix() @ self.view_matrix()
+
     def pixel_directions(self, samples: int = 1) -> np.ndarray:
         """World-space ray directions (H, W, s*s, 3) through a regular s x s grid in each pixel.
 
@@ -88,46 +98,14 @@ class Camera:
         return d
 
 
-def primary_rays(camera: Camera, samples: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """float32 (origins, directions), (H * W * s * s, 3): the rays of `pixel_directions`
-    (same order, eye-space z = -1 per direction), starting on the near plane."""
-    right, up, back = camera.basis()
-    n = camera.height * camera.width * samples * samples
-    origins = np.empty((n, 3), np.float32)
-    dirs = np.empty((n, 3), np.float32)
-    _primary_rays(np.asarray(camera.eye, np.float64), right, up, back,
-                  math.tan(math.radians(camera.fov_y) / 2.0), camera.width, camera.height,
-                  samples, camera.near, origins, dirs)
-    return origins, dirs
-
-
-@njit(cache=True, parallel=True)
-def _primary_rays(eye, right, up, back, tan_half, width, height, samples, near, origins, dirs):
-    aspect = width / height
-    per_row = width * samples * samples
-    for j in prange(height):
-        for i in range(width):
-            for sy in range(samples):
-                y_ndc = 1.0 - 2.0 * (j + (sy + 0.5) / samples) / height
-                ye = y_ndc * tan_half
-                for sx in range(samples):
-                    x_ndc = 2.0 * (i + (sx + 0.5) / samples) / width - 1.0
-                    xe = x_ndc * tan_half * aspect
-                    k = j * per_row + (i * samples + sy) * samples + sx
-                    for a in range(3):
-                        d = xe * right[a] + ye * up[a] - back[a]
-                        dirs[k, a] = d
-                        origins[k, a] = eye[a] + near * d
-
-
-def camera_from_config(cfg: CameraConfig, frame: int = 0) -> Camera:
-    """The camera of frame `frame` (0-based), interpolating the path's keys if there is one."""
+def camera_from_config(cfg: CameraConfig, frame_index: int = 0) -> Camera:
+    """The camera of frame `frame_index` (0-based), interpolating the path's keys if any."""
     eye, target = np.array(cfg.eye, float), np.array(cfg.target, float)
     up, fov = np.array(cfg.up, float), cfg.fov_y
     if cfg.path is not None:
         keys = cfg.path.keys
         n = cfg.path.frames
-        s = 0.0 if n == 1 else frame / (n - 1) * (len(keys) - 1)
+        s = 0.0 if n == 1 else frame_index / (n - 1) * (len(keys) - 1)
         eyes = np.array([k.eye for k in keys], float)
         targets = np.array([k.target for k in keys], float)
         ups = np.array([k.up if k.up is not None else cfg.up for k in keys], float)
@@ -162,3 +140,31 @@ def catmull_rom(points: np.ndarray, s: float) -> np.ndarray:
         + (2 * p0 - 5 * p1 + 4 * p2 - p3) * u * u
         + (-p0 + 3 * p1 - 3 * p2 + p3) * u * u * u
     )
+
+
+def standard_planes() -> np.ndarray:
+    """Clip-space planes (a, b, c, e): keep a*x + b*y + c*z + e*w >= 0. Near, then far."""
+    return np.array([[0.0, 0.0, 1.0, 1.0], [0.0, 0.0, -1.0, 1.0]])
+
+
+def reflection_pass_matrices(
+    camera: Camera, chain: np.ndarray, plane: np.ndarray, clip: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """(world -> clip matrix, clip-space planes) of one reflection pass.
+
+    `chain` is the product of reflection matrices (world -> virtual world), `plane` (4,) the
+    mirror plane in world space oriented so that kept points (in front of the mirror, seen
+    from the previous level's eye) are >= 0.
+    """
+    view = camera.view_matrix() @ chain
+    proj = camera.projection_matrix()
+    if clip == "oblique":
+        proj = oblique_projection(proj, transform_plane(plane, view))
+        # near plane = mirror plane; clip far against the original far plane, not the tilted one
+        planes = np.array([[0.0, 0.0, 1.0, 1.0], far_plane_clip(proj, camera.far)])
+        return proj @ view, planes
+    world_to_clip = proj @ view
+    if clip == "plane":
+        extra = transform_plane(plane, world_to_clip)
+        return world_to_clip, np.vstack([standard_planes(), extra / np.abs(extra).max()])
+    return world_to_clip, standard_planes()

@@ -58,31 +58,21 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
     progress = None
     done: list[str] = []
     try:
-        _check_technique(technique)
-        config, _ = _load(scene, overrides, technique)
-        count = len(api.parse_frames(frames, config.camera.frame_count))
-        _warn_frames_past_end(frames, config.camera.frame_count)
-        if count > 1:
-            progress = _open_bar(count, "frames")
+        api.check_technique(technique)
+        opened = api.open_scene(scene, overrides=overrides, technique=technique,
+                                threads=threads, cache=cache)
+        selected = opened.frames(frames)
+        _warn_frames_past_end(frames, opened.frame_count)
+        if len(selected) > 1:
+            progress = _open_bar(len(selected), "frames")
 
         def on_frame(index: int, path: str) -> None:
             done.append(path)
             if progress is not None:
                 progress.update(1)
 
-        result = api.render(
-            scene,
-            out=out,
-            frames=frames,
-            technique=technique,
-            overrides=overrides,
-            preview=preview,
-            threads=threads,
-            resume=resume,
-            on_frame=on_frame,
-            config=config,
-            cache=cache,
-        )
+        result = opened.write_frames(selected, out=out, preview=preview, resume=resume,
+                                     on_frame=on_frame)
     except Problems as e:
         _fail(e)
     except KeyboardInterrupt:
@@ -124,28 +114,6 @@ def _open_bar(length: int, label: str):
     return bar
 
 
-def _check_technique(name: str | None) -> None:
-    """--technique must name a registered technique (one line, exit 2, otherwise)."""
-    from .techniques.registry import TECHNIQUES
-
-    if name is not None and name not in TECHNIQUES:
-        raise Problems([_unknown_technique(name, TECHNIQUES)])
-
-
-def _unknown_technique(name, techniques):
-    from .errors import Problem
-
-    return Problem(
-        "--technique", "", f"unknown technique '{name}' (known: {', '.join(sorted(techniques))})"
-    )
-
-
-def _load(path, overrides=(), technique=None):
-    from .config.load import load_config
-
-    return load_config(path, overrides, technique)
-
-
 @cli.command("precompute-maps")
 @click.argument("scene", type=click.Path(dir_okay=False))
 @click.option("--technique", help="a map-based technique instead of the scene's")
@@ -181,12 +149,12 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
             bar["bar"].__exit__(None, None, None)
         bar.pop("bar", None)
         click.echo(
-            f"{record['status']:>8}  {record['mirror']}  {record['seconds']:.2f} s  "
-            f"{record['path']}"
+            f"{record.status:>8}  {record.mirror}  {record.seconds:.2f} s  "
+            f"{record.path}"
         )
 
     try:
-        _check_technique(technique)
+        api.check_technique(technique)
         result = api.precompute(
             scene,
             technique=technique,
@@ -203,7 +171,7 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
         sys.exit(EXIT_INTERRUPTED)
     except OSError as e:
         _write_failed(e)
-    captured = sum(1 for m in result.maps if m["status"] == "captured")
+    captured = sum(1 for m in result.maps if m.status == "captured")
     click.echo(f"{captured} captured, {len(result.maps) - captured} cached in {result.cache}")
 
 
@@ -224,12 +192,11 @@ def cache_clear(scene, folder) -> None:
     """Delete every cached map in SCENE's cache folder (shared by the scenes beside it), or
     in --cache DIR."""
     from . import api
-    from .maps.cache import default_cache_dir
 
     if folder is None and scene is None:
         click.echo("cache clear: give a SCENE or --cache DIR", err=True)
         sys.exit(EXIT_BAD_INPUT)
-    folder = folder if folder is not None else default_cache_dir(scene)
+    folder = folder if folder is not None else api.default_cache_dir(scene)
     click.echo(f"removed {api.clear_cache(folder)} map(s) from {folder}")
 
 
@@ -271,50 +238,35 @@ def bench(file, resume, workers, scheduler, threads, out, overrides) -> None:
 @cli.command()
 @click.argument("first", type=click.Path(dir_okay=False, exists=True))
 @click.argument("second", type=click.Path(dir_okay=False, exists=True))
-@click.option("--mask-channel", help="score only pixels where this channel is > 0 in both")
+@click.option("--mask-channel", help="also score only pixels where this channel is > 0 in both")
 @click.option("--threshold", type=float, default=0.1, show_default=True,
               help="error above which a pixel counts as off")
-def compare(first, second, mask_channel, threshold) -> None:
-    """Print PSNR, RMSE, max error and the fraction of pixels off between two EXRs."""
-    import numpy as np
+@click.option("--metrics", "metrics", default="all", show_default=True,
+              help="comma-separated: psnr, rmse, max_error, frac_off, relmse, p50, p95, p99, "
+                   "flip, flip_ldr, ssim")
+def compare(first, second, mask_channel, threshold, metrics) -> None:
+    """Score SECOND against FIRST (the reference): PSNR, RMSE, max error, pixels off, relMSE,
+    error percentiles, FLIP (HDR and LDR) and SSIM, over the whole image and the mask."""
+    from . import api
+    from .errors import Problem
+    from .metrics import parse_metrics
+    from .metrics.compare import format_value
 
-    from .bench.metrics import image_metrics
-    from .output.exr import read_exr
-
-    kinds = {os.path.splitext(str(p))[1].lower() for p in (first, second)}
-    if ".exr" in kinds and kinds & {".png", ".jpg", ".jpeg", ".tif", ".tiff"}:
-        click.echo("warning: comparing an sRGB-encoded image with a linear EXR; compare the "
-                   "EXRs (previews are sRGB)", err=True)
-    images = []
-    for path in (first, second):
-        try:
-            channels, _ = read_exr(path)
-        except OSError as e:
-            click.echo(f"{path}: {str(e).splitlines()[0]}", err=True)
-            sys.exit(EXIT_BAD_INPUT)
-        missing = [c for c in ("R", "G", "B") if c not in channels]
-        if mask_channel and mask_channel not in channels:
-            missing.append(mask_channel)
-        if missing:
-            click.echo(f"{path}: channels: missing {', '.join(missing)}", err=True)
-            sys.exit(EXIT_BAD_INPUT)
-        images.append(channels)
-    a, b = (np.stack([c[k] for k in "RGB"], axis=-1) for c in images)
-    if a.shape != b.shape:
-        click.echo(f"{second}: size {b.shape[1]}x{b.shape[0]} differs from "
-                   f"{a.shape[1]}x{a.shape[0]}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
-    mask = None
-    if mask_channel:
-        mask = (images[0][mask_channel] > 0) & (images[1][mask_channel] > 0)
-    m = image_metrics(a, b, mask, threshold)
-    scope = f"{int(mask.sum())} pixels where {mask_channel} > 0" if mask is not None else (
-        f"all {a.shape[0] * a.shape[1]} pixels")
-    click.echo(f"over {scope}")
-    click.echo(f"psnr      {m['psnr']:.4f} dB")
-    click.echo(f"rmse      {m['rmse']:.6g}")
-    click.echo(f"max_error {m['max_error']:.6g}")
-    click.echo(f"frac_off  {m['frac_off']:.6g} (> {threshold})")
+    try:
+        chosen = parse_metrics(metrics)
+    except ValueError as e:
+        _fail(Problems([Problem("--metrics", "", str(e))]))
+    try:
+        result = api.compare(first, second, metrics=chosen, mask_channel=mask_channel,
+                             threshold=threshold)
+    except Problems as e:
+        _fail(e)
+    for warning in result.warnings:
+        click.echo(f"warning: {warning}", err=True)
+    for scope, values in result.scopes.items():
+        click.echo(f"over {scope}")
+        for name, value in values.items():
+            click.echo(f"{name:<9} {format_value(name, value, threshold)}")
 
 
 @cli.command()
@@ -337,7 +289,7 @@ def schema() -> None:
     """Print the JSON schema of scene files (for editors; docs/scene-reference.md)."""
     import json
 
-    from .config.reference import scene_schema
+    from .reference import scene_schema
 
     click.echo(json.dumps(scene_schema(), indent=2))
 
@@ -345,20 +297,22 @@ def schema() -> None:
 @cli.command()
 def techniques() -> None:
     """List the techniques with their parameters and defaults."""
-    from .techniques.base import parameter_table
-    from .techniques.registry import TECHNIQUES
+    from .techniques.params import parameter_table
+    from .techniques.registry import PARAMS, technique_doc
 
-    for name, cls in TECHNIQUES.items():
-        doc = (sys.modules[cls.__module__].__doc__ or "").strip()
+    for name, params in PARAMS.items():
+        doc = technique_doc(name).strip()
         summary = " ".join(doc.split("\n\n")[0].split())
         click.echo(f"{name}: {summary}")
-        rows = parameter_table(cls.Params)
+        rows = parameter_table(params)
         if not rows:
             click.echo("    (no parameters)")
         width = max((len(r[0]) for r in rows), default=0)
         type_width = max((len(r[1]) for r in rows), default=0)
-        for pname, ptype, default, desc in rows:
+        for pname, ptype, default, allowed, desc in rows:
             click.echo(f"    {pname:<{width}}  {ptype:<{type_width}}  = {default}"
+                       + (f"  in {allowed}" if allowed.startswith(("[", "(")) else
+                          f"  {allowed}" if allowed else "")
                        + (f"  ({desc})" if desc else ""))
         click.echo("")
 

@@ -24,7 +24,16 @@ POOL = [0, -1, 1, 2, 3, 0.5, -0.0, 1e16, -1e16, 1e-30, 5e-324, 1e308, math.inf, 
         "frame_0001.exr", "a\0b", "sphere", "quad", "raster", "dprm", True, False, [], {},
         [0, 0, 0], [1e16, 0, 0], [1, 1], [[0, 0, 0]] * 4, [0.0, 0.0], {"x": 1}, "/tmp",
         [[0, 0], [1, 0]], 4096, 100000, -5, 0.001, 180, 1e-7]
-TECHNIQUES = ["raytrace", "raster", "rerender", "envmap", "dprm", "virtual"]
+
+
+def _technique_names() -> list[str]:
+    """Every registered technique (screen-space and distance-map ones included)."""
+    from .techniques.registry import PARAMS
+
+    return sorted(PARAMS)
+
+
+TECHNIQUES = _technique_names()
 _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 # what a message must never show
 _INTERNAL = re.compile(r"Traceback|<warm-up>|\b[A-Z]\w*(Params|Config|Object|Mirror|Material|"
@@ -113,7 +122,16 @@ def gentle(data: dict, rng: random.Random) -> None:
                             "parallax": ["none", "box"]},
                  "dprm": {"maps": [{"resolution": 8}, {"resolution": 16, "count": 4,
                                                        "per_frame": 2}]},
-                 "virtual": {}, "raster": {}}[name]
+                 "distmap": {"resolution": [4, 8, 16], "layers": [1, 2], "steps": [1, 4, 16],
+                             "refine_steps": [0, 4], "update": ["once", "every", 2],
+                             "faces_per_frame": [1, 6]},
+                 "ssr": {"march": ["linear", "dda", "hiz"], "thickness": [0.01, 0.1, 5.0],
+                         "stride": [1.0, 4.0], "max_steps": [1, 64], "resolve": ["pixel",
+                                                                                "surface"],
+                         "fallback": ["none", "envmap", "rerender"]},
+                 "ppr": {"fill": [True, False], "resolve": ["pixel", "surface"],
+                         "fallback": ["none", "envmap", "rerender"]},
+                 "virtual": {}, "raster": {}}.get(name, {})
         for key, values in extra.items():
             if rng.random() < 0.6:
                 data["technique"][key] = copy.deepcopy(rng.choice(values))
@@ -155,7 +173,9 @@ def mutate(data: dict, rng: random.Random, steps: int | None = None) -> dict:
             data["technique"] = {"name": rng.choice(TECHNIQUES)}
             if rng.random() < 0.5:
                 data["technique"][rng.choice(["max_depth", "resolution", "samples",
-                                              "map", "maps"])] = copy.deepcopy(rng.choice(POOL))
+                                              "map", "maps", "march", "thickness", "layers",
+                                              "steps", "update", "fallback", "resolve"])] = \
+                    copy.deepcopy(rng.choice(POOL))
         else:
             tags = {"shape": ["quad", "sphere", "box", "room", "cylinder", "extrusion",
                               "cap", "mesh", "teapot", "rectangle", "clutter", "torus"],

@@ -11,8 +11,9 @@ from pydantic import ValidationError, create_model
 
 from .config.base import Strict
 from .config.files import display_path
-from .config.load import load_config, load_raw, validation_problems
+from .config.load import load_raw, validation_problems
 from .errors import Problem, Problems
+from .loading import load_config
 
 
 def validate_file(path: str) -> str:
@@ -28,10 +29,10 @@ def validate_file(path: str) -> str:
 
         plan = load_bench(path)
         return f"bench file, {len(plan.jobs)} run(s)"
-    from .config.scene import SceneConfig
+    from .techniques.registry import scene_model
 
-    fields = SceneConfig.model_fields
-    if "scene" in raw or not set(raw) <= set(fields):
+    fields = scene_model().model_fields
+    if "scene" in raw or "camera" in raw and "objects" in raw or not set(raw) <= set(fields):
         cfg, _ = load_config(path)
         from .scene.build import build_scene
 

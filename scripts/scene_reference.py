@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from reflectcli.config.reference import scene_reference
+from reflectcli.reference import scene_reference
 
 Path(__file__).resolve().parents[1].joinpath("docs", "scene-reference.md").write_text(
     scene_reference() + "\n")

@@ -7,23 +7,25 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from reflectcli.camera import camera_from_config
-from reflectcli.config.load import load_config
-from reflectcli.scene.build import build_scene
-from reflectcli.techniques.registry import TECHNIQUES
+from reflectcli import api
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
 
 def render_frame(scene: str | Path, technique: str | None = None, frame: int = 0,
                  overrides: tuple[str, ...] = ()):
-    """Render one frame of a scene file in-process: (Frame, Scene)."""
+    """Render one frame of a scene file in-process, maps kept in memory: (Frame, Scene)."""
+    opened = open_scene(scene, technique, overrides)
+    return opened.render_frame(frame), opened.scene
+
+
+def open_scene(scene: str | Path, technique: str | None = None,
+               overrides: tuple[str, ...] | list[str] = (), **options) -> api.OpenedScene:
+    """A shipped scene by name (or any scene file) opened through the api; maps in memory
+    unless `cache` says otherwise."""
     path = Path(scene) if Path(scene).suffix else SCENES / f"{scene}.toml"
-    cfg, _ = load_config(str(path), list(overrides), technique)
-    built = build_scene(cfg, str(path))
-    cls = TECHNIQUES[cfg.technique.name]
-    tech = cls(cfg.technique, 2)
-    return tech.render(tech.prepare(built), frame, camera_from_config(cfg.camera, frame)), built
+    options.setdefault("cache", False)
+    return api.open_scene(str(path), overrides=list(overrides), technique=technique, **options)
 
 
 def psnr(a: np.ndarray, b: np.ndarray) -> float:

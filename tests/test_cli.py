@@ -18,7 +18,7 @@ from reflectcli import __version__
 from reflectcli.cli import cli
 from reflectcli.output.exr import read_exr
 from reflectcli.output.log import read_jsonl
-from reflectcli.techniques.base import toml_value
+from reflectcli.techniques.params import toml_value
 from reflectcli.techniques.registry import TECHNIQUES
 
 SCENES = Path(__file__).parents[1] / "scenes"

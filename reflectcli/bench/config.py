@@ -18,12 +18,16 @@ class RunGroup(Strict):
     techniques: list[str] = Field(min_length=1)
     set: list[str] = Field(default_factory=list, description="KEY=VALUE overrides for all")
     sweep: dict[str, list[Any]] = Field(default_factory=dict, description="KEY = [values]")
+    frames: str | None = Field(default=None, description="this block's frames (N or A:B); "
+                               "default: the bench's")
 
 
 class BenchSection(Strict):
     name: str = Field(pattern=r"^[A-Za-z0-9._-]+$")
     frames: str = Field(default="0:3", description="frames of each run: N or A:B")
-    warmup: int = Field(default=1, ge=0, description="leading frames left out of timings")
+    warmup: int = Field(default=1, ge=0, description="leading renders left out of timings")
+    repeats: int = Field(default=1, ge=1, le=100, description="renders of each frame (a "
+                         "one-frame scene needs warmup + 3 for an honest median)")
     threshold: float = Field(default=0.1, gt=0, description="error counted as 'off'")
     reference_depth: int = Field(default=1, ge=0, description="raytrace max_depth")
     out: str | None = Field(default=None, description="relative to this file; default: "
@@ -49,7 +53,8 @@ def expand(cfg: BenchConfig, source: str) -> list[dict]:
                     sweep = dict(zip(keys, values, strict=True))
                     overrides = list(group.set) + [f"{k}={_toml(v)}" for k, v in sweep.items()]
                     jobs.append({"scene": path, "technique": technique,
-                                 "overrides": overrides, "sweep": sweep})
+                                 "overrides": overrides, "sweep": sweep,
+                                 "frames": group.frames or cfg.bench.frames})
     return jobs
 
 

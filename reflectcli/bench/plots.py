@@ -1,9 +1,16 @@
 """Bench plots (matplotlib, the `plots` extra): cost against polygons, error against each
-swept parameter, and a contact sheet per scene (reference, image, error heat map)."""
+swept parameter, quality against frame time (the Pareto front) per scene, and a contact
+sheet per scene (reference, image, FLIP error map).
+
+A line joins runs that differ only in the plotted parameter: one line per scene (with its
+scene overrides), technique and combination of every other override; runs of different
+scenes are never joined.
+"""
 
 from __future__ import annotations
 
 import os
+import re
 from collections import defaultdict
 
 import matplotlib
@@ -15,6 +22,7 @@ import numpy as np  # noqa: E402
 from ..output.atomic import atomic_path  # noqa: E402
 from ..output.exr import read_exr  # noqa: E402
 from ..output.png import linear_to_srgb  # noqa: E402
+from .report import error_key, parameters_text, pareto_front, scene_groups  # noqa: E402
 
 
 def _save(fig, path: str) -> None:
@@ -23,68 +31,134 @@ def _save(fig, path: str) -> None:
     plt.close(fig)
 
 
+def _key_of(override: str) -> str:
+    return override.split("=", 1)[0].strip()
+
+
+def _short(override: str) -> str:
+    return override.removeprefix("technique.")
+
+
+def _lines(rows: list[dict], varying: set[str]) -> dict[tuple, list[dict]]:
+    """Rows grouped so that within a group only the overrides in `varying` differ."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for r in rows:
+        fixed = tuple(sorted(o for o in r["overrides"] if _key_of(o) not in varying))
+        groups[(r["scene"], r["technique"], fixed)].append(r)
+    return groups
+
+
+def _label(scene: str, tech: str, fixed: tuple) -> str:
+    return f"{tech} / {scene}" + (f" / {', '.join(_short(o) for o in fixed)}" if fixed else "")
+
+
+def _file_part(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", name)
+
+
 def write_plots(out: str, rows: list[dict]) -> list[str]:
     written = []
-    by_scene = defaultdict(list)
-    for r in rows:
-        by_scene[r["scene"]].append(r)
-    # frame time against polygon count, per technique
-    if len({r["triangles"] for r in rows}) > 1:
-        fig, ax = plt.subplots(figsize=(6, 4))
-        for tech in sorted({r["technique"] for r in rows}):
-            pts = sorted((r["triangles"], r["frame_ms_median"]) for r in rows
-                         if r["technique"] == tech)
-            ax.plot(*zip(*pts, strict=True), marker="o", label=tech)
-        refs = sorted({(r["triangles"], r["reference_ms_median"]) for r in rows})
-        ax.plot(*zip(*refs, strict=True), marker="s", linestyle="--", label="raytrace (ref)")
+    # frame time against polygon count: scene overrides that change the triangle count vary
+    # along a line, everything else stays fixed on it
+    scene_keys = {_key_of(o) for r in rows for o in r["overrides"]
+                  if not _key_of(o).startswith("technique")}
+    varying = {k for k in scene_keys
+               if len({r["triangles"] for r in rows
+                       if any(_key_of(o) == k for o in r["overrides"])}) > 1}
+    if len({r["triangles"] for r in rows}) > 1 and varying:
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for (scene, tech, fixed), group in sorted(_lines(rows, varying).items()):
+            pts = sorted((r["triangles"], r["frame_ms_median"]) for r in group)
+            if len({p[0] for p in pts}) > 1:
+                ax.plot(*zip(*pts, strict=True), marker="o", label=_label(scene, tech, fixed))
+        for scene in sorted({r["scene"] for r in rows}):
+            refs = sorted({(r["triangles"], r["reference_ms_median"]) for r in rows
+                           if r["scene"] == scene})
+            if len(refs) > 1:
+                ax.plot(*zip(*refs, strict=True), marker="s", linestyle="--",
+                        label=f"raytrace (ref) / {scene}")
         ax.set(xscale="log", yscale="log", xlabel="triangles", ylabel="frame time (ms)")
-        ax.legend()
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
         ax.grid(True, which="both", alpha=0.3)
         written.append(os.path.join(out, "time-vs-triangles.png"))
         _save(fig, written[-1])
     # error against each swept parameter
     swept = sorted({k for r in rows for k in r["sweep"] if k.startswith("technique.")})
     for key in swept:
-        fig, ax = plt.subplots(figsize=(6, 4))
-        for (scene, tech), group in _groups(rows, key).items():
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for (scene, tech, fixed), group in sorted(
+                _lines([r for r in rows if key in r["sweep"]], {key}).items()):
             pts = [(str(r["sweep"][key]), r["psnr_mirror"]) for r in group]
             ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o",
-                    label=f"{tech} / {scene}")
+                    label=_label(scene, tech, fixed))
         ax.set(xlabel=key.removeprefix("technique."), ylabel="PSNR over mirror (dB)")
         ax.legend(fontsize=7)
         ax.grid(True, alpha=0.3)
         written.append(os.path.join(out, f"error-vs-{key.removeprefix('technique.')}.png"))
         _save(fig, written[-1])
+    for scene_key, group in scene_groups(rows).items():
+        written.append(os.path.join(out, "pareto-" + _file_part(
+            "-".join([scene_key[0], *scene_key[1]])) + ".png"))
+        _pareto_plot(group, written[-1])
+    by_scene = defaultdict(list)
+    for r in rows:
+        by_scene[r["scene"]].append(r)
     for scene, group in by_scene.items():
         written.append(os.path.join(out, f"contact-{scene}.png"))
         _contact_sheet(group, written[-1])
     return written
 
 
-def _groups(rows, key):
-    groups = defaultdict(list)
-    for r in rows:
-        if key in r["sweep"]:
-            groups[(r["scene"], r["technique"])].append(r)
-    return groups
+def _pareto_plot(rows: list[dict], path: str) -> None:
+    """Every run as a point (error against frame time), the Pareto front as a staircase."""
+    column, lower = error_key(rows)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for tech in sorted({r["technique"] for r in rows}):
+        pts = [(r["frame_ms_median"], r[column]) for r in rows if r["technique"] == tech]
+        ax.scatter(*zip(*pts, strict=True), label=tech, zorder=3)
+    front = pareto_front(rows)
+    if front:
+        xs = [r["frame_ms_median"] for r in front]
+        ys = [r[column] for r in front]
+        ax.step(xs + [max(r["frame_ms_median"] for r in rows)], ys + ys[-1:], where="post",
+                color="black", linewidth=1, label="Pareto front")
+        for r in front:
+            ax.annotate(parameters_text(r) if r["overrides"] else r["technique"],
+                        (r["frame_ms_median"], r[column]), fontsize=6,
+                        xytext=(3, 3), textcoords="offset points")
+    ax.set(xscale="log", xlabel="frame time (ms, median)",
+           ylabel="HDR-FLIP over mirror (lower is better)" if column == "flip_mirror"
+           else "PSNR over mirror (dB)", title=f"{rows[0]['scene']}: quality at equal time")
+    ax.legend(fontsize=7)
+    ax.grid(True, which="both", alpha=0.3)
+    _save(fig, path)
 
 
 def _contact_sheet(rows: list[dict], path: str) -> None:
-    """One line per run: reference, the run's first frame, |error| (max over channels)."""
+    """One line per run: reference, the run's first frame, its LDR-FLIP error map (what a
+    viewer of the two previews sees; FLIP's magma scale, 0..1)."""
+    from ..metrics import flip as flip_metric
+    from ..metrics import preview
+
     fig, axes = plt.subplots(len(rows), 3, figsize=(9, 2.4 * len(rows)), squeeze=False)
     for line, r in zip(axes, rows, strict=True):
         ours, _ = read_exr(r["images"][0])
         ref, _ = read_exr(r["reference_images"][0])
         a = np.stack([ours[c] for c in "RGB"], axis=-1)
         b = np.stack([ref[c] for c in "RGB"], axis=-1)
-        err = np.abs(a - b).max(axis=-1)
         line[0].imshow(linear_to_srgb(b))
         line[1].imshow(linear_to_srgb(a))
-        im = line[2].imshow(err, cmap="inferno", vmin=0, vmax=1)
-        sweep = ", ".join(f"{k.split('.')[-1]}={v}" for k, v in r["sweep"].items())
+        if flip_metric.available():
+            err = flip_metric.flip_map(preview(b), preview(a), "ldr")
+            title = f"LDR-FLIP {float(err.mean()):.3f}, mirror {r.get('flip_mirror', 0):.3f}"
+        else:
+            err = np.abs(a - b).max(axis=-1)
+            title = f"|error| (no flip-evaluator), PSNR mirror {r['psnr_mirror']:.1f} dB"
+        im = line[2].imshow(err, cmap="magma", vmin=0, vmax=1)
         line[0].set_title("raytrace (reference)", fontsize=8)
-        line[1].set_title(f"{r['technique']} {sweep}", fontsize=8)
-        line[2].set_title(f"|error|, PSNR mirror {r['psnr_mirror']:.1f} dB", fontsize=8)
+        line[1].set_title(f"{r['technique']} {parameters_text(r)}", fontsize=7)
+        line[2].set_title(title, fontsize=8)
         for ax in line:
             ax.axis("off")
         fig.colorbar(im, ax=line[2], fraction=0.046)

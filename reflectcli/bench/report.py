@@ -6,16 +6,19 @@ import csv
 import io
 import json
 import math
-import os
 
 from ..output.atomic import atomic_path
 
+_METRIC_COLUMNS = [f"{m}_{scope}" for scope in ("mirror", "image") for m in (
+    "psnr", "rmse", "max_error", "frac_off", "relmse", "p50", "p95", "p99", "flip", "flip_ldr",
+    "ssim", "temporal")]
 CSV_COLUMNS = [
-    "run", "scene", "technique", "sweep", "psnr_mirror", "rmse_mirror", "max_error_mirror",
-    "frac_off_mirror", "psnr_image", "rmse_image", "max_error_image", "frac_off_image",
-    "hole_fraction", "frame_ms_median", "frame_ms_p25", "frame_ms_p75", "reference_ms_median",
-    "precompute_seconds", "numba_compile_seconds", "triangles", "frames", "timed_frames",
-    "threads", "cpu", "parameters", "overrides", "scene_file",
+    "run", "scene", "technique", "sweep", *_METRIC_COLUMNS,
+    "hole_fraction", "frame_ms_median", "frame_ms_p25", "frame_ms_p75", "timing_warning",
+    "reference_ms_median", "capture_ms_per_frame", "prepare_seconds", "first_frame_ms",
+    "numba_compile_seconds",
+    "triangles", "frames", "repeats", "warmup_renders", "timed_frames", "threads", "cpu",
+    "parameters", "overrides", "scene_file",
 ]
 
 
@@ -55,11 +58,60 @@ def _scene_key(row: dict) -> tuple:
     return (row["scene"], tuple(scene_part))
 
 
+def parameters_text(row: dict) -> str:
+    """Every override of the run, `set` and sweep alike (technique. prefix dropped)."""
+    return ", ".join(o.removeprefix("technique.") for o in row["overrides"]) or "defaults"
+
+
+def _finite(value) -> bool:
+    return isinstance(value, int | float) and math.isfinite(value)
+
+
+def error_key(rows: list[dict]) -> tuple[str, bool]:
+    """(column, lower is better) ranking quality: FLIP over the mirror if measured, else
+    PSNR over the mirror."""
+    if any(_finite(r.get("flip_mirror")) for r in rows):
+        return "flip_mirror", True
+    return "psnr_mirror", False
+
+
+def pareto_front(rows: list[dict]) -> list[dict]:
+    """The runs no other run beats on both frame time and quality, fastest first: for a
+    time budget, the best quality any run reaches within it is on this front."""
+    key, lower = error_key(rows)
+    scored = [r for r in rows if _finite(r.get(key)) or r.get(key) == math.inf]
+    scored.sort(key=lambda r: (r["frame_ms_median"], r[key] if lower else -r[key]))
+    front, best = [], None
+    for r in scored:
+        if best is None or (r[key] < best if lower else r[key] > best):
+            front.append(r)
+            best = r[key]
+    return front
+
+
+def scene_groups(rows: list[dict]) -> dict[tuple, list[dict]]:
+    """Rows by scene and scene overrides (a different scene content is a different scene)."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        groups.setdefault(_scene_key(r), []).append(r)
+    return groups
+
+
+def scene_label(key: tuple) -> str:
+    return key[0] + (f" ({', '.join(key[1])})" if key[1] else "")
+
+
 def report_markdown(name: str, rows: list[dict]) -> str:
     lines = [f"# Bench `{name}`", "",
-             "PSNR over mirror pixels and over the whole image against the ray tracer "
-             "(dB; inf = identical); frame time is the median after the warm-up frames; "
-             "ratios are frame-time ratios measured in this run.", ""]
+             "Against the ray tracer: PSNR (dB, peak 1; inf = identical), HDR-FLIP of the linear "
+             "images (0 = identical, 1 = most different), SSIM of the sRGB-encoded images "
+             "(1 = identical), relative MSE, p99 of the per-pixel error and the temporal error "
+             "(RMSE of the frame-to-frame change against the reference's; '-' for one frame), "
+             "over mirror pixels and over the whole image, averaged over frames. Frame time is "
+             "the median (p25-p75) of the timed renders after the warm-up ones; one-time work "
+             "(prepare: map capture, decomposition, ...) is its own column and never in frame "
+             "time; 'first' is the first render (warm-up: first-frame caches, JIT). Ratios are "
+             "frame-time ratios measured in this run.", ""]
     rerender = {_scene_key(r): r["frame_ms_median"] for r in rows if r["technique"] == "rerender"}
     if rows:
         first = rows[0]
@@ -67,30 +119,41 @@ def report_markdown(name: str, rows: list[dict]) -> str:
                   + ", ".join(f"{k} {v}" for k, v in sorted(first["versions"].items())), ""]
     for scene in sorted({r["scene"] for r in rows}):
         lines += [f"## {scene}", "",
-                  "| technique | parameters | PSNR mirror | PSNR image | holes | frame ms "
-                  "| x rerender | x raytrace | triangles |",
-                  "|---|---|---|---|---|---|---|---|---|"]
+                  "| technique | parameters | PSNR mirror | FLIP mirror | SSIM mirror "
+                  "| relMSE mirror | p99 mirror | temporal mirror | PSNR image | FLIP image "
+                  "| holes | frame ms (p25-p75) | one-time s | first ms | x rerender "
+                  "| x raytrace | triangles |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in (r for r in rows if r["scene"] == scene):
-            sweep = ", ".join(f"{k.removeprefix('technique.')}={v}" for k, v in r["sweep"].items())
             rr = rerender.get(_scene_key(r))
+            timing = (f"{_fmt(r['frame_ms_median'])} ({_fmt(r['frame_ms_p25'])}-"
+                      f"{_fmt(r['frame_ms_p75'])})")
+            if r.get("timing_warning"):
+                timing += f" **warning: {r['timing_warning']}**"
             lines.append(
-                f"| {r['technique']} | {sweep or '-'} | {_fmt(r['psnr_mirror'])} | "
-                f"{_fmt(r['psnr_image'])} | {_fmt(100 * r['hole_fraction'], 2)}% | "
-                f"{_fmt(r['frame_ms_median'])} | "
+                f"| {r['technique']} | {parameters_text(r)} | {_fmt(r['psnr_mirror'])} | "
+                f"{_fmt(r.get('flip_mirror'), 3)} | {_fmt(r.get('ssim_mirror'), 3)} | "
+                f"{_fmt(r.get('relmse_mirror'), 3)} | {_fmt(r.get('p99_mirror'), 3)} | "
+                f"{_fmt(r.get('temporal_mirror'), 3)} | {_fmt(r['psnr_image'])} | "
+                f"{_fmt(r.get('flip_image'), 3)} | {_fmt(100 * r['hole_fraction'], 2)}% | "
+                f"{timing} | {_fmt(r.get('prepare_seconds'), 2)} | "
+                f"{_fmt(r.get('first_frame_ms'))} | "
                 f"{_fmt(r['frame_ms_median'] / rr, 2) if rr else '-'} | "
                 f"{_fmt(r['frame_ms_median'] / r['reference_ms_median'], 2)} | "
                 f"{r['triangles']} |")
         lines.append("")
+        for key, group in scene_groups([r for r in rows if r["scene"] == scene]).items():
+            column, lower = error_key(group)
+            label = "FLIP mirror" if column == "flip_mirror" else "PSNR mirror"
+            lines += [f"### Quality at equal time budget: {scene_label(key)}", "",
+                      f"The Pareto front of {label} against frame time: with a budget of a "
+                      "row's frame time, its run is the best any run here reaches; runs "
+                      "not listed are beaten on both.", "",
+                      f"| budget ms | technique | parameters | {label} | PSNR mirror |",
+                      "|---|---|---|---|---|"]
+            for r in pareto_front(group):
+                lines.append(f"| {_fmt(r['frame_ms_median'])} | **{r['technique']}** | "
+                             f"{parameters_text(r)} | {_fmt(r[column], 3)} | "
+                             f"{_fmt(r['psnr_mirror'])} |")
+            lines.append("")
     return "\n".join(lines) + "\n"
-
-
-def write_outputs(plan, rows: list[dict]) -> None:
-    out = plan.out
-    write_csv(os.path.join(out, "results.csv"), rows)
-    write_text(os.path.join(out, "report.md"), report_markdown(plan.config.bench.name, rows))
-    if plan.config.bench.plots:
-        try:
-            from .plots import write_plots
-        except ImportError:
-            return  # matplotlib is an optional extra
-        write_plots(out, rows)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import math
 import os
 import shutil
 import statistics
@@ -23,9 +24,7 @@ from ..errors import Problem, Problems
 from ..output.exr import read_exr
 from ..output.lock import folder_lock
 from ..output.log import append_jsonl, read_jsonl
-from ..scene.build import scene_hashes
 from .config import BenchConfig, expand
-from .metrics import METRIC_NAMES, image_metrics
 
 
 def _digest(*parts) -> str:
@@ -47,22 +46,18 @@ class BenchPlan:
 
 def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple = ()
                ) -> BenchPlan:
-    """Read and validate a bench file and every job in it (Problems name the bench file)."""
-    from pydantic import ValidationError
-
-    from ..config.load import read_toml, validation_problems
+    """Read and validate a bench file and every job in it (Problems name the bench file).
+    `out` replaces the bench file's folder; `overrides` (bench --set) go on top of every
+    run's own."""
+    from .. import api
 
     display = os.path.relpath(path)
-    data = read_toml(path)
-    try:
-        cfg = BenchConfig.model_validate(data)
-    except ValidationError as e:
-        raise Problems(validation_problems(e, data, {}, display)) from None
+    cfg = api.load_settings(path, BenchConfig)
     # an `out` written in the bench file is relative to it; the default is out/bench/<name>
     default_out = (os.path.join(os.path.dirname(os.path.abspath(path)), cfg.bench.out)
                    if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
     plan = BenchPlan(cfg, path, out if out is not None else default_out)
-    problems = []
+    problems: list[Problem] = []
     quiet = logging.getLogger("reflect")
     level = quiet.level
     quiet.setLevel(logging.ERROR)  # per-job --technique notices: the bench chooses on purpose
@@ -75,31 +70,33 @@ def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple =
     return plan
 
 
-def _plan_jobs(plan, cfg, path, display, overrides, problems) -> None:
-    from ..config.load import load_config
+def _plan_jobs(plan: BenchPlan, cfg: BenchConfig, path: str, display: str,
+               overrides: list[str] | tuple, problems: list[Problem]) -> None:
+    from .. import api
 
     for i, job in enumerate(expand(cfg, path)):
         job["overrides"] = job["overrides"] + list(overrides)  # `bench --set`: on top
         try:
-            scene_cfg, _ = load_config(job["scene"], job["overrides"], job["technique"])
+            run = api.open_scene(job["scene"], overrides=job["overrides"],
+                                 technique=job["technique"])
         except Problems as e:
             where = f"runs ({job['technique']} on {os.path.relpath(job['scene'])})"
             problems += [Problem(display, where, str(p)) for p in e.problems]
             continue
         job["id"] = _digest(os.path.relpath(job["scene"]), job["technique"], job["overrides"],
-                            cfg.bench.frames)
-        job["scene_name"] = scene_cfg.scene.name
-        job["parameters"] = scene_cfg.technique.model_dump(mode="json")
+                            job["frames"])
+        job["scene_name"] = run.name
+        job["parameters"] = run.params.model_dump(mode="json")
         ref_overrides = scene_overrides(job["overrides"]) + [
             f"technique.max_depth={cfg.bench.reference_depth}"]
-        ref_cfg, _ = load_config(job["scene"], ref_overrides, "raytrace")
+        ref = api.open_scene(job["scene"], overrides=ref_overrides, technique="raytrace")
         # the scene's content (files it reads included) is in the id: an edited scene gets a
         # new reference instead of being scored against the old one
         job["reference"] = {
-            "id": _digest(os.path.relpath(job["scene"]), ref_overrides, cfg.bench.frames,
-                          scene_hashes(ref_cfg, job["scene"])[0]),
+            "id": _digest(os.path.relpath(job["scene"]), ref_overrides, job["frames"],
+                          ref.scene_hash),
             "overrides": ref_overrides,
-            "scene_name": ref_cfg.scene.name,
+            "scene_name": ref.name,
         }
         job["index"] = i
         plan.jobs.append(job)
@@ -110,69 +107,132 @@ def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> 
     from .. import api
 
     folder = os.path.join(plan.out, "references", job["reference"]["id"])
-    result = api.render(job["scene"], out=folder, frames=plan.config.bench.frames,
+    result = api.render(job["scene"], out=folder, frames=job["frames"],
                         technique="raytrace", overrides=job["reference"]["overrides"],
-                        resume=True, threads=threads)
+                        resume=True, threads=threads, repeats=plan.config.bench.repeats)
     return result.folder
+
+
+MIN_TIMED = 3  # frame times are medians of at least this many timed renders...
+MIN_WARMUP = 1  # ...after at least this many warm-up renders
+SCOPES = ("mirror", "image")
+MEAN_OF_FRAMES = ("rmse", "frac_off", "relmse", "p50", "p95", "p99", "flip", "flip_ldr", "ssim")
+
+
+def timing_samples(log: list[dict]) -> list[float]:
+    """Every render's seconds in the order rendered (repeats of a frame included)."""
+    return [t for row in log for t in row.get("repeat_seconds", [row["frame_seconds"]])]
+
+
+def timing_stats(samples: list[float], warmup: int) -> dict:
+    """Median and p25-p75 (ms) of the renders after `warmup`; `timing_warning` says when
+    fewer than MIN_TIMED renders were timed after fewer than MIN_WARMUP warm-up renders.
+    Asked for more warm-up renders than there are, the last render is timed anyway."""
+    warm = min(warmup, len(samples) - 1)
+    timed = samples[warm:]
+    problems = []
+    if warm < MIN_WARMUP:
+        problems.append(f"{warm} warm-up")
+    if len(timed) < MIN_TIMED:
+        problems.append(f"{len(timed)} timed")
+    return {
+        "frame_ms_median": 1e3 * statistics.median(timed),
+        "frame_ms_p25": 1e3 * float(np.percentile(timed, 25)),
+        "frame_ms_p75": 1e3 * float(np.percentile(timed, 75)),
+        "first_frame_ms": 1e3 * samples[0],
+        "warmup_renders": warm, "timed_frames": len(timed),
+        "timing_warning": (", ".join(problems) + f" (want >= {MIN_WARMUP} warm-up, "
+                           f">= {MIN_TIMED} timed)") if problems else "",
+    }
+
+
+def _rgb(channels: dict) -> np.ndarray:
+    return np.stack([channels[c] for c in "RGB"], axis=-1)
 
 
 def execute_job(job: dict, settings: dict) -> dict:
     """Render one run, score it against its reference; the result row (plain JSON data)."""
     from .. import api
+    from ..metrics import METRICS, score
+    from ..metrics.temporal import temporal_errors
 
     folder = os.path.join(settings["out"], "runs", job["id"])
     shutil.rmtree(folder, ignore_errors=True)  # a run without a result row starts over
-    result = api.render(job["scene"], out=folder, frames=settings["frames"],
+    result = api.render(job["scene"], out=folder, frames=job.get("frames", settings["frames"]),
                         technique=job["technique"], overrides=job["overrides"],
                         cache=os.path.join(settings["out"], "cache"),
-                        threads=settings.get("threads"))
+                        threads=settings.get("threads"), repeats=settings.get("repeats", 1))
     frames_dir = result.folder
     log = read_jsonl(os.path.join(frames_dir, "timings.jsonl"))
     ref_dir = settings["reference_dirs"][job["reference"]["id"]]
     ref_log = {r["file"]: r for r in read_jsonl(os.path.join(ref_dir, "timings.jsonl"))}
     per_frame = []
+    images: dict[str, list] = {"test": [], "ref": [], "mirror": []}
     for row in log:
         ours, _ = read_exr(os.path.join(frames_dir, row["file"]))
         ref, _ = read_exr(os.path.join(ref_dir, row["file"]))
-        a = np.stack([ours[c] for c in "RGB"], axis=-1)
-        b = np.stack([ref[c] for c in "RGB"], axis=-1)
+        a, b = _rgb(ours), _rgb(ref)
         mirror = (ours["mirror"] > 0) & (ref["mirror"] > 0)
-        m_all = image_metrics(a, b, None, settings["threshold"])
-        m_mir = image_metrics(a, b, mirror, settings["threshold"])
+        scores = score(a, b, {"mirror": mirror, "image": None},
+                       threshold=settings["threshold"], metrics=METRICS)
         per_frame.append({
-            **{f"{k}_image": v for k, v in m_all.items()},
-            **{f"{k}_mirror": v for k, v in m_mir.items()},
+            "frame": row["frame"],
+            **{f"{k}_{scope}": v for scope in SCOPES for k, v in scores[scope].items()},
             "hole_fraction": float(row.get("hole_fraction", 0.0)),
-            "frame_seconds": row["frame_seconds"],
-            "reference_seconds": ref_log[row["file"]]["frame_seconds"],
         })
-    warm = min(settings["warmup"], len(per_frame) - 1)
-    timed = per_frame[warm:]
-    times = sorted(f["frame_seconds"] for f in timed)
-    ref_times = [f["reference_seconds"] for f in timed]
+        for key, value in (("test", a), ("ref", b), ("mirror", mirror)):
+            images[key].append(value)
+    # temporal error: frame t against t-1, over the mirror in both images at both frames
+    both = [None] + [images["mirror"][t] & images["mirror"][t - 1]
+                     for t in range(1, len(per_frame))]
+    for scope, masks in (("mirror", both), ("image", None)):
+        errors, total = temporal_errors(images["test"], images["ref"], masks)
+        for f, e in zip(per_frame, [None, *errors], strict=True):  # frame 0 has no change
+            f[f"temporal_{scope}"] = e
+        per_frame[0][f"temporal_{scope}_total"] = total
     first = log[0]
     out = {
         "run": job["id"], "scene": job["scene_name"],
         "scene_file": os.path.relpath(job["scene"]), "technique": job["technique"],
         "sweep": job["sweep"], "overrides": job["overrides"], "parameters": job["parameters"],
-        "frames": len(per_frame), "timed_frames": len(timed),
-        "frame_ms_median": 1e3 * statistics.median(times),
-        "frame_ms_p25": 1e3 * float(np.percentile(times, 25)),
-        "frame_ms_p75": 1e3 * float(np.percentile(times, 75)),
-        "reference_ms_median": 1e3 * statistics.median(ref_times),
-        "precompute_seconds": float(first.get("stages", {}).get("precompute", 0.0)),
+        "frames": len(per_frame), "repeats": settings.get("repeats", 1),
+        **timing_stats(timing_samples(log), settings["warmup"]),
+        "reference_ms_median": timing_stats(
+            timing_samples([ref_log[r["file"]] for r in log]),
+            settings["warmup"])["frame_ms_median"],
+        # one-time work, never in frame time: everything the technique does before its first
+        # frame (map capture, decomposition, ...); first_frame_ms shows first-frame caches
+        "prepare_seconds": float(first.get("prepare_seconds", 0.0)),
+        # maps (re)captured, amortised over every frame of the run (frame 0's precompute
+        # included): what an update policy costs per frame
+        "capture_ms_per_frame": 1e3 * sum(
+            r.get("stages", {}).get("capture", 0.0) + r.get("stages", {}).get("precompute", 0.0)
+            for r in log) / len(log),
         "numba_compile_seconds": float(first["numba_compile_seconds"]),
         "triangles": int(first.get("triangles", 0)),
         "threads": first["threads"], "cpu": first["cpu"], "versions": first["versions"],
         "images": [os.path.join(frames_dir, r["file"]) for r in log],
         "reference_images": [os.path.join(ref_dir, r["file"]) for r in log],
     }
-    for key in [f"{m}_{part}" for m in METRIC_NAMES for part in ("mirror", "image")]:
-        values = [f[key] for f in per_frame]
-        out[key] = float(np.mean(values)) if key.startswith(("rmse", "frac")) else (
-            float(np.max(values)) if key.startswith("max") else _mean_psnr(values))
+    for scope in SCOPES:
+        for m in METRICS:
+            values = [f[f"{m}_{scope}"] for f in per_frame]
+            key = f"{m}_{scope}"
+            if m == "psnr":
+                out[key] = _mean_psnr(values)
+            elif m == "max_error":
+                out[key] = _nan_reduce(np.max, values)
+            else:
+                out[key] = _nan_reduce(np.mean, values)
+        out[f"temporal_{scope}"] = per_frame[0].pop(f"temporal_{scope}_total")
     out["hole_fraction"] = float(np.mean([f["hole_fraction"] for f in per_frame]))
+    out["per_frame"] = per_frame
     return out
+
+
+def _nan_reduce(fn, values: list[float]) -> float:
+    finite = [v for v in values if not math.isnan(v)]
+    return float(fn(finite)) if finite else math.nan
 
 
 def _mean_psnr(values: list[float]) -> float:
@@ -199,14 +259,13 @@ def run_bench(path: str, *, resume: bool = False, workers: int = 1,
               overrides: list[str] | tuple = ()) -> BenchResult:
     plan = load_bench(path, out, overrides)
     if scheduler is not None:
-        check_scheduler(scheduler)
+        check_scheduler(scheduler)  # fail fast, before any reference is rendered
     with folder_lock(plan.out, "--out" if out is not None else os.path.relpath(path)):
         return _run_plan(plan, resume, workers, scheduler, threads, on_row)
 
 
-def _run_plan(plan, resume, workers, scheduler, threads, on_row) -> BenchResult:
-    from .report import write_outputs
-
+def _run_plan(plan: BenchPlan, resume: bool, workers: int, scheduler: str | None,
+              threads: int | None, on_row: Callable[[dict], None] | None) -> BenchResult:
     os.makedirs(plan.out, exist_ok=True)
     rows_path = os.path.join(plan.out, "results.jsonl")
     done: dict[str, dict] = {}
@@ -222,7 +281,8 @@ def _run_plan(plan, resume, workers, scheduler, threads, on_row) -> BenchResult:
         if ref not in reference_dirs:
             reference_dirs[ref] = render_reference(plan, job, threads)
     settings = {"out": plan.out, "frames": plan.config.bench.frames,
-                "warmup": plan.config.bench.warmup, "threshold": plan.config.bench.threshold,
+                "warmup": plan.config.bench.warmup, "repeats": plan.config.bench.repeats,
+                "threshold": plan.config.bench.threshold,
                 "reference_dirs": reference_dirs, "threads": threads}
 
     def keep(row: dict) -> None:
@@ -283,3 +343,19 @@ def _execute(jobs, settings, workers, scheduler):
         return
     for job in jobs:
         yield execute_job(job, settings)
+
+
+def write_outputs(plan, rows: list[dict]) -> None:
+    """results.csv, report.md and (with the plots extra) the plots of a bench's rows. Here,
+    not in report.py: plots.py builds on report.py, so report.py must not import it."""
+    from .report import report_markdown, write_csv, write_text
+
+    out = plan.out
+    write_csv(os.path.join(out, "results.csv"), rows)
+    write_text(os.path.join(out, "report.md"), report_markdown(plan.config.bench.name, rows))
+    if plan.config.bench.plots:
+        try:
+            from .plots import write_plots
+        except ImportError:
+            return  # matplotlib is an optional extra
+        write_plots(out, rows)

@@ -212,8 +212,11 @@ def _item(add, loc, item) -> None:
             add((*loc, "corners"), "a corner is repeated")
 
 
-def limit_problems(cfg, prov: dict, display: str, source: str | None = None) -> list:
-    """check_config's findings as Problems naming the file each value came from."""
+def limit_problems(cfg, prov: dict, display: str, source: str | None = None,
+                   memory=None) -> list:
+    """check_config's findings as Problems naming the file each value came from; then, if
+    none, `memory(cfg, source)` (config/memory.py's estimate, passed in by the loader so that
+    this module does not import the one that imports it)."""
     from ..errors import Problem
 
     problems: list = []
@@ -227,10 +230,8 @@ def limit_problems(cfg, prov: dict, display: str, source: str | None = None) -> 
         problems.append(Problem(file, ".".join(str(p) for p in loc), message))
 
     check_config(cfg, add)
-    if not problems and source is not None:
-        from .memory import memory_problem
-
-        found = memory_problem(cfg, source)
+    if not problems and source is not None and memory is not None:
+        found = memory(cfg, source)
         if found is not None:
             add(*found)
     return problems

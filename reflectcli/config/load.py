@@ -10,15 +10,16 @@ writes them. Every value remembers the file it came from, so an error names that
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from typing import Any
 
 import tomli
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from ..errors import Problem, Problems
 from .files import file_problem, read_toml_file
 from .limits import MAX_INCLUDE_DEPTH, MAX_TOML_BYTES, limit_problems
-from .scene import SceneConfig
+from .memory import memory_problem
 from .suggest import by_name, note_dropped_parameters, plain_message
 
 SECTION_FILES = ("camera", "mirrors", "technique", "materials", "lights", "objects", "output")
@@ -239,10 +240,18 @@ def validation_problems(e: ValidationError, data: dict, prov: Provenance, defaul
     return problems
 
 
-def load_config(
-    path: str, overrides: list[str] | tuple = (), technique: str | None = None
-) -> tuple[SceneConfig, Provenance]:
-    """Read, merge, override and validate a scene file. Raises Problems."""
+def load_document(
+    path: str,
+    overrides: list[str] | tuple = (),
+    technique: str | None = None,
+    *,
+    model: type[BaseModel],
+    default_technique: str,
+    checks: Callable[[Any, str, Provenance, str], list[Problem]] | None = None,
+) -> tuple[Any, Provenance]:
+    """Read, merge, override and validate a scene file against `model` (the scene model with
+    the technique union, built above config); then `checks(cfg, path, prov, display)` for
+    what a schema cannot express. Raises Problems."""
     prov: Provenance = {}
     display = os.path.relpath(path) if not os.path.relpath(path).startswith("..") else path
     data = load_raw(path, prov)
@@ -250,24 +259,21 @@ def load_config(
         current = data.get("technique")
         if not (isinstance(current, dict) and current.get("name") == technique):
             data["technique"] = {"name": technique}
-            note_dropped_parameters(current, technique, SceneConfig)
+            note_dropped_parameters(current, technique, model)
             _mark(data["technique"], "--technique", ("technique",), prov)
     for assignment in overrides:
         apply_override(data, assignment, prov)
     current = data.get("technique")
     if isinstance(current, dict) and "name" not in current:
-        from ..techniques.registry import default_technique
-
-        current["name"] = default_technique().name  # a scene that names none: the default
+        current["name"] = default_technique  # a scene that names none: the default
     try:
-        cfg = SceneConfig.model_validate(data)
+        cfg = model.model_validate(data)
     except ValidationError as e:
-        problems = validation_problems(e, data, prov, display, SceneConfig)
+        problems = validation_problems(e, data, prov, display, model)
         raise Problems(by_name(problems, overrides, data)) from None
-    from .checks import semantic_problems
-
-    problems = (limit_problems(cfg, prov, display, path)
-                or semantic_problems(cfg, path, prov, display))
+    problems = limit_problems(cfg, prov, display, path, memory=memory_problem)
+    if not problems and checks is not None:
+        problems = checks(cfg, path, prov, display)
     if problems:
         raise Problems(by_name(problems, overrides, data))
     return cfg, prov

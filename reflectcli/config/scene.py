@@ -1,12 +1,17 @@
-"""The whole scene file as one validated model."""
+"""The whole scene file as one validated model.
+
+config/ knows no technique: `SceneConfig` leaves `technique` open, and `scene_model_with`
+builds the model a scene file is validated against from a mapping of technique names to
+their Params models (given by the technique registry, a layer above).
+"""
 
 from __future__ import annotations
 
-from typing import Literal
+from collections.abc import Mapping
+from typing import Annotated, Any, Literal, Union
 
-from pydantic import Field
+from pydantic import BaseModel, Field, create_model
 
-from ..techniques.registry import TechniqueConfig, default_technique
 from .base import Color, Strict
 from .camera import CameraConfig
 from .lights import Light
@@ -24,11 +29,23 @@ class SceneSection(Strict):
 
 
 class SceneConfig(Strict):
+    """A scene file. `technique` is one technique's Params model (see `scene_model_with`)."""
+
     scene: SceneSection
     camera: CameraConfig
     materials: dict[str, Material] = {}
     lights: list[Light] = []
     objects: list[ObjectConfig] = []
     mirrors: list[MirrorConfig] = []
-    technique: TechniqueConfig = Field(default_factory=default_technique)
+    technique: Any = None
     output: OutputConfig = OutputConfig()
+
+
+def scene_model_with(params: Mapping[str, type[BaseModel]], default: str) -> type[SceneConfig]:
+    """SceneConfig whose `technique` is the tagged union of `params` (by `name`), defaulting
+    to `params[default]()`."""
+    union = Annotated[Union[tuple(params.values())], Field(discriminator="name")]  # noqa: UP007
+    return create_model(
+        "SceneConfig", __base__=SceneConfig, __module__=__name__,
+        technique=(union, Field(default_factory=params[default])),
+    )

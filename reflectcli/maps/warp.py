@@ -26,12 +26,15 @@ skipping map rows that cannot reach it, so results do not depend on the thread c
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 from numba import njit, prange
 
 from ..camera import Camera
+from ..camera import screen_from_ndc as _screen_from_ndc
+from ..raster.rasterize import screen_from_ndc
 
 
 def pixel_to_eye(camera: Camera) -> np.ndarray:
@@ -49,30 +52,47 @@ def pixel_to_eye(camera: Camera) -> np.ndarray:
 
 def warp_matrix(map_camera: Camera, camera: Camera, reflection: np.ndarray) -> np.ndarray:
     """W = P V R V_map^-1 D (see the module docstring)."""
-    return (camera.projection_matrix() @ camera.view_matrix() @ reflection
+    return (camera.clip_from_world() @ reflection
             @ np.linalg.inv(map_camera.view_matrix()) @ pixel_to_eye(map_camera))
 
 
+@dataclass
+class Projection:
+    """One map's projected zexels (reused from frame to frame for maps of one size)."""
+
+    sx: np.ndarray  # (n,) float32 screen x, NaN: not warped
+    sy: np.ndarray  # (n,) float32 screen y
+    z: np.ndarray  # (n,) float32 eye depth in the target camera
+    row_lo: np.ndarray  # (mh,) int64 first screen row a map row reaches
+    row_hi: np.ndarray  # (mh,) int64 last screen row a map row reaches
+    count: np.ndarray  # (mh,) int64 zexels of the map row that were warped
+
+    @classmethod
+    def empty(cls, mh: int, mw: int) -> Projection:
+        n = mh * mw
+        return cls(np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
+                   np.empty(mh, np.int64), np.empty(mh, np.int64), np.empty(mh, np.int64))
+
+
 def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near: float,
-                box: tuple[int, int, int, int] | None = None, margin: int = 3):
+                box: tuple[int, int, int, int] | None = None, margin: int = 3,
+                out: Projection | None = None):
     """Screen positions (float32, pixels) and eye depths of every zexel, and per map row the
     first and last screen row its zexels reach (row_lo > row_hi if none). Zexels behind the
-    eye or outside `box` = (x0, x1, y0, y1) grown by `margin` pixels get sx = NaN."""
-    n = depth.size
-    sx = np.empty(n, np.float32)
-    sy = np.empty(n, np.float32)
-    z = np.empty(n, np.float32)
-    row_lo = np.empty(depth.shape[0], np.int64)
-    row_hi = np.empty(depth.shape[0], np.int64)
+    eye or outside `box` = (x0, x1, y0, y1) grown by `margin` pixels get sx = NaN.
+    `out`: arrays to write into (kept across frames), returned filled."""
+    if out is None:
+        out = Projection.empty(*depth.shape)
     x0, x1, y0, y1 = box if box is not None else (0, width, 0, height)
     _project(depth, np.ascontiguousarray(w, np.float64), near, float(x0 - margin),
              float(x1 + margin), float(y0 - margin), float(y1 + margin), width, height,
-             sx, sy, z, row_lo, row_hi)
-    return sx, sy, z, row_lo, row_hi
+             out.sx, out.sy, out.z, out.row_lo, out.row_hi, out.count)
+    return out.sx, out.sy, out.z, out.row_lo, out.row_hi
 
 
 @njit(cache=True, parallel=True)
-def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, row_lo, row_hi):
+def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, row_lo, row_hi,
+             count):
     mh, mw = depth.shape
     for v in prange(mh):
         # per-row terms hoisted: clip = W[:, 0] u + (W[:, 1] v + W[:, 2]) + W[:, 3] delta
@@ -81,6 +101,7 @@ def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, r
         r3 = w[3, 1] * v + w[3, 2]
         lo = 1 << 40
         hi = -1
+        warped = 0
         for u in range(mw):
             k = v * mw + u
             d = depth[v, u]
@@ -108,8 +129,7 @@ def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, r
                 sx[k] = np.nan
                 continue
             inv = 1.0 / cw
-            x = (cx * inv + 1.0) * 0.5 * width
-            y = (1.0 - cy * inv) * 0.5 * height
+            x, y = screen_from_ndc(cx * inv, cy * inv, width, height)
             if not (xmin <= x < xmax and ymin <= y < ymax):
                 sx[k] = np.nan
                 continue
@@ -119,17 +139,20 @@ def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, r
             py = int(math.floor(sy[k]))  # the float32 row the splat will use
             lo = min(lo, py)
             hi = max(hi, py)
+            warped += 1
         row_lo[v] = lo
         row_hi[v] = hi
+        count[v] = warped
 
 
-def splat_radii(sx, sy, z, shape, mode) -> np.ndarray:
+def splat_radii(sx, sy, z, shape, mode, out: np.ndarray | None = None) -> np.ndarray:
     """Per-zexel splat radius: fixed (1 -> 0, 3 -> 1, 5 -> 2) or adaptive from the warp's
     local footprint (half the screen distance to the right and lower neighbours, within a
-    surface: neighbours more than 5% apart in depth do not count), capped at 3."""
+    surface: neighbours more than 5% apart in depth do not count), capped at 3.
+    `out`: an int8 array to write adaptive radii into."""
     if mode != "adaptive":
         return np.full(sx.shape[0], (int(mode) - 1) // 2, np.int8)
-    radii = np.empty(sx.shape[0], np.int8)
+    radii = np.empty(sx.shape[0], np.int8) if out is None else out
     _adaptive(sx, sy, z, shape[0], shape[1], radii)
     return radii
 
@@ -193,7 +216,7 @@ SAME_SURFACE = 0.01  # relative eye-depth difference within which two zexels are
 
 
 def splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_zd, best_id,
-          ordered: bool, bands: int | None = None) -> None:
+          ordered: bool, bands: int | None = None, rows: np.ndarray | None = None) -> None:
     """Write the zexels, visited run by run, into the per-pixel buffers over `stencil`:
     best_zd (H, W, 2) float32 (front depth, squared distance of the kept zexel to the pixel
     center) and best_id; ids are slot * stride + zexel index. `row_lo`/`row_hi`: per map row, the
@@ -202,8 +225,9 @@ def splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, bes
     One band of screen rows per task: each band visits every run but skips the map rows
     that cannot reach it, so the work per band stays close to the zexels that land in it,
     and the result does not depend on the thread count. `bands`: how many (default: two a
-    thread)."""
-    rows = np.flatnonzero(stencil.any(axis=1))
+    thread). `rows`: the stencil's rows that hold a pixel, if the caller has them."""
+    if rows is None:
+        rows = np.flatnonzero(stencil.any(axis=1))
     if rows.size == 0:
         return
     reach = int(radii.max()) if radii.size else 0
@@ -276,40 +300,166 @@ def _write(y, x, zk, dk, ident, slot, stride, best_zd, best_id, ordered):
         best_id[y, x] = ident if take else current
 
 
+class WarpBuffers:
+    """The warp's per-frame arrays, kept across frames: page faults on fresh arrays cost more
+    than the warp itself. Everything the warp writes lies in `dirty` = (y0, y1, x0, x1), the
+    box of the last stencil, which the next use resets (outside it the buffers stay clear)."""
+
+    def __init__(self, height: int, width: int) -> None:
+        self.shape = (height, width)
+        self.best_zd = np.full((height, width, 2), np.inf, np.float32)
+        self.best_id = np.full((height, width), -1, np.int64)
+        self.projections: dict[tuple[int, int], Projection] = {}
+        self.radii: dict[tuple, np.ndarray] = {}
+        self.runs: dict[tuple[int, int], np.ndarray] = {}
+        self.dirty: tuple[int, int, int, int] | None = None
+
+    def reset(self) -> None:
+        if self.dirty is not None:
+            y0, y1, x0, x1 = self.dirty
+            self.best_zd[y0:y1, x0:x1] = np.inf
+            self.best_id[y0:y1, x0:x1] = -1
+            self.dirty = None
+
+    def projection(self, mh: int, mw: int) -> Projection:
+        if (mh, mw) not in self.projections:
+            self.projections[mh, mw] = Projection.empty(mh, mw)
+        return self.projections[mh, mw]
+
+    def fixed_radii(self, n: int, mode) -> np.ndarray:
+        key = (n, str(mode))
+        if key not in self.radii:
+            self.radii[key] = (np.empty(n, np.int8) if mode == "adaptive"
+                               else np.full(n, (int(mode) - 1) // 2, np.int8))
+        return self.radii[key]
+
+    def raster_runs(self, mh: int, mw: int) -> np.ndarray:
+        if (mh, mw) not in self.runs:
+            self.runs[mh, mw] = raster_runs(mh, mw)
+        return self.runs[mh, mw]
+
+
+def stencil_box(stencil: np.ndarray):
+    """(rows holding a stencil pixel, (x0, x1, y0, y1) box) or (rows, None) if empty."""
+    ys = np.flatnonzero(stencil.any(axis=1))
+    if ys.size == 0:
+        return ys, None
+    xs = np.flatnonzero(stencil[ys[0]:ys[-1] + 1].any(axis=0))
+    return ys, (int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1)
+
+
 def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.ndarray,
-              stencil: np.ndarray, splat_mode, ordered: bool):
+              stencil: np.ndarray, splat_mode, ordered: bool,
+              buffers: WarpBuffers | None = None):
     """Warp several zexel maps (ZexelMap) into the pixels of `stencil` seen from `camera`.
 
     Returns (depth (H, W) float32, id (H, W) int64: map index * stride + zexel index, or -1
-    where no zexel landed, stride, zexels projected into the stencil's box)."""
+    where no zexel landed, stride, zexels projected into the stencil's box). With `buffers`
+    the results are views of its arrays, valid until its next use."""
+    items = []
+    for zmap in maps:
+        wm = warp_matrix(zmap.camera, camera, reflection)
+        runs = None
+        if ordered:
+            c = zmap.camera
+            e = c.clip_from_world() @ np.append(mirrored_eye, 1.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ex, ey = _screen_from_ndc(e[0] / e[3], e[1] / e[3], c.width, c.height)
+            runs = ordered_runs(*zmap.depth.shape, ex, ey, e[3] > 0)
+        items.append((zmap.depth, wm, runs))
+    return warp_depths(items, camera.near, stencil, splat_mode, ordered, buffers)
+
+
+def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bool,
+                buffers: WarpBuffers | None = None):
+    """warp_maps on (depth (mh, mw) float32, W (4, 4) map pixel -> clip, runs or None for
+    row-major order) per map: the kernels without the cameras."""
     h, w = stencil.shape
-    best_zd = np.full((h, w, 2), np.inf, np.float32)
+    if buffers is None:
+        buffers = WarpBuffers(h, w)
+    buffers.reset()
+    best_zd, best_id = buffers.best_zd, buffers.best_id
     best_z = best_zd[:, :, 0]
-    best_id = np.full((h, w), -1, np.int64)
-    stride = max(m.depth.size for m in maps)
-    ys = np.flatnonzero(stencil.any(axis=1))
-    xs = np.flatnonzero(stencil.any(axis=0))
-    if ys.size == 0:
+    stride = max(depth.size for depth, _, _ in items)
+    ys, box = stencil_box(stencil)
+    if box is None:
         return best_z, best_id, stride, 0
-    box = (int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1)
+    x0, x1, y0, y1 = box
+    buffers.dirty = (y0, y1, x0, x1)
     # zexels landing this far outside the stencil's box cannot splat into it
     margin = 8 if splat_mode == "adaptive" else 3
     zexels = 0
-    for slot, zmap in enumerate(maps):
-        wm = warp_matrix(zmap.camera, camera, reflection)
-        sx, sy, z, row_lo, row_hi = project_map(zmap.depth, wm, w, h, camera.near, box,
-                                                margin)
-        radii = splat_radii(sx, sy, z, zmap.depth.shape, splat_mode)
-        if ordered:
-            c = zmap.camera
-            e = c.projection_matrix() @ c.view_matrix() @ np.append(mirrored_eye, 1.0)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ex = (e[0] / e[3] + 1.0) * 0.5 * c.width
-                ey = (1.0 - e[1] / e[3]) * 0.5 * c.height
-            runs = ordered_runs(*zmap.depth.shape, ex, ey, e[3] > 0)
-        else:
-            runs = raster_runs(*zmap.depth.shape)
-        splat(sx, sy, z, radii, runs, zmap.depth.shape[1], row_lo, row_hi, slot, stride,
-              stencil, best_zd, best_id, ordered)
-        zexels += int(np.count_nonzero(~np.isnan(sx)))
+    for slot, (depth, wm, runs) in enumerate(items):
+        mh, mw = depth.shape
+        proj = buffers.projection(mh, mw)
+        sx, sy, z, row_lo, row_hi = project_map(depth, wm, w, h, near, box, margin, proj)
+        radii = buffers.fixed_radii(depth.size, splat_mode)
+        if splat_mode == "adaptive":
+            splat_radii(sx, sy, z, depth.shape, splat_mode, radii)
+        if runs is None:
+            runs = buffers.raster_runs(mh, mw)
+        splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_zd,
+              best_id, ordered, rows=ys)
+        zexels += int(proj.count.sum())
     return best_z, best_id, stride, zexels
+
+
+def gather_colors(best_id: np.ndarray, stride: int, per_map: list[np.ndarray],
+                  box: tuple[int, int, int, int], out: np.ndarray) -> None:
+    """out[y, x] = the row of per_map[slot] (each (n, c)) for the warp id at each pixel of
+    `box` = (x0, x1, y0, y1) that a zexel reached (id = slot * stride + index); other pixels
+    of the box are left alone. Up to four maps a pass (one signature for any count)."""
+    x0, x1, y0, y1 = box
+    for first in range(0, len(per_map), 4):
+        group = per_map[first:first + 4]
+        group = group + [group[0]] * (4 - len(group))
+        _gather4(best_id, stride, first, len(per_map[first:first + 4]), group[0], group[1],
+                 group[2], group[3], x0, x1, y0, y1, out)
+
+
+@njit(cache=True, parallel=True)
+def _gather4(best_id, stride, first, n, c0, c1, c2, c3, x0, x1, y0, y1, out):
+    channels = out.shape[2]
+    for y in prange(y0, y1):
+        for x in range(x0, x1):
+            ident = best_id[y, x]
+            if ident < 0:
+                continue
+            slot = ident // stride - first
+            if slot < 0 or slot >= n:
+                continue
+            k = ident - (slot + first) * stride
+            src = c0 if slot == 0 else c1 if slot == 1 else c2 if slot == 2 else c3
+            for c in range(channels):
+                out[y, x, c] = src[k, c]
+
+
+@njit(cache=True, parallel=True)
+def fill_blend(stencil, best_id, reflected, has_prev, prev_rgb, prev_filled, temporal,
+                save_rgb, save_filled, background, reflectance, rgb, holes):
+    """Per mirror pixel: the warped color, else (temporal) the previous frame's, else the
+    background (a hole); rgb += reflectance * that. With `temporal`, save_rgb/save_filled
+    receive this frame's reflected colors and filled pixels for the next frame."""
+    h, w = stencil.shape
+    for y in prange(h):
+        for x in range(w):
+            if not stencil[y, x]:
+                if temporal:
+                    save_filled[y, x] = False
+                continue
+            filled = best_id[y, x] >= 0
+            if not filled and has_prev and prev_filled[y, x]:
+                for c in range(3):
+                    reflected[y, x, c] = prev_rgb[y, x, c]
+                filled = True
+            if temporal:
+                save_filled[y, x] = filled
+                if filled:
+                    for c in range(3):
+                        save_rgb[y, x, c] = reflected[y, x, c]
+            if not filled:
+                for c in range(3):
+                    reflected[y, x, c] = background[c]
+                holes[y, x] = 1.0
+            for c in range(3):
+                rgb[y, x, c] += reflectance[c] * reflected[y, x, c]

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..camera import Camera, normalize
+from ..camera import Camera, normalize, reflection_pass_matrices
 from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP, rasterize
 from ..raster.shade import shade_buffers
 from ..scene.types import Scene
@@ -52,9 +52,8 @@ class MirrorFrame:
 
 
 def mirror_frame(scene: Scene, k: int) -> MirrorFrame:
-    p = scene.mirrors.params[k]
-    corners = p[4:16].reshape(4, 3).astype(np.float64)
-    n = p[:3].astype(np.float64)
+    corners = scene.mirrors.corners(k).astype(np.float64)
+    n, _ = scene.mirrors.plane(k)
     up = normalize(corners[3] - corners[0])
     right = np.cross(up, n)
     return MirrorFrame(corners.mean(axis=0), n, right, up, corners)
@@ -103,8 +102,6 @@ def map_camera(frame: MirrorFrame, viewpoint: np.ndarray, resolution: int, near:
 def capture_map(scene: Scene, k: int, camera: Camera, frame_index: int = 0) -> ZexelMap:
     """Render the scene in front of mirror k from `camera` (behind the mirror), mirror plane
     as the oblique near plane; the mirror itself is left out, other mirrors show their base."""
-    from ..techniques.rerender import reflection_pass_matrices
-
     mf = mirror_frame(scene, k)
     plane = mf.plane
     if plane[:3] @ camera.eye + plane[3] > 0:

@@ -10,7 +10,7 @@ import numpy as np
 from ..camera import Camera
 from ..frame import Frame
 from ..scene.types import Scene, Triangles
-from .rasterize import FLAG_MIRROR, RasterBuffers, rasterize
+from .rasterize import FLAG_MIRROR, RasterBuffers, RasterWorkspace, rasterize
 from .shade import shade_buffers
 
 
@@ -22,12 +22,16 @@ class Primary:
     flags: np.ndarray  # per-triangle rasterizer flags (mirrors marked)
 
 
-def render_primary(scene: Scene, frame: int, camera: Camera) -> Primary:
+def render_primary(scene: Scene, frame_index: int, camera: Camera,
+                   workspace: RasterWorkspace | None = None) -> Primary:
+    """`workspace`: the rasterizer's scratch kept across frames (outputs stay fresh: the
+    frame keeps the depth buffer)."""
     t0 = time.perf_counter()
-    tris = scene.geometry(frame).all_triangles()
+    tris = scene.geometry(frame_index).all_triangles()
     flags = np.where(tris.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
-    world_to_clip = camera.projection_matrix() @ camera.view_matrix()
-    buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height)
+    world_to_clip = camera.clip_from_world()
+    buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height,
+                        workspace=workspace)
     t1 = time.perf_counter()
     rgb, surface = shade_buffers(buffers, tris, scene, camera.eye)
     t2 = time.perf_counter()

@@ -19,6 +19,8 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from ..camera import screen_from_ndc as _screen_from_ndc
+from ..camera import standard_planes
 from ..scene.types import MIRROR_TIE
 
 _MAX_PLANES = 8
@@ -33,6 +35,8 @@ FLAG_MIRROR, FLAG_SKIP = 1, 2
 # triangle status after setup
 _CULLED, _SIMPLE, _CLIPPED = 0, 1, 2
 
+screen_from_ndc = njit(cache=True, inline="always")(_screen_from_ndc)
+
 
 @dataclass
 class RasterBuffers:
@@ -42,9 +46,32 @@ class RasterBuffers:
     depth: np.ndarray  # (H, W) float32, eye-space depth, +inf where nothing was drawn
 
 
-def standard_planes() -> np.ndarray:
-    """Clip-space planes (a, b, c, e): keep a*x + b*y + c*z + e*w >= 0. Near, then far."""
-    return np.array([[0.0, 0.0, 1.0, 1.0], [0.0, 0.0, -1.0, 1.0]])
+class RasterWorkspace:
+    """Scratch arrays of `rasterize` kept from call to call (grown, never shrunk): fresh
+    arrays of tens of megabytes a frame cost more in page faults than the work in them.
+    With `outputs=True` the returned buffers are the workspace's too (valid until the next
+    call): for passes whose buffers are consumed at once."""
+
+    def __init__(self, outputs: bool = False) -> None:
+        self.outputs = outputs
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def get(self, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+        size = int(np.prod(shape))
+        a = self._arrays.get(name)
+        if a is None or a.dtype != np.dtype(dtype) or a.size < size:
+            a = np.empty(max(size, 1), dtype)
+            self._arrays[name] = a
+        return a[:size].reshape(shape)
+
+    def constant(self, name: str, shape: tuple[int, int], dtype, value) -> np.ndarray:
+        """A (H, W) array holding `value` (filled once; callers must not write it)."""
+        key = f"{name}:{value}"
+        a = self._arrays.get(key)
+        if a is None or a.shape != shape:
+            a = np.full(shape, value, dtype)
+            self._arrays[key] = a
+        return a
 
 
 def rasterize(
@@ -57,6 +84,7 @@ def rasterize(
     cull: int = CULL_NONE,
     mask: np.ndarray | None = None,
     depth_floor: np.ndarray | None = None,
+    workspace: RasterWorkspace | None = None,
 ) -> RasterBuffers:
     """Rasterize world-space triangles (T, 3, 3) with an OpenGL-style world->clip matrix.
 
@@ -68,7 +96,9 @@ def rasterize(
     `mask` (H, W) bool is a stencil: only its pixels are drawn, and only rows and columns
     of its bounding box are visited. `depth_floor` (H, W) eye-space depths: fragments at or
     in front of it are dropped (a second z-buffer, e.g. a curved reflector's own depth).
+    `workspace`: scratch arrays to reuse (see RasterWorkspace).
     """
+    ws = workspace if workspace is not None else RasterWorkspace()
     if planes is None:
         planes = standard_planes()
     planes = np.ascontiguousarray(planes, dtype=np.float64)
@@ -77,16 +107,23 @@ def rasterize(
     flags = np.ascontiguousarray(flags, dtype=np.uint8)
     m = np.ascontiguousarray(world_to_clip, dtype=np.float64)
     t = corners.shape[0]
-    screen = np.empty((t, 9), np.float64)
-    status = np.empty(t, np.uint8)
-    rows = np.empty((t, 2), np.int64)
+    screen = ws.get("screen", (t, 9), np.float64)
+    status = ws.get("status", (t,), np.uint8)
+    rows = ws.get("rows", (t, 2), np.int64)
     _setup(corners, m, planes, width, height, cull, screen, status, rows)
-    tri = np.full((height, width), -1, np.int32)
-    b1 = np.zeros((height, width), np.float32)
-    b2 = np.zeros((height, width), np.float32)
-    depth = np.full((height, width), np.inf, np.float32)
+    if ws.outputs:
+        tri = ws.get("tri", (height, width), np.int32)
+        b1 = ws.get("b1", (height, width), np.float32)
+        b2 = ws.get("b2", (height, width), np.float32)
+        depth = ws.get("depth", (height, width), np.float32)
+        _clear(tri, b1, b2, depth)
+    else:
+        tri = np.full((height, width), -1, np.int32)
+        b1 = np.zeros((height, width), np.float32)
+        b2 = np.zeros((height, width), np.float32)
+        depth = np.full((height, width), np.inf, np.float32)
     if mask is None:
-        stencil = np.ones((height, width), np.uint8)
+        stencil = ws.constant("stencil", (height, width), np.uint8, 1)
         x0, x1, y0, y1 = 0, width, 0, height
     else:
         stencil = np.ascontiguousarray(mask, dtype=np.uint8)
@@ -95,10 +132,17 @@ def rasterize(
         if ys.size == 0:
             return RasterBuffers(tri, b1, b2, depth)
         x0, x1, y0, y1 = int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1
-    floor = (np.zeros((height, width), np.float32) if depth_floor is None
+    floor = (ws.constant("floor", (height, width), np.float32, 0.0) if depth_floor is None
              else np.ascontiguousarray(depth_floor, dtype=np.float32))
     bands = min(y1 - y0, max(1, numba.get_num_threads()) * 8)
-    offsets, items = _bin(status, flags, rows, y0, y1, bands)
+    chunks = max(1, numba.get_num_threads()) * 4
+    counts = ws.get("counts", (chunks, bands), np.int64)
+    _bin_count(status, flags, rows, y0, y1, bands, counts)
+    offsets = ws.get("offsets", (bands + 1,), np.int64)
+    starts = ws.get("starts", (chunks, bands), np.int64)
+    total = _bin_starts(counts, offsets, starts)
+    items = ws.get("items", (total,), np.int32)
+    _bin_fill(status, flags, rows, y0, y1, bands, starts, items)
     _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets, items,
           stencil, floor, x0, x1, y0, y1, tri, b1, b2, depth)
     return RasterBuffers(tri, b1, b2, depth)
@@ -154,8 +198,8 @@ def _setup_one(corners, t, m, planes, width, height, cull, screen, status, rows,
         return
     for k in range(3):
         iw = 1.0 / c[k, 3]
-        screen[t, 3 * k] = (c[k, 0] * iw + 1.0) * 0.5 * width
-        screen[t, 3 * k + 1] = (1.0 - c[k, 1] * iw) * 0.5 * height
+        screen[t, 3 * k], screen[t, 3 * k + 1] = screen_from_ndc(c[k, 0] * iw, c[k, 1] * iw,
+                                                                  width, height)
         screen[t, 3 * k + 2] = iw
     ylo = min(screen[t, 1], screen[t, 4], screen[t, 7])
     yhi = max(screen[t, 1], screen[t, 4], screen[t, 7])
@@ -165,18 +209,18 @@ def _setup_one(corners, t, m, planes, width, height, cull, screen, status, rows,
     if rows[t, 0] > rows[t, 1]:
         status[t] = _CULLED
         return
-    if cull != 0:
+    if cull != CULL_NONE:
         area = _area(screen[t, 0], screen[t, 1], screen[t, 3], screen[t, 4],
                      screen[t, 6], screen[t, 7])
         # screen y points down: a counter-clockwise (front) triangle has negative area here
-        if (cull == 1 and area > 0.0) or (cull == 2 and area < 0.0):
+        if (cull == CULL_BACK and area > 0.0) or (cull == CULL_FRONT and area < 0.0):
             status[t] = _CULLED
 
 
 @njit(cache=True, inline="always")
 def _band_range(t, status, flags, rows, top, bottom, band_of):
     """First and last band triangle t reaches (last < first if it is drawn in none)."""
-    if status[t] == _CULLED or flags[t] & 2:
+    if status[t] == _CULLED or flags[t] & FLAG_SKIP:
         return 0, -1
     lo = max(rows[t, 0], top)
     hi = min(rows[t, 1], bottom - 1)
@@ -185,29 +229,68 @@ def _band_range(t, status, flags, rows, top, bottom, band_of):
     return band_of[lo - top], band_of[hi - top]
 
 
-@njit(cache=True)
-def _bin(status, flags, rows, top, bottom, bands):
-    """Triangle lists per screen band, in triangle order: (offsets (bands+1), items)."""
+@njit(cache=True, parallel=True)
+def _clear(tri, b1, b2, depth):
+    for y in prange(tri.shape[0]):
+        for x in range(tri.shape[1]):
+            tri[y, x] = -1
+            b1[y, x] = 0.0
+            b2[y, x] = 0.0
+            depth[y, x] = np.inf
+
+
+@njit(cache=True, inline="always")
+def _band_table(top, bottom, bands):
     span = bottom - top
     band_of = np.empty(span, np.int64)
     for b in range(bands):
         for y in range(top + b * span // bands, top + (b + 1) * span // bands):
             band_of[y - top] = b
-    counts = np.zeros(bands + 1, np.int64)
-    for t in range(status.shape[0]):
-        first, last = _band_range(t, status, flags, rows, top, bottom, band_of)
-        for b in range(first, last + 1):
-            counts[b + 1] += 1
+    return band_of
+
+
+@njit(cache=True, parallel=True)
+def _bin_count(status, flags, rows, top, bottom, bands, counts):
+    """counts[c, b]: triangles of chunk c (a contiguous range) that reach band b."""
+    band_of = _band_table(top, bottom, bands)
+    chunks = counts.shape[0]
+    n = status.shape[0]
+    for c in prange(chunks):
+        for b in range(bands):
+            counts[c, b] = 0
+        for t in range(c * n // chunks, (c + 1) * n // chunks):
+            first, last = _band_range(t, status, flags, rows, top, bottom, band_of)
+            for b in range(first, last + 1):
+                counts[c, b] += 1
+
+
+@njit(cache=True)
+def _bin_starts(counts, offsets, starts):
+    """Band b's list is offsets[b]..offsets[b+1], chunk by chunk (so in triangle order);
+    starts[c, b]: where chunk c writes its part. Returns the item count."""
+    chunks, bands = counts.shape
+    total = 0
     for b in range(bands):
-        counts[b + 1] += counts[b]
-    items = np.empty(counts[bands], np.int32)
-    fill = counts[:bands].copy()
-    for t in range(status.shape[0]):
-        first, last = _band_range(t, status, flags, rows, top, bottom, band_of)
-        for b in range(first, last + 1):
-            items[fill[b]] = t
-            fill[b] += 1
-    return counts, items
+        offsets[b] = total
+        for c in range(chunks):
+            starts[c, b] = total
+            total += counts[c, b]
+    offsets[bands] = total
+    return total
+
+
+@njit(cache=True, parallel=True)
+def _bin_fill(status, flags, rows, top, bottom, bands, starts, items):
+    band_of = _band_table(top, bottom, bands)
+    chunks = starts.shape[0]
+    n = status.shape[0]
+    for c in prange(chunks):
+        fill = starts[c].copy()
+        for t in range(c * n // chunks, (c + 1) * n // chunks):
+            first, last = _band_range(t, status, flags, rows, top, bottom, band_of)
+            for b in range(first, last + 1):
+                items[fill[b]] = t
+                fill[b] += 1
 
 
 @njit(cache=True, inline="always")
@@ -255,8 +338,8 @@ def _clip_polygon(corners, t, m, planes, width, height, out_xyw, out_bary):
             return 0
     for i in range(n):
         iw = 1.0 / poly[i, 3]
-        out_xyw[i, 0] = (poly[i, 0] * iw + 1.0) * 0.5 * width
-        out_xyw[i, 1] = (1.0 - poly[i, 1] * iw) * 0.5 * height
+        out_xyw[i, 0], out_xyw[i, 1] = screen_from_ndc(poly[i, 0] * iw, poly[i, 1] * iw, width,
+                                                       height)
         out_xyw[i, 2] = iw
         for b in range(3):
             out_bary[i, b] = poly[i, 4 + b]
@@ -316,7 +399,7 @@ def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
         for item in range(offsets[band], offsets[band + 1]):
             t = items[item]
             st = status[t]
-            key_scale = MIRROR_TIE if flags[t] & 1 else 1.0
+            key_scale = MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0
             if st == _SIMPLE:
                 s = screen[t]
                 _fill(t, key_scale, s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8],
@@ -325,12 +408,12 @@ def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
             n = _clip_polygon(corners, t, m, planes, width, height, xyw, bary)
             if n < 3:
                 continue
-            if cull != 0:
+            if cull != CULL_NONE:
                 a = 0.0
                 for i in range(1, n - 1):
                     a += _area(xyw[0, 0], xyw[0, 1], xyw[i, 0], xyw[i, 1],
                                xyw[i + 1, 0], xyw[i + 1, 1])
-                if (cull == 1 and a > 0.0) or (cull == 2 and a < 0.0):
+                if (cull == CULL_BACK and a > 0.0) or (cull == CULL_FRONT and a < 0.0):
                     continue
             for i in range(1, n - 1):
                 _fill(t, key_scale, xyw[0, 0], xyw[0, 1], xyw[0, 2],
@@ -344,5 +427,5 @@ def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
         for py in range(row0, row1):
             for px in range(col0, col1):
                 t = tri[py, px]
-                if t >= 0 and flags[t] & 1:
+                if t >= 0 and flags[t] & FLAG_MIRROR:
                     depth[py, px] = depth[py, px] / MIRROR_TIE

@@ -4,25 +4,24 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-from functools import lru_cache
 
 import numpy as np
 
 from ..config.mirrors import (
-    CapMirror,
     CylinderMirror,
     ExtrusionMirror,
     MeshMirror,
-    QuadMirror,
     SphereMirror,
 )
 from ..config.objects import TransformKey
 from ..config.scene import SceneConfig
 from ..errors import Problem, Problems
 from ..geometry import trs_matrix
-from . import primitives, reflectors
+from . import primitives
 from .mesh import Mesh
+from .mesh_file import cached_mesh_file as _mesh_file
+from .mesh_file import resolve
+from .mirrors import extrusion_profile, mirror_corners, mirror_mesh, mirror_plane
 from .textures import load_texture
 from .types import (
     CHECKER,
@@ -44,11 +43,6 @@ from .types import (
     Scene,
     Triangles,
 )
-
-
-def resolve(source: str, path: str) -> str:
-    """A path written in a config file is relative to that file."""
-    return os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(source)), path))
 
 
 def object_mesh(obj, source: str) -> Mesh:
@@ -89,28 +83,22 @@ def object_mesh(obj, source: str) -> Mesh:
     raise AssertionError(s)
 
 
-@lru_cache(maxsize=32)
-def _mesh_file(path: str) -> Mesh:
-    from .mesh_file import load_mesh_file
-
-    return load_mesh_file(path)
-
-
-def transform_at(obj, frame: int) -> np.ndarray:
-    """The object's 4x4 transform at a frame: keyframes interpolate linearly, clamped at ends."""
+def transform_at(obj, frame_index: int) -> np.ndarray:
+    """The object's 4x4 world_from_object transform at frame `frame_index`: keyframes
+    (`motion`, each at its `frame` index) interpolate linearly, clamped at the ends."""
     if not obj.motion:
         t = obj.transform
         return trs_matrix(t.translate, t.rotate, t.scale)
     keys: list[TransformKey] = obj.motion
-    if frame <= keys[0].frame or len(keys) == 1:
+    if frame_index <= keys[0].frame or len(keys) == 1:
         k = keys[0]
         return trs_matrix(k.translate, k.rotate, k.scale)
-    if frame >= keys[-1].frame:
+    if frame_index >= keys[-1].frame:
         k = keys[-1]
         return trs_matrix(k.translate, k.rotate, k.scale)
-    i = max(j for j in range(len(keys)) if keys[j].frame <= frame)
+    i = max(j for j in range(len(keys)) if keys[j].frame <= frame_index)
     a, b = keys[i], keys[i + 1]
-    u = (frame - a.frame) / (b.frame - a.frame)
+    u = (frame_index - a.frame) / (b.frame - a.frame)
 
     def mix(x, y):
         return (1 - u) * np.asarray(x, float) + u * np.asarray(y, float)
@@ -142,68 +130,6 @@ def _concat(parts: list[Triangles]) -> Triangles:
         *(np.concatenate([getattr(p, f) for p in parts]) for f in
           ("corners", "uvs", "normals", "material", "surface"))
     )
-
-
-def mirror_corners(m) -> np.ndarray:
-    """A planar mirror's four corners p00, p10, p11, p01 (world)."""
-    if isinstance(m, QuadMirror):
-        return np.array(m.corners, float)
-    n = np.array(m.normal, float)
-    n /= np.linalg.norm(n)
-    up = np.array(m.up, float)
-    up = up - (up @ n) * n
-    up /= np.linalg.norm(up)
-    right = np.cross(up, n)
-    c = np.array(m.center, float)
-    hw, hh = m.size[0] / 2, m.size[1] / 2
-    return np.array([c - hw * right - hh * up, c + hw * right - hh * up,
-                     c + hw * right + hh * up, c - hw * right + hh * up])
-
-
-def mirror_plane(m) -> tuple[np.ndarray, float]:
-    """A planar mirror's plane (n, d), n = (p10 - p00) x (p01 - p00) normalised."""
-    c = mirror_corners(m)
-    n = np.cross(c[1] - c[0], c[3] - c[0])
-    n /= np.linalg.norm(n)
-    return n, float(-n @ c[0])
-
-
-def mirror_mesh(m, source: str) -> tuple[Mesh, bool]:
-    """World-space triangles of a mirror, and whether the ray tracer intersects them (mesh,
-    extrusion and cap mirrors) rather than the exact shape (planar, sphere and cylinder
-    mirrors, in numba)."""
-    if m.planar:
-        return primitives.quad(mirror_corners(m)), False
-    if isinstance(m, SphereMirror):
-        mesh = primitives.uv_sphere(m.radius, m.segments)
-        return mesh.transformed(trs_matrix(m.center, (0, 0, 0), 1.0)), False
-    if isinstance(m, CylinderMirror):
-        mesh = primitives.cylinder(m.radius, m.height, m.segments, caps=False)
-        return mesh.transformed(_axis_frame(m.origin, m.axis)), False
-    if isinstance(m, ExtrusionMirror):
-        return reflectors.extrusion_mesh(m), True
-    if isinstance(m, CapMirror):
-        return reflectors.cap_mesh(m), True
-    assert isinstance(m, MeshMirror)
-    mesh = _mesh_file(resolve(source, m.path))
-    t = m.transform
-    mesh = mesh.transformed(trs_matrix(t.translate, t.rotate, t.scale))
-    if not m.smooth:
-        mesh = Mesh.flat(mesh.corners, mesh.uvs)
-    return mesh, True
-
-
-def _axis_frame(origin, axis) -> np.ndarray:
-    """A rigid transform taking local +y to `axis` and the origin to `origin`."""
-    a = np.array(axis, float)
-    a /= np.linalg.norm(a)
-    helper = np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 0, 1.0])
-    x = np.cross(a, helper)
-    x /= np.linalg.norm(x)
-    z = np.cross(x, a)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, a, z, origin
-    return m
 
 
 class TextureError(Exception):
@@ -258,14 +184,14 @@ def _mirrors(cfg: SceneConfig) -> Mirrors:
         if m.planar:
             kinds.append(PLANAR)
             n, d = mirror_plane(m)
-            p[:16] = (*n, d, *mirror_corners(m).reshape(-1))
+            p = Mirrors.planar_row(n, d, mirror_corners(m))
         elif isinstance(m, SphereMirror):
             kinds.append(SPHERE)
-            p[:4] = (*m.center, m.radius)
+            p = Mirrors.sphere_row(m.center, m.radius)
         elif isinstance(m, CylinderMirror):
             kinds.append(CYLINDER)
             a = np.array(m.axis, float)
-            p[:8] = (*m.origin, *(a / np.linalg.norm(a)), m.radius, m.height)
+            p = Mirrors.cylinder_row(m.origin, a / np.linalg.norm(a), m.radius, m.height)
         else:
             kinds.append(MESH)
         params.append(p)
@@ -353,8 +279,8 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             )
     last: dict = {}
 
-    def geometry_at(frame: int) -> Geometry:
-        mats = tuple(transform_at(cfg.objects[i], frame).tobytes() for i in moving)
+    def geometry_at(frame_index: int) -> Geometry:
+        mats = tuple(transform_at(cfg.objects[i], frame_index).tobytes() for i in moving)
         if last.get("key") == mats:
             return last["geometry"]
         parts = []
@@ -362,7 +288,7 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             if i in static_parts:
                 parts.append(static_parts[i])
             else:
-                world = mesh.transformed(transform_at(obj, frame)).without_degenerate()
+                world = mesh.transformed(transform_at(obj, frame_index)).without_degenerate()
                 parts.append(_triangles(world, material_index[obj.material], i))
         geometry = Geometry(_concat(parts), mirror_tris, mirror_exact, ("geometry", mats))
         last.update(key=mats, geometry=geometry)
@@ -385,6 +311,6 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         content_hash=hashes[1],
         room_bounds=_room_bounds(cfg, meshes),
         geometry_at=geometry_at,
-        mirror_profiles={j: reflectors.extrusion_profile(m) for j, m in enumerate(cfg.mirrors)
+        mirror_profiles={j: extrusion_profile(m) for j, m in enumerate(cfg.mirrors)
                          if isinstance(m, ExtrusionMirror)},
     )

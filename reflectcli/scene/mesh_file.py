@@ -6,6 +6,8 @@ unless they disagree with the face by more than 45 degrees, so hard edges stay h
 
 from __future__ import annotations
 
+import functools
+import os
 from pathlib import Path
 
 import numpy as np
@@ -67,3 +69,14 @@ def load_mesh_file(path: str | Path) -> Mesh:
     agree = np.einsum("fck,fck->fc", vertex_normals, flat) >= _SMOOTH_LIMIT_COS
     normals = np.where(agree[..., None], vertex_normals, flat)
     return Mesh(corners, uvs, normals)
+
+
+def resolve(source: str, path: str) -> str:
+    """A path written in a config file is relative to that file."""
+    return os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(source)), path))
+
+
+@functools.lru_cache(maxsize=32)
+def cached_mesh_file(path: str) -> Mesh:
+    """load_mesh_file, kept for files read again (a scene rebuilt, a mesh used twice)."""
+    return load_mesh_file(path)

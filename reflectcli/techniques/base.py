@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import logging
 import time
-from types import UnionType
-from typing import Any, ClassVar, Literal, Union, get_args, get_origin
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 from pydantic import BaseModel
 
@@ -34,7 +34,26 @@ class Technique:
     def prepare(self, scene: Scene) -> Any:
         raise NotImplementedError
 
-    def render(self, state: Any, frame: int, camera: Camera) -> Frame:
+    def render(self, state: Any, frame_index: int, camera: Camera) -> Frame:
+        raise NotImplementedError
+
+
+@dataclass
+class MapRecord:
+    """What precompute reports for each captured (or cached) map or set of maps."""
+
+    mirror: str  # the mirror's name
+    status: str  # "captured" or "cached"
+    seconds: float
+    path: str | None  # the cache file; None when maps are kept in memory only
+
+
+class MapTechnique(Technique):
+    """A technique that captures maps before rendering (`reflect precompute-maps`)."""
+
+    def precompute(self, scene: Scene, on_map=None, on_progress=None) -> list[MapRecord]:
+        """Capture (or load from the cache) the scene's maps; one record per mirror.
+        on_map(record) after each, on_progress(done, total) as captures proceed."""
         raise NotImplementedError
 
 
@@ -49,60 +68,22 @@ def warn_non_planar(scene: Scene, technique: str) -> None:
                     technique, ", ".join(curved))
 
 
-def precompute_logged(technique, scene: Scene, label: str) -> tuple[list[dict], float]:
+def precompute_logged(technique: MapTechnique, scene: Scene,
+                      label: str) -> tuple[list[MapRecord], float]:
     """Run a map technique's precompute, say what was captured (only when maps are kept on
     disk: a render without a cache captures everything, and that is no news) and time it."""
     start = time.perf_counter()
     records = technique.precompute(scene)
-    captured = [r["mirror"] for r in records if r["status"] == "captured"]
+    captured = [r.mirror for r in records if r.status == "captured"]
     if captured and technique.cache_dir is not None:
         log.info("%s: captured maps of %s; cached %d", label, ", ".join(captured),
                  len(records) - len(captured))
     return records, time.perf_counter() - start
 
 
-def parameter_table(params: type[BaseModel], prefix: str = "") -> list[tuple[str, str, str, str]]:
-    """(dotted name, type, default, description) rows from a Params model, nested models
-    flattened (`maps.count`), for `reflect techniques`: never a hand-kept list."""
-    rows = []
-    for name, field in params.model_fields.items():
-        if name == "name" and not prefix:
-            continue
-        annotation = field.annotation
-        default = field.get_default(call_default_factory=True)
-        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-            rows += parameter_table(annotation, f"{prefix}{name}.")
-            continue
-        rows.append((f"{prefix}{name}", type_name(annotation), toml_value(default),
-                     field.description or ""))
-    return rows
-
-
-def type_name(annotation) -> str:
-    """A readable type: int, float, "a" | "b", xyz, ..."""
-    origin = get_origin(annotation)
-    args = get_args(annotation)
-    if origin is Literal:
-        return " | ".join(toml_value(a) for a in args)
-    if origin in (Union, UnionType):
-        return " | ".join(type_name(a) for a in args if a is not type(None)) + " (optional)"
-    if origin is tuple and len(args) == 3 and all(a is float for a in args):
-        return "xyz"
-    if origin is dict:
-        return f"table of {type_name(args[1])}"
-    return getattr(annotation, "__name__", str(annotation))
-
-
-def toml_value(value) -> str:
-    """A default as it would be written in TOML."""
-    if value is None:
-        return "(unset)"
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return f'"{value}"'
-    if isinstance(value, tuple | list):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + "}"
-    return str(value)
+def warn_stale(scene: Scene, technique: str, update="once") -> None:
+    """Map techniques captured once say that objects moving later are missing from them."""
+    if update == "once" and scene.frame_count > 1 and scene.geometry(0).key[1]:
+        log.warning("%s: objects move in this scene, but its maps are captured at frame 0 "
+                    "(update = \"once\"): reflections show them where they were then",
+                    technique)

@@ -14,12 +14,23 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from ..camera import Camera, primary_rays
+from ..camera import Camera
 from ..frame import Frame
-from ..scene.types import MIRROR_TIE, PLANAR, SPHERE, Geometry, Scene
+from ..scene.types import (
+    CYLINDER_AXIS,
+    CYLINDER_ORIGIN,
+    MIRROR_TIE,
+    PLANAR,
+    PLANE_NORMAL,
+    SPHERE,
+    SPHERE_CENTER,
+    Geometry,
+    Scene,
+)
 from ..shading import surface_color
 from .analytic import intersect_analytic
 from .embree import TriangleScene
+from .rays import primary_rays
 
 _FAR_AWAY = np.float32(1e30)
 
@@ -336,13 +347,18 @@ def _resolve(
             p = m_params[k]
             px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
             if m_kind[k] == PLANAR:
-                gx, gy, gz = p[0], p[1], p[2]
+                gx, gy, gz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
             elif m_kind[k] == SPHERE:
-                gx, gy, gz = px - p[0], py - p[1], pz - p[2]
+                gx = px - p[SPHERE_CENTER]
+                gy = py - p[SPHERE_CENTER + 1]
+                gz = pz - p[SPHERE_CENTER + 2]
             else:  # CYLINDER: radial direction from the axis
-                lx, ly, lz = px - p[0], py - p[1], pz - p[2]
-                h = lx * p[3] + ly * p[4] + lz * p[5]
-                gx, gy, gz = lx - h * p[3], ly - h * p[4], lz - h * p[5]
+                lx = px - p[CYLINDER_ORIGIN]
+                ly = py - p[CYLINDER_ORIGIN + 1]
+                lz = pz - p[CYLINDER_ORIGIN + 2]
+                ax, ay, az = p[CYLINDER_AXIS], p[CYLINDER_AXIS + 1], p[CYLINDER_AXIS + 2]
+                h = lx * ax + ly * ay + lz * az
+                gx, gy, gz = lx - h * ax, ly - h * ay, lz - h * az
             nx, ny, nz = gx, gy, gz
         hit_t[i] = t
         hit_surface[i] = n_objects + k

@@ -161,16 +161,18 @@ def _many(points, eye, center, radius, axis, use_axis, out, hidden):
 
 
 def profile_virtual_vertices(points: np.ndarray, eye: np.ndarray, profile: np.ndarray,
-                             normals: np.ndarray, frame: np.ndarray):
-    """(virtual points (N, 3), hidden (N,) bool) for a linear extrusion of `profile`."""
-    inv = np.linalg.inv(frame)
-    local = np.ascontiguousarray(points @ inv[:3, :3].T + inv[:3, 3], np.float64)
-    e = inv[:3, :3] @ np.asarray(eye, np.float64) + inv[:3, 3]
+                             normals: np.ndarray, world_from_local: np.ndarray):
+    """(virtual points (N, 3), hidden (N,) bool) for a linear extrusion of `profile`
+    (local x, z); points, eye and the result in world space."""
+    local_from_world = np.linalg.inv(world_from_local)
+    local = np.ascontiguousarray(
+        points @ local_from_world[:3, :3].T + local_from_world[:3, 3], np.float64)
+    e = local_from_world[:3, :3] @ np.asarray(eye, np.float64) + local_from_world[:3, 3]
     out = np.empty(points.shape, np.float64)
     hidden = np.empty(points.shape[0], np.bool_)
     _profile_many(local, e, np.ascontiguousarray(profile, np.float64),
                   np.ascontiguousarray(normals, np.float64), out, hidden)
-    return out @ frame[:3, :3].T + frame[:3, 3], hidden
+    return out @ world_from_local[:3, :3].T + world_from_local[:3, 3], hidden
 
 
 @njit(cache=True)

@@ -112,8 +112,10 @@ def map_coords(frame, res, s, dx, dy, dz):
 
 def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
                          near_radius: float, far_radius: float, res: int,
-                         layers: int = 2) -> ExplosionMaps:
-    """Maps at `layers` radii from near to far, spaced geometrically (2: the paper's pair)."""
+                         layers: int = 2, boundary: np.ndarray | None = None) -> ExplosionMaps:
+    """Maps at `layers` radii from near to far, spaced geometrically (2: the paper's pair).
+    `boundary`: the mesh's boundary_edges, if already known (they depend on its faces
+    alone, so a caller that keeps the mesh keeps them too)."""
     v, n, f = mesh.vertices, mesh.normals, mesh.faces
     to_eye = eye - v
     front = np.einsum("ij,ij->i", n, to_eye) >= 0.0
@@ -135,10 +137,10 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
         ext.append((fi, i, j))
     # an open reflector (a cap, a mask, a part of a split mesh) ends at boundary edges rather
     # than at a silhouette: they bound the reflected directions the same way
-    for fi, i, j in _boundary_edges(f):
-        if drawn[fi] and used[i] and used[j]:
-            ext.append((fi, i, j))
-    extensions = np.array(ext, np.int64).reshape(-1, 3)
+    if boundary is None:
+        boundary = boundary_edges(f)
+    open_edges = boundary[drawn[boundary[:, 0]] & used[boundary[:, 1]] & used[boundary[:, 2]]]
+    extensions = np.concatenate([np.array(ext, np.int64).reshape(-1, 3), open_edges])
     frame = map_frame(center, eye)
     s = res - 2.0
     maps = []
@@ -163,13 +165,14 @@ def _inside_circle(res: int, s: float) -> np.ndarray:
     return (c[None, :] ** 2 + c[:, None] ** 2) <= (s / 2.0) ** 2
 
 
-def _boundary_edges(faces: np.ndarray) -> list[tuple[int, int, int]]:
-    """(face, i, j) for every edge used by one face only."""
+def boundary_edges(faces: np.ndarray) -> np.ndarray:
+    """(B, 3) int64 (face, i, j) for every edge used by one face only, in face order."""
     seen: dict[tuple[int, int], list] = {}
     for fi, (a, b, c) in enumerate(faces):
         for i, j in ((a, b), (b, c), (c, a)):
             seen.setdefault((min(i, j), max(i, j)), []).append((fi, int(i), int(j)))
-    return [uses[0] for uses in seen.values() if len(uses) == 1]
+    return np.array([uses[0] for uses in seen.values() if len(uses) == 1],
+                    np.int64).reshape(-1, 3)
 
 
 def _fill_nearest(ids: np.ndarray) -> None:

@@ -15,7 +15,9 @@ from reflectcli.output.log import read_jsonl
 
 ROOT = Path(__file__).resolve().parents[2]
 TIMING = {"frame_ms_median", "frame_ms_p25", "frame_ms_p75", "reference_ms_median",
-          "precompute_seconds", "numba_compile_seconds", "images", "reference_images"}
+          "precompute_seconds", "prepare_seconds", "first_frame_ms", "numba_compile_seconds",
+          "images", "reference_images",
+          "capture_ms_per_frame"}
 
 
 def _bench_file(tmp_path, name="t"):

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from reflectcli.config.load import load_config
 from reflectcli.errors import Problems
+from reflectcli.loading import load_config
 
 CAMERA = """
 [camera]

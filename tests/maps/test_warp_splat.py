@@ -5,32 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from naive import splat_zbuffer
 
 from reflectcli.maps.warp import SAME_SURFACE, raster_runs, splat
-
-
-def _reference(sx, sy, z, radii, mw, stencil):
-    """The rule as documented, in two passes: per pixel, the nearest depth among the zexels
-    that reach it; then, of those within SAME_SURFACE of it, the one landing nearest the
-    pixel center (ties to the lower index). The kernel does it in one pass; the zexels here
-    keep each surface's depths within SAME_SURFACE / 2, where the two must agree."""
-    h, w = stencil.shape
-    hits = {}
-    for k in range(sx.size):
-        if np.isnan(sx[k]):
-            continue
-        px, py, r = int(np.floor(sx[k])), int(np.floor(sy[k])), int(radii[k])
-        for y in range(py - r, py + r + 1):
-            for x in range(px - r, px + r + 1):
-                if 0 <= y < h and 0 <= x < w and stencil[y, x]:
-                    d = (np.float32(sx[k]) - x - 0.5) ** 2 + (np.float32(sy[k]) - y - 0.5) ** 2
-                    hits.setdefault((y, x), []).append((z[k], d, k))
-    best = np.full((h, w), -1)
-    for (y, x), cands in hits.items():
-        front = min(c[0] for c in cands)
-        same = [c for c in cands if c[0] <= front * (1 + SAME_SURFACE)]
-        best[y, x] = min(same, key=lambda c: (c[1], c[2]))[2]
-    return best
 
 
 def _zexels(seed, mh=24, mw=24, width=20, height=16):
@@ -66,7 +43,7 @@ def test_splat_matches_the_reference(seed, radius):
     stencil = np.random.default_rng(seed + 10).random(shape) < 0.8
     radii = np.full(sx.size, radius, np.int8)
     np.testing.assert_array_equal(_kernel(sx, sy, z, radii, mh, mw, shape, stencil),
-                                  _reference(sx, sy, z, radii, mw, stencil))
+                                  splat_zbuffer(sx, sy, z, radii, mw, stencil))
 
 
 @pytest.mark.parametrize("bands", [2, 3, 7])
@@ -91,3 +68,43 @@ def test_projection_drops_nan_and_non_positive_depths():
     assert np.isfinite(sx[0]) and z[0] == 2.0
     assert np.isfinite(sx[4]) and z[4] == np.inf  # a direction (empty zexel) still warps
     assert np.isnan(sx[1:4]).all()
+
+
+def test_gather_and_fill_blend_match_twins():
+    """dprm's colour gather (any number of maps, four per pass) and its fill-and-blend, with
+    and without a previous frame, against numpy twins on random buffers."""
+    from naive import fill_and_blend, gather_rows
+
+    from reflectcli.maps.warp import fill_blend, gather_colors
+
+    rng = np.random.default_rng(5)
+    h, w, stride = 24, 32, 50
+    for n_maps in (1, 3, 6):
+        per_map = [rng.random((stride, 3)).astype(np.float32) for _ in range(n_maps)]
+        best_id = rng.integers(-1, n_maps * stride, size=(h, w)).astype(np.int64)
+        best_id[rng.random((h, w)) < 0.3] = -1
+        out = rng.random((h, w, 3)).astype(np.float32)
+        box = (3, 29, 2, 20)
+        want = gather_rows(best_id, stride, per_map, box, out)
+        gather_colors(best_id, stride, per_map, box, out)
+        np.testing.assert_array_equal(out, want)
+    stencil = rng.random((h, w)) < 0.7
+    background = np.array([0.1, 0.2, 0.3], np.float32)
+    reflectance = np.array([0.9, 0.8, 0.7], np.float32)
+    for has_prev in (False, True):
+        reflected = rng.random((h, w, 3)).astype(np.float32)
+        prev_rgb = rng.random((h, w, 3)).astype(np.float32)
+        prev_filled = rng.random((h, w)) < 0.5
+        rgb = rng.random((h, w, 3)).astype(np.float32)
+        want = fill_and_blend(stencil, best_id, reflected, prev_rgb if has_prev else None,
+                              prev_filled, background, reflectance, rgb)
+        holes = np.zeros((h, w), np.float32)
+        save_rgb = np.zeros((h, w, 3), np.float32)
+        save_filled = np.zeros((h, w), bool)
+        got_reflected = reflected.copy()
+        fill_blend(stencil, best_id, got_reflected, has_prev, prev_rgb, prev_filled, True,
+                   save_rgb, save_filled, background, reflectance, rgb, holes)
+        np.testing.assert_allclose(rgb, want[0], rtol=1e-6, atol=1e-7)
+        np.testing.assert_array_equal(holes, want[1])
+        np.testing.assert_array_equal(save_filled, want[3])
+        np.testing.assert_array_equal(save_rgb[want[3]], want[2][want[3]])

@@ -13,16 +13,12 @@ from __future__ import annotations
 import numba
 import numpy as np
 import pytest
+from naive import ray_triangle, reference
 
 from reflectcli.camera import Camera
 from reflectcli.raster.rasterize import FLAG_MIRROR, rasterize
-from reflectcli.scene.types import MIRROR_TIE
 
 W, H = 40, 30
-EDGE_PX = 1e-6
-TIE_REL = 1e-6
-
-
 def camera(w=W, h=H, near=0.5, far=50.0) -> Camera:
     return Camera(np.array([0.3, 1.0, 4.0]), np.array([-0.2, 0.6, -1.0]),
                   np.array([0.1, 1.0, 0.0]), 60.0, w, h, near, far)
@@ -45,60 +41,6 @@ def random_triangles(cam: Camera, n: int, rng, depth=(1.0, 12.0), spread=1.1,
     world = (cam.eye + z[..., None] * (-back + xy[..., :1] * t * cam.aspect * right
                                        + xy[..., 1:] * t * up))
     return world.astype(np.float32)
-
-
-def reference(corners: np.ndarray, flags: np.ndarray, m: np.ndarray, w: int, h: int):
-    """Slow float64 z-buffer of triangles wholly inside near..far. Returns
-    (triangle, b1, b2, depth, ambiguous) with ambiguous marking pixels either way is fine."""
-    c = corners.astype(np.float64)
-    clip = np.concatenate([c, np.ones(c.shape[:2] + (1,))], axis=2) @ m.T  # (T, 3, 4)
-    assert np.all(np.abs(clip[..., 2]) <= clip[..., 3]), "reference needs unclipped triangles"
-    sx = (clip[..., 0] / clip[..., 3] + 1) * 0.5 * w
-    sy = (1 - clip[..., 1] / clip[..., 3]) * 0.5 * h
-    inv_w = 1.0 / clip[..., 3]
-    py, px = np.mgrid[0:h, 0:w]
-    cx, cy = (px + 0.5).reshape(-1, 1), (py + 0.5).reshape(-1, 1)  # (P, 1)
-
-    def edge(a, b):  # signed doubled area of (corner a, corner b, pixel center), (P, T)
-        return (sx[:, b] - sx[:, a]) * (cy - sy[:, a]) - (sy[:, b] - sy[:, a]) * (cx - sx[:, a])
-
-    area = (sx[:, 1] - sx[:, 0]) * (sy[:, 2] - sy[:, 0]) - (
-        sx[:, 2] - sx[:, 0]) * (sy[:, 1] - sy[:, 0])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lam = np.stack([edge(1, 2), edge(2, 0), edge(0, 1)], axis=2) / area[None, :, None]
-        lengths = np.stack([np.hypot(sx[:, 2] - sx[:, 1], sy[:, 2] - sy[:, 1]),
-                            np.hypot(sx[:, 0] - sx[:, 2], sy[:, 0] - sy[:, 2]),
-                            np.hypot(sx[:, 1] - sx[:, 0], sy[:, 1] - sy[:, 0])], axis=1)
-        # distance in pixels from the center to each edge's line
-        dist = lam * np.abs(area)[None, :, None] / lengths[None]
-    valid = (area != 0)[None, :]
-    inside = valid & np.all(lam >= 0, axis=2)
-    near_edge = valid & np.all(lam >= -1e-3, axis=2) & np.any(np.abs(dist) <= EDGE_PX, axis=2)
-    q = lam * inv_w[None]  # (P, T, 3)
-    depth = 1.0 / q.sum(axis=2)
-    key = np.where(flags[None] & FLAG_MIRROR, depth * MIRROR_TIE, depth)
-    key = np.where(inside, key, np.inf)
-    best = np.full(cx.shape[0], np.inf)
-    tri = np.full(cx.shape[0], -1)
-    for t in range(corners.shape[0]):  # triangle order, strict less-than
-        win = key[:, t] < best
-        best[win] = key[win, t]
-        tri[win] = t
-    p = np.arange(cx.shape[0])
-    tt = np.maximum(tri, 0)
-    b = q[p, tt] / q[p, tt].sum(axis=1, keepdims=True)
-    # ties: another covering (or nearly covering) triangle within TIE_REL of the winner
-    cover = inside | near_edge
-    kk = np.where(cover, np.where(flags[None] & FLAG_MIRROR, depth * MIRROR_TIE, depth), np.inf)
-    others = np.where(np.arange(corners.shape[0])[None] == tri[:, None], np.inf, kk)
-    with np.errstate(invalid="ignore"):
-        tie = np.isfinite(best) & (np.abs(others.min(axis=1) - best) <= TIE_REL * best)
-    ambiguous = near_edge.any(axis=1) | tie
-    depth_out = np.where(tri >= 0, np.where(flags[tt] & FLAG_MIRROR, best / MIRROR_TIE, best),
-                         np.inf)
-    shape = (h, w)
-    return (tri.reshape(shape), b[:, 1].reshape(shape), b[:, 2].reshape(shape),
-            depth_out.reshape(shape), ambiguous.reshape(shape))
 
 
 @pytest.mark.parametrize("seed", range(8))
@@ -141,19 +83,6 @@ def test_reference_agreement_over_many_scenes():
         amb_n += int(ambiguous.sum())
     assert agree_n / total >= 0.999
     assert amb_n / total <= 0.002
-
-
-def ray_triangle(o: np.ndarray, d: np.ndarray, c: np.ndarray):
-    """float64 Moller-Trumbore of rays (P, 3) against one triangle: t, u, v."""
-    e1, e2 = c[1] - c[0], c[2] - c[0]
-    p = np.cross(d, e2)
-    det = p @ e1
-    s = o - c[0]
-    u = np.einsum("pk,pk->p", s, p) / det
-    q = np.cross(s, e1)
-    v = np.einsum("pk,pk->p", d, q) / det
-    t = q @ e2 / det
-    return t, u, v
 
 
 def straddling_triangle(cam: Camera, rng) -> np.ndarray:

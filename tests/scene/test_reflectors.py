@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from reflectcli.config.load import load_config
 from reflectcli.config.mirrors import CapMirror, ExtrusionMirror
 from reflectcli.errors import Problems
 from reflectcli.geometry import trs_matrix
-from reflectcli.scene.build import build_scene, mirror_mesh
+from reflectcli.loading import load_config
+from reflectcli.scene.build import build_scene
 from reflectcli.scene.mesh_file import load_mesh_file
-from reflectcli.scene.reflectors import cap_mesh, extrusion_mesh, extrusion_profile
+from reflectcli.scene.mirrors import cap_mesh, extrusion_mesh, extrusion_profile, mirror_mesh
 from reflectcli.scene.types import MESH
 
 MASK = Path(__file__).resolve().parents[2] / "scenes" / "assets" / "mask.ply"

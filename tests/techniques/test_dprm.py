@@ -5,25 +5,23 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import psnr, render_frame
+from conftest import open_scene, psnr, render_frame
 
 from reflectcli.camera import Camera, camera_from_config
-from reflectcli.config.load import load_config
 from reflectcli.geometry import reflect_point, reflect_vector, reflection_matrix
 from reflectcli.maps.warp import warp_maps
 from reflectcli.maps.zexel import capture_map, map_camera, mirror_frame
 from reflectcli.raster.primary import render_primary
-from reflectcli.scene.build import build_scene
-from reflectcli.techniques.dprm import Dprm, DprmParams
-from reflectcli.techniques.registry import TECHNIQUES
+from reflectcli.techniques.dprm import DprmParams
+from reflectcli.techniques.dprm.technique import Dprm, DprmRecord
 
 BOX = "scenes/teapot-box.toml"
 
 
 @pytest.fixture(scope="module")
 def box(scenes_root):
-    cfg, _ = load_config(str(scenes_root / "teapot-box.toml"), [], "dprm")
-    return cfg, build_scene(cfg, str(scenes_root / "teapot-box.toml"))
+    opened = open_scene(scenes_root / "teapot-box.toml", "dprm")
+    return opened.config, opened.scene
 
 
 @pytest.fixture(scope="module")
@@ -51,8 +49,8 @@ def test_identity_warp_reproduces_rerender(box):
     mirrored = Camera(reflect_point(cam.eye, n, d), reflect_point(cam.target, n, d),
                       reflect_vector(cam.up, n), cam.fov_y, cam.width, cam.height,
                       cam.near, cam.far)
-    record = {"maps": [capture_map(scene, 0, mirrored)], "viewpoints": mirrored.eye[None],
-              "plane": (n, d)}
+    record = DprmRecord("wall", "captured", 0.0, None, 0, [capture_map(scene, 0, mirrored)],
+                        (n, d), mirrored.eye[None])
     primary = render_primary(scene, 0, cam)
     stencil = primary.frame.surface == scene.n_objects
     ref, _ = render_frame("teapot-box", "rerender", 0, ("technique.max_depth=1",))
@@ -87,7 +85,7 @@ def test_map_from_the_reflected_eye_with_its_own_frustum(box):
     scores = {}
     for res in (256, 512, 1024):
         zmap = capture_map(scene, 0, map_camera(mf, eye_m, res, cam.near, cam.far))
-        record = {"maps": [zmap], "viewpoints": eye_m[None], "plane": (n, d)}
+        record = DprmRecord("m", "captured", 0.0, None, 0, [zmap], (n, d), eye_m[None])
         for mode in ("color", "surface"):
             reflected, reached, _, _ = Dprm(DprmParams(reconstruct=mode))._warp(
                 record, cam, stencil, scene, triangles)
@@ -134,11 +132,8 @@ def test_ordered_traversal_against_zbuffer(box, motion):
 
 
 def _path(tech, overrides, frames, cache):
-    cfg, _ = load_config(BOX, list(overrides), tech)
-    scene = build_scene(cfg, BOX)
-    t = TECHNIQUES[tech](cfg.technique, 2, cache)
-    state = t.prepare(scene)
-    return [t.render(state, f, camera_from_config(cfg.camera, f)) for f in frames]
+    opened = open_scene(BOX, tech, overrides, cache=cache)
+    return [opened.render_frame(f) for f in frames]
 
 
 FRAMES = range(0, 48, 4)
@@ -221,21 +216,20 @@ def test_cache_recaptures_damaged_maps_and_warns_on_motion(tmp_path, scenes_root
     small = ["technique.maps.resolution=32", "technique.maps.count=4"]
     cache = str(tmp_path / "cache")
     first = api.precompute(scene, technique="dprm", overrides=small, cache=cache)
-    assert [m["status"] for m in first.maps] == ["captured"]
-    assert len(first.maps[0]["maps"]) == 4
+    assert [m.status for m in first.maps] == ["captured"]
+    assert len(first.maps[0].maps) == 4
     again = api.precompute(scene, technique="dprm", overrides=small, cache=cache)
-    assert [m["status"] for m in again.maps] == ["cached"]
-    for a, b in zip(first.maps[0]["maps"], again.maps[0]["maps"], strict=True):
+    assert [m.status for m in again.maps] == ["cached"]
+    for a, b in zip(first.maps[0].maps, again.maps[0].maps, strict=True):
         np.testing.assert_array_equal(a.depth, b.depth)
         np.testing.assert_array_equal(a.color, b.color)
-    with open(first.maps[0]["path"], "r+b") as f:
+    with open(first.maps[0].path, "r+b") as f:
         f.seek(5000)
         f.write(b"\0" * 64)  # damage inside the data
     with caplog.at_level("WARNING", logger="reflect"):
         third = api.precompute(scene, technique="dprm", overrides=small, cache=cache)
-        cfg, _ = load_config(scene, small, "dprm")
-        Dprm(cfg.technique, 1, cache).prepare(build_scene(cfg, scene))
-    assert [m["status"] for m in third.maps] == ["captured"]
+        open_scene(scene, "dprm", small, cache=cache).prepare()
+    assert [m.status for m in third.maps] == ["captured"]
     messages = [r.getMessage() for r in caplog.records]
     assert any("damaged" in m for m in messages)
     assert any("objects move" in m for m in messages)  # the teapot jumps; maps are frame 0

@@ -85,20 +85,20 @@ def test_maps_are_cached_and_damage_is_recaptured(tmp_path, caplog):
     scene = _sky_scene(tmp_path)
     cache = tmp_path / "cache"
     first = api.precompute(str(scene), cache=str(cache))
-    assert [m["status"] for m in first.maps] == ["captured"]
+    assert [m.status for m in first.maps] == ["captured"]
     second = api.precompute(str(scene), cache=str(cache))
-    assert [m["status"] for m in second.maps] == ["cached"]
-    np.testing.assert_array_equal(first.maps[0]["images"], second.maps[0]["images"])
+    assert [m.status for m in second.maps] == ["cached"]
+    np.testing.assert_array_equal(first.maps[0].images, second.maps[0].images)
     # a different resolution is a different map
     third = api.precompute(str(scene), cache=str(cache), overrides=["technique.resolution=64"])
-    assert [m["status"] for m in third.maps] == ["captured"]
+    assert [m.status for m in third.maps] == ["captured"]
     # a truncated file is reported in one line and captured again
-    path = first.maps[0]["path"]
+    path = first.maps[0].path
     with open(path, "r+b") as f:
         f.truncate(2000)
     with caplog.at_level("WARNING", logger="reflect"):
         fourth = api.precompute(str(scene), cache=str(cache))
-    assert [m["status"] for m in fourth.maps] == ["captured"]
+    assert [m.status for m in fourth.maps] == ["captured"]
     assert any("damaged" in r.getMessage() for r in caplog.records)
-    np.testing.assert_array_equal(first.maps[0]["images"], fourth.maps[0]["images"])
+    np.testing.assert_array_equal(first.maps[0].images, fourth.maps[0].images)
     assert api.clear_cache(str(cache)) == 2

@@ -18,13 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from reflectcli.camera import camera_from_config
-from reflectcli.config.load import load_config
+from reflectcli import api
 from reflectcli.raster.primary import render_primary
-from reflectcli.scene.build import build_scene
 from reflectcli.scene.types import CHECKER, CYLINDER, SPHERE, TEXTURE
-from reflectcli.techniques.raster import Raster
-from reflectcli.techniques.raytrace import Raytrace
 
 SCENES = sorted((Path(__file__).resolve().parents[2] / "scenes").glob("*.toml"))
 
@@ -63,13 +59,12 @@ def boundary_pixels(keys: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
 def test_raster_matches_raytrace_depth_zero(path):
-    cfg, _ = load_config(str(path))
-    scene = build_scene(cfg, str(path))
-    cam = camera_from_config(cfg.camera, 0)
-    raster = Raster(Raster.Params())
-    ras = raster.render(raster.prepare(scene), 0, cam)
-    tracer = Raytrace(Raytrace.Params(max_depth=0), threads=2)
-    ray = tracer.render(tracer.prepare(scene), 0, cam)
+    raster = api.open_scene(str(path), technique="raster", cache=False)
+    tracer = api.open_scene(str(path), technique="raytrace", overrides=["technique.max_depth=0"],
+                            cache=False)
+    scene, cam = raster.scene, raster.camera(0)
+    ras = raster.render_frame(0)
+    ray = tracer.render_frame(0)
     pixels = ras.surface.size
     assert ras.rgb.shape == ray.rgb.shape == (cam.height, cam.width, 3)
     assert len(np.unique(ray.surface)) >= 3  # a real scene, not an empty view

@@ -10,7 +10,8 @@ from reflectcli.geometry import reflect_point
 from reflectcli.scene import primitives
 from reflectcli.virtual.direct import cylinder_virtual_vertices, sphere_virtual_vertices
 from reflectcli.virtual.explosion import build_explosion_maps, virtual_vertices
-from reflectcli.virtual.mesh import subdivide, weld
+from reflectcli.virtual.mesh import weld
+from reflectcli.virtual.tessellation import subdivide
 
 
 def _mirror_psnr(out, ref):
@@ -216,7 +217,7 @@ def test_reflector_tests_drop_geometry_in_front_of_the_reflector():
     virtual triangle lying between the eye and the reflector; neither removes one behind."""
     from reflectcli.camera import Camera
     from reflectcli.raster.rasterize import rasterize, standard_planes
-    from reflectcli.techniques.virtual import _box_planes
+    from reflectcli.virtual.raster import box_planes
 
     cam = Camera(np.array([0.0, 0, 5]), np.zeros(3), np.array([0, 1.0, 0]), 40.0, 64, 64,
                  0.1, 100.0)
@@ -231,7 +232,7 @@ def test_reflector_tests_drop_geometry_in_front_of_the_reflector():
         drawn = rasterize(triangle(z), np.zeros(1, np.uint8), w2c, 64, 64,
                           depth_floor=floor).triangle >= 0
         assert drawn.any() == visible
-        planes = np.vstack([standard_planes(), _box_planes(reflector, cam.eye, w2c)])
+        planes = np.vstack([standard_planes(), box_planes(reflector, cam.eye, w2c)])
         clipped = rasterize(triangle(z), np.zeros(1, np.uint8), w2c, 64, 64, planes)
         assert (clipped.triangle >= 0).any() == visible
     unfiltered = rasterize(triangle(2.0), np.zeros(1, np.uint8), w2c, 64, 64)
@@ -245,17 +246,20 @@ def test_concave_points_inside_the_focus_look_up_the_right_way():
     from conftest import SCENES
 
     from reflectcli.camera import camera_from_config
-    from reflectcli.config.load import load_config
+    from reflectcli.loading import load_config
     from reflectcli.raster.primary import render_primary
     from reflectcli.scene.build import build_scene
-    from reflectcli.techniques.virtual import Virtual
+    from reflectcli.techniques.virtual.technique import Virtual
+    from reflectcli.virtual.dispatch import reflector_parts
 
     path = str(SCENES / "concave-mirror.toml")
     cfg, _ = load_config(path, ['technique.method="explosion"'], "virtual")
     scene = build_scene(cfg, path)
     cam = camera_from_config(cfg.camera, 0)
     primary = render_primary(scene, 0, cam)
-    _, fn = next(iter(Virtual(cfg.technique)._parts(scene, primary, 0, cam)))
+    state = Virtual(cfg.technique).prepare(scene)
+    _, fn = next(reflector_parts(cfg.technique, scene, primary, 0, cam, state.scene_points,
+                                 state.shapes, state.views))
     mesh = fn.maps.mesh
     # brute force: dense points on the reflector with interpolated normals; the one whose
     # mirror of Q lies on the eye ray through it is the reflection point
@@ -295,11 +299,12 @@ def test_screen_refinement_finds_the_exact_reflection_points():
     from conftest import SCENES
 
     from reflectcli.camera import camera_from_config
-    from reflectcli.config.load import load_config
+    from reflectcli.loading import load_config
     from reflectcli.raster.primary import render_primary
     from reflectcli.scene.build import build_scene
-    from reflectcli.techniques.virtual import Virtual
+    from reflectcli.techniques.virtual.technique import Virtual
     from reflectcli.virtual.direct import sphere_virtual_vertices
+    from reflectcli.virtual.dispatch import reflector_parts
 
     path = str(SCENES / "four-spheres.toml")
     small = ["camera.width=256", "camera.height=256"]
@@ -309,9 +314,11 @@ def test_screen_refinement_finds_the_exact_reflection_points():
                                     f'technique.explosion.refine="{refine}"'], "virtual")
         scene = build_scene(cfg, path)
         cam = camera_from_config(cfg.camera, 0)
-        tech = Virtual(cfg.technique)
-        tess = tech._reflected(tech.prepare(scene), scene, scene.geometry(0), 0)
-        _, fn = next(iter(tech._parts(scene, render_primary(scene, 0, cam), 0, cam)))
+        state = Virtual(cfg.technique).prepare(scene)
+        tess = state.reflected.get(scene.geometry(0), scene.n_objects, 0,
+                                   cfg.technique.tessellation)
+        _, fn = next(reflector_parts(cfg.technique, scene, render_primary(scene, 0, cam), 0,
+                                     cam, state.scene_points, state.shapes, state.views))
         got, flagged = fn(tess.points)
         p = scene.mirrors.params[0]
         want, hidden = sphere_virtual_vertices(tess.points, cam.eye, p[:3], p[3])
@@ -334,7 +341,8 @@ def test_mask_decomposes_into_its_pieces():
     from conftest import SCENES
 
     from reflectcli.scene.mesh_file import load_mesh_file
-    from reflectcli.virtual.mesh import convexity_parts, vertex_convexity, weld
+    from reflectcli.virtual.convexity import convexity_parts, vertex_convexity
+    from reflectcli.virtual.mesh import weld
 
     soup = load_mesh_file(SCENES / "assets" / "mask.ply")
     mesh = weld(soup.corners, soup.normals)
@@ -368,10 +376,11 @@ def test_part_tiles_never_cull_a_reflected_point(scene, size):
     from conftest import SCENES
 
     from reflectcli.camera import camera_from_config
-    from reflectcli.config.load import load_config
+    from reflectcli.loading import load_config
     from reflectcli.raster.rasterize import rasterize
     from reflectcli.scene.build import build_scene
-    from reflectcli.virtual.refine import PartTiles, _sample, reflector_grid
+    from reflectcli.virtual.refine import _sample, reflector_grid
+    from reflectcli.virtual.tiles import PartTiles
 
     path = str(SCENES / f"{scene}.toml")
     cfg, _ = load_config(path, [f"camera.width={size}", f"camera.height={size}"], "virtual")
@@ -408,7 +417,8 @@ def test_decomposition_merges_small_regions_past_an_island():
     from conftest import SCENES
 
     from reflectcli.scene.mesh_file import load_mesh_file
-    from reflectcli.virtual.mesh import IndexedMesh, convexity_parts, weld
+    from reflectcli.virtual.convexity import convexity_parts
+    from reflectcli.virtual.mesh import IndexedMesh, weld
 
     soup = load_mesh_file(SCENES / "assets" / "mask.ply")
     mesh = weld(soup.corners, soup.normals)
@@ -422,7 +432,7 @@ def test_decomposition_merges_small_regions_past_an_island():
 
 def test_fine_meshes_are_not_split_below_min_edge():
     from reflectcli.scene.types import Triangles
-    from reflectcli.virtual.mesh import tessellate
+    from reflectcli.virtual.tessellation import tessellate
 
     def tri(size):
         c = np.array([[[0, 0, 0], [size, 0, 0], [0, size, 0]]], np.float32)

@@ -7,64 +7,13 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from naive import T_REL, brute_force, cylinder_closed_form, quad_closed_form, sphere_closed_form
 
 from reflectcli.scene.types import CYLINDER, MESH, MIRROR_PARAMS, PLANAR, SPHERE
 from reflectcli.trace.analytic import intersect_analytic
 from reflectcli.trace.embree import TriangleScene
 
-GRAZE = 1e-5  # barycentric margin: a ray this close to an edge may fall either side
-T_REL = 1e-4
-
 f32 = st.floats(-1.0, 1.0, allow_nan=False, width=32)
-
-
-def moller_trumbore(corners: np.ndarray, o: np.ndarray, d: np.ndarray):
-    """All ray-triangle pairs in float64: t, u, v (weights of corners 1, 2), det (R, T)."""
-    c = corners.astype(np.float64)
-    o, d = o.astype(np.float64), d.astype(np.float64)
-    e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
-    p = np.cross(d[:, None, :], e2[None])  # (R, T, 3)
-    det = np.einsum("rtk,tk->rt", p, e1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / det
-        s = o[:, None, :] - c[None, :, 0]
-        u = np.einsum("rtk,rtk->rt", s, p) * inv
-        q = np.cross(s, e1[None])
-        v = np.einsum("rk,rtk->rt", d, q) * inv
-        t = np.einsum("tk,rtk->rt", e2, q) * inv
-    return t, u, v, det
-
-
-def brute_force(corners, o, d, tfar):
-    """Nearest hit per ray, and whether the ray is too close to call (grazing or a tie)."""
-    with np.errstate(invalid="ignore", divide="ignore"):  # inf - inf on misses
-        return _brute_force(corners, o, d, tfar)
-
-
-def _brute_force(corners, o, d, tfar):
-    t, u, v, det = moller_trumbore(corners, o, d)
-    w = 1.0 - u - v
-    ok = (det != 0) & np.isfinite(t)
-    inside = ok & (u >= 0) & (v >= 0) & (w >= 0) & (t > 0) & (t <= tfar[:, None])
-    margin = np.minimum(np.minimum(u, v), w)
-    # within GRAZE of an edge of a triangle whose plane is met in range: either answer is fine
-    graze = ok & (np.abs(margin) <= GRAZE) & (t > -1e-4) & (t <= tfar[:, None] * (1 + T_REL))
-    # a ray nearly in a triangle's plane, or a hit at t ~ 0 or ~ tfar, is also ambiguous
-    area2 = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
-                                    corners[:, 2] - corners[:, 0]), axis=1)
-    cosine = np.abs(det) / (area2[None] * np.linalg.norm(d, axis=1)[:, None])
-    near_hit = ok & (margin >= -GRAZE)
-    graze |= cosine < 1e-4  # a ray (nearly) along a triangle's plane
-    graze |= near_hit & (np.abs(t) < 1e-4)
-    finite = np.isfinite(tfar)[:, None]
-    graze |= near_hit & finite & (np.abs(t - tfar[:, None]) <= T_REL * tfar[:, None])
-    tt = np.where(inside, t, np.inf)
-    prim = np.where(np.isfinite(tt.min(axis=1)), tt.argmin(axis=1), -1)
-    best = tt.min(axis=1)
-    second = np.sort(tt, axis=1)[:, 1] if tt.shape[1] > 1 else np.full(len(o), np.inf)
-    tie = np.isfinite(second) & (second - best <= T_REL * np.abs(second))
-    r = np.arange(len(o))
-    return best, prim, u[r, np.maximum(prim, 0)], v[r, np.maximum(prim, 0)], graze.any(axis=1) | tie
 
 
 soups = st.integers(1, 12).flatmap(lambda n: arrays(np.float32, (n, 3, 3), elements=f32))
@@ -150,69 +99,6 @@ def test_empty_scene_never_hits():
 
 
 # ---------------------------------------------------------------- analytic spheres, cylinders
-
-def sphere_closed_form(o, d, c, r, tmin):
-    """Roots of |o + t d - c|^2 = r^2 by the textbook formula, and the discriminant."""
-    oc = o - c
-    a = np.einsum("rk,rk->r", d, d)
-    b = 2 * np.einsum("rk,rk->r", oc, d)
-    cc = np.einsum("rk,rk->r", oc, oc) - r * r
-    disc = b * b - 4 * a * cc
-    with np.errstate(invalid="ignore"):
-        sq = np.sqrt(disc)
-        t0, t1 = (-b - sq) / (2 * a), (-b + sq) / (2 * a)
-        # the textbook roots lose digits to cancellation: polish each with Newton steps
-        for _ in range(3):
-            t0 = t0 - (a * t0 * t0 + b * t0 + cc) / (2 * a * t0 + b)
-            t1 = t1 - (a * t1 * t1 + b * t1 + cc) / (2 * a * t1 + b)
-    t = np.where(t0 > tmin, t0, np.where(t1 > tmin, t1, np.inf))
-    t = np.where(disc >= 0, t, np.inf)
-    return t, disc / (4 * a * a), np.stack([t0, t1], 1)
-
-
-def cylinder_closed_form(o, d, origin, axis, r, h, tmin):
-    """Transform to a frame with the axis as local y and solve x^2 + z^2 = r^2, 0 <= y <= h."""
-    a = axis / np.linalg.norm(axis)
-    helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    ex = np.cross(helper, a)
-    ex /= np.linalg.norm(ex)
-    ez = np.cross(ex, a)
-    basis = np.stack([ex, a, ez])
-    lo, ld = (o - origin) @ basis.T, d @ basis.T
-    qa = ld[:, 0] ** 2 + ld[:, 2] ** 2
-    qb = 2 * (lo[:, 0] * ld[:, 0] + lo[:, 2] * ld[:, 2])
-    qc = lo[:, 0] ** 2 + lo[:, 2] ** 2 - r * r
-    disc = qb * qb - 4 * qa * qc
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sq = np.sqrt(disc)
-        roots = np.stack([(-qb - sq) / (2 * qa), (-qb + sq) / (2 * qa)], 1)
-        for _ in range(3):  # Newton polish, as for the sphere
-            roots = roots - (qa[:, None] * roots**2 + qb[:, None] * roots + qc[:, None]) / (
-                2 * qa[:, None] * roots + qb[:, None])
-    y = lo[:, 1:2] + roots * ld[:, 1:2]
-    valid = (disc[:, None] >= 0) & (qa[:, None] > 0) & (roots > tmin) & (y >= 0) & (y <= h)
-    t = np.where(valid, roots, np.inf).min(axis=1)
-    # rims and tangent rays are ambiguous
-    rim = (np.abs(y) < 1e-5 * (1 + h)) | (np.abs(y - h) < 1e-5 * (1 + h))
-    marginal = (np.isfinite(roots) & rim).any(axis=1)
-    marginal |= (disc >= 0) & (disc < 1e-8 * np.maximum(qb * qb, 1e-30))
-    marginal |= (np.abs(roots - tmin) < 1e-6).any(axis=1)
-    return t, marginal
-
-
-def quad_closed_form(o, d, n, c00, e1, e2, tmin):
-    """Ray-plane t, then the hit's coordinates along the rectangle's two edges."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = -((o - c00) @ n) / (d @ n)
-    p = o + t[:, None] * d
-    a = (p - c00) @ e1 / (e1 @ e1)
-    b = (p - c00) @ e2 / (e2 @ e2)
-    inside = (a >= 0) & (a <= 1) & (b >= 0) & (b <= 1) & (t > tmin) & np.isfinite(t)
-    edge = np.minimum(np.minimum(np.abs(a), np.abs(a - 1)), np.minimum(np.abs(b), np.abs(b - 1)))
-    cosine = np.abs(d @ n) / np.linalg.norm(d, axis=1)
-    marginal = (edge < 1e-6) | (cosine < 1e-6) | (np.abs(t - tmin) < 1e-6)
-    return np.where(inside, t, np.inf), marginal
-
 
 shapes = st.lists(
     st.tuples(

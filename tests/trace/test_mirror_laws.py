@@ -18,14 +18,16 @@ import numpy as np
 import pytest
 
 from reflectcli.camera import Camera, camera_from_config
-from reflectcli.config.scene import SceneConfig
 from reflectcli.geometry import reflect_point, reflect_vector
 from reflectcli.scene.build import build_scene
-from reflectcli.techniques.raytrace import Raytrace
+from reflectcli.techniques.raytrace.technique import Raytrace
+from reflectcli.techniques.registry import scene_model
 
 ROOM_MIN, ROOM_MAX = np.array([-5.0, 0.0, -5.0]), np.array([5.0, 5.0, 6.0])
 CHECKER = {"kind": "checker", "color0": [0.1, 0.2, 0.3], "color1": [0.9, 0.8, 0.7],
            "scale": [8, 6]}
+
+SceneConfig = scene_model()  # the scene model with the technique union
 
 
 def base_scene(shading: str) -> dict:

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 import trimesh
 
+from reflectcli import api
 from reflectcli.camera import camera_from_config
-from reflectcli.config.scene import SceneConfig
-from reflectcli.scene.build import build_scene
-from reflectcli.techniques.raytrace import Raytrace
+from reflectcli.techniques.registry import scene_model
+
+SceneConfig = scene_model()  # the scene model with the technique union
 
 BASE = {
     "scene": {"name": "shapes"},
@@ -25,9 +26,8 @@ def _render(tmp_path, mirrors, objects=()):
     cfg = SceneConfig.model_validate(
         {**BASE, "objects": BASE["objects"] + list(objects), "mirrors": mirrors,
          "technique": {"name": "raytrace", "max_depth": 1}})
-    scene = build_scene(cfg, str(tmp_path / "scene.toml"))
-    tech = Raytrace(cfg.technique, 2)
-    return tech.render(tech.prepare(scene), 0, camera_from_config(cfg.camera, 0)), scene
+    opened = api.OpenedScene(cfg, str(tmp_path / "scene.toml"), cache=False)
+    return opened.render_frame(0), opened.scene
 
 
 def test_planar_mesh_mirror_equals_quad_mirror(tmp_path):

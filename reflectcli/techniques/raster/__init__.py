@@ -13,12 +13,7 @@ from typing import Literal
 
 from pydantic import ConfigDict
 
-from ..camera import Camera
-from ..config.base import Strict
-from ..frame import Frame
-from ..raster.primary import render_primary
-from ..scene.types import Scene
-from .base import Technique
+from ...config.base import Strict, described
 
 
 class RasterParams(Strict):
@@ -27,12 +22,4 @@ class RasterParams(Strict):
     name: Literal["raster"] = "raster"
 
 
-class Raster(Technique):
-    name = "raster"
-    Params = RasterParams
-
-    def prepare(self, scene: Scene) -> Scene:
-        return scene
-
-    def render(self, state: Scene, frame: int, camera: Camera) -> Frame:
-        return render_primary(state, frame, camera).frame
+Params = described(RasterParams, __doc__)

@@ -1,4 +1,7 @@
-"""Checks a schema cannot express: references, files, degenerate mirrors, cameras on mirrors."""
+"""Checks a schema cannot express: references, files, degenerate mirrors, cameras on mirrors.
+
+They live above config/ because the geometric ones need the mirror geometry and the camera.
+"""
 
 from __future__ import annotations
 
@@ -6,10 +9,12 @@ import os
 
 import numpy as np
 
+from ..camera import camera_from_config
+from ..config.files import file_problem
+from ..config.limits import MAX_MESH_BYTES, MAX_TEXTURE_BYTES
+from ..config.scene import SceneConfig
 from ..errors import Problem
-from .files import file_problem
-from .limits import MAX_MESH_BYTES, MAX_TEXTURE_BYTES
-from .scene import SceneConfig
+from .mirrors import mirror_corners, profile_normals, profile_points
 
 
 def _resolve(source: str, path: str) -> str:
@@ -22,9 +27,6 @@ def _unreadable(source: str, path: str, limit: int) -> str | None:
 
 
 def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -> list[Problem]:
-    from ..camera import camera_from_config
-    from ..scene.build import mirror_corners
-
     problems: list[Problem] = []
 
     def add(loc: tuple, message: str) -> None:
@@ -61,8 +63,6 @@ def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -
         if m.shape in ("cylinder", "cap") and np.linalg.norm(m.axis) == 0:
             add(("mirrors", j, "axis"), "must not be zero")
         if m.shape == "extrusion":
-            from ..scene.reflectors import profile_normals, profile_points
-
             points = profile_points(m.profile)
             if len(points) < 2:
                 add(("mirrors", j, "profile"),
@@ -102,11 +102,11 @@ def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -
         add(("camera", "up"), "must not be parallel to the viewing direction")
     elif planes:
         field = ("camera", "path") if cfg.camera.path else ("camera", "eye")
-        for frame in range(cfg.camera.frame_count):
-            cam = camera_from_config(cfg.camera, frame)
+        for frame_index in range(cfg.camera.frame_count):
+            cam = camera_from_config(cfg.camera, frame_index)
             hit = [p for p in planes if abs(p[2] @ cam.eye + p[3]) <= 1e-6 * max(1.0, p[4])]
             if hit:
-                where = f" at frame {frame}" if cfg.camera.path else ""
+                where = f" at frame {frame_index}" if cfg.camera.path else ""
                 add(field, f"eye lies on the plane of mirror '{hit[0][1]}'{where}")
                 break
     return problems

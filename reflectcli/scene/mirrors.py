@@ -1,4 +1,7 @@
-"""Curved reflectors built as triangle meshes: linear extrusions and spherical caps.
+"""Mirror geometry, planar and curved: corners and planes of planar mirrors, the world-space
+triangles of every mirror shape, and the exact profiles of extrusions.
+
+Curved reflectors built as triangle meshes: linear extrusions and spherical caps.
 
 Both are traced by the ray tracer as triangles with interpolated (smooth) normals, so their
 `mirror_mesh` is exact. The virtual-objects technique also reads an extrusion's exact
@@ -22,9 +25,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..config.mirrors import CapMirror, ExtrusionMirror
+from ..config.mirrors import (
+    CapMirror,
+    CylinderMirror,
+    ExtrusionMirror,
+    MeshMirror,
+    QuadMirror,
+    SphereMirror,
+)
 from ..geometry import trs_matrix
+from . import primitives
 from .mesh import Mesh
+from .mesh_file import cached_mesh_file, resolve
 from .primitives import _longitude_dirs, grid_mesh
 
 
@@ -101,8 +113,6 @@ def cap_mesh(m: CapMirror) -> Mesh:
     (at least 1), so facets are about as wide as those of a uv sphere with `segments`; the
     ring at the pole is a fan: segments * (2 * rings - 1) triangles.
     """
-    from .build import _axis_frame
-
     segments = max(int(m.segments), 3)
     rings = max(int(np.ceil(segments * m.angle / 360.0 - 1e-9)), 1)
     theta = np.radians(m.angle) * np.linspace(0.0, 1.0, rings + 1)
@@ -116,4 +126,66 @@ def cap_mesh(m: CapMirror) -> Mesh:
     uvs = np.stack([uu, 1.0 - tt / np.radians(m.angle)], axis=-1)
     normals = -unit if m.concave else unit
     mesh = grid_mesh(m.radius * unit, uvs, normals)
-    return mesh.transformed(_axis_frame(m.center, m.axis))
+    return mesh.transformed(axis_frame(m.center, m.axis))
+
+
+def mirror_corners(m) -> np.ndarray:
+    """A planar mirror's four corners p00, p10, p11, p01 (world)."""
+    if isinstance(m, QuadMirror):
+        return np.array(m.corners, float)
+    n = np.array(m.normal, float)
+    n /= np.linalg.norm(n)
+    up = np.array(m.up, float)
+    up = up - (up @ n) * n
+    up /= np.linalg.norm(up)
+    right = np.cross(up, n)
+    c = np.array(m.center, float)
+    hw, hh = m.size[0] / 2, m.size[1] / 2
+    return np.array([c - hw * right - hh * up, c + hw * right - hh * up,
+                     c + hw * right + hh * up, c - hw * right + hh * up])
+
+
+def mirror_plane(m) -> tuple[np.ndarray, float]:
+    """A planar mirror's plane (n, d), n = (p10 - p00) x (p01 - p00) normalised."""
+    c = mirror_corners(m)
+    n = np.cross(c[1] - c[0], c[3] - c[0])
+    n /= np.linalg.norm(n)
+    return n, float(-n @ c[0])
+
+
+def mirror_mesh(m, source: str) -> tuple[Mesh, bool]:
+    """World-space triangles of a mirror, and whether the ray tracer intersects them (mesh,
+    extrusion and cap mirrors) rather than the exact shape (planar, sphere and cylinder
+    mirrors, in numba)."""
+    if m.planar:
+        return primitives.quad(mirror_corners(m)), False
+    if isinstance(m, SphereMirror):
+        mesh = primitives.uv_sphere(m.radius, m.segments)
+        return mesh.transformed(trs_matrix(m.center, (0, 0, 0), 1.0)), False
+    if isinstance(m, CylinderMirror):
+        mesh = primitives.cylinder(m.radius, m.height, m.segments, caps=False)
+        return mesh.transformed(axis_frame(m.origin, m.axis)), False
+    if isinstance(m, ExtrusionMirror):
+        return extrusion_mesh(m), True
+    if isinstance(m, CapMirror):
+        return cap_mesh(m), True
+    assert isinstance(m, MeshMirror)
+    mesh = cached_mesh_file(resolve(source, m.path))
+    t = m.transform
+    mesh = mesh.transformed(trs_matrix(t.translate, t.rotate, t.scale))
+    if not m.smooth:
+        mesh = Mesh.flat(mesh.corners, mesh.uvs)
+    return mesh, True
+
+
+def axis_frame(origin, axis) -> np.ndarray:
+    """A rigid transform taking local +y to `axis` and the origin to `origin`."""
+    a = np.array(axis, float)
+    a /= np.linalg.norm(a)
+    helper = np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 0, 1.0])
+    x = np.cross(a, helper)
+    x /= np.linalg.norm(x)
+    z = np.cross(x, a)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, a, z, origin
+    return m

@@ -9,9 +9,11 @@ from typing import Any
 
 
 def scene_schema() -> dict:
-    from .scene import SceneConfig
+    """The scene file's JSON schema, the technique table the union of every registered
+    technique's parameters (so it lives above config/, beside the registry)."""
+    from .techniques.registry import scene_model
 
-    schema = SceneConfig.model_json_schema()
+    schema = scene_model().model_json_schema()
     schema["title"] = "reflect scene file"
     return schema
 
@@ -73,7 +75,7 @@ def scene_reference() -> str:
            "`scripts/scene_reference.py` rewrites this file). Every table rejects unknown "
            "keys; numbers must be finite. Size limits (image, frames, tessellation, "
            "triangles, files) are listed in `reflectcli/config/limits.py`.", ""]
-    from . import limits
+    from .config import limits
 
     table = [line for line in (limits.__doc__ or "").splitlines() if line.startswith("|")]
     out += ["### size limits", "", *table, ""]

@@ -1,0 +1,38 @@
+"""The ray tracer's technique class (parameters: the package docstring)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ...camera import Camera
+from ...frame import Frame
+from ...scene.types import Scene
+from ...trace.tracer import Accelerators, build_accelerators, trace_frame
+from ..base import Technique
+from . import RaytraceParams
+
+
+@dataclass
+class RaytraceState:
+    scene: Scene
+    accel: Accelerators | None = None  # rebuilt when the geometry's key changes
+
+
+class Raytrace(Technique):
+    name = "raytrace"
+    Params = RaytraceParams
+
+    def prepare(self, scene: Scene) -> RaytraceState:
+        return RaytraceState(scene)
+
+    def render(self, state: RaytraceState, frame_index: int, camera: Camera) -> Frame:
+        scene = state.scene
+        geometry = scene.geometry(frame_index)
+        built = 0.0
+        if state.accel is None or state.accel.key != geometry.key:
+            state.accel = build_accelerators(geometry)
+            built = state.accel.build_seconds
+        result = trace_frame(scene, geometry, state.accel, camera, self.params.max_depth,
+                             self.params.samples, self.threads)
+        result.timings["embree_build"] = built
+        return result

@@ -1,0 +1,83 @@
+"""The multi-pass re-rendering technique class (parameters and method: the package
+docstring)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ...camera import Camera, reflection_pass_matrices
+from ...frame import Frame
+from ...geometry import reflection_matrix
+from ...raster.primary import render_primary
+from ...raster.rasterize import FLAG_SKIP, RasterWorkspace, rasterize
+from ...raster.shade import shade_buffers
+from ...scene.types import PLANAR, Scene, Triangles
+from ..base import Technique, warn_non_planar
+from . import RerenderParams
+
+
+class Rerender(Technique):
+    name = "rerender"
+    Params = RerenderParams
+    _primary_ws: RasterWorkspace | None = None
+    _pass_ws: RasterWorkspace | None = None
+
+    def prepare(self, scene: Scene) -> Scene:
+        warn_non_planar(scene, "rerender")
+        # rasterizer scratch kept across frames; reflection passes' buffers are shaded at once
+        self._primary_ws = RasterWorkspace()
+        self._pass_ws = RasterWorkspace(outputs=True)
+        return scene
+
+    def render(self, scene: Scene, frame_index: int, camera: Camera) -> Frame:
+        if self._pass_ws is None:
+            self.prepare(scene)
+        primary = render_primary(scene, frame_index, camera, self._primary_ws)
+        result = primary.frame
+        stats = {"passes": 1, "triangles_rasterized": primary.triangles.count,
+                 "pass_seconds": []}
+        mask = np.ones(result.surface.shape, bool)
+        self._reflect(scene, primary.triangles, primary.flags, camera, 1, np.eye(4), camera.eye,
+                      result.surface, mask, result.rgb, stats)
+        result.timings["reflections"] = sum(stats["pass_seconds"])
+        result.stats.update(stats)
+        return result
+
+    def _reflect(self, scene, tris: Triangles, flags, camera, level, chain, eye, surface, mask,
+                 rgb, stats) -> None:
+        """Fill the mirror pixels of `rgb` (inside `mask`) seen from `eye` at this level."""
+        if level > self.params.max_depth:
+            return
+        mirrors = scene.mirrors
+        for k in range(mirrors.count):
+            if mirrors.kind[k] != PLANAR:
+                continue
+            sid = scene.n_objects + k
+            stencil = mask & (surface == sid)
+            if not stencil.any():
+                continue
+            start = time.perf_counter()
+            n, d = mirrors.plane(k)
+            if n @ eye + d < 0:  # mirrors are two-sided: face the plane toward this eye
+                n, d = -n, -d
+            reflect = reflection_matrix(n, d)
+            new_chain = chain @ reflect
+            new_eye = (reflect @ np.append(eye, 1.0))[:3]
+            # the kept side starts just behind the mirror: a wall the mirror hangs on (coplanar
+            # with it) must not be drawn over the reflection (the ray tracer likewise starts
+            # reflected rays a little off the surface)
+            offset = 1e-4 * (1.0 + abs(d) + float(np.abs(eye).max()))
+            world_to_clip, planes = reflection_pass_matrices(
+                camera, new_chain, np.append(n, d - offset), self.params.clip)
+            pass_flags = flags | np.where(tris.surface == sid, FLAG_SKIP, 0).astype(np.uint8)
+            buffers = rasterize(tris.corners, pass_flags, world_to_clip, camera.width,
+                                camera.height, planes, mask=stencil, workspace=self._pass_ws)
+            reflected, reflected_surface = shade_buffers(buffers, tris, scene, new_eye)
+            stats["passes"] += 1
+            stats["triangles_rasterized"] += tris.count
+            stats["pass_seconds"].append(time.perf_counter() - start)
+            self._reflect(scene, tris, flags, camera, level + 1, new_chain, new_eye,
+                          reflected_surface, stencil, reflected, stats)
+            rgb[stencil] += mirrors.reflectance[k] * reflected[stencil]

@@ -1,0 +1,113 @@
+"""The virtual-objects technique: per reflector seen, its parts' virtual vertices
+(reflectcli/virtual/dispatch.py), the virtual objects drawn over its pixels
+(reflectcli/virtual/raster.py) and blended with its reflectance."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from ...camera import Camera
+from ...frame import Frame
+from ...raster.primary import render_primary
+from ...scene.types import PLANAR, Scene
+from ...virtual.dispatch import choose_method, facing_plane, reflector_parts
+from ...virtual.raster import draw_virtual
+from ...virtual.reflected import ReflectedCache
+from ...virtual.shape import ShapeCache, soup_key
+from ...virtual.view import ViewCache
+from ..base import Technique
+from . import Params
+
+
+@dataclass
+class VirtualState:
+    """What frames share: tessellations, reflector shapes and views, each cached by what
+    decides it."""
+
+    scene: Scene
+    reflected: ReflectedCache = field(default_factory=ReflectedCache)
+    shapes: ShapeCache = field(default_factory=ShapeCache)
+    views: ViewCache = field(default_factory=ViewCache)
+
+    @cached_property
+    def scene_points(self) -> np.ndarray:
+        """(N, 3) world: every corner at frame 0, which the far explosion map bounds."""
+        return self.scene.geometry(0).all_triangles().corners.reshape(-1, 3)
+
+
+class Virtual(Technique):
+    name = "virtual"
+    Params = Params
+
+    def prepare(self, scene: Scene) -> VirtualState:
+        """One-time work, kept out of frame time: at frame 0, what every reflector reflects
+        tessellated, and each mesh reflector's shape (welded, decomposed into parts, boundary
+        edges); both are cached and reused while the geometry does not change."""
+        state = VirtualState(scene)
+        geometry = scene.geometry(0)
+        tris = geometry.all_triangles()
+        for k in range(scene.mirrors.count):
+            state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation)
+            method = choose_method(self.params.method, int(scene.mirrors.kind[k]),
+                                   k in scene.mirror_profiles)
+            mine = np.flatnonzero(tris.surface == scene.n_objects + k)
+            if method != "explosion" or not mine.size:
+                continue
+            first, count = int(mine[0]), int(mine.size)  # a reflector's triangles are contiguous
+            corners = tris.corners[first:first + count]
+            normals = tris.normals[first:first + count]
+            mode = self.params.decompose_overrides.get(scene.mirrors.names[k],
+                                                       self.params.decompose)
+            state.shapes.get(soup_key(corners, normals), corners, normals, mode == "auto")
+        return state
+
+    def render(self, state: VirtualState, frame_index: int, camera: Camera) -> Frame:
+        scene = state.scene
+        primary = render_primary(scene, frame_index, camera)
+        result = primary.frame
+        geometry = scene.geometry(frame_index)
+        clip_from_world = camera.clip_from_world()
+        stats = {"virtual_vertices": 0, "virtual_triangles": 0, "reflector_parts": 0}
+        seconds = dict.fromkeys(("tessellate", "maps", "virtual_vertices", "virtual_raster"),
+                                0.0)
+        for k in range(scene.mirrors.count):
+            if not (result.surface == scene.n_objects + k).any():
+                continue  # not in view
+            t_start = time.perf_counter()
+            tess = state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation)
+            seconds["tessellate"] += time.perf_counter() - t_start
+            mirror_plane = None
+            if scene.mirrors.kind[k] == PLANAR:
+                mirror_plane = np.append(*facing_plane(scene.mirrors, k, camera.eye))
+            parts = reflector_parts(self.params, scene, primary, k, camera, state.scene_points,
+                                    state.shapes, state.views)
+            while True:
+                t_start = time.perf_counter()  # building a part's maps happens in next()
+                item = next(parts, None)
+                seconds["maps"] += time.perf_counter() - t_start
+                if item is None:
+                    break
+                stencil, vertices_of = item
+                t0 = time.perf_counter()
+                virtual, hidden = vertices_of(tess.points, tess.corner_index)
+                # polygons wholly in the hidden region are not reflected (the paper drops
+                # them); mixed ones keep their doubly virtual vertices
+                dropped = hidden[tess.corner_index].all(axis=1)
+                t1 = time.perf_counter()
+                colors = draw_virtual(scene, primary, camera, clip_from_world, tess.triangles,
+                                      virtual[tess.corner_index], dropped, stencil,
+                                      scene.n_objects + k, mirror_plane,
+                                      self.params.reflector_test)
+                result.rgb[stencil] += scene.mirrors.reflectance[k] * colors[stencil]
+                seconds["virtual_vertices"] += t1 - t0
+                seconds["virtual_raster"] += time.perf_counter() - t1
+                stats["virtual_vertices"] += tess.points.shape[0]
+                stats["virtual_triangles"] += tess.triangles.count
+                stats["reflector_parts"] += 1
+        result.timings.update(seconds)
+        result.stats.update(stats)
+        return result

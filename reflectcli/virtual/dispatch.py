@@ -1,0 +1,133 @@
+"""Which method finds a reflector's virtual vertices, and the reflector's parts with their
+vertex functions: exact mirroring for planar mirrors, the exact sphere and extrusion
+searches for their shapes, explosion maps (one per convex / concave / crease part) for
+other meshes."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Literal, Protocol
+
+import numpy as np
+
+from ..camera import Camera
+from ..geometry import reflect_point
+from ..raster.primary import Primary
+from ..scene.types import CYLINDER, PLANAR, SPHERE, Mirrors, Scene
+from .direct import cylinder_virtual_vertices, profile_virtual_vertices, sphere_virtual_vertices
+from .part import ExplosionPart
+from .shape import ShapeCache, soup_key
+from .view import ViewCache
+
+Method = Literal["planar", "sphere", "extrusion", "explosion"]
+# points (N, 3) world [, polygons (T, 3) point indices] -> (virtual points (N, 3) world,
+# flags (N,): hidden or not exactly reflected)
+VertexFn = Callable[..., tuple[np.ndarray, np.ndarray]]
+
+
+class ExplosionRule(Protocol):
+    """The technique's `explosion` Params."""
+
+    resolution: int
+    near_scale: float
+    layers: int
+    center: str
+    refine: str
+
+
+class MethodRule(Protocol):
+    """The technique's Params, as far as choosing methods and parts goes."""
+
+    method: str
+    decompose: str
+    decompose_overrides: dict[str, str]
+    explosion: ExplosionRule
+
+
+def choose_method(requested: str, kind: int, profiled: bool) -> Method:
+    """The method for a mirror of `kind` (`profiled`: an extrusion with a known profile):
+    `requested` where the mirror has its shape, else explosion maps."""
+    if kind == PLANAR:
+        return "planar"
+    extrusion = kind == CYLINDER or profiled
+    if requested == "auto":
+        return "sphere" if kind == SPHERE else "extrusion" if extrusion else "explosion"
+    if (requested == "sphere" and kind != SPHERE) or (requested == "extrusion"
+                                                      and not extrusion):
+        return "explosion"  # the direct methods need their shape; fall back
+    return requested  # type: ignore[return-value]
+
+
+def facing_plane(mirrors: Mirrors, k: int, eye: np.ndarray) -> tuple[np.ndarray, float]:
+    """Planar mirror k's (n, d) (world), signed so that the eye is on its positive side."""
+    n, d = mirrors.plane(k)
+    if n @ eye + d < 0:
+        n, d = -n, -d
+    return n, d
+
+
+def reflector_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, camera: Camera,
+                    scene_points: np.ndarray, shapes: ShapeCache,
+                    views: ViewCache) -> Iterator[tuple[np.ndarray, VertexFn]]:
+    """(stencil (H, W) screen, vertex function) for each part of reflector k seen in
+    `primary`. Explosion parts build their maps when reached (this is a generator)."""
+    sid = scene.n_objects + k
+    kind = int(scene.mirrors.kind[k])
+    eye = np.asarray(camera.eye, np.float64)
+    method = choose_method(rule.method, kind, k in scene.mirror_profiles)
+    stencil_all = primary.frame.surface == sid
+    if method == "planar":
+        n, d = facing_plane(scene.mirrors, k, eye)
+        # points on or behind the plane (a wall the mirror hangs on) are not reflected:
+        # they count as hidden, and draw_virtual clips virtual geometry to behind the plane
+        yield stencil_all, lambda pts, _=None: (reflect_point(pts, n, d), pts @ n + d <= 0.0)
+        return
+    if method == "sphere":
+        center, radius = scene.mirrors.sphere(k)
+        yield stencil_all, lambda pts, _=None: sphere_virtual_vertices(pts, eye, center, radius)
+        return
+    if method == "extrusion" and kind == CYLINDER:
+        origin, axis, radius, _height = scene.mirrors.cylinder(k)
+        yield stencil_all, lambda pts, _=None: cylinder_virtual_vertices(
+            pts, eye, origin, axis, radius)
+        return
+    if method == "extrusion":
+        profile, normals, world_from_local, _ = scene.mirror_profiles[k]
+        yield stencil_all, lambda pts, _=None: profile_virtual_vertices(
+            pts, eye, profile, normals, world_from_local)
+        return
+    yield from explosion_parts(rule, scene, primary, k, camera, scene_points, shapes, views)
+
+
+def explosion_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, camera: Camera,
+                    scene_points: np.ndarray, shapes: ShapeCache,
+                    views: ViewCache) -> Iterator[tuple[np.ndarray, ExplosionPart]]:
+    """Mesh reflector k split into parts (unless `decompose` says no), each with its
+    explosion maps, stencil restricted to the part's faces."""
+    sid = scene.n_objects + k
+    tris = primary.triangles
+    first = int(np.flatnonzero(tris.surface == sid)[0])  # the reflector's triangles are
+    count = int(np.count_nonzero(tris.surface == sid))  # contiguous in the soup
+    corners = tris.corners[first:first + count]
+    normals = tris.normals[first:first + count]
+    mode = rule.decompose_overrides.get(scene.mirrors.names[k], rule.decompose)
+    soup = soup_key(corners, normals)
+    shape = shapes.get(soup, corners, normals, mode == "auto")
+    clip_from_world = camera.clip_from_world()
+    params = rule.explosion
+    view = views.get((soup, mode == "auto"), corners, normals, shape, camera, clip_from_world,
+                     params.refine == "screen")
+    # reflector face under each pixel of the scene's item buffer (-1: another surface)
+    buffer_face = np.where(primary.buffers.triangle >= first,
+                           primary.buffers.triangle - first, -1)
+    buffer_face[buffer_face >= count] = -1
+    stencil_all = primary.frame.surface == sid
+    for part, part_view in zip(shape.parts, view.parts, strict=True):
+        in_part = np.zeros(count + 1, bool)
+        in_part[part.faces] = True
+        stencil = stencil_all & in_part[buffer_face]
+        if not stencil.any():
+            continue
+        yield stencil, ExplosionPart(part, part_view, view.depth, view.grid, camera,
+                                     clip_from_world, scene_points, params.center,
+                                     params.near_scale, params.resolution, params.layers)

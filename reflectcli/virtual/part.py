@@ -1,0 +1,94 @@
+"""Virtual vertices on one part of a mesh reflector: explosion maps built for this view
+(hidden points looked up through the hidden map), then refined on the part's own pixels."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..camera import Camera
+from .explosion import ExplosionMaps, build_explosion_maps, ray_focus, virtual_vertices
+from .refine import BOUNDARY, EXACT, NONE, refine_virtual
+from .screen import screen_from_world
+from .shape import PartShape
+from .view import PartView
+
+
+class ExplosionPart:
+    """points -> (virtual points, flags) for one reflector part in one view; `maps` are its
+    explosion maps (kept for tests and figures). Flags mark points not exactly reflected:
+    hidden ones (doubly virtual), and those found only past the part's edge."""
+
+    def __init__(self, shape: PartShape, view: PartView, depth: np.ndarray,
+                 grid: tuple[np.ndarray, np.ndarray] | None, camera: Camera,
+                 clip_from_world: np.ndarray, scene_points: np.ndarray, center: str,
+                 near_scale: float, resolution: int, layers: int) -> None:
+        part = shape.mesh
+        # the map center (world): the reflection rays' focus, or the paper's vertex mean
+        centre = ray_focus(part, camera.eye) if center == "focus" else part.vertices.mean(axis=0)
+        bound = float(np.linalg.norm(part.vertices - centre, axis=1).max())
+        far = float(np.linalg.norm(scene_points - centre, axis=1).max()) * 1.01
+        near = max(bound * near_scale, 1e-6)
+        self.maps: ExplosionMaps = build_explosion_maps(
+            part, camera.eye, centre, near, max(far, near * 1.01), resolution, layers,
+            shape.boundary)
+        # a concave part looks maps up along its mean front normal (see virtual_vertices)
+        self.flip = np.zeros(3)
+        if shape.concave and self.maps.front.any():
+            flip = part.normals[self.maps.front].mean(axis=0)
+            self.flip = flip / max(np.linalg.norm(flip), 1e-30)
+        self.view = view
+        self.depth = depth
+        self.grid = grid
+        self.camera = camera
+        self.clip_from_world = clip_from_world
+        self.screen = screen_from_world(part.vertices, clip_from_world, camera.width,
+                                        camera.height)[:, :2]
+
+    def __call__(self, points: np.ndarray, polygons: np.ndarray | None = None):
+        """(virtual points, flags). With `polygons` (T, 3) point indices, points no ray of
+        this part can reach are skipped (flagged, left in place) unless a polygon joins them
+        to one it can: most points of a scene miss most parts of a mixed reflector."""
+        n = len(points)
+        todo = np.ones(n, bool)
+        retry = None
+        tiles = self.view.tiles
+        if tiles is not None:
+            reach, retry = tiles.scan(points, self.grid[0], self.grid[1])
+            if polygons is not None:
+                todo = reach.copy()
+                todo[polygons[reach[polygons].any(axis=1)].ravel()] = True
+        virtual = points.astype(np.float64).copy()
+        flags = np.ones(n, bool)
+        if todo.any():
+            virtual[todo], flags[todo] = self.vertices(
+                points[todo], None if retry is None else retry[todo])
+        return virtual, flags
+
+    def vertices(self, points: np.ndarray, retry: np.ndarray | None):
+        """Virtual vertices of `points` (world): explosion maps (hidden points through the
+        hidden map), then the refinement on the part's pixels from `retry` seeds too."""
+        camera = self.camera
+        proj = screen_from_world(points, self.clip_from_world, camera.width, camera.height)
+        finite = np.isfinite(proj[:, 0]) & np.isfinite(proj[:, 1]) & (proj[:, 2] > 0)
+        x = np.floor(np.where(finite, proj[:, 0], -1)).astype(np.int64)
+        y = np.floor(np.where(finite, proj[:, 1], -1)).astype(np.int64)
+        ok = finite & (x >= 0) & (y >= 0) & (x < camera.width) & (y < camera.height)
+        face = np.full(len(points), -1, np.int64)  # part face in front of a hidden point
+        xs, ys = x[ok], y[ok]
+        behind = proj[ok, 2] > self.depth[ys, xs]
+        face[np.flatnonzero(ok)[behind]] = self.view.hidden_map[ys[behind], xs[behind]]
+        virtual, flags = virtual_vertices(self.maps, points, face, proj[:, :2].copy(),
+                                          self.screen, self.flip)
+        if self.grid is not None:
+            # seeds: where the map's virtual vertices land on the screen (on the eye ray
+            # through the reflection point the map found); hidden points too: one behind the
+            # reflector may still be reflected near its silhouette; where no reflection is
+            # found it keeps its doubly virtual vertex
+            seeds = screen_from_world(virtual, self.clip_from_world, camera.width,
+                                      camera.height)[:, :2]
+            refined, status = refine_virtual(points, seeds, self.view.inside, self.grid[0],
+                                             self.grid[1], camera.eye, retry)
+            found = status != NONE
+            virtual[found] = refined[found]
+            flags = (flags & (status != EXACT)) | (status == BOUNDARY)
+        return virtual, flags

@@ -1,0 +1,74 @@
+"""What a mesh reflector's shape alone decides, computed once per shape: its welded mesh,
+its convex / concave / crease parts, and per part the sub-mesh, whether it is concave and
+its boundary edges. A reflector that does not deform keeps all of it from frame to frame."""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .convexity import convexity_parts, vertex_convexity
+from .explosion import boundary_edges
+from .mesh import IndexedMesh, weld
+
+CACHE_SIZE = 16  # shapes kept before the cache starts over
+
+
+@dataclass(frozen=True)
+class PartShape:
+    """One part of a reflector (all of it, if not decomposed)."""
+
+    faces: np.ndarray  # (F,) indices of the part's faces among the reflector's triangles
+    mesh: IndexedMesh  # the part alone, world space
+    concave: bool  # its vertices bend toward their normals on average
+    boundary: np.ndarray  # (B, 3) int64 (face, i, j): edges of one face only, in mesh indices
+
+
+@dataclass(frozen=True)
+class ReflectorShape:
+    mesh: IndexedMesh  # the whole reflector, welded
+    parts: tuple[PartShape, ...]
+
+
+def reflector_shape(corners: np.ndarray, normals: np.ndarray, decompose: bool) -> ReflectorShape:
+    """From a reflector's triangle soup (T, 3, 3) corners and normals (world space)."""
+    mesh = weld(corners, normals)
+    faces_of_parts = convexity_parts(mesh) if decompose else [np.arange(len(mesh.faces))]
+    parts = []
+    for faces in faces_of_parts:
+        part = sub_mesh(mesh, faces)
+        parts.append(PartShape(faces, part, bool(vertex_convexity(part).mean() < 0),
+                               boundary_edges(part.faces)))
+    return ReflectorShape(mesh, tuple(parts))
+
+
+def sub_mesh(mesh: IndexedMesh, faces: np.ndarray) -> IndexedMesh:
+    """The faces `faces` of `mesh` with only the vertices they use, renumbered."""
+    used, inverse = np.unique(mesh.faces[faces].reshape(-1), return_inverse=True)
+    return IndexedMesh(mesh.vertices[used], mesh.normals[used], inverse.reshape(-1, 3),
+                       mesh.soup_index[faces])
+
+
+@dataclass
+class ShapeCache:
+    """ReflectorShapes by the content of their triangle soup and the decomposition asked."""
+
+    entries: dict = field(default_factory=dict)
+
+    def get(self, soup: tuple, corners: np.ndarray, normals: np.ndarray,
+            decompose: bool) -> ReflectorShape:
+        """`soup`: soup_key(corners, normals)."""
+        key = (soup, decompose)
+        if key not in self.entries:
+            if len(self.entries) > CACHE_SIZE:
+                self.entries.clear()
+            self.entries[key] = reflector_shape(corners, normals, decompose)
+        return self.entries[key]
+
+
+def soup_key(corners: np.ndarray, normals: np.ndarray) -> tuple:
+    """Equal keys: equal triangle soups (so equal shapes)."""
+    digest = hashlib.blake2b(corners.tobytes() + normals.tobytes(), digest_size=16)
+    return digest.hexdigest(), corners.shape, corners.dtype.str, normals.dtype.str

@@ -1,0 +1,92 @@
+"""Bench statistics without rendering: timing medians and warnings, the Pareto front, report
+rows with every override, plot lines that never join scenes or other parameter values."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from reflectcli.bench.report import pareto_front, report_markdown
+from reflectcli.bench.runner import timing_samples, timing_stats
+
+
+def test_timing_leaves_out_warmup_and_warns_when_short():
+    samples = [9.7, 0.9, 0.8, 1.0]  # a first render paying for first-frame caches
+    t = timing_stats(samples, warmup=1)
+    assert t["frame_ms_median"] == pytest.approx(900.0)
+    assert t["frame_ms_p25"] == pytest.approx(850.0) and t["frame_ms_p75"] == pytest.approx(950.0)
+    assert t["first_frame_ms"] == pytest.approx(9700.0)
+    assert t["timed_frames"] == 3 and t["timing_warning"] == ""
+    short = timing_stats([9.7], warmup=0)
+    assert short["frame_ms_median"] == pytest.approx(9700.0)
+    assert "0 warm-up" in short["timing_warning"] and "1 timed" in short["timing_warning"]
+    assert "2 timed" in timing_stats([1.0, 2.0, 3.0], warmup=1)["timing_warning"]
+
+
+def test_repeats_are_samples_in_render_order():
+    log = [{"frame_seconds": 5.0, "repeat_seconds": [5.0, 1.0, 1.1]},
+           {"frame_seconds": 1.2}]
+    assert timing_samples(log) == [5.0, 1.0, 1.1, 1.2]
+
+
+def _row(technique, ms, flip, overrides=(), scene="s", psnr=20.0, triangles=100):
+    return {"run": f"{technique}{ms}", "scene": scene, "technique": technique,
+            "overrides": list(overrides), "sweep": {}, "frame_ms_median": ms,
+            "frame_ms_p25": ms, "frame_ms_p75": ms, "timing_warning": "",
+            "reference_ms_median": 10.0, "psnr_mirror": psnr, "psnr_image": psnr,
+            "flip_mirror": flip, "hole_fraction": 0.0, "triangles": triangles,
+            "cpu": "cpu", "threads": 2, "versions": {"reflect": "0"}}
+
+
+def test_pareto_front():
+    rows = [_row("a", 1.0, 0.5), _row("b", 2.0, 0.6), _row("c", 3.0, 0.2),
+            _row("d", 5.0, 0.2), _row("e", 8.0, 0.0), _row("f", 9.0, math.nan)]
+    assert [r["technique"] for r in pareto_front(rows)] == ["a", "c", "e"]
+
+
+def test_report_rows_show_every_override_and_warnings():
+    rows = [_row("virtual", 9.0, 0.3, ['technique.method="explosion"', "mirrors.s.segments=64"]),
+            _row("virtual", 8.0, 0.2)]
+    rows[0]["timing_warning"] = "0 warm-up (want >= 1 warm-up, >= 3 timed)"
+    text = report_markdown("b", rows)
+    assert 'method="explosion", mirrors.s.segments=64' in text
+    assert "**warning: 0 warm-up" in text
+    assert "| virtual | defaults |" in text
+    # the two rows have different scene overrides: two fronts, one per scene variant
+    assert text.count("### Quality at equal time budget") == 2
+
+
+def test_plot_lines_never_join_scenes_or_other_values():
+    pytest.importorskip("matplotlib")
+    from reflectcli.bench.plots import _lines
+
+    rows = [_row("virtual", 1, 0.1, ["technique.n=1", 'technique.method="a"']),
+            _row("virtual", 2, 0.1, ["technique.n=2", 'technique.method="a"']),
+            _row("virtual", 3, 0.1, ["technique.n=1", 'technique.method="b"']),
+            _row("virtual", 4, 0.1, ["technique.n=1", 'technique.method="a"'], scene="t")]
+    groups = _lines(rows, {"technique.n"})
+    assert sorted(len(g) for g in groups.values()) == [1, 1, 2]
+    assert all(len({r["scene"] for r in g}) == 1 for g in groups.values())
+
+
+def test_render_repeats_write_the_first_render_and_log_every_time(tmp_path):
+    from pathlib import Path
+
+    from reflectcli import api
+    from reflectcli.output.exr import read_exr
+    from reflectcli.output.log import read_jsonl
+
+    scene = str(Path(__file__).resolve().parents[2] / "scenes" / "teapot-box.toml")
+    small = ["camera.width=32", "camera.height=24"]
+    once = api.render(scene, out=str(tmp_path / "a"), frames="0", technique="rerender",
+                      overrides=small)
+    thrice = api.render(scene, out=str(tmp_path / "b"), frames="0", technique="rerender",
+                        overrides=small, repeats=3)
+    log = read_jsonl(str(Path(thrice.folder) / "timings.jsonl"))
+    assert len(log) == 1 and len(log[0]["repeat_seconds"]) == 3
+    assert log[0]["repeat_seconds"][0] == log[0]["frame_seconds"]
+    assert "repeat_seconds" not in read_jsonl(str(Path(once.folder) / "timings.jsonl"))[0]
+    a, _ = read_exr(once.written[0])
+    b, _ = read_exr(thrice.written[0])
+    assert all((a[c] == b[c]).all() for c in a)

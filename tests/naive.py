@@ -1,0 +1,1298 @@
+"""Slow, obviously correct twins of the fast kernels (after STUMPY's tests/naive.py).
+
+One function (or a small group) per numba kernel in reflectcli, written for clarity: plain
+Python loops or whole-array numpy, float64, no bands, no bounding boxes, no hoisted terms,
+and where there is an independent way to the answer (scipy's interpolation, a root finder,
+a brute-force search, the Camera's own matrices) it is used. Each docstring names the kernel
+it twins; tests/test_twins.py checks that every @njit kernel is held to one.
+
+Sections: shading, camera, raster, trace, maps (cube / sphere / lookup / surface / warp),
+virtual (direct / refine / explosion).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.ndimage import map_coordinates
+from scipy.optimize import brentq, minimize_scalar
+
+from reflectcli.maps.distance_search import CREASE_SLOPE
+from reflectcli.raster.rasterize import FLAG_MIRROR, FLAG_SKIP
+from reflectcli.scene.types import (
+    CHECKER,
+    CYLINDER,
+    MIRROR_TIE,
+    PLANAR,
+    POINT,
+    SPHERE,
+    TEXTURE,
+    UNLIT,
+)
+
+# ================================================================================= shading
+
+
+def _bary(b1, b2):
+    """Barycentric weights (b0, b1, b2) in float64 (b0 = 1 - b1 - b2, worked in float64)."""
+    b1, b2 = float(b1), float(b2)
+    return np.array([1.0 - b1 - b2, b1, b2])
+
+
+def material_albedo(mat, u, v, mat_i, mat_f, texels):
+    """Twin of shading.material_albedo (and shading._texel): the material's RGB at (u, v).
+
+    solid: color0; checker: color0 where floor(u su) + floor(v sv) is even, else color1;
+    texture: the image tiled over uv space (uv scaled, row 0 at v = 1), nearest texel or a
+    bilinear blend of texel centers with wrap-around (scipy's grid-wrap interpolation)."""
+    kind = int(mat_i[mat, 0])
+    f = np.asarray(mat_f[mat], np.float64)
+    if kind == CHECKER:
+        parity = (math.floor(u * f[6]) + math.floor(v * f[7])) % 2
+        return tuple(f[0:3] if parity == 0 else f[3:6])
+    if kind == TEXTURE:
+        off, w, h, bilinear = (int(x) for x in mat_i[mat, 1:5])
+        image = np.asarray(texels[off:off + w * h], np.float64).reshape(h, w, 3)
+        su, sv = u * f[6], v * f[7]
+        x = (su - math.floor(su)) * w  # texel units, x right
+        y = (1.0 - (sv - math.floor(sv))) * h  # texel units, y down from the top row
+        if not bilinear:
+            return tuple(image[int(y) % h, int(x) % w])
+        # texel (i, j) has its center at (i + 0.5, j + 0.5): sample at (y - 0.5, x - 0.5)
+        return tuple(float(map_coordinates(image[:, :, c], [[y - 0.5], [x - 0.5]], order=1,
+                                           mode="grid-wrap")[0]) for c in range(3))
+    return tuple(f[0:3])
+
+
+def surface_color(mat, u, v, p, n, d, mat_i, mat_f, texels, light_f, shading, ambient):
+    """Twin of shading.surface_color: vectors p (point), n (normal), d (incoming ray).
+
+    unlit: the albedo; lambert: albedo * (ambient + sum of E * max(0, cos) / r^2 for point
+    lights, E * max(0, cos) for directional ones), the normal turned to face the viewer."""
+    albedo = np.array(material_albedo(mat, u, v, mat_i, mat_f, texels))
+    if shading == UNLIT:
+        return albedo
+    n = np.asarray(n, np.float64) / np.linalg.norm(n)
+    if n @ np.asarray(d, np.float64) > 0:
+        n = -n
+    e = np.full(3, float(ambient))
+    for light in np.asarray(light_f, np.float64):
+        if int(light[0]) == POINT:
+            to_light = light[1:4] - np.asarray(p, np.float64)
+            r = np.linalg.norm(to_light)
+            e += light[4:7] * max(n @ to_light / r, 0.0) / r**2
+        else:  # directional: light[1:4] is the way the light travels
+            e += light[4:7] * max(-(n @ light[1:4]), 0.0)
+    return albedo * e
+
+
+# ================================================================================== camera
+
+
+def primary_rays(camera, samples):
+    """Twin of trace.rays._primary_rays: the camera's own numpy pixel directions
+    (Camera.pixel_directions, row-major, s x s samples per pixel), rays from the near plane."""
+    d = camera.pixel_directions(samples).reshape(-1, 3)
+    return np.asarray(camera.eye, np.float64) + camera.near * d, d
+
+
+# ================================================================================== raster
+
+EDGE_PX = 1e-6
+TIE_REL = 1e-6
+
+
+def rasterize(corners, flags, m, w, h, mask=None, depth_floor=None, cull=0):
+    """Twin of raster.rasterize (its kernels _setup, _setup_one, _bin, _band_range, _area,
+    _fill, _draw): a slow float64 z-buffer of triangles wholly inside near..far.
+
+    Every pixel center against every triangle: clip-space transform, screen positions,
+    inside test by screen-space edge functions (edges inclusive), perspective-correct
+    barycentrics and depth through 1/w, nearest wins with a strict less-than in triangle
+    order, mirrors (FLAG_MIRROR) with their depth scaled by MIRROR_TIE, FLAG_SKIP triangles
+    left out. `mask` (H, W): only its pixels are drawn; `depth_floor` (H, W): fragments at or
+    in front of it are dropped; `cull` 1 drops clockwise-on-screen (back) triangles, 2
+    counter-clockwise. Returns (triangle, b1, b2, depth, ambiguous) with ambiguous marking
+    pixels where either answer is fine (a center within EDGE_PX of a covering edge, two
+    depths within TIE_REL, a depth within TIE_REL of the floor)."""
+    c = corners.astype(np.float64)
+    clip = np.concatenate([c, np.ones(c.shape[:2] + (1,))], axis=2) @ m.T  # (T, 3, 4)
+    assert np.all(np.abs(clip[..., 2]) <= clip[..., 3]), "reference needs unclipped triangles"
+    sx = (clip[..., 0] / clip[..., 3] + 1) * 0.5 * w
+    sy = (1 - clip[..., 1] / clip[..., 3]) * 0.5 * h
+    inv_w = 1.0 / clip[..., 3]
+    py, px = np.mgrid[0:h, 0:w]
+    cx, cy = (px + 0.5).reshape(-1, 1), (py + 0.5).reshape(-1, 1)  # (P, 1)
+
+    def edge(a, b):  # signed doubled area of (corner a, corner b, pixel center), (P, T)
+        return (sx[:, b] - sx[:, a]) * (cy - sy[:, a]) - (sy[:, b] - sy[:, a]) * (cx - sx[:, a])
+
+    area = (sx[:, 1] - sx[:, 0]) * (sy[:, 2] - sy[:, 0]) - (
+        sx[:, 2] - sx[:, 0]) * (sy[:, 1] - sy[:, 0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = np.stack([edge(1, 2), edge(2, 0), edge(0, 1)], axis=2) / area[None, :, None]
+        lengths = np.stack([np.hypot(sx[:, 2] - sx[:, 1], sy[:, 2] - sy[:, 1]),
+                            np.hypot(sx[:, 0] - sx[:, 2], sy[:, 0] - sy[:, 2]),
+                            np.hypot(sx[:, 1] - sx[:, 0], sy[:, 1] - sy[:, 0])], axis=1)
+        # distance in pixels from the center to each edge's line
+        dist = lam * np.abs(area)[None, :, None] / lengths[None]
+    drawn = (area != 0) & ((flags & FLAG_SKIP) == 0)
+    if cull == 1:
+        drawn &= ~(area > 0)
+    elif cull == 2:
+        drawn &= ~(area < 0)
+    valid = drawn[None, :]
+    if mask is not None:
+        valid = valid & np.asarray(mask, bool).reshape(-1, 1)
+    inside = valid & np.all(lam >= 0, axis=2)
+    near_edge = valid & np.all(lam >= -1e-3, axis=2) & np.any(np.abs(dist) <= EDGE_PX, axis=2)
+    q = lam * inv_w[None]  # (P, T, 3)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        depth = 1.0 / q.sum(axis=2)
+    floor = None
+    if depth_floor is not None:
+        floor = np.asarray(depth_floor, np.float64).reshape(-1, 1)
+        with np.errstate(invalid="ignore"):
+            at_floor = (inside | near_edge) & (np.abs(depth - floor) <= TIE_REL * floor)
+            inside &= depth > floor
+            near_edge &= depth > floor
+    is_mirror = (flags & FLAG_MIRROR) != 0
+    key = np.where(is_mirror[None], depth * MIRROR_TIE, depth)
+    key = np.where(inside, key, np.inf)
+    best = np.full(cx.shape[0], np.inf)
+    tri = np.full(cx.shape[0], -1)
+    for t in range(corners.shape[0]):  # triangle order, strict less-than
+        win = key[:, t] < best
+        best[win] = key[win, t]
+        tri[win] = t
+    p = np.arange(cx.shape[0])
+    tt = np.maximum(tri, 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        b = q[p, tt] / q[p, tt].sum(axis=1, keepdims=True)
+    b = np.where((tri >= 0)[:, None], b, 0.0)
+    # ties: another covering (or nearly covering) triangle within TIE_REL of the winner
+    cover = inside | near_edge
+    kk = np.where(cover, np.where(is_mirror[None], depth * MIRROR_TIE, depth), np.inf)
+    others = np.where(np.arange(corners.shape[0])[None] == tri[:, None], np.inf, kk)
+    with np.errstate(invalid="ignore"):
+        tie = np.isfinite(best) & (np.abs(others.min(axis=1) - best) <= TIE_REL * best)
+    ambiguous = near_edge.any(axis=1) | tie
+    if floor is not None:
+        ambiguous |= at_floor.any(axis=1)
+    depth_out = np.where(tri >= 0, np.where(is_mirror[tt], best / MIRROR_TIE, best), np.inf)
+    shape = (h, w)
+    return (tri.reshape(shape), b[:, 1].reshape(shape), b[:, 2].reshape(shape),
+            depth_out.reshape(shape), ambiguous.reshape(shape))
+
+
+# the name the rasterizer tests have always used
+reference = rasterize
+
+
+def ray_triangle(o: np.ndarray, d: np.ndarray, c: np.ndarray):
+    """float64 Moller-Trumbore of rays (P, 3) against one triangle: t, u, v (the ray casting
+    twin of the rasterizer's near-plane clipping, raster.rasterize._clip_polygon)."""
+    e1, e2 = c[1] - c[0], c[2] - c[0]
+    p = np.cross(d, e2)
+    det = p @ e1
+    s = o - c[0]
+    u = np.einsum("pk,pk->p", s, p) / det
+    q = np.cross(s, e1)
+    v = np.einsum("pk,pk->p", d, q) / det
+    t = q @ e2 / det
+    return t, u, v
+
+
+def shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye, mat_i, mat_f,
+          texels, light_f, shading, ambient, background, refl, base):
+    """Twin of raster.shade._shade: per pixel, background where nothing was drawn, the
+    mirror's (1 - r) * base on mirrors, else the surface color at the barycentric blend of the
+    triangle's corners, uvs and normals, seen from `eye`. Returns (rgb, surface id)."""
+    h, w = tri.shape
+    rgb = np.zeros((h, w, 3))
+    surf = np.full((h, w), -1)
+    for y in range(h):
+        for x in range(w):
+            t = tri[y, x]
+            if t < 0:
+                rgb[y, x] = background
+                continue
+            s = surface[t]
+            surf[y, x] = s
+            if s >= n_objects:
+                k = s - n_objects
+                rgb[y, x] = (1.0 - refl[k].astype(np.float64)) * base[k]
+                continue
+            bary = _bary(b1[y, x], b2[y, x])
+            uv = bary @ uvs[t].astype(np.float64)
+            p = bary @ corners[t].astype(np.float64)
+            n = bary @ normals[t].astype(np.float64)
+            rgb[y, x] = surface_color(material[t], uv[0], uv[1], p, n, p - eye, mat_i, mat_f,
+                                      texels, light_f, shading, ambient)
+    return rgb, surf
+
+
+# =================================================================================== trace
+
+GRAZE = 1e-5  # barycentric margin: a ray this close to an edge may fall either side
+T_REL = 1e-4
+
+
+def moller_trumbore(corners: np.ndarray, o: np.ndarray, d: np.ndarray):
+    """All ray-triangle pairs in float64: t, u, v (weights of corners 1, 2), det (R, T)."""
+    c = corners.astype(np.float64)
+    o, d = o.astype(np.float64), d.astype(np.float64)
+    e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
+    p = np.cross(d[:, None, :], e2[None])  # (R, T, 3)
+    det = np.einsum("rtk,tk->rt", p, e1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        s = o[:, None, :] - c[None, :, 0]
+        u = np.einsum("rtk,rtk->rt", s, p) * inv
+        q = np.cross(s, e1[None])
+        v = np.einsum("rk,rtk->rt", d, q) * inv
+        t = np.einsum("tk,rtk->rt", e2, q) * inv
+    return t, u, v, det
+
+
+def brute_force(corners, o, d, tfar):
+    """Twin of trace.embree.TriangleScene.intersect (Embree, not numba): the nearest hit per
+    ray over every triangle, and whether the ray is too close to call (grazing or a tie)."""
+    with np.errstate(invalid="ignore", divide="ignore"):  # inf - inf on misses
+        return _brute_force(corners, o, d, tfar)
+
+
+def _brute_force(corners, o, d, tfar):
+    t, u, v, det = moller_trumbore(corners, o, d)
+    w = 1.0 - u - v
+    ok = (det != 0) & np.isfinite(t)
+    inside = ok & (u >= 0) & (v >= 0) & (w >= 0) & (t > 0) & (t <= tfar[:, None])
+    margin = np.minimum(np.minimum(u, v), w)
+    # within GRAZE of an edge of a triangle whose plane is met in range: either answer is fine
+    graze = ok & (np.abs(margin) <= GRAZE) & (t > -1e-4) & (t <= tfar[:, None] * (1 + T_REL))
+    # a ray nearly in a triangle's plane, or a hit at t ~ 0 or ~ tfar, is also ambiguous
+    area2 = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
+                                    corners[:, 2] - corners[:, 0]), axis=1)
+    cosine = np.abs(det) / (area2[None] * np.linalg.norm(d, axis=1)[:, None])
+    near_hit = ok & (margin >= -GRAZE)
+    graze |= cosine < 1e-4  # a ray (nearly) along a triangle's plane
+    graze |= near_hit & (np.abs(t) < 1e-4)
+    finite = np.isfinite(tfar)[:, None]
+    graze |= near_hit & finite & (np.abs(t - tfar[:, None]) <= T_REL * tfar[:, None])
+    tt = np.where(inside, t, np.inf)
+    prim = np.where(np.isfinite(tt.min(axis=1)), tt.argmin(axis=1), -1)
+    best = tt.min(axis=1)
+    second = np.sort(tt, axis=1)[:, 1] if tt.shape[1] > 1 else np.full(len(o), np.inf)
+    tie = np.isfinite(second) & (second - best <= T_REL * np.abs(second))
+    r = np.arange(len(o))
+    return best, prim, u[r, np.maximum(prim, 0)], v[r, np.maximum(prim, 0)], graze.any(axis=1) | tie
+
+
+def sphere_closed_form(o, d, c, r, tmin):
+    """Twin of trace.analytic._sphere: roots of |o + t d - c|^2 = r^2 by the textbook
+    formula (Newton-polished), and the discriminant."""
+    oc = o - c
+    a = np.einsum("rk,rk->r", d, d)
+    b = 2 * np.einsum("rk,rk->r", oc, d)
+    cc = np.einsum("rk,rk->r", oc, oc) - r * r
+    disc = b * b - 4 * a * cc
+    with np.errstate(invalid="ignore"):
+        sq = np.sqrt(disc)
+        t0, t1 = (-b - sq) / (2 * a), (-b + sq) / (2 * a)
+        # the textbook roots lose digits to cancellation: polish each with Newton steps
+        for _ in range(3):
+            t0 = t0 - (a * t0 * t0 + b * t0 + cc) / (2 * a * t0 + b)
+            t1 = t1 - (a * t1 * t1 + b * t1 + cc) / (2 * a * t1 + b)
+    t = np.where(t0 > tmin, t0, np.where(t1 > tmin, t1, np.inf))
+    t = np.where(disc >= 0, t, np.inf)
+    return t, disc / (4 * a * a), np.stack([t0, t1], 1)
+
+
+def cylinder_closed_form(o, d, origin, axis, r, h, tmin):
+    """Twin of trace.analytic._cylinder: transform to a frame with the axis as local y and
+    solve x^2 + z^2 = r^2, 0 <= y <= h. Returns (t, marginal)."""
+    a = axis / np.linalg.norm(axis)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    ex = np.cross(helper, a)
+    ex /= np.linalg.norm(ex)
+    ez = np.cross(ex, a)
+    basis = np.stack([ex, a, ez])
+    lo, ld = (o - origin) @ basis.T, d @ basis.T
+    qa = ld[:, 0] ** 2 + ld[:, 2] ** 2
+    qb = 2 * (lo[:, 0] * ld[:, 0] + lo[:, 2] * ld[:, 2])
+    qc = lo[:, 0] ** 2 + lo[:, 2] ** 2 - r * r
+    disc = qb * qb - 4 * qa * qc
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sq = np.sqrt(disc)
+        roots = np.stack([(-qb - sq) / (2 * qa), (-qb + sq) / (2 * qa)], 1)
+        for _ in range(3):  # Newton polish, as for the sphere
+            roots = roots - (qa[:, None] * roots**2 + qb[:, None] * roots + qc[:, None]) / (
+                2 * qa[:, None] * roots + qb[:, None])
+    y = lo[:, 1:2] + roots * ld[:, 1:2]
+    valid = (disc[:, None] >= 0) & (qa[:, None] > 0) & (roots > tmin) & (y >= 0) & (y <= h)
+    t = np.where(valid, roots, np.inf).min(axis=1)
+    # rims and tangent rays are ambiguous
+    rim = (np.abs(y) < 1e-5 * (1 + h)) | (np.abs(y - h) < 1e-5 * (1 + h))
+    marginal = (np.isfinite(roots) & rim).any(axis=1)
+    marginal |= (disc >= 0) & (disc < 1e-8 * np.maximum(qb * qb, 1e-30))
+    marginal |= (np.abs(roots - tmin) < 1e-6).any(axis=1)
+    return t, marginal
+
+
+def quad_closed_form(o, d, n, c00, e1, e2, tmin):
+    """Twin of trace.analytic._quad (and _in_triangle): ray-plane t, then the hit's
+    coordinates along the rectangle's two edges. Returns (t, marginal)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -((o - c00) @ n) / (d @ n)
+    p = o + t[:, None] * d
+    a = (p - c00) @ e1 / (e1 @ e1)
+    b = (p - c00) @ e2 / (e2 @ e2)
+    inside = (a >= 0) & (a <= 1) & (b >= 0) & (b <= 1) & (t > tmin) & np.isfinite(t)
+    edge = np.minimum(np.minimum(np.abs(a), np.abs(a - 1)), np.minimum(np.abs(b), np.abs(b - 1)))
+    cosine = np.abs(d @ n) / np.linalg.norm(d, axis=1)
+    marginal = (edge < 1e-6) | (cosine < 1e-6) | (np.abs(t - tmin) < 1e-6)
+    return np.where(inside, t, np.inf), marginal
+
+
+def pick(t_o, t_m, t_a):
+    """Twin of trace.tracer._pick: of the finite candidates (object t, mirror triangle t and
+    analytic mirror t, mirrors' t scaled by MIRROR_TIE), the nearest; ties go to the analytic
+    mirror, then the mirror triangle. 0 object, 1 mirror triangle, 2 analytic, -1 miss."""
+    cands = [(float(t_a) * MIRROR_TIE, 0, 2), (float(t_m) * MIRROR_TIE, 1, 1),
+             (float(t_o), 2, 0)]
+    finite = [c for c in cands if math.isfinite(c[0])]
+    return min(finite)[2] if finite else -1
+
+
+def resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m, t_a, k_a,
+            corners, uvs, normals, material, surface, m_corners, m_normals, m_surface, m_kind,
+            m_params, m_refl, m_base, n_objects, mat_i, mat_f, texels, light_f, shading,
+            ambient, background, follow, color):
+    """Twin of trace.tracer._resolve: one wave of Whitted tracing, ray by ray in float64.
+
+    A miss adds weight * background; an object adds weight * its surface color; a mirror
+    adds weight * (1 - r) * base and, if `follow`, emits the reflected ray
+    r = d - 2 (d.n) n (n the shading normal facing the ray, unit), starting eps along r off
+    the surface (eps = 1e-4 (1 + max |p|) measured along the geometric normal, the cosine
+    floored at 0.01), with weight * r; it lives on if any weight channel is positive.
+    Returns (color (in place), hit_t, hit_surface, alive, next_o, next_d, next_w)."""
+    n = origins.shape[0]
+    hit_t = np.zeros(n)
+    hit_surface = np.zeros(n, np.int64)
+    alive = np.zeros(n, bool)
+    next_o = np.full((n, 3), np.nan)
+    next_d = np.full((n, 3), np.nan)
+    next_w = np.full((n, 3), np.nan)
+    for i in range(n):
+        o = origins[i].astype(np.float64)
+        d = dirs[i].astype(np.float64)
+        s = slot[i]
+        which = pick(t_o[i], t_m[i], t_a[i])
+        if which < 0:
+            hit_t[i], hit_surface[i] = np.inf, -1
+            color[s] += weight[i] * background
+            continue
+        if which == 0:
+            t, tri = float(t_o[i]), p_o[i]
+            bary = _bary(u_o[i], v_o[i])
+            p = o + t * d
+            uv = bary @ uvs[tri]
+            nrm = bary @ normals[tri]
+            hit_t[i], hit_surface[i] = t, surface[tri]
+            color[s] += weight[i] * surface_color(material[tri], uv[0], uv[1], p, nrm, d,
+                                                  mat_i, mat_f, texels, light_f, shading,
+                                                  ambient)
+            continue
+        if which == 1:
+            t, tri = float(t_m[i]), p_m[i]
+            k = m_surface[tri] - n_objects
+            c = m_corners[tri].astype(np.float64)
+            g = np.cross(c[1] - c[0], c[2] - c[0])
+            bary = _bary(u_m[i], v_m[i])
+            nrm = bary @ m_normals[tri].astype(np.float64)
+            p = o + t * d
+        else:
+            t, k = float(t_a[i]), k_a[i]
+            prm = m_params[k]
+            p = o + t * d
+            if m_kind[k] == PLANAR:
+                g = prm[0:3].copy()
+            elif m_kind[k] == SPHERE:
+                g = p - prm[0:3]
+            else:  # cylinder: from the axis, perpendicular to it
+                rel = p - prm[0:3]
+                g = rel - (rel @ prm[3:6]) * prm[3:6]
+            nrm = g.copy()
+        hit_t[i], hit_surface[i] = t, n_objects + k
+        color[s] += weight[i] * (1.0 - m_refl[k].astype(np.float64)) * m_base[k]
+        if not follow:
+            continue
+        g = -g if g @ d > 0 else g
+        nrm = -nrm if nrm @ d > 0 else nrm
+        g, nrm = g / np.linalg.norm(g), nrm / np.linalg.norm(nrm)
+        r = d - 2.0 * (d @ nrm) * nrm
+        r /= np.linalg.norm(r)
+        eps = 1e-4 * (1.0 + np.abs(p).max())
+        next_o[i] = p + eps / max(r @ g, 1e-2) * r
+        next_d[i] = r
+        next_w[i] = weight[i] * m_refl[k]
+        alive[i] = bool(np.any(next_w[i] > 0))
+    return color, hit_t, hit_surface, alive, next_o, next_d, next_w
+
+
+# ==================================================================================== maps
+
+
+def image_sample(image, u, v, bilinear):
+    """Twin of maps.cube.image_sample: the color at (u, v) in [0, 1]^2 of an (R, R, 3)
+    image, nearest texel or bilinear between texel centers with the edges clamped (scipy's
+    'nearest' boundary mode)."""
+    res = image.shape[0]
+    img = np.asarray(image, np.float64)
+    if not bilinear or res == 1:
+        x = min(max(int(u * res), 0), res - 1)
+        y = min(max(int(v * res), 0), res - 1)
+        return img[y, x]
+    y, x = min(max(v * res - 0.5, 0.0), res - 1.0), min(max(u * res - 0.5, 0.0), res - 1.0)
+    return np.array([map_coordinates(img[:, :, c], [[y], [x]], order=1, mode="nearest")[0]
+                     for c in range(3)])
+
+
+def cube_face_coords(r):
+    """Twin of maps.cube.cube_face_coords: the face of r's major axis (x before y before z
+    on ties), and where the face's own Camera (maps.cube.face_camera) projects the point r
+    seen from the origin: (face, u, v) in [0, 1]^2, v down."""
+    from reflectcli.maps.cube import face_camera
+
+    r = np.asarray(r, np.float64)
+    a = np.abs(r)
+    axis = 0 if a[0] >= a[1] and a[0] >= a[2] else (1 if a[1] >= a[2] else 2)
+    face = 2 * axis + (0 if r[axis] > 0 else 1)
+    cam = face_camera(face, np.zeros(3), 1, 0.1, 10.0)
+    clip = cam.projection_matrix() @ cam.view_matrix() @ np.append(r, 1.0)
+    x, y = clip[0] / clip[3], clip[1] / clip[3]
+    return face, (x + 1.0) * 0.5, (1.0 - y) * 0.5
+
+
+def cube_sample(faces, r, bilinear):
+    """Twin of maps.cube.cube_sample: image_sample on the face cube_face_coords picks."""
+    face, u, v = cube_face_coords(r)
+    return image_sample(faces[face], u, v, bilinear)
+
+
+def sphere_coords(r):
+    """Twin of maps.sphere.sphere_coords: (s, t) = (rx, ry) / |r + (0, 0, 1)| for unit r,
+    texel coordinates ((s + 1) / 2, (1 - t) / 2); r = (0, 0, -1) goes to the rim at (1, 0.5)."""
+    r = np.asarray(r, np.float64) / np.linalg.norm(r)
+    m = np.linalg.norm(r + np.array([0.0, 0.0, 1.0]))
+    if m == 0.0:
+        return 1.0, 0.5
+    return (r[0] / m + 1.0) * 0.5, (1.0 - r[1] / m) * 0.5
+
+
+def sphere_sample(image, r, bilinear):
+    """Twin of maps.sphere.sphere_sample."""
+    u, v = sphere_coords(r)
+    return image_sample(image, u, v, bilinear)
+
+
+def sphere_from_cube(faces, resolution):
+    """Twin of maps.sphere._sphere_from_cube: per texel center (s, t) of the disk, the mirror
+    ball's normal n = (s, t, sqrt(1 - s^2 - t^2)) reflects the viewer direction v = +z into
+    r = 2 (n.v) n - v, sampled bilinearly in the cube map; black outside the disk."""
+    out = np.zeros((resolution, resolution, 3))
+    for j in range(resolution):
+        for i in range(resolution):
+            s = 2.0 * (i + 0.5) / resolution - 1.0
+            t = 1.0 - 2.0 * (j + 0.5) / resolution
+            if s * s + t * t > 1.0:
+                continue
+            n = np.array([s, t, math.sqrt(1.0 - s * s - t * t)])
+            r = 2.0 * n[2] * n - np.array([0.0, 0.0, 1.0])
+            out[j, i] = cube_sample(faces, r, True)
+    return out
+
+
+def box_exit(p, r, lo, hi):
+    """Twin of maps.lookup.box_exit: the t where p + t r leaves the box [lo, hi] (p clamped
+    into it), found by bisection on 'is inside'; -1 if p lies outside the box by more than
+    1e-4 of its size."""
+    p, r = np.asarray(p, np.float64), np.asarray(r, np.float64)
+    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+    tol = 1e-4 * (hi - lo)
+    if np.any(p < lo - tol) or np.any(p > hi + tol):
+        return -1.0
+    q = np.clip(p, lo, hi)
+    if not np.any(r != 0):
+        return np.inf
+
+    def inside(t):
+        x = q + t * r
+        return bool(np.all((x >= lo) & (x <= hi)))
+
+    a, b = 0.0, 1.0
+    while inside(b):
+        a, b = b, 2.0 * b
+    for _ in range(200):
+        mid = 0.5 * (a + b)
+        if mid in (a, b):
+            break
+        a, b = (mid, b) if inside(mid) else (a, mid)
+    return a
+
+
+def add_reflections(rgb, tri, b1, b2, surface_ids, surface, corners, normals, kind, params,
+                    refl, eye, capture, lo, hi, parallax, map_kind, faces, sphere, bilinear):
+    """Twin of maps.lookup._add: on the pixels of `surface`, the point p and normal n of the
+    reflector (exact for planes, spheres, cylinders, else interpolated), the view reflected
+    about n (two-sided), optionally replaced by the direction from the capture point to where
+    it leaves the proxy box, and refl * the map's color in that direction added to rgb."""
+    out = np.asarray(rgb, np.float64).copy()
+    h, w = tri.shape
+    for y in range(h):
+        for x in range(w):
+            if surface_ids[y, x] != surface:
+                continue
+            t = tri[y, x]
+            bary = _bary(b1[y, x], b2[y, x])
+            p = bary @ corners[t].astype(np.float64)
+            if kind == PLANAR:
+                n = params[0:3].copy()
+            elif kind == SPHERE:
+                n = p - params[0:3]
+            elif kind == CYLINDER:
+                rel = p - params[0:3]
+                n = rel - (rel @ params[3:6]) * params[3:6]
+            else:
+                n = bary @ normals[t].astype(np.float64)
+            n /= np.linalg.norm(n)
+            v = (eye - p) / np.linalg.norm(eye - p)
+            if n @ v < 0:
+                n = -n
+            r = 2.0 * (n @ v) * n - v
+            if parallax:
+                te = box_exit(p, r, lo, hi)
+                if te > 0.0:
+                    r = p + te * r - capture
+            c = cube_sample(faces, r, bilinear) if map_kind == 0 else sphere_sample(
+                sphere, r, bilinear)
+            out[y, x] += np.asarray(refl, np.float64) * c
+    return out
+
+
+def surface_intersect(triangle, camera, reflection, origin, corners, normal, offset):
+    """Twin of maps.surface._intersect: per pixel with a triangle, the camera's pixel-center
+    ray (Camera.pixel_directions) turned by the reflection, from `origin`, solved against the
+    triangle's plane as the 3x3 system o + t d = v0 + u e1 + v e2 (numpy's solver). A hit
+    needs a well-conditioned system (|det| > 1e-12 |e1| |e2| |d|), t > 0 and t beyond where
+    the ray crosses the mirror plane (normal, offset). Returns (hit, b1, b2, depth) with
+    barycentrics clamped to [-1, 2]."""
+    h, w = triangle.shape
+    dirs = camera.pixel_directions(1)[:, :, 0] @ np.asarray(reflection, np.float64)[:3, :3].T
+    hit = triangle.copy()
+    b1 = np.zeros((h, w))
+    b2 = np.zeros((h, w))
+    depth = np.full((h, w), np.inf)
+    o = np.asarray(origin, np.float64)
+    normal = np.asarray(normal, np.float64)
+    side = normal @ o + offset
+    for y in range(h):
+        for x in range(w):
+            t = triangle[y, x]
+            if t < 0:
+                continue
+            c = corners[t].astype(np.float64)
+            d = dirs[y, x]
+            e1, e2 = c[1] - c[0], c[2] - c[0]
+            a = np.stack([-d, e1, e2], axis=1)
+            if abs(np.linalg.det(a)) <= 1e-12 * np.linalg.norm(e1) * np.linalg.norm(
+                    e2) * np.linalg.norm(d):
+                hit[y, x] = -1
+                continue
+            dist, u, v = np.linalg.solve(a, o - c[0])
+            dn = normal @ d
+            crossing = -side / dn if dn != 0.0 else np.inf
+            if not (dist > 0.0 and dist > crossing):
+                hit[y, x] = -1
+                continue
+            b1[y, x], b2[y, x] = min(max(u, -1.0), 2.0), min(max(v, -1.0), 2.0)
+            depth[y, x] = dist
+    return hit, b1, b2, depth
+
+
+def project(depth, w, near, box, width, height):
+    """Twin of maps.warp._project: each zexel (u, v) with depth d maps to clip = W (u, v, 1,
+    1/d) (delta = 0 for d = inf: a direction); its eye depth in the target camera is
+    d * clip_w; kept (screen position, depth) if in front of the near plane (a direction: if
+    clip_w > 0) and on screen within `box` = (xmin, xmax, ymin, ymax), else sx = NaN.
+    Returns (sx, sy, z, row_lo, row_hi) with per map row the first and last screen row."""
+    mh, mw = depth.shape
+    sx = np.full(mh * mw, np.nan)
+    sy = np.full(mh * mw, np.nan)
+    z = np.full(mh * mw, np.nan)
+    row_lo = np.full(mh, 1 << 40)
+    row_hi = np.full(mh, -1)
+    xmin, xmax, ymin, ymax = box
+    for v in range(mh):
+        for u in range(mw):
+            k = v * mw + u
+            d = float(depth[v, u])
+            if d == np.inf:
+                clip = w @ np.array([u, v, 1.0, 0.0])
+                zz, ok = np.inf, clip[3] > 0
+            elif d > 0:
+                clip = w @ np.array([u, v, 1.0, 1.0 / d])
+                zz = d * clip[3]
+                ok = zz > near
+            else:
+                ok = False
+            if not ok:
+                continue
+            x = (clip[0] / clip[3] + 1.0) * 0.5 * width
+            y = (1.0 - clip[1] / clip[3]) * 0.5 * height
+            if not (xmin <= x < xmax and ymin <= y < ymax):
+                continue
+            sx[k], sy[k], z[k] = x, y, zz
+            row = math.floor(np.float32(y))
+            row_lo[v] = min(row_lo[v], row)
+            row_hi[v] = max(row_hi[v], row)
+    return sx, sy, z, row_lo, row_hi
+
+
+def adaptive_radii(sx, sy, z, mh, mw):
+    """Twin of maps.warp._adaptive: per zexel, the largest screen step (x or y) to a 4-
+    neighbour of the same surface (depths within 5% of the smaller), halved and rounded up
+    less a half pixel, capped at 3; 0 for steps of at most a pixel or no such neighbour."""
+    radii = np.zeros(mh * mw, np.int64)
+    for v in range(mh):
+        for u in range(mw):
+            k = v * mw + u
+            if np.isnan(sx[k]):
+                continue
+            steps = [0.0]
+            for uu, vv in ((u + 1, v), (u, v + 1), (u - 1, v), (u, v - 1)):
+                if not (0 <= uu < mw and 0 <= vv < mh):
+                    continue
+                q = vv * mw + uu
+                with np.errstate(invalid="ignore"):  # inf - inf: two directions
+                    same = abs(z[q] - z[k]) <= 0.05 * min(z[q], z[k])
+                if np.isnan(sx[q]) or not same:
+                    continue
+                steps += [abs(sx[q] - sx[k]), abs(sy[q] - sy[k])]
+            reach = max(steps)
+            radii[k] = min(3, math.ceil(reach / 2 - 0.5)) if reach > 1.0 else 0
+    return radii
+
+
+def splat_zbuffer(sx, sy, z, radii, mw, stencil):
+    """Twin of maps.warp._splat / _write (z-buffer mode): the visibility rule as documented,
+    in two passes: per pixel, the nearest depth among the zexels that reach it; then, of
+    those within SAME_SURFACE of it, the one landing nearest the pixel center (ties to the
+    lower index). The kernel does it in one pass; the two agree where each surface keeps its
+    zexels' depths within SAME_SURFACE / 2."""
+    from reflectcli.maps.warp import SAME_SURFACE
+
+    h, w = stencil.shape
+    hits = {}
+    for k in range(sx.size):
+        if np.isnan(sx[k]):
+            continue
+        px, py, r = int(np.floor(sx[k])), int(np.floor(sy[k])), int(radii[k])
+        for y in range(py - r, py + r + 1):
+            for x in range(px - r, px + r + 1):
+                if 0 <= y < h and 0 <= x < w and stencil[y, x]:
+                    d = (np.float32(sx[k]) - x - 0.5) ** 2 + (np.float32(sy[k]) - y - 0.5) ** 2
+                    hits.setdefault((y, x), []).append((z[k], d, k))
+    best = np.full((h, w), -1)
+    for (y, x), cands in hits.items():
+        front = min(c[0] for c in cands)
+        same = [c for c in cands if c[0] <= front * (1 + SAME_SURFACE)]
+        best[y, x] = min(same, key=lambda c: (c[1], c[2]))[2]
+    return best
+
+
+def splat_sequential(maps, stencil, ordered):
+    """Twin of maps.warp._splat / _write in both modes: one thread, no bands, no row
+    skipping; maps in slot order, each one's zexels in its runs' order, each zexel over the
+    stencil pixels of its (2r+1)^2 square. `maps`: list of (sx, sy, z, radii, runs, mw).
+
+    Rule at a pixel, against the zexel kept so far (depth bz, squared distance to the center
+    bd, id c): an empty pixel, a zexel more than SAME_SURFACE nearer, or (ordered) one from
+    the same map takes it; else one within SAME_SURFACE of bz (or equal to it, for two at
+    infinity) takes it if it lands nearer the center, ties to the lower id.
+    Returns (best depth, best id) with ids slot * stride + zexel index."""
+    from reflectcli.maps.warp import SAME_SURFACE
+
+    h, w = stencil.shape
+    stride = max(m[0].size for m in maps)
+    best_z = np.full((h, w), np.inf, np.float32)
+    best_d = np.full((h, w), np.inf, np.float32)
+    best_id = np.full((h, w), -1, np.int64)
+    for slot, (sx, sy, z, radii, runs, mw) in enumerate(maps):
+        for v, first, stop, step in runs:
+            for u in range(first, stop, step):
+                k = v * mw + u
+                if np.isnan(sx[k]):
+                    continue
+                fx, fy, r = np.float32(sx[k]), np.float32(sy[k]), int(radii[k])
+                px, py = math.floor(fx), math.floor(fy)
+                for y in range(py - r, py + r + 1):
+                    for x in range(px - r, px + r + 1):
+                        if not (0 <= y < h and 0 <= x < w and stencil[y, x]):
+                            continue
+                        dk = np.float32((fx - x - 0.5) ** 2 + (fy - y - 0.5) ** 2)
+                        ident = slot * stride + k
+                        c, bz, bd = best_id[y, x], best_z[y, x], best_d[y, x]
+                        takes = c < 0 or z[k] < bz * (1.0 - SAME_SURFACE) or (
+                            ordered and c // stride == slot)
+                        same_surface = z[k] <= bz * (1.0 + SAME_SURFACE) or z[k] == bz
+                        nearer = dk < bd or (dk == bd and ident < c)
+                        if takes or (same_surface and nearer):
+                            best_z[y, x], best_d[y, x], best_id[y, x] = z[k], dk, ident
+    return best_z, best_id
+
+
+# ================================================================================= virtual
+
+
+def _reflect_across(q, j, n):
+    """q mirrored across the plane through j with unit normal n."""
+    return q - 2.0 * ((q - j) @ n) * n
+
+
+def mirror_on_circle(e, q, c, r, axis=None):
+    """Twin of virtual.direct._mirror_on_circle / _circle_reflection / _circle_law / _many:
+    (Q', hidden) for a sphere (axis None) or a cylinder (unit axis; the problem is solved in
+    the cross-section through Q). Fermat: the reflection point J on a convex circle minimizes
+    the path length |E - J| + |J - Q| over the arc between the directions of E and Q (scipy's
+    bounded minimizer). Hidden (the segment E -> Q enters the circle first, a root of the
+    ray-circle quadratic in (0, 1)): J is that entry point. Q' = Q mirrored across the tangent
+    plane at J. Points (or an eye) inside keep Q' = Q."""
+    e, q, c = (np.asarray(x, np.float64) for x in (e, q, c))
+    ev, qv = e - c, q - c
+    if axis is not None:
+        axis = np.asarray(axis, np.float64)
+        ev = ev - (ev @ axis) * axis
+        qv = qv - (qv @ axis) * axis
+    if np.linalg.norm(qv) <= r or np.linalg.norm(ev) <= r:
+        return q.copy(), False
+    x_axis = ev / np.linalg.norm(ev)
+    y_vec = qv - (qv @ x_axis) * x_axis
+    y_axis = y_vec / np.linalg.norm(y_vec) if np.linalg.norm(y_vec) >= 1e-12 * np.linalg.norm(
+        qv) else np.zeros(3)
+    # hidden: |ev + s (qv - ev)| = r for some s in (0, 1), first root
+    dv = qv - ev
+    roots = np.roots([dv @ dv, 2 * (ev @ dv), ev @ ev - r * r])
+    real = [s.real for s in roots if abs(s.imag) < 1e-12 * max(1.0, abs(s.real))]
+    first = min(real) if real else 2.0
+    if 0.0 < first < 1.0:
+        jv = ev + first * dv
+        n = jv / np.linalg.norm(jv)
+        return _reflect_across(q - c, r * n, n) + c, True
+    if not np.any(y_axis):
+        n = x_axis
+    else:
+        phi = math.atan2(qv @ y_axis, qv @ x_axis)
+
+        def length(theta):
+            j = r * (math.cos(theta) * x_axis + math.sin(theta) * y_axis)
+            return np.linalg.norm(ev - j) + np.linalg.norm(qv - j)
+
+        theta = minimize_scalar(length, bounds=(0.0, phi), method="bounded",
+                                options={"xatol": 1e-12}).x
+        n = math.cos(theta) * x_axis + math.sin(theta) * y_axis
+    return _reflect_across(q - c, r * n, n) + c, False  # n is across the axis
+
+
+def profile_point(profile, normals, t):
+    """Twin of virtual.direct._profile_at: point and unit normal at t along the polyline."""
+    s = min(int(math.floor(t)), len(profile) - 2)
+    a = t - s
+    j = (1 - a) * profile[s] + a * profile[s + 1]
+    n = (1 - a) * normals[s] + a * normals[s + 1]
+    return j, n / np.linalg.norm(n)
+
+
+def profile_law(profile, normals, t, e, q):
+    """Twin of virtual.direct._law: the sine of the angle from n to u_E plus that from n to
+    u_Q (unit vectors from J toward E and Q, 2-D): zero where n bisects them."""
+    j, n = profile_point(profile, normals, t)
+    ue, uq = (e - j) / max(np.linalg.norm(e - j), 1e-300), (q - j) / max(
+        np.linalg.norm(q - j), 1e-300)
+    def cross(a, b):  # 2-D cross product
+        return a[0] * b[1] - a[1] * b[0]
+
+    return float(cross(n, ue) + cross(n, uq))
+
+
+def profile_one(q3, e3, profile, normals):
+    """Twin of virtual.direct._profile_one / _profile_many (local frame, y the extrusion).
+
+    In the (x, z) section: hidden if the segment E -> Q crosses a profile segment (then J is
+    the first crossing); else J is the root of profile_law in the first profile segment whose
+    ends bracket a sign change (scipy's brentq), or, if none does, the profile vertex with the
+    smallest |law|. Q' is Q mirrored across the line through J with J's normal (2-D)."""
+    profile, normals = np.asarray(profile, np.float64), np.asarray(normals, np.float64)
+    e, q = np.array([e3[0], e3[2]], np.float64), np.array([q3[0], q3[2]], np.float64)
+    best_t, param = 2.0, -1.0
+    for s in range(len(profile) - 1):
+        a, b = profile[s], profile[s + 1]
+        m = np.array([q - e, a - b]).T  # e + t (q - e) = a + u (b - a)
+        if np.linalg.det(m) == 0:
+            continue
+        t, u = np.linalg.solve(m, a - e)
+        if 0.0 < t < best_t and 0.0 <= u <= 1.0:
+            best_t, param = t, s + u
+    hidden = param >= 0.0
+    if not hidden:
+        law = [profile_law(profile, normals, float(s), e, q) for s in range(len(profile))]
+        param = float(np.argmin(np.abs(law)))
+        for s in range(len(profile) - 1):
+            if (law[s] > 0) != (law[s + 1] > 0):
+                param = brentq(lambda t: profile_law(profile, normals, t, e, q), s, s + 1,
+                               xtol=1e-14) if law[s] != 0 and law[s + 1] != 0 else float(
+                    s if law[s] == 0 else s + 1)
+                break
+    j, n = profile_point(profile, normals, param)
+    qq = _reflect_across(q, j, n)
+    return np.array([qq[0], q3[1], qq[1]]), hidden
+
+
+def reflector_grid(triangle, b1, b2, corners, normals, eye):
+    """Twin of virtual.refine._grid: per covered pixel the interpolated point Q and the eye
+    ray's direction reflected about the interpolated unit normal; NaN elsewhere."""
+    h, w = triangle.shape
+    q = np.full((h, w, 3), np.nan)
+    r = np.full((h, w, 3), np.nan)
+    for y in range(h):
+        for x in range(w):
+            t = triangle[y, x]
+            if t < 0:
+                continue
+            bary = _bary(b1[y, x], b2[y, x])
+            p = bary @ corners[t]
+            n = bary @ normals[t]
+            n = n / max(np.linalg.norm(n), 1e-30)
+            d = (p - eye) / np.linalg.norm(p - eye)
+            q[y, x], r[y, x] = p, d - 2.0 * (d @ n) * n
+    return q, r
+
+
+def grid_sample(inside, q, r, sx, sy):
+    """Twin of virtual.refine._sample: bilinear Q and R at screen point (sx, sy) over the
+    pixel centers inside the part, the missing corners' weight given to the others
+    (renormalized), R normalized; None if no corner inside carries weight."""
+    h, w = inside.shape
+    fx, fy = sx - 0.5, sy - 0.5
+    x0, y0 = math.floor(fx), math.floor(fy)
+    ax, ay = fx - x0, fy - y0
+    corners = [(x0, y0, (1 - ax) * (1 - ay)), (x0 + 1, y0, ax * (1 - ay)),
+               (x0, y0 + 1, (1 - ax) * ay), (x0 + 1, y0 + 1, ax * ay)]
+    used = [(x, y, wt) for x, y, wt in corners
+            if 0 <= x < w and 0 <= y < h and inside[y, x] and wt > 0]
+    total = sum(wt for _, _, wt in used)
+    if total <= 1e-9:
+        return None
+    qq = sum(wt * q[y, x] for x, y, wt in used) / total
+    rr = sum(wt * r[y, x] for x, y, wt in used)
+    return qq, rr / np.linalg.norm(rr)
+
+
+def refine_point(p, seed, inside, q, r, eye):
+    """Twin of virtual.refine._refine / _walk / _residual for a point whose reflection lies
+    on the part: the screen point s near `seed` where unit(P - Q(s)) = R(s) (Q, R from
+    grid_sample), by scipy's least squares, and P' = E + unit(Q - E) (|Q - E| + |P - Q|).
+    None where no zero residual is found."""
+    from scipy.optimize import least_squares
+
+    def residual(s):
+        got = grid_sample(inside, q, r, s[0], s[1])
+        if got is None:
+            return np.full(3, 10.0)
+        qq, rr = got
+        return (p - qq) / np.linalg.norm(p - qq) - rr
+
+    sol = least_squares(residual, np.asarray(seed, np.float64), diff_step=1e-6, xtol=1e-12,
+                        ftol=1e-14, gtol=1e-14)
+    if np.linalg.norm(sol.fun) > 1e-6:
+        return None
+    qq, _ = grid_sample(inside, q, r, *sol.x)
+    e = qq - eye
+    return eye + e / np.linalg.norm(e) * (np.linalg.norm(e) + np.linalg.norm(p - qq))
+
+
+def scan(points, center, radius, axis, half, pixel, margin, q, r):
+    """Twin of virtual.tiles._scan: a point is reached by tile j if it lies in the tile's
+    ball (1.001 of the radius) or within half + margin + asin(radius / dist) of the axis
+    (angles, by arccos); the seed is the middle pixel of the reaching tile whose ray passes
+    closest (|unit(P - Q) - R|^2 at that pixel; first on ties), else of any tile."""
+    n = points.shape[0]
+    reach = np.zeros(n, bool)
+    seeds = np.full((n, 2), np.nan)
+    for k in range(n):
+        p = points[k]
+        errs, reached = [], []
+        for j in range(center.shape[0]):
+            x, y = int(pixel[j, 0]), int(pixel[j, 1])
+            to_p = p - q[y, x]
+            errs.append(float(np.sum((to_p / max(np.linalg.norm(to_p), 1e-30) - r[y, x]) ** 2)))
+            v = p - center[j]
+            dist = np.linalg.norm(v)
+            if dist <= radius[j] * 1.001 or radius[j] / dist >= 1.0:
+                reached.append(True)
+                continue
+            angle = math.acos(np.clip(v @ axis[j] / dist, -1.0, 1.0))
+            reached.append(angle <= min(half[j] + margin + math.asin(radius[j] / dist),
+                                        math.pi))
+        errs = np.array(errs)
+        if not len(errs):
+            continue
+        cand = np.flatnonzero(reached)
+        j = cand[np.argmin(errs[cand])] if cand.size else int(np.argmin(errs))
+        reach[k] = cand.size > 0
+        seeds[k] = pixel[j]
+    return reach, seeds
+
+
+def map_coords(frame, res, s, d):
+    """Twin of virtual.explosion.map_coords: T = s (x, y) / (2 sqrt(2 (z + 1))) + res / 2 of
+    the unit direction d in the map frame (rows x, y, z)."""
+    x, y, z = np.asarray(frame, np.float64) @ (np.asarray(d, np.float64) / np.linalg.norm(d))
+    m = 2.0 * math.sqrt(max(2.0 * (z + 1.0), 1e-24))
+    return s * x / m + res / 2.0, s * y / m + res / 2.0
+
+
+def vertex_coords(v, n, used, eye, center, radius, frame, res, s):
+    """Twin of virtual.explosion._vertex_coords: per used vertex, the eye ray reflected about
+    its normal, followed from the vertex to the sphere (center, radius) it starts inside (the
+    larger root of the quadratic), and the map coordinates of the hit's direction from the
+    center; NaN for unused vertices."""
+    coords = np.full((len(v), 2), np.nan)
+    for i in range(len(v)):
+        if not used[i]:
+            continue
+        d = (v[i] - eye) / np.linalg.norm(v[i] - eye)
+        r = d - 2 * (d @ n[i]) * n[i]
+        o = v[i] - center
+        # |o + t r|^2 = radius^2 with |r| = 1: t^2 + 2 (o.r) t + |o|^2 - radius^2 = 0
+        b, c = o @ r, o @ o - radius**2
+        t = -b + math.sqrt(max(b * b - c, 0.0))
+        coords[i] = map_coords(frame, res, s, o + t * r)
+    return coords
+
+
+def fill_triangle(ids, a, b, c, value, only_empty):
+    """Twin of virtual.explosion._fill_triangle: every texel whose center has non-negative
+    barycentrics in (a, b, c) gets `value` (only empty ones if `only_empty`), over the whole
+    map at once; degenerate or NaN triangles fill nothing."""
+    (ax, ay), (bx, by), (cx, cy) = a, b, c
+    area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+    if area == 0.0 or math.isnan(area):
+        return
+    res = ids.shape[0]
+    py, px = np.mgrid[0:res, 0:res] + 0.5
+    w0 = ((bx - px) * (cy - py) - (cx - px) * (by - py)) / area
+    w1 = ((cx - px) * (ay - py) - (ax - px) * (cy - py)) / area
+    w2 = 1.0 - w0 - w1
+    inside = (w0 >= 0) & (w1 >= 0) & (w2 >= 0)
+    if only_empty:
+        inside &= ids < 0
+    ids[inside] = value
+
+
+def fill_faces(ids, coords, faces, drawn):
+    """Twin of virtual.explosion._fill_faces: the drawn faces in order, filled with their id."""
+    for fi in drawn:
+        fill_triangle(ids, *(coords[faces[fi, k]] for k in range(3)), fi, False)
+
+
+def fill_extensions(ids, coords, extensions, n_faces, center, reach):
+    """Twin of virtual.explosion._fill_extensions / _extend: each extension's quad, from its
+    edge (i, j) out to `reach` from the map center along the directions of its ends, filled
+    where empty with n_faces + its index (both windings)."""
+    def out(p):
+        d = np.asarray(p, np.float64) - center
+        length = np.linalg.norm(d)
+        return p if length == 0 else center + d * reach / length
+
+    for e, (_, i, j) in enumerate(extensions):
+        a, b = coords[i], coords[j]
+        c, d = out(b), out(a)
+        for tri in ((a, b, c), (a, c, d), (a, c, b), (a, d, c)):
+            fill_triangle(ids, *tri, n_faces + e, True)
+
+
+def plane_from_map(ids, coords, v, n, faces, extensions, t):
+    """Twin of virtual.explosion._plane_from_map: the texel under T; a face: its vertices
+    and normals weighted by T's barycentrics among its map corners (a third each if the
+    corners are degenerate); an extension: by T's position along its inner edge, clamped.
+    Returns (point, unit normal), the normal zero for an empty texel."""
+    res = ids.shape[0]
+    x = min(max(math.floor(t[0]), 0), res - 1)
+    y = min(max(math.floor(t[1]), 0), res - 1)
+    ident = ids[y, x]
+    if ident < 0:
+        return np.zeros(3), np.zeros(3)
+    if ident < len(faces):
+        idx = faces[ident]
+        a, b, c = (coords[i] for i in idx)
+        m = np.array([b - a, c - a]).T
+        if np.linalg.det(m) == 0:
+            wts = np.full(3, 1.0 / 3.0)
+        else:
+            wb, wc = np.linalg.solve(m, np.asarray(t, np.float64) - a)
+            wts = np.array([1.0 - wb - wc, wb, wc])
+        p, nn = wts @ v[idx], wts @ n[idx]
+    else:
+        i, j = extensions[ident - len(faces), 1:]
+        edge = coords[j] - coords[i]
+        ll = edge @ edge
+        u = 0.5 if ll == 0 else float(np.clip((np.asarray(t) - coords[i]) @ edge / ll, 0, 1))
+        p, nn = (1 - u) * v[i] + u * v[j], (1 - u) * n[i] + u * n[j]
+    length = np.linalg.norm(nn)
+    return p, (nn / length if length > 0 else nn)
+
+
+def screen_plane(faces, f, screen, v, n, s):
+    """Twin of virtual.explosion._screen_plane: point and unit normal of reflector face f at
+    screen point s, by s's barycentrics among the face's screen corners (numpy's solver);
+    a zero normal for a degenerate face."""
+    idx = faces[f]
+    a, b, c = (screen[i] for i in idx)
+    m = np.array([b - a, c - a]).T
+    if np.linalg.det(m) == 0:
+        return np.zeros(3), np.zeros(3)
+    wb, wc = np.linalg.solve(m, np.asarray(s, np.float64) - a)
+    wts = np.array([1.0 - wb - wc, wb, wc])
+    nn = wts @ n[idx]
+    return wts @ v[idx], nn / np.linalg.norm(nn)
+
+
+def explosion_virtual(points, v, n, faces, extensions, ids, coords, radii, center, flip_axis,
+                      frame, res, s, hidden_face, hidden_screen, screen, cores):
+    """Twin of virtual.explosion._virtual / _mirror: per point, a hidden one is mirrored
+    across the plane screen_plane gives at its screen position; the others look up the
+    direction from the center (turned around when it points against flip_axis) in the two
+    layers whose spheres bracket their distance (the last pair beyond), mirror across both
+    layers' planes and blend by inverse distance to each sphere (a layer whose texel is empty
+    weighs 0; none: Q' = Q). unreflected: the texel is not core in both layers."""
+    out = np.empty((len(points), 3))
+    unreflected = np.zeros(len(points), bool)
+    for i, q in enumerate(points):
+        h = hidden_face[i]
+        if h >= 0:
+            p, nn = screen_plane(faces, h, screen, v, n, hidden_screen[i])
+            if np.any(nn != 0):
+                out[i] = _reflect_across(q, p, nn)
+                continue
+        d = q - center
+        if d @ flip_axis < 0:
+            d = -d
+        t = map_coords(frame, res, s, d)
+        dist = np.linalg.norm(q - center)
+        lo = 0
+        while lo < len(radii) - 2 and dist > radii[lo + 1]:
+            lo += 1
+        cx = min(max(math.floor(t[0]), 0), res - 1)
+        cy = min(max(math.floor(t[1]), 0), res - 1)
+        unreflected[i] = not (cores[lo, cy, cx] and cores[lo + 1, cy, cx])
+        total, acc = 0.0, np.zeros(3)
+        for layer in (lo, lo + 1):
+            p, nn = plane_from_map(ids[layer], coords[layer], v, n, faces, extensions, t)
+            if not np.any(nn != 0):
+                continue
+            wt = 1.0 / max(abs(dist - radii[layer]), 1e-12)
+            total += wt
+            acc += wt * _reflect_across(q, p, nn)
+        out[i] = acc / total if total > 0 else q
+    return out, unreflected
+
+
+# --- distance cube maps (maps/distance_search.py), written from that module's docstring with
+# plain numpy vectors and an independent cube-face projection
+
+AXES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+UPS = np.array([[0, 1, 0], [0, 1, 0], [0, 0, 1], [0, 0, -1], [0, 1, 0], [0, 1, 0]], float)
+
+
+def face_uv(u):
+    """(face, s, t): the face of u's major axis; s, t in [0, 1] (row 0 at the top)."""
+    u = np.asarray(u, float)
+    i = int(np.argmax(np.abs(u)))
+    # ties resolve x before y before z, as the kernel does
+    a = np.abs(u)
+    if a[0] >= a[1] and a[0] >= a[2]:
+        i = 0
+    elif a[1] >= a[2]:
+        i = 1
+    else:
+        i = 2
+    face = 2 * i + (0 if u[i] > 0 else 1)
+    axis = AXES[face]
+    right = np.cross(UPS[face], -axis)
+    right /= np.linalg.norm(right)
+    up = np.cross(-axis, right)
+    fwd = u @ axis
+    return face, ((u @ right) / fwd + 1) / 2, (1 - (u @ up) / fwd) / 2
+
+
+def layer_sample(q, surface, k, u):
+    """Twin of maps.distance_search.sample_layer: (face, s, t, id, 1/w) of direction u in
+    layer k, by the module's rule."""
+    face, s, t = face_uv(u)
+    res = q.shape[2]
+    fx, fy = s * res, t * res
+    xn, yn = min(max(int(fx), 0), res - 1), min(max(int(fy), 0), res - 1)
+    sid = int(surface[k, face, yn, xn])
+    if sid < 0:
+        return face, s, t, sid, 0.0
+    x0 = min(max(math.floor(fx - 0.5), 0), res - 2)
+    y0 = min(max(math.floor(fy - 0.5), 0), res - 2)
+    block = surface[k, face, y0:y0 + 2, x0:x0 + 2]
+    if np.all(block == sid):
+        ax, ay = fx - 0.5 - x0, fy - 0.5 - y0
+        w = np.array([[(1 - ax) * (1 - ay), ax * (1 - ay)], [(1 - ax) * ay, ax * ay]])
+        return face, s, t, sid, float((w * q[k, face, y0:y0 + 2, x0:x0 + 2]).sum())
+    return face, s, t, sid, float(q[k, face, yn, xn])
+
+
+def bilinear(image, s, t):
+    res = image.shape[0]
+    fx = min(max(s * res - 0.5, 0.0), res - 1.0)
+    fy = min(max(t * res - 0.5, 0.0), res - 1.0)
+    x0, y0 = min(int(fx), res - 2), min(int(fy), res - 2)
+    ax, ay = fx - x0, fy - y0
+    return ((1 - ax) * (1 - ay) * image[y0, x0] + ax * (1 - ay) * image[y0, x0 + 1]
+            + (1 - ax) * ay * image[y0 + 1, x0] + ax * ay * image[y0 + 1, x0 + 1])
+
+
+def naive_search(x, r, a, t_end, q, surface, color, steps, refine):
+    """Twin of maps.distance_search.search_ray (and _search_pixels per pixel): (hit, colour)
+    of the ray x + r d in a layered map, by the module docstring's rule."""
+    x, r = np.asarray(x, float), np.asarray(r, float)
+    layers = q.shape[0]
+
+    def u_at(t):
+        return (1 - t) * x + t * a * r
+
+    def look(t):
+        u = u_at(t)
+        rows = []
+        for k in range(layers):
+            face, _, _, sid, qv = layer_sample(q, surface, k, u)
+            g = (u @ AXES[face]) * qv - (1 - t)
+            dist = np.linalg.norm(u) / ((u @ AXES[face]) * qv) if qv > 0 else np.inf
+            rows.append((sid, g, dist))
+        return rows
+
+    def angle(u, v):
+        return math.acos(min(max(u @ v / (np.linalg.norm(u) * np.linalg.norm(v)), -1), 1))
+
+    prev_t, prev = 0.0, look(0.0)
+    for i in range(1, steps + 1):
+        t = t_end * i / steps
+        now = look(t)
+        if now[0][0] < 0:
+            continue
+        step_angle = angle(u_at(prev_t), u_at(t))
+        found = []
+        for sid, g, dist in now:
+            if sid < 0 or g < 0:
+                continue
+            partner = next((p for p in prev if p[0] == sid and p[1] < 0), None)
+            if partner is None:
+                partner = next((p for p in prev if p[0] >= 0 and p[1] < 0 and abs(p[2] - dist)
+                                <= CREASE_SLOPE * step_angle * max(p[2], dist)), None)
+            if partner is not None:
+                tc = prev_t + (t - prev_t) * partner[1] / (partner[1] - g)
+                found.append((tc, partner[0], sid, partner[1], g))
+        if found:
+            _, sid_a, sid_b, g_lo, g_hi = min(found, key=lambda f: f[0])
+
+            def on_surface(tt, sid_a=sid_a, sid_b=sid_b):
+                for k, (sid, g, _) in enumerate(look(tt)):
+                    if sid >= 0 and sid in (sid_a, sid_b):
+                        return g, k
+                return 0.0, -1
+
+            lo, hi, t_hit = prev_t, t, t
+            for _ in range(refine):
+                tc = lo + (hi - lo) * g_lo / (g_lo - g_hi)
+                g, k = on_surface(tc)
+                if k < 0:
+                    break
+                t_hit = tc
+                if g < 0:
+                    lo, g_lo = tc, g
+                elif g > 0:
+                    hi, g_hi = tc, g
+                else:
+                    break
+            _, k = on_surface(t_hit)
+            face, s, tt = face_uv(u_at(t_hit))
+            return True, bilinear(color[max(k, 0), face], s, tt)
+        prev_t, prev = t, now
+    return False, None
+
+
+def reflected_ray(tri, b1, b2, corners, normals, kind, p, eye):
+    """Twin of maps.distance_search.mirror_ray: the point at barycentrics (b1, b2) of
+    triangle `tri` and the law of reflection r = 2 (n.v) n - v about its normal (the plane's,
+    the sphere's radial, the cylinder's radial across its axis, or the mesh's interpolated
+    one), turned toward the eye."""
+    c = np.asarray(corners[tri], float)
+    w = np.array([1.0 - b1 - b2, b1, b2])
+    point = w @ c
+    if kind == PLANAR:
+        n = np.asarray(p[:3], float)
+    elif kind == SPHERE:
+        n = point - np.asarray(p[:3], float)
+    elif kind == CYLINDER:
+        axis = np.asarray(p[3:6], float)
+        radial = point - np.asarray(p[:3], float)
+        n = radial - (radial @ axis) * axis
+    else:
+        n = w @ np.asarray(normals[tri], float)
+    n = n / np.linalg.norm(n)
+    v = np.asarray(eye, float) - point
+    v = v / np.linalg.norm(v)
+    if n @ v < 0:
+        n = -n
+    return point, 2.0 * (n @ v) * n - v
+
+
+# --- dprm's colour gather and fill (maps/warp.py)
+
+
+def gather_rows(best_id, stride, per_map, box, out):
+    """Twin of maps.warp.gather_colors (and its _gather4): out[y, x] = per_map[id // stride]
+    [id % stride] where a zexel reached pixel (x, y) of box (x0, x1, y0, y1)."""
+    out = out.copy()
+    x0, x1, y0, y1 = box
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            ident = int(best_id[y, x])
+            if ident >= 0:
+                out[y, x] = per_map[ident // stride][ident % stride]
+    return out
+
+
+def fill_and_blend(stencil, best_id, reflected, prev_rgb, prev_filled, background,
+                   reflectance, rgb):
+    """Twin of maps.warp.fill_blend, in numpy masks: the warped colour where a zexel landed,
+    else the previous frame's where that was filled (prev_rgb None: no previous frame), else
+    the background, a hole; rgb += reflectance * that over the stencil. Returns (rgb,
+    holes, reflected, filled)."""
+    reached = stencil & (best_id >= 0)
+    reflected = reflected.copy()
+    filled = reached.copy()
+    if prev_rgb is not None:
+        reuse = stencil & ~reached & prev_filled
+        reflected[reuse] = prev_rgb[reuse]
+        filled |= reuse
+    hole = stencil & ~filled
+    reflected[hole] = background
+    rgb = rgb.copy()
+    rgb[stencil] += np.asarray(reflectance) * reflected[stencil]
+    return rgb, hole.astype(np.float32), reflected, filled

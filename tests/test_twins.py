@@ -1,0 +1,210 @@
+"""Every @njit kernel in reflectcli is held to a slow twin (tests/naive.py) by a test.
+
+KERNELS maps each kernel ("module path:function") to the tests that compare it with its
+twin; a private helper compiled into its caller is listed with the caller's tests and the
+caller it is reached through. The test fails on a kernel missing from the map, on an entry
+for a kernel that no longer exists, and on a named test that does not exist."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+R = "tests/raster/test_rasterize.py::"
+W = "tests/maps/test_warp_splat.py::"
+E = "tests/trace/test_embree_bruteforce.py::"
+SR = "tests/twins/test_shading_raster_twins.py::"
+T = "tests/twins/test_trace_twins.py::"
+M = "tests/twins/test_maps_twins.py::"
+V = "tests/twins/test_virtual_twins.py::"
+D = "tests/maps/test_distance_search.py::"
+
+RASTER = [R + "test_matches_reference_on_random_scenes",
+          R + "test_near_plane_clipping_matches_ray_casting",
+          SR + "test_rasterizer_with_mask_and_depth_floor_matches_twin",
+          SR + "test_rasterizer_culling_and_skip_match_twin"]
+CLIP = [R + "test_near_plane_clipping_matches_ray_casting"]
+SPLAT = [W + "test_splat_matches_the_reference",
+         M + "test_splat_both_modes_match_sequential_twin"]
+ANALYTIC = [E + "test_analytic_matches_closed_forms"]
+SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
+                 V + "test_cylinder_virtual_vertices_match_twin"]
+PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
+REFINE = [V + "test_screen_refinement_matches_twin"]
+FILL = [V + "test_fill_kernels_match_twin"]
+SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
+LOOKUP = [V + "test_explosion_lookup_matches_twin"]
+S = "tests/techniques/test_ssr.py::"
+P = "tests/techniques/test_ppr.py::"
+HIZ = [S + "test_hiz_equals_pixel_walk_on_random_buffers",
+       S + "test_hiz_equals_pixel_walk_on_frames"]
+DDA = [S + "test_dda_equals_listing"]
+RESOLVE = [S + "test_resolve_and_confidence_match_twins"]
+
+# kernel -> (tests comparing it with its twin, the kernel it is reached through or None)
+KERNELS: dict[str, tuple[list[str], str | None]] = {
+    "shading.py:_texel": ([SR + "test_material_albedo_matches_twin"], "material_albedo"),
+    "shading.py:material_albedo": ([SR + "test_material_albedo_matches_twin"], None),
+    "shading.py:surface_color": ([SR + "test_surface_color_matches_twin"], None),
+    "trace/rays.py:_primary_rays": ([SR + "test_primary_rays_match_pixel_directions"], None),
+    "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
+    "raster/rasterize.py:_setup": (RASTER, "rasterize"),
+    "raster/rasterize.py:_setup_one": (RASTER, "_setup"),
+    "raster/rasterize.py:_band_range": (RASTER, "_bin_count"),
+    "raster/rasterize.py:_bin_count": (RASTER, "rasterize"),
+    "raster/rasterize.py:_bin_starts": (RASTER, "rasterize"),
+    "raster/rasterize.py:_bin_fill": (RASTER, "rasterize"),
+    "raster/rasterize.py:_band_table": (RASTER, "_bin_count"),
+    "raster/rasterize.py:_clear": (RASTER, "rasterize"),
+    "maps/warp.py:_gather4": ([W + "test_gather_and_fill_blend_match_twins"], "gather_colors"),
+    "maps/warp.py:fill_blend": ([W + "test_gather_and_fill_blend_match_twins"], None),
+    "raster/rasterize.py:_area": (RASTER, "_fill"),
+    "raster/rasterize.py:_clip_polygon": (CLIP, "_draw"),
+    "raster/rasterize.py:_fill": (RASTER, "_draw"),
+    "raster/rasterize.py:_draw": (RASTER, "rasterize"),
+    "trace/analytic.py:_sphere": (ANALYTIC, "_intersect"),
+    "trace/analytic.py:_cylinder": (ANALYTIC, "_intersect"),
+    "trace/analytic.py:_in_triangle": (ANALYTIC, "_quad"),
+    "trace/analytic.py:_quad": (ANALYTIC, "_intersect"),
+    "trace/analytic.py:_intersect": (
+        ANALYTIC + [E + "test_analytic_property_cases_are_mostly_clear"], "intersect_analytic"),
+    "trace/tracer.py:_pick": ([T + "test_pick_matches_twin_on_ties_and_misses",
+                               T + "test_resolve_matches_twin"], None),
+    "trace/tracer.py:_resolve": ([T + "test_resolve_matches_twin"], None),
+    "maps/cube.py:cube_face_coords": ([M + "test_cube_lookup_matches_twin"], None),
+    "maps/cube.py:cube_sample": ([M + "test_cube_lookup_matches_twin"], None),
+    "maps/cube.py:image_sample": ([M + "test_image_sample_matches_twin"], None),
+    "maps/sphere.py:_sphere_from_cube": ([M + "test_sphere_from_cube_matches_twin"], None),
+    "maps/sphere.py:sphere_coords": ([M + "test_sphere_lookup_matches_twin"], None),
+    "maps/sphere.py:sphere_sample": ([M + "test_sphere_lookup_matches_twin"], None),
+    "maps/lookup.py:box_exit": ([M + "test_box_exit_matches_twin"], None),
+    "maps/lookup.py:_add": ([M + "test_envmap_lookup_matches_twin"], None),
+    "maps/surface.py:_intersect": ([M + "test_surface_reconstruction_matches_twin"], None),
+    "maps/warp.py:_project": ([M + "test_warp_projection_matches_twin"], "project_map"),
+    "maps/warp.py:_adaptive": ([M + "test_adaptive_radii_match_twin"], "splat_radii"),
+    "maps/warp.py:_splat": (SPLAT, "splat"),
+    "maps/warp.py:_write": (SPLAT, "_splat"),
+    "virtual/direct.py:_circle_law": (SPHERE_METHOD, "_circle_reflection"),
+    "virtual/direct.py:_circle_reflection": (SPHERE_METHOD, "_mirror_on_circle"),
+    "virtual/direct.py:_mirror_on_circle": (SPHERE_METHOD, "_many"),
+    "virtual/direct.py:_many": (SPHERE_METHOD, "sphere/cylinder_virtual_vertices"),
+    "virtual/direct.py:_profile_at": (PROFILE, "_law"),
+    "virtual/direct.py:_law": (PROFILE, "_profile_one"),
+    "virtual/direct.py:_profile_many": (PROFILE, "profile_virtual_vertices"),
+    "virtual/direct.py:_profile_one": (PROFILE, "_profile_many"),
+    "virtual/refine.py:_grid": ([V + "test_reflector_grid_matches_twin"], "reflector_grid"),
+    "virtual/refine.py:_sample": ([V + "test_grid_sample_matches_twin"] + REFINE, None),
+    "virtual/refine.py:_residual": (REFINE, "_walk"),
+    "virtual/refine.py:_walk": (REFINE, "_refine"),
+    "virtual/refine.py:_refine": (REFINE, "refine_virtual"),
+    "virtual/tiles.py:_scan": ([V + "test_tile_scan_matches_twin"], "PartTiles.scan"),
+    "virtual/explosion.py:map_coords": ([V + "test_map_coords_and_vertex_coords_match_twin"],
+                                        None),
+    "virtual/explosion.py:_vertex_coords": (
+        [V + "test_map_coords_and_vertex_coords_match_twin"], "build_explosion_maps"),
+    "virtual/explosion.py:_fill_triangle": (FILL, None),
+    "virtual/explosion.py:_fill_faces": (FILL, None),
+    "virtual/explosion.py:_extend": (FILL, "_fill_extensions"),
+    "virtual/explosion.py:_fill_extensions": (FILL, None),
+    "virtual/explosion.py:_plane_from_map": (
+        [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
+    "virtual/explosion.py:_screen_plane": (
+        [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
+    "virtual/explosion.py:_mirror": (LOOKUP, "_virtual"),
+    "virtual/explosion.py:_virtual": (LOOKUP, "virtual_vertices"),
+    "maps/distance_search.py:search_ray": (SEARCH, "_search_pixels"),
+    "maps/distance_search.py:_search_pixels": (SEARCH, None),
+    "maps/distance_search.py:sample_layer": (SEARCH, "search_ray"),
+    "maps/distance_search.py:mirror_ray": ([D + "test_mirror_ray_matches_twin"], None),
+    "maps/distance_search.py:_g_of": (SEARCH, "search_ray"),
+    "maps/distance_search.py:_g_surface": (SEARCH, "search_ray"),
+    "maps/distance_search.py:_distance": (SEARCH, "search_ray"),
+    "maps/distance_search.py:_point": (SEARCH, "search_ray"),
+    "maps/distance_search.py:_angle": (SEARCH, "search_ray"),
+    "screenspace/rays.py:to_screen": ([S + "test_mirror_rays_match_twin"], None),
+    "screenspace/rays.py:_rays": ([S + "test_mirror_rays_match_twin"], "mirror_rays"),
+    "screenspace/rays.py:distance_at": ([S + "test_distance_at_matches_twin"], None),
+    "screenspace/march.py:jitter_offset": ([S + "test_jitter_offset_matches_twin"], None),
+    "screenspace/march.py:march_linear": ([S + "test_linear_equals_twin"], None),
+    "screenspace/march.py:march_dda": (DDA, None),
+    "screenspace/march.py:march_all": (DDA + [S + "test_linear_equals_twin"], None),
+    "screenspace/hiz.py:_build": ([S + "test_pyramid_matches_twin"], "build_pyramid"),
+    "screenspace/hiz.py:_exit_u": (HIZ, "march_hiz"),
+    "screenspace/hiz.py:pixel_overlap": (HIZ, "march_hiz"),
+    "screenspace/hiz.py:march_hiz": (HIZ, None),
+    "screenspace/hiz.py:march_hiz_all": ([S + "test_hiz_equals_pixel_walk_on_frames"], None),
+    "screenspace/resolve.py:_surface_hit": (RESOLVE, "resolve_hits"),
+    "screenspace/resolve.py:resolve_hits": (RESOLVE, None),
+    "screenspace/resolve.py:confidence": (RESOLVE, None),
+    "screenspace/project.py:project_sources": ([P + "test_projection_and_scatter_match_twin"],
+                                               None),
+    "screenspace/project.py:scatter_min": ([P + "test_projection_and_scatter_match_twin"], None),
+    "screenspace/project.py:_key_at": ([P + "test_fill_matches_twin"], "fill_holes"),
+    "screenspace/project.py:fill_holes": ([P + "test_fill_matches_twin"], None),
+    "screenspace/project.py:decode": ([P + "test_decode_matches_twin"], None),
+}
+
+
+def _is_njit(decorator: ast.expr) -> bool:
+    node = decorator.func if isinstance(decorator, ast.Call) else decorator
+    name = node.attr if isinstance(node, ast.Attribute) else getattr(node, "id", "")
+    return name in ("njit", "jit")
+
+
+def njit_kernels() -> set[str]:
+    """Every @njit / @jit function in reflectcli, as 'path under reflectcli:name'."""
+    found = set()
+    package = ROOT / "reflectcli"
+    for path in sorted(package.rglob("*.py")):
+        tree = ast.parse(path.read_text(), str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and any(
+                    _is_njit(d) for d in node.decorator_list):
+                found.add(f"{path.relative_to(package).as_posix()}:{node.name}")
+    return found
+
+
+def test_every_kernel_has_a_twin_test():
+    kernels = njit_kernels()
+    assert len(kernels) > 40  # the scan finds the kernels at all
+    missing = sorted(kernels - KERNELS.keys())
+    stale = sorted(KERNELS.keys() - kernels)
+    assert not missing, f"@njit kernels with no twin test in KERNELS: {missing}"
+    assert not stale, f"KERNELS entries for kernels that no longer exist: {stale}"
+
+
+def _test_functions(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(), str(path))
+    return {n.name for n in tree.body if isinstance(n, ast.FunctionDef)
+            and n.name.startswith("test_")}
+
+
+def test_every_named_twin_test_exists():
+    cache: dict[str, set[str]] = {}
+    for kernel, (tests, _) in KERNELS.items():
+        assert tests, kernel
+        for ref in tests:
+            file, name = ref.split("::")
+            if file not in cache:
+                cache[file] = _test_functions(ROOT / file)
+            assert name in cache[file], f"{kernel}: no test {ref}"
+
+
+def test_naive_twins_name_their_kernels():
+    """Each twin in tests/naive.py (and tests/naive_screenspace.py) says in its docstring
+    which kernel it twins, and every kernel name in KERNELS (bar helpers reached through a
+    caller) is named by some twin."""
+    import naive
+    import naive_screenspace  # the screen-space kernels' twins (issue 15)
+
+    docs = " ".join((getattr(mod, n).__doc__ or "") for mod in (naive, naive_screenspace)
+                    for n in dir(mod)
+                    if callable(getattr(mod, n)) and not n.startswith("_")
+                    and getattr(getattr(mod, n), "__module__", "") == mod.__name__)
+    for kernel, (_, via) in KERNELS.items():
+        path, name = kernel.split(":")
+        if via is None or not name.startswith("_"):
+            dotted = path.removesuffix(".py").replace("/", ".")
+            assert f"{dotted}.{name}" in docs or name in docs, f"no twin names {kernel}"

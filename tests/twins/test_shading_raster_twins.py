@@ -1,0 +1,263 @@
+"""Shading, primary rays, the raster shading pass and the rasterizer's mask, depth floor,
+culling and skip flags against their slow twins in tests/naive.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from naive import material_albedo, primary_rays, rasterize, shade, surface_color
+
+from reflectcli.camera import Camera
+from reflectcli.raster.rasterize import (
+    CULL_BACK,
+    CULL_FRONT,
+    FLAG_MIRROR,
+    FLAG_SKIP,
+)
+from reflectcli.raster.rasterize import (
+    rasterize as fast_rasterize,
+)
+from reflectcli.raster.shade import _shade
+from reflectcli.scene.types import CHECKER, DIRECTIONAL, LAMBERT, POINT, SOLID, TEXTURE, UNLIT
+from reflectcli.shading import material_albedo as fast_albedo
+from reflectcli.shading import surface_color as fast_surface_color
+from reflectcli.trace.rays import primary_rays as fast_primary_rays
+
+
+def materials(rng):
+    """solid, checker, nearest and bilinear textures (4x3, 1x1, 5x1), and a checker with a
+    non-integer scale: (mat_i, mat_f, texels)."""
+    texels = [np.zeros((1, 3), np.float32)]
+    mat_i, mat_f = [], []
+
+    def texture(w, h, bilinear, scale):
+        off = sum(len(t) for t in texels)
+        texels.append(rng.random((w * h, 3)).astype(np.float32))
+        mat_i.append([TEXTURE, off, w, h, bilinear])
+        mat_f.append([0, 0, 0, 0, 0, 0, *scale])
+
+    mat_i.append([SOLID, 0, 0, 0, 0])
+    mat_f.append([*rng.random(3), 0, 0, 0, 1, 1])
+    mat_i.append([CHECKER, 0, 0, 0, 0])
+    mat_f.append([*rng.random(6), 4, 3])
+    mat_i.append([CHECKER, 0, 0, 0, 0])
+    mat_f.append([*rng.random(6), 2.5, 0.7])
+    texture(4, 3, 0, (1, 1))
+    texture(4, 3, 1, (2, 3))
+    texture(1, 1, 1, (1, 1))
+    texture(5, 1, 1, (1.5, 1))
+    texture(3, 4, 0, (3, 2))
+    return (np.array(mat_i, np.int32), np.array(mat_f, np.float32),
+            np.ascontiguousarray(np.concatenate(texels)))
+
+
+def uv_samples(rng, n=60):
+    """Random uvs in and beyond [0, 1] (wrap), and the edge values: integers, texel and
+    checker boundaries, texel centers, tiny negatives."""
+    edges = [0.0, 1.0, -1.0, 0.5, 0.25, 1 / 3, 2 / 3, 0.125, 1e-12, -1e-12, 1 - 1e-12, 2.0,
+             0.1, 0.2, 0.4]
+    uv = [(a, b) for a in edges for b in edges[:6]]
+    uv += [tuple(x) for x in rng.uniform(-2.5, 2.5, (n, 2))]
+    return uv
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_material_albedo_matches_twin(seed):
+    rng = np.random.default_rng(seed)
+    mat_i, mat_f, texels = materials(rng)
+    for mat in range(len(mat_i)):
+        for u, v in uv_samples(rng):
+            got = fast_albedo(mat, u, v, mat_i, mat_f, texels)
+            want = material_albedo(mat, u, v, mat_i, mat_f, texels)
+            np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-7,
+                                       err_msg=f"material {mat} at uv ({u}, {v})")
+
+
+def lights(rng):
+    """Two point lights (one close), a directional light, and one pointing sideways."""
+    rows = [[POINT, *rng.uniform(-3, 3, 3), *rng.uniform(0, 5, 3)],
+            [POINT, 0.3, 0.2, 0.1, *rng.uniform(0, 2, 3)]]
+    for d in (rng.normal(size=3), np.array([1.0, 0.0, 0.0])):
+        rows.append([DIRECTIONAL, *(d / np.linalg.norm(d)), *rng.uniform(0, 1, 3)])
+    return np.array(rows, np.float32)
+
+
+@pytest.mark.parametrize("shading", [UNLIT, LAMBERT])
+@pytest.mark.parametrize("seed", range(3))
+def test_surface_color_matches_twin(shading, seed):
+    rng = np.random.default_rng(seed)
+    mat_i, mat_f, texels = materials(rng)
+    light_f = lights(rng)
+    cases = []
+    for _ in range(120):
+        p = rng.uniform(-2, 2, 3)
+        n = rng.normal(size=3) * rng.uniform(0.1, 3)  # not unit: the kernel normalises
+        d = rng.normal(size=3)
+        cases.append((p, n, d))
+    # edge cases: a normal perpendicular to the view (no flip), facing away (flipped), a light
+    # grazing the surface, a light behind it
+    cases.append((np.zeros(3), np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0])))
+    cases.append((np.zeros(3), np.array([0.0, 1.0, 0.0]), np.array([0.0, 1.0, 0.0])))
+    cases.append((np.array([0.3, 0.2, -0.9]), np.array([1.0, 0.0, 0.0]),
+                  np.array([0.0, 0.0, -1.0])))
+    for ambient in (0.0, 0.15):
+        for mat in range(len(mat_i)):
+            for k, (p, n, d) in enumerate(cases[:: 1 + 5 * (mat > 0)]):
+                u, v = rng.uniform(-1.5, 1.5, 2) if k % 3 else (0.5, 0.0)
+                got = fast_surface_color(mat, u, v, *p, *n, *d, mat_i, mat_f, texels, light_f,
+                                         shading, ambient)
+                want = surface_color(mat, u, v, p, n, d, mat_i, mat_f, texels, light_f,
+                                     shading, ambient)
+                np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-9)
+    # no lights at all: ambient only
+    got = fast_surface_color(0, 0.0, 0.0, 0, 0, 0, 0, 0, 1, 0, 0, -1, mat_i, mat_f, texels,
+                             np.zeros((0, 7), np.float32), shading, 0.25)
+    want = surface_color(0, 0.0, 0.0, np.zeros(3), [0, 0, 1], [0, 0, -1], mat_i, mat_f, texels,
+                         np.zeros((0, 7)), shading, 0.25)
+    np.testing.assert_allclose(got, want, rtol=1e-7)
+
+
+CAMERAS = [
+    Camera(np.array([0.3, 1.0, 4.0]), np.array([-0.2, 0.6, -1.0]), np.array([0.1, 1.0, 0.0]),
+           60.0, 7, 5, 0.5, 50.0),
+    Camera(np.array([0.0, 0.0, 0.0]), np.array([0.0, 0.0, -1.0]), np.array([0.0, 1.0, 0.0]),
+           90.0, 1, 1, 0.1, 10.0),
+    Camera(np.array([-2.0, 3.0, 1.0]), np.array([1.0, -1.0, 2.0]), np.array([0.0, 0.0, 1.0]),
+           35.0, 3, 8, 2.0, 100.0),
+]
+
+
+@pytest.mark.parametrize("samples", [1, 2, 3])
+@pytest.mark.parametrize("cam", CAMERAS)
+def test_primary_rays_match_pixel_directions(cam, samples):
+    origins, dirs = fast_primary_rays(cam, samples)
+    want_o, want_d = primary_rays(cam, samples)
+    assert origins.shape == want_o.shape and dirs.dtype == np.float32
+    np.testing.assert_allclose(dirs, want_d, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(origins, want_o, rtol=1e-6, atol=1e-6)
+
+
+def random_scene_arrays(rng, n_tri, n_objects, n_mirrors):
+    corners = rng.uniform(-2, 2, (n_tri, 3, 3)).astype(np.float32)
+    uvs = rng.uniform(-1, 2, (n_tri, 3, 2)).astype(np.float32)
+    normals = rng.normal(size=(n_tri, 3, 3)).astype(np.float32)
+    surface = rng.integers(0, n_objects + n_mirrors, n_tri).astype(np.int32)
+    return corners, uvs, normals, surface
+
+
+@pytest.mark.parametrize("shading", [UNLIT, LAMBERT])
+@pytest.mark.parametrize("seed", range(2))
+def test_shade_pass_matches_twin(seed, shading):
+    rng = np.random.default_rng(seed)
+    mat_i, mat_f, texels = materials(rng)
+    light_f = lights(rng)
+    h, w, n_tri, n_objects, n_mirrors = 9, 11, 12, 3, 2
+    corners, uvs, normals, surface = random_scene_arrays(rng, n_tri, n_objects, n_mirrors)
+    material = rng.integers(0, len(mat_i), n_tri).astype(np.int32)
+    tri = rng.integers(-1, n_tri, (h, w)).astype(np.int32)
+    tri[0, :] = -1  # a row of background
+    b = rng.dirichlet([1, 1, 1], (h, w)).astype(np.float32)
+    b1, b2 = b[..., 1].copy(), b[..., 2].copy()
+    b1[1, :3], b2[1, :3] = 0.0, 0.0  # on corner 0 exactly
+    eye = rng.uniform(-3, 3, 3)
+    background = rng.random(3).astype(np.float32)
+    refl = rng.random((n_mirrors, 3)).astype(np.float32)
+    refl[0] = 1.0
+    base = rng.random((n_mirrors, 3)).astype(np.float32)
+    rgb = np.empty((h, w, 3), np.float32)
+    surf = np.empty((h, w), np.int32)
+    _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye, mat_i,
+           mat_f, texels, light_f, shading, 0.1, background, refl, base, rgb, surf)
+    want_rgb, want_surf = shade(tri, b1, b2, corners, uvs, normals, material, surface,
+                                n_objects, eye, mat_i, mat_f, texels, light_f, shading, 0.1,
+                                background, refl, base)
+    np.testing.assert_array_equal(surf, want_surf)
+    np.testing.assert_allclose(rgb, want_rgb, rtol=2e-5, atol=1e-6)
+
+
+W, H = 32, 24
+
+
+def camera():
+    return Camera(np.array([0.3, 1.0, 4.0]), np.array([-0.2, 0.6, -1.0]),
+                  np.array([0.1, 1.0, 0.0]), 60.0, W, H, 0.5, 50.0)
+
+
+def random_triangles(cam, n, rng):
+    """Triangles in front of the near plane, within far, over (and a little beyond) the view."""
+    right, up, back = cam.basis()
+    t = np.tan(np.radians(cam.fov_y) / 2)
+    xy = rng.uniform(-1.1, 1.1, (n, 1, 2)) + rng.uniform(0.4, 1.5, (n, 1, 1)) * rng.uniform(
+        -1, 1, (n, 3, 2))
+    z = np.clip(rng.uniform(1.0, 12.0, (n, 1)) * rng.uniform(0.85, 1.15, (n, 3)), 1.0, 12.0)
+    world = cam.eye + z[..., None] * (-back + xy[..., :1] * t * cam.aspect * right
+                                      + xy[..., 1:] * t * up)
+    return world.astype(np.float32)
+
+
+def compare_raster(got, want, min_covered=0.2):
+    tri, b1, b2, depth, ambiguous = want
+    agree = got.triangle == tri
+    assert np.all(agree | ambiguous)
+    assert ambiguous.mean() <= 0.02
+    both = agree & (tri >= 0)
+    np.testing.assert_allclose(got.depth[both], depth[both], rtol=1e-4)
+    np.testing.assert_allclose(got.b1[both], b1[both], atol=1e-4)
+    np.testing.assert_allclose(got.b2[both], b2[both], atol=1e-4)
+    assert np.all(np.isinf(got.depth[got.triangle < 0]))
+    return (tri >= 0).mean()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_rasterizer_with_mask_and_depth_floor_matches_twin(seed):
+    rng = np.random.default_rng(seed)
+    cam = camera()
+    m = cam.projection_matrix() @ cam.view_matrix()
+    corners = random_triangles(cam, 16, rng)
+    flags = np.where(rng.random(16) < 0.25, FLAG_MIRROR, 0).astype(np.uint8)
+    mask = rng.random((H, W)) < 0.7
+    mask[:, :3] = False  # a bounding box smaller than the screen
+    mask[-2:] = False
+    floor = np.where(rng.random((H, W)) < 0.5, rng.uniform(0.0, 9.0, (H, W)), 0.0).astype(
+        np.float32)
+    got = fast_rasterize(corners, flags, m, W, H, mask=mask, depth_floor=floor)
+    want = rasterize(corners, flags, m, W, H, mask=mask, depth_floor=floor)
+    assert compare_raster(got, want) > 0.1  # not vacuous: the mask keeps ~2/3 of the view
+    assert np.all(got.triangle[~mask] == -1)
+    drawn = got.triangle >= 0
+    assert np.all(got.depth[drawn] > floor[drawn])
+
+
+def test_rasterizer_edge_masks_match_twin():
+    """An empty mask draws nothing; a single-pixel mask draws one pixel; a floor beyond
+    every triangle draws nothing."""
+    rng = np.random.default_rng(5)
+    cam = camera()
+    m = cam.projection_matrix() @ cam.view_matrix()
+    corners = random_triangles(cam, 12, rng)
+    flags = np.zeros(12, np.uint8)
+    empty = fast_rasterize(corners, flags, m, W, H, mask=np.zeros((H, W), bool))
+    assert np.all(empty.triangle == -1) and np.all(np.isinf(empty.depth))
+    full = fast_rasterize(corners, flags, m, W, H)
+    y, x = np.argwhere(full.triangle >= 0)[len(np.argwhere(full.triangle >= 0)) // 2]
+    one = np.zeros((H, W), bool)
+    one[y, x] = True
+    got = fast_rasterize(corners, flags, m, W, H, mask=one)
+    compare_raster(got, rasterize(corners, flags, m, W, H, mask=one))
+    assert got.triangle[y, x] == full.triangle[y, x] and (got.triangle >= 0).sum() == 1
+    far = np.full((H, W), 1e6, np.float32)
+    assert np.all(fast_rasterize(corners, flags, m, W, H, depth_floor=far).triangle == -1)
+
+
+@pytest.mark.parametrize("cull", [CULL_BACK, CULL_FRONT])
+@pytest.mark.parametrize("seed", range(2))
+def test_rasterizer_culling_and_skip_match_twin(seed, cull):
+    rng = np.random.default_rng(seed + 20)
+    cam = camera()
+    m = cam.projection_matrix() @ cam.view_matrix()
+    corners = random_triangles(cam, 16, rng)
+    flags = np.where(rng.random(16) < 0.3, FLAG_SKIP, 0).astype(np.uint8)
+    flags[rng.random(16) < 0.2] |= FLAG_MIRROR
+    got = fast_rasterize(corners, flags, m, W, H, cull=cull)
+    compare_raster(got, rasterize(corners, flags, m, W, H, cull=cull))
+    assert not np.isin(got.triangle, np.flatnonzero(flags & FLAG_SKIP)).any()

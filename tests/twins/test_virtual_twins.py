@@ -1,0 +1,270 @@
+"""Virtual-vertex kernels (exact sphere / cylinder / profile methods, screen refinement and
+its tile culling, explosion maps) against their slow twins."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from naive import (
+    explosion_virtual,
+    fill_extensions,
+    fill_faces,
+    fill_triangle,
+    grid_sample,
+    map_coords,
+    mirror_on_circle,
+    plane_from_map,
+    profile_one,
+    refine_point,
+    reflector_grid,
+    scan,
+    screen_plane,
+    vertex_coords,
+)
+
+from reflectcli.camera import Camera
+from reflectcli.scene import primitives
+from reflectcli.virtual import direct, explosion, refine
+from reflectcli.virtual.mesh import weld
+from reflectcli.virtual.tiles import PartTiles
+
+
+def circle_cases(rng, n=150):
+    """Points around a unit sphere at the origin seen from an eye at distance ~4: visible,
+    hidden behind it, inside it, on the line through the center and the eye (both sides)."""
+    eye = np.array([0.5, 0.8, 4.0])
+    pts = list(rng.normal(size=(n, 3)) * 2.5)
+    pts += [eye * 0.5, -eye, 2.0 * eye, np.array([0.1, 0.2, -0.3]), np.array([0.0, 0.0, -3.0])]
+    return eye, np.array(pts)
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_sphere_virtual_vertices_match_twin(seed):
+    eye, pts = circle_cases(np.random.default_rng(seed))
+    center, radius = np.array([0.0, 0.0, 0.0]), 1.0
+    got, hidden = direct.sphere_virtual_vertices(pts, eye, center, radius)
+    for p, g, h in zip(pts, got, hidden, strict=True):
+        want, want_h = mirror_on_circle(eye, p, center, radius)
+        assert h == want_h, p
+        np.testing.assert_allclose(g, want, atol=1e-6 * (1 + np.linalg.norm(p)))
+    assert hidden.any() and not hidden.all()
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_cylinder_virtual_vertices_match_twin(seed):
+    rng = np.random.default_rng(seed)
+    eye, pts = circle_cases(rng)
+    origin, axis = np.array([0.1, -1.0, 0.0]), np.array([0.2, 1.0, 0.1])
+    got, hidden = direct.cylinder_virtual_vertices(pts, eye, origin, axis, 0.7)
+    a = axis / np.linalg.norm(axis)
+    for p, g, h in zip(pts, got, hidden, strict=True):
+        want, want_h = mirror_on_circle(eye, p, origin, 0.7, a)
+        assert h == want_h, p
+        np.testing.assert_allclose(g, want, atol=1e-6 * (1 + np.linalg.norm(p)))
+    assert hidden.any()
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_profile_virtual_vertices_match_twin(seed):
+    rng = np.random.default_rng(seed)
+    # a convex arc bulging toward +z (the viewer), normals roughly radial, not exactly
+    ang = np.linspace(-1.0, 1.0, 9)
+    profile = np.stack([np.sin(ang), np.cos(ang) - 1.0], 1)
+    normals = np.stack([np.sin(ang * 1.05), np.cos(ang * 1.05)], 1)
+    frame = np.eye(4)
+    frame[:3, 3] = (0.2, -0.5, 0.1)
+    eye = np.array([0.3, 1.0, 3.0])
+    pts = np.concatenate([rng.normal(size=(120, 3)) * 2.0 + [0, 0, 1.5],
+                          [[0.2, 0.0, -2.0], [3.0, 0.0, 0.5], [-0.1, 0.3, 0.4]]])
+    got, hidden = direct.profile_virtual_vertices(pts, eye, profile, normals, frame)
+    inv = np.linalg.inv(frame)
+    e = inv[:3, :3] @ eye + inv[:3, 3]
+    for p, g, h in zip(pts, got, hidden, strict=True):
+        local = inv[:3, :3] @ p + inv[:3, 3]
+        want, want_h = profile_one(local, e, profile, normals)
+        assert h == want_h, p
+        np.testing.assert_allclose(g, frame[:3, :3] @ want + frame[:3, 3], atol=1e-9)
+    assert hidden.any() and not hidden.all()
+
+
+def sphere_grid(w=40, h=32):
+    """A reflector-only item buffer of a unit sphere, by ray casting: (camera, triangle ids
+    (one 'triangle' per pixel, its corners all at the hit), Q, R, inside)."""
+    cam = Camera(np.array([0.3, 0.4, 3.5]), np.zeros(3), np.array([0.0, 1.0, 0.0]), 45.0, w, h,
+                 0.1, 50.0)
+    d = cam.pixel_directions(1)[:, :, 0]
+    d = d / np.linalg.norm(d, axis=2, keepdims=True)
+    o = cam.eye
+    b = d @ o
+    disc = b * b - (o @ o - 1.0)
+    inside = disc > 0
+    t = -b - np.sqrt(np.where(inside, disc, 0.0))
+    q = o + t[..., None] * d
+    n = q.copy()
+    r = d - 2 * np.einsum("ijk,ijk->ij", d, n)[..., None] * n
+    return cam, inside, np.where(inside[..., None], q, np.nan), np.where(inside[..., None], r,
+                                                                         np.nan)
+
+
+def test_reflector_grid_matches_twin():
+    rng = np.random.default_rng(0)
+    h, w = 7, 9
+    corners = rng.normal(size=(5, 3, 3))
+    normals = rng.normal(size=(5, 3, 3))
+    tri = rng.integers(-1, 5, (h, w)).astype(np.int32)
+    b = rng.dirichlet([1, 1, 1], (h, w)).astype(np.float32)
+    eye = np.array([0.0, 0.5, 4.0])
+    got = refine.reflector_grid(tri, b[..., 1].copy(), b[..., 2].copy(), corners, normals, eye)
+    want = reflector_grid(tri, b[..., 1], b[..., 2], corners, normals, eye)
+    for g, x in zip(got, want, strict=True):
+        np.testing.assert_array_equal(np.isnan(g), np.isnan(x))
+        np.testing.assert_allclose(g[~np.isnan(x)], x[~np.isnan(x)], rtol=1e-12, atol=1e-12)
+
+
+def test_grid_sample_matches_twin():
+    rng = np.random.default_rng(1)
+    _, inside, q, r = sphere_grid(16, 12)
+    out_q, out_r = np.empty(3), np.empty(3)
+    pts = list(rng.uniform(-1, 17, (300, 2))) + [(0.5, 0.5), (8.0, 6.0), (16.0, 12.0)]
+    for sx, sy in pts:
+        ok = refine._sample(inside, q, r, sx, sy, out_q, out_r)
+        want = grid_sample(inside, q, r, sx, sy)
+        assert ok == (want is not None), (sx, sy)
+        if ok:
+            np.testing.assert_allclose(out_q, want[0], atol=1e-12)
+            np.testing.assert_allclose(out_r, want[1], atol=1e-12)
+
+
+def test_screen_refinement_matches_twin():
+    """Points reflected at known pixel centers, searched from seeds a few pixels off: where
+    the kernel reports EXACT it lands on the twin's least-squares solution."""
+    rng = np.random.default_rng(2)
+    cam, inside, q, r = sphere_grid()
+    ys, xs = np.nonzero(inside)
+    pick = rng.choice(len(ys), 40, replace=False)
+    pts = q[ys[pick], xs[pick]] + r[ys[pick], xs[pick]] * rng.uniform(0.5, 3.0, (40, 1))
+    seeds = np.stack([xs[pick], ys[pick]], 1) + 0.5 + rng.uniform(-3, 3, (40, 2))
+    seeds[0] = np.nan  # no seed: NONE
+    got, status = refine.refine_virtual(pts, seeds, inside, q, r, cam.eye)
+    assert status[0] == refine.NONE and np.isnan(got[0]).all()
+    exact = np.flatnonzero(status == refine.EXACT)
+    assert len(exact) > 25
+    for k in exact:
+        want = refine_point(pts[k], seeds[k], inside, q, r, cam.eye)
+        assert want is not None
+        np.testing.assert_allclose(got[k], want, atol=1e-4)
+
+
+def test_tile_scan_matches_twin():
+    rng = np.random.default_rng(3)
+    _, inside, q, r = sphere_grid()
+    tiles = PartTiles(inside, q, r, size=8)
+    pts = np.concatenate([rng.normal(size=(200, 3)) * 3.0, [tiles.center[0]]])
+    reach, seeds = tiles.scan(pts, q, r)
+    want_reach, want_seeds = scan(pts, tiles.center, tiles.radius, tiles.axis, tiles.half,
+                                  tiles.pixel, tiles.margin, q, r)
+    np.testing.assert_array_equal(reach, want_reach)
+    np.testing.assert_array_equal(seeds, want_seeds)
+    assert reach.any() and not reach.all()
+
+
+@pytest.fixture(scope="module")
+def sphere_maps():
+    m = primitives.uv_sphere(1.0, 12)
+    mesh = weld(m.corners, m.normals)
+    eye = np.array([0.4, 1.0, 6.0])
+    return mesh, eye, explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 48,
+                                                     layers=3)
+
+
+def test_map_coords_and_vertex_coords_match_twin(sphere_maps):
+    mesh, eye, maps = sphere_maps
+    rng = np.random.default_rng(4)
+    for d in list(rng.normal(size=(100, 3))) + [maps.frame[2], maps.frame[0]]:  # not -z: the rim
+        np.testing.assert_allclose(explosion.map_coords(maps.frame, maps.res, maps.s, *d),
+                                   map_coords(maps.frame, maps.res, maps.s, d), atol=1e-9)
+    for layer in maps.layers:
+        used = ~np.isnan(layer.coords[:, 0])
+        want = vertex_coords(mesh.vertices, maps.normals, used, eye, maps.center,
+                             layer.radius, maps.frame, maps.res, maps.s)
+        np.testing.assert_allclose(layer.coords, want, atol=1e-9)
+
+
+def test_fill_kernels_match_twin(sphere_maps):
+    mesh, _, maps = sphere_maps
+    rng = np.random.default_rng(5)
+    for _ in range(40):  # single triangles, both windings, some degenerate or NaN
+        tri = rng.uniform(-5, 30, (3, 2))
+        if rng.random() < 0.1:
+            tri[2] = tri[0] + 0.5 * (tri[1] - tri[0])
+        if rng.random() < 0.05:
+            tri[1, 0] = np.nan
+        only_empty = bool(rng.random() < 0.5)
+        ids = np.where(rng.random((24, 24)) < 0.3, 7, -1).astype(np.int32)
+        want = ids.copy()
+        explosion._fill_triangle(ids, *tri.reshape(-1), 3, only_empty)
+        fill_triangle(want, *tri, 3, only_empty)
+        np.testing.assert_array_equal(ids, want)
+    layer = maps.layers[1]
+    f = mesh.faces
+    drawn = rng.permutation(len(f))[: len(f) // 2].astype(np.int64)
+    ids = np.full((maps.res, maps.res), -1, np.int32)
+    want = ids.copy()
+    explosion._fill_faces(ids, layer.coords, f, drawn)
+    fill_faces(want, layer.coords, f, drawn)
+    np.testing.assert_array_equal(ids, want)
+    half = maps.res / 2.0
+    explosion._fill_extensions(ids, layer.coords, maps.extensions, len(f), half,
+                               explosion.EXTENSION_REACH * maps.s)
+    fill_extensions(want, layer.coords, maps.extensions, len(f), half,
+                    explosion.EXTENSION_REACH * maps.s)
+    np.testing.assert_array_equal(ids, want)
+    assert (ids >= len(f)).any()
+
+
+def test_plane_and_screen_lookups_match_twin(sphere_maps):
+    mesh, _, maps = sphere_maps
+    rng = np.random.default_rng(6)
+    layer = maps.layers[0]
+    ids = layer.ids.copy()
+    ids[:2] = -1  # some empty texels
+    for t in list(rng.uniform(-2, maps.res + 2, (300, 2))):
+        p, n = explosion._plane_from_map(ids, layer.coords, mesh.vertices, maps.normals,
+                                         mesh.faces, maps.extensions, *t)
+        wp, wn = plane_from_map(ids, layer.coords, mesh.vertices, maps.normals, mesh.faces,
+                                maps.extensions, t)
+        np.testing.assert_allclose(p, wp, atol=1e-8)
+        np.testing.assert_allclose(n, wn, atol=1e-8)
+    screen = rng.uniform(0, 50, (len(mesh.vertices), 2))
+    screen[mesh.faces[0, 2]] = screen[mesh.faces[0, 0]]  # a degenerate face on screen
+    for f in list(rng.integers(0, len(mesh.faces), 100)) + [0]:
+        s = rng.uniform(0, 50, 2)
+        p, n = explosion._screen_plane(mesh.faces, f, screen, mesh.vertices, maps.normals, *s)
+        wp, wn = screen_plane(mesh.faces, f, screen, mesh.vertices, maps.normals, s)
+        np.testing.assert_allclose(p, wp, atol=1e-8, rtol=1e-8)
+        np.testing.assert_allclose(n, wn, atol=1e-8)
+
+
+@pytest.mark.parametrize("flip", [False, True])
+def test_explosion_lookup_matches_twin(sphere_maps, flip):
+    mesh, eye, maps = sphere_maps
+    rng = np.random.default_rng(7)
+    n = 200
+    pts = rng.normal(size=(n, 3)) * 4.0
+    pts[:3] = [[0.0, 0.0, 40.0], [0.0, 0.0, 1.05], [0.5, 0.5, 0.0]]  # beyond far, near, inside
+    hidden_face = np.where(rng.random(n) < 0.2, rng.integers(0, len(mesh.faces), n), -1)
+    hidden_screen = rng.uniform(0, 50, (n, 2))
+    screen = rng.uniform(0, 50, (len(mesh.vertices), 2))
+    flip_axis = np.array([0.0, 0.0, 1.0]) if flip else None
+    got, flags = explosion.virtual_vertices(maps, pts, hidden_face, hidden_screen, screen,
+                                            flip_axis)
+    ids = np.stack([layer.ids for layer in maps.layers])
+    want, unreflected = explosion_virtual(
+        pts, mesh.vertices, maps.normals, mesh.faces, maps.extensions, ids,
+        np.stack([layer.coords for layer in maps.layers]),
+        np.array([layer.radius for layer in maps.layers]), maps.center,
+        np.zeros(3) if flip_axis is None else flip_axis, maps.frame, maps.res, maps.s,
+        hidden_face, hidden_screen, screen, np.stack([layer.core for layer in maps.layers]))
+    np.testing.assert_allclose(got, want, atol=1e-8, rtol=1e-9)
+    np.testing.assert_array_equal(flags, (hidden_face >= 0) | unreflected)
+    assert not unreflected.all() and (unreflected.any() or flip)
