@@ -178,7 +178,7 @@ def execute_job(job: dict, settings: dict) -> dict:
         per_frame.append({
             "frame": row["frame"],
             **{f"{k}_{scope}": v for scope in SCOPES for k, v in scores[scope].items()},
-            "hole_fraction": float(row.get("hole_fraction", 0.0)),
+            **hole_fractions(ours, ref, mirror, row),
         })
         for key, value in (("test", a), ("ref", b), ("mirror", mirror)):
             images[key].append(value)
@@ -225,7 +225,8 @@ def execute_job(job: dict, settings: dict) -> dict:
             else:
                 out[key] = _nan_reduce(np.mean, values)
         out[f"temporal_{scope}"] = per_frame[0].pop(f"temporal_{scope}_total")
-    out["hole_fraction"] = float(np.mean([f["hole_fraction"] for f in per_frame]))
+    for key in ("hole_fraction", "unreached_fraction"):
+        out[key] = float(np.mean([f[key] for f in per_frame]))
     out["per_frame"] = per_frame
     return out
 
@@ -233,6 +234,21 @@ def execute_job(job: dict, settings: dict) -> dict:
 def _nan_reduce(fn, values: list[float]) -> float:
     finite = [v for v in values if not math.isnan(v)]
     return float(fn(finite)) if finite else math.nan
+
+
+def hole_fractions(ours: dict, ref: dict, mirror: np.ndarray, row: dict) -> dict:
+    """`hole_fraction`: of the mirror pixels whose reflection the reference shows as
+    geometry (its `reflected_hit` channel), those the technique left as holes (its `holes`
+    channel); `unreached_fraction`: the technique's raw figure from its log (every mirror
+    pixel it did not reach, background reflections included)."""
+    unreached = float(row.get("unreached_fraction", 0.0))
+    if "holes" not in ours or "reflected_hit" not in ref:
+        return {"hole_fraction": unreached if "holes" in ours else 0.0,
+                "unreached_fraction": unreached}
+    should = mirror & (ref["reflected_hit"] >= 0.5)
+    holes = should & (ours["holes"] > 0)
+    return {"hole_fraction": float(holes.sum() / max(int(should.sum()), 1)),
+            "unreached_fraction": unreached}
 
 
 def _mean_psnr(values: list[float]) -> float:

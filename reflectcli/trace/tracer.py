@@ -88,6 +88,7 @@ def trace_frame(
     color = np.zeros((n, 3), np.float32)
     depth = np.full(n, np.inf, np.float32)
     surface = np.full(n, -1, np.int32)
+    reflected_hit = np.zeros(n, np.float32)  # first reflected ray hit geometry
     timings["primary_rays"] = time.perf_counter() - start
     rays = 0
     for bounce in range(max_depth + 1):
@@ -111,9 +112,12 @@ def trace_frame(
         if bounce == 0:
             depth = np.where(hit_surface >= 0, hit_t + np.float32(camera.near), np.inf)
             surface = hit_surface
+        elif bounce == 1:
+            reflected_hit[slot[hit_surface >= 0]] = 1.0
         origins, directions, weight, slot = next_o[alive], next_d[alive], next_w[alive], slot[alive]
         tfar = np.full(origins.shape[0], _FAR_AWAY, np.float32)
     rgb = color.reshape(h, w, spp, 3).mean(axis=2, dtype=np.float64).astype(np.float32)
+    reflected_hit = reflected_hit.reshape(h, w, spp).mean(axis=2).astype(np.float32)
     if spp > 1:  # Z, A and ids come from the pixel-center ray, traced once more
         o, d = primary_rays(camera, 1)
         m = d.shape[0]
@@ -140,6 +144,10 @@ def trace_frame(
         depth=depth.astype(np.float32),
         surface=surface.astype(np.int32),
         mirror_mask=surface >= scene.n_objects,
+        # what a mirror pixel's reflection should show: 1 where its reflected ray meets
+        # geometry (an object or another mirror), 0 where it leaves for the background (the
+        # fraction of samples that do, with supersampling); techniques' holes count against it
+        extra={"reflected_hit": reflected_hit} if max_depth >= 1 else {},
         timings=timings,
         stats={"rays": int(rays)},
     )

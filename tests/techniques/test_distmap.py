@@ -69,12 +69,12 @@ def test_box_room_equals_box_projection_and_raytrace(tmp_path):
     scene = box_room(tmp_path)
     ref, _ = render_frame(scene, "raytrace", 0, ("technique.max_depth=1",))
     boxed, _ = render_frame(scene, "envmap", 0, ('technique.parallax="box"',))
-    dist, _ = render_frame(scene, "distmap", 0)
+    dist, _ = render_frame(scene, "distmap", 0, OLD_DEFAULTS)
     assert dist.mirror_mask.sum() > 5000
     assert mirror_psnr(dist, boxed) >= 40.0
     assert mirror_psnr(dist, ref) >= 35.0
     assert mirror_psnr(boxed, ref) >= 35.0
-    assert dist.stats["hole_fraction"] < 1e-3
+    assert dist.stats["unreached_fraction"] < 1e-3
 
 
 def test_box_room_ball_equals_box_projection(tmp_path):
@@ -82,25 +82,28 @@ def test_box_room_ball_equals_box_projection(tmp_path):
     scene = box_room(tmp_path, "sphere")
     ref, _ = render_frame(scene, "raytrace", 0, ("technique.max_depth=1",))
     boxed, _ = render_frame(scene, "envmap", 0, ('technique.parallax="box"',))
-    dist, _ = render_frame(scene, "distmap", 0)
+    dist, _ = render_frame(scene, "distmap", 0, OLD_DEFAULTS)
     assert mirror_psnr(dist, boxed) >= 40.0
     assert abs(mirror_psnr(dist, ref) - mirror_psnr(boxed, ref)) < 0.5
 
 
 SMALL = ("camera.width=160", "camera.height=160")
+# the defaults before issue 12 (the distance impostor: one layer, 16 steps)
+OLD_DEFAULTS = ("technique.layers=1", "technique.steps=16")
 
 
 def test_l_room_ranking_and_holes():
     """envmap (no parallax) < envmap box < distmap layers 1 < distmap layers 4 (PSNR over the
     mirror against the ray tracer), holes falling as layers grow."""
     ref, _ = render_frame("l-room", "raytrace", 0, ("technique.max_depth=1",) + SMALL)
-    plain, _ = render_frame("l-room", "envmap", 0, SMALL)
+    plain, _ = render_frame("l-room", "envmap", 0, ('technique.parallax="none"',) + SMALL)
     boxed, _ = render_frame("l-room", "envmap", 0, ('technique.parallax="box"',) + SMALL)
-    runs = {n: render_frame("l-room", "distmap", 0, (f"technique.layers={n}",) + SMALL)[0]
+    runs = {n: render_frame("l-room", "distmap", 0,
+                            (f"technique.layers={n}", "technique.steps=16") + SMALL)[0]
             for n in (1, 2, 4)}
     p = [mirror_psnr(f, ref) for f in (plain, boxed, runs[1], runs[4])]
     assert p[0] < p[1] < p[2] < p[3], p
-    holes = [runs[n].stats["hole_fraction"] for n in (1, 2, 4)]
+    holes = [runs[n].stats["unreached_fraction"] for n in (1, 2, 4)]
     assert holes[0] >= holes[1] >= holes[2] and holes[2] < holes[0] / 4, holes
 
 

@@ -147,7 +147,8 @@ def random_scene_arrays(rng, n_tri, n_objects, n_mirrors):
 
 @pytest.mark.parametrize("shading", [UNLIT, LAMBERT])
 @pytest.mark.parametrize("seed", range(2))
-def test_shade_pass_matches_twin(seed, shading):
+@pytest.mark.parametrize("per_pixel", [False, True])
+def test_shade_pass_matches_twin(seed, shading, per_pixel):
     rng = np.random.default_rng(seed)
     mat_i, mat_f, texels = materials(rng)
     light_f = lights(rng)
@@ -166,11 +167,15 @@ def test_shade_pass_matches_twin(seed, shading):
     base = rng.random((n_mirrors, 3)).astype(np.float32)
     rgb = np.empty((h, w, 3), np.float32)
     surf = np.empty((h, w), np.int32)
-    _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye, mat_i,
-           mat_f, texels, light_f, shading, 0.1, background, refl, base, rgb, surf)
+    # per pixel incoming rays (a curved mirror's reflected rays), or the eye's
+    incoming = rng.normal(size=(h, w, 3)) if per_pixel else None
+    dirs = incoming if per_pixel else np.zeros((1, 1, 3))
+    _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye, dirs,
+           per_pixel, mat_i, mat_f, texels, light_f, shading, 0.1, background, refl, base, rgb,
+           surf)
     want_rgb, want_surf = shade(tri, b1, b2, corners, uvs, normals, material, surface,
                                 n_objects, eye, mat_i, mat_f, texels, light_f, shading, 0.1,
-                                background, refl, base)
+                                background, refl, base, incoming)
     np.testing.assert_array_equal(surf, want_surf)
     np.testing.assert_allclose(rgb, want_rgb, rtol=2e-5, atol=1e-6)
 

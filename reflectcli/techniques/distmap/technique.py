@@ -203,7 +203,9 @@ class Distmap(MapTechnique):
         result.stats.update({
             "maps": len(state.maps),
             "faces_captured": faces if frame_index else 6 * len(state.maps),
-            "holes": int(holes.sum()), "hole_fraction": float(holes.sum() / max(n_mirror, 1)),
+            # raw: rays that crossed nothing, background reflections included (see dprm)
+            "unreached": int(holes.sum()),
+            "unreached_fraction": float(holes.sum() / max(n_mirror, 1)),
             "search_steps": float(taken[mirror].mean()) if n_mirror else 0.0})
         return result
 

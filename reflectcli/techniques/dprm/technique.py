@@ -215,8 +215,11 @@ class Dprm(MapTechnique):
                              "maps_captured": captured if frame_index
                              else sum(len(r.maps) for r in state.mirrors),
                              "lod_level": getattr(self, "last_lod_level", 0),
-                             "holes": hole_count,
-                             "hole_fraction": float(hole_count / max(mirror_pixels, 1))})
+                             # raw: mirror pixels no zexel reached, including those
+                             # whose reflection is the background (the bench's
+                             # hole_fraction counts only where geometry should show)
+                             "unreached": hole_count,
+                             "unreached_fraction": float(hole_count / max(mirror_pixels, 1))})
         return result
 
     def _lod(self, record: DprmRecord, chosen, stencil: np.ndarray):

@@ -5,7 +5,7 @@
 | `map` | "cube", "sphere" | "cube" | cube map, or a sphere (disk) map derived from it |
 | `resolution` | int in [4, 4096] | 256 | texels per cube face side / sphere map side |
 | `filter` | "nearest", "bilinear" | "bilinear" | texel filter (clamped at face edges) |
-| `parallax` | "none", "box" | "none" | "box": intersect r with a proxy box first |
+| `parallax` | "none", "box" | "box" | "box": intersect r with a proxy box first |
 | `proxy_min`, `proxy_max` | xyz | room bounds | the proxy box (default: `room` objects) |
 | `capture_offset` | float >= 0.0 | 0.05 | planar mirrors: capture point in front of the center |
 | `capture` | {mirror = xyz} | {} | capture point per mirror name (default: the center) |
@@ -39,7 +39,7 @@ class EnvmapParams(Strict):
     map: Literal["cube", "sphere"] = "cube"
     resolution: int = Field(default=256, ge=4, le=4096)
     filter: Literal["nearest", "bilinear"] = "bilinear"
-    parallax: Literal["none", "box"] = "none"
+    parallax: Literal["none", "box"] = "box"
     proxy_min: Vec3 | None = None
     proxy_max: Vec3 | None = None
     capture_offset: float = Field(default=0.05, ge=0.0)
