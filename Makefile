@@ -5,7 +5,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 SCENE ?= scenes/teapot-box.toml
 
-.PHONY: demo install test lint coverage render bench figures smoke clean
+.PHONY: demo install test lint coverage render bench figures smoke fuzz clean
 
 demo: install
 	$(BIN)/reflect render $(SCENE) --frames 0 --preview
@@ -49,6 +49,11 @@ figures: install
 
 smoke: install
 	$(BIN)/reflect bench configs/bench/smoke.toml
+
+# long fuzz run: 10,000 mutated scenes through validate and render (FUZZ_COUNT to change)
+FUZZ_COUNT ?= 10000
+fuzz: install
+	$(BIN)/python scripts/fuzz.py --count $(FUZZ_COUNT) --timeout 60 --report out/fuzz.jsonl
 
 clean:
 	rm -rf out .reflect-cache .pytest_cache

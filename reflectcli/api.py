@@ -31,7 +31,17 @@ from .frame import Frame
 from .loading import load_config
 from .maps.cache import MapCache, default_cache_dir
 from .output.exr import write_exr
+from .output.failures import discard, write_failure
+from .output.finite import check_finite
+from .output.identity import (
+    check_same_overrides,
+    logged_rows,
+    matches,
+    new_run_id,
+    scene_identity,
+)
 from .output.log import append_jsonl
+from .output.paths import inside, remove_stale_temps
 from .output.png import write_png
 from .provenance import cpu_name, versions
 from .scene.build import build_scene, scene_hashes
@@ -111,6 +121,16 @@ def prepare_output(folder: str, source: str, field: str) -> None:
         ) from None
 
 
+def write_missing_preview(exr: str) -> None:
+    """--resume --preview: the PNG of a kept frame, from its EXR."""
+    import numpy as np
+
+    from .output.exr import read_exr
+
+    channels, _ = read_exr(exr)
+    write_png(exr[:-4] + ".png", np.stack([channels[c] for c in "RGB"], axis=-1))
+
+
 def frame_channels(frame: Frame) -> dict:
     channels = {
         "R": frame.rgb[:, :, 0],
@@ -132,11 +152,13 @@ def interrupts_deferred():
         yield
         return
     caught: list = []
-    previous = signal.signal(signal.SIGINT, lambda *args: caught.append(args))
+    previous = {sig: signal.signal(sig, lambda *args: caught.append(args))
+                for sig in (signal.SIGINT, signal.SIGTERM)}  # SIGTERM is handled like Ctrl-C
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     if caught:
         raise KeyboardInterrupt
 
@@ -150,12 +172,17 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
     key = (technique_name, params_json)
     if key in _warmed:
         return 0.0
-    from .warmup import warm_scene
+    from .warmup import warm_params, warm_scene
 
     start = time.perf_counter()
+    notice = threading.Timer(3.0, logging.getLogger("reflect").info, (
+        "compiling the numba kernels (the first run takes about 20 s; later runs load them "
+        "from the cache)",))
+    notice.daemon = True
+    notice.start()
     scene, camera = warm_scene()
     cls = technique_class(technique_name)
-    technique = cls(cls.Params.model_validate_json(params_json), threads)
+    technique = cls(cls.Params.model_validate_json(warm_params(params_json)), threads)
     logger = logging.getLogger("reflect")
     level = logger.level
     logger.setLevel(logging.ERROR)  # the warm-up scene's notices are nobody's business
@@ -163,6 +190,7 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
         technique.render(technique.prepare(scene), 0, camera)
     finally:
         logger.setLevel(level)
+        notice.cancel()
     _warmed[key] = time.perf_counter() - start
     return _warmed[key]
 
@@ -188,8 +216,10 @@ class OpenedScene:
 
     def __init__(self, config: SceneConfig, path: str, *, threads: int | None = None,
                  cache: str | None | Literal[False] = None,
-                 technique_option: str | None = None) -> None:
+                 technique_option: str | None = None,
+                 overrides: tuple[str, ...] | list[str] = ()) -> None:
         self.config = config
+        self.overrides = list(overrides)  # --set, recorded in the log rows
         self.path = path
         self.threads = threads  # asked for; None: numba's own count
         self.cache_option = cache  # as asked for, for the names in messages
@@ -202,6 +232,7 @@ class OpenedScene:
         self._technique: Technique | None = None
         self._state: Any = None
         self._prepared = False
+        self.run_id = new_run_id()  # one per opened scene: the log rows of one run
 
     # what the file says
 
@@ -233,10 +264,11 @@ class OpenedScene:
 
     @property
     def scene_hash(self) -> str:
-        """sha256 of the validated config and every file it reads (no build needed)."""
-        if self._scene is not None:
-            return self._scene.scene_hash
-        return scene_hashes(self.config, self.path)[0]
+        """sha256 of the scene alone (its content, the files it reads, its name and camera;
+        not the technique or the output section), so an image pairs with its reference."""
+        content = (self._scene.content_hash if self._scene is not None
+                   else scene_hashes(self.config, self.path)[1])
+        return scene_identity(content, self.config)
 
     # what is built from it
 
@@ -302,20 +334,28 @@ class OpenedScene:
         is built first: it may still reject input before any folder is made)."""
         self.build()
         root = out if out is not None else self.config.output.dir
-        folder = os.path.join(root, self.name, self.technique_name)
+        folder = inside(inside(root, self.name, self.display, "scene.name"),
+                        self.technique_name, self.display)
         prepare_output(folder, "--out" if out is not None else self.display,
                        "" if out is not None else "output.dir")
+        remove_stale_temps(folder)
         return folder
 
+    def log_path(self, folder: str) -> str:
+        """The folder's log (output.log), refused if it would leave the folder."""
+        return inside(folder, self.config.output.log, self.display, "output.log")
+
     def write_frame(self, frame_index: int, folder: str, *, preview: bool | None = None,
-                    repeats: int = 1) -> str:
+                    repeats: int = 1,
+                    on_written: Callable[[str], None] | None = None) -> str:
         """Render a frame and write it into `folder`: EXR, optional PNG preview and its log
         row, all or nothing (Ctrl-C waits until the three are written). The EXR's path.
 
         `repeats` > 1 renders the frame that many times in a row (timing a scene of one frame:
         the bench's warm-up and timed samples); the first render is written and every
         render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
-        the repeats as extra frames."""
+        the repeats as extra frames. `on_written(exr)` runs once the three are written, before
+        an interrupt held meanwhile is raised (so a count of kept frames is exact)."""
         exr = os.path.join(folder, f"frame_{frame_index:04d}.exr")
         self.prepare()
         start = time.perf_counter()
@@ -342,6 +382,8 @@ class OpenedScene:
             "cpu": cpu_name(),
             "versions": versions(),
             "scene_hash": self.scene_hash,
+            "run_id": self.run_id,
+            "overrides": self.overrides,
             **({"repeat_seconds": repeat_seconds} if repeats > 1 else {}),
         }
         attributes = {
@@ -353,13 +395,24 @@ class OpenedScene:
             "reflect:frame": str(frame_index),
         }
         preview = self.config.output.preview if preview is None else preview
+        log_path = self.log_path(folder)
+        channels = frame_channels(frame)
+        check_finite(channels, self.display, frame_index)  # nothing non-finite is written
         with interrupts_deferred():  # a frame is kept with its log line, or not at all
             t1 = time.perf_counter()
-            write_exr(exr, frame_channels(frame), attributes)
-            if preview:
-                write_png(exr[:-4] + ".png", frame.rgb)
-            append_jsonl(os.path.join(folder, self.config.output.log),
-                         {**row, "write_seconds": time.perf_counter() - t1})
+            target = exr
+            try:
+                write_exr(exr, channels, attributes)
+                if preview:
+                    target = exr[:-4] + ".png"
+                    write_png(target, frame.rgb)
+                target = log_path
+                append_jsonl(log_path, {**row, "write_seconds": time.perf_counter() - t1})
+            except OSError as e:
+                discard(exr, *([exr[:-4] + ".png"] if preview else []))
+                raise write_failure(e, target) from None
+            if on_written is not None:
+                on_written(exr)
         return exr
 
     def write_frames(self, frame_indices: range | list[int], *, out: str | None = None,
@@ -367,20 +420,34 @@ class OpenedScene:
                      on_frame: Callable[[int, str], None] | None = None,
                      repeats: int = 1) -> RenderResult:
         """Write the given frames into <out>/<scene>/<technique>/ (with `resume`, frames
-        whose EXR exists are skipped)."""
+        whose EXR exists and whose log row has this scene hash and these parameters are
+        skipped, their missing previews written). A folder holding frames of other --set
+        overrides is refused before anything is rendered."""
         _check_threads(self.threads)  # before the build and the folder, as any bad argument
         result = RenderResult(self.output_folder(out))
+        stored = logged_rows(self.log_path(result.folder))
+        check_same_overrides(stored, self.overrides, result.folder,
+                             "--set" if self.overrides else self.display)
         result.compile_seconds = self.warm_up()
         self.prepare()
+        wants_preview = self.config.output.preview if preview is None else preview
+        scene_hash = self.scene_hash
+        params = json.loads(self.params.model_dump_json())
         for frame_index in frame_indices:
             exr = os.path.join(result.folder, f"frame_{frame_index:04d}.exr")
-            if resume and os.path.exists(exr):
+            if resume and os.path.exists(exr) and matches(
+                    stored.get(os.path.basename(exr)), scene_hash, params):
+                if wants_preview and not os.path.exists(exr[:-4] + ".png"):
+                    write_missing_preview(exr)
                 result.skipped.append(frame_index)
                 continue
-            self.write_frame(frame_index, result.folder, preview=preview, repeats=repeats)
-            result.written.append(exr)
-            if on_frame is not None:
-                on_frame(frame_index, exr)
+            def kept(path: str, frame_index: int = frame_index) -> None:
+                result.written.append(path)  # counted before an interrupt held meanwhile
+                if on_frame is not None:
+                    on_frame(frame_index, path)
+
+            self.write_frame(frame_index, result.folder, preview=preview, repeats=repeats,
+                             on_written=kept)
         return result
 
     def precompute(self, on_map: Callable[[dict], None] | None = None,
@@ -408,7 +475,8 @@ def open_scene(path: str, *, overrides: tuple[str, ...] | list[str] = (),
     in memory only). Raises Problems for bad input; nothing is built or written yet.
     """
     config, _ = load_config(path, overrides, technique)
-    return OpenedScene(config, path, threads=threads, cache=cache, technique_option=technique)
+    return OpenedScene(config, path, threads=threads, cache=cache, technique_option=technique,
+                       overrides=overrides)
 
 
 # --- what the CLI and the bench call --------------------------------------------------------

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import os
+import signal
 import sys
 
 import click
@@ -13,6 +14,7 @@ from .errors import Problems
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
+EXIT_WRITE_FAILED = 1
 
 
 def _fail(problems: Problems, stream=None) -> None:
@@ -60,6 +62,7 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
         opened = api.open_scene(scene, overrides=overrides, technique=technique,
                                 threads=threads, cache=cache)
         selected = opened.frames(frames)
+        _warn_frames_past_end(frames, opened.frame_count)
         if len(selected) > 1:
             progress = _open_bar(len(selected), "frames")
 
@@ -78,12 +81,28 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
         click.echo(f"\ninterrupted: {len(done)} completed frame(s) kept", err=True)
         sys.exit(EXIT_INTERRUPTED)
     except OSError as e:
-        click.echo(f"error: {e}", err=True)
-        sys.exit(1)
+        _write_failed(e)
     if progress is not None:
         progress.__exit__(None, None, None)
     skipped = f", {len(result.skipped)} skipped (--resume)" if result.skipped else ""
     click.echo(f"wrote {len(result.written)} frame(s) to {result.folder}{skipped}")
+
+
+def _warn_frames_past_end(spec: str | None, count: int) -> None:
+    """`--frames A:B` with B past the path's end renders up to its end: say so."""
+    if spec and ":" in spec:
+        end = spec.split(":")[1]
+        if end.lstrip("-").isdigit() and int(end) > count:
+            click.echo(f"--frames: the camera path has {count} frame(s) (0..{count - 1}); "
+                       f"rendering up to frame {count - 1}", err=True)
+
+
+def _write_failed(e: OSError) -> None:
+    """A write failure (full disk, read-only folder): one line naming the file, exit 1."""
+    from .output.failures import one_line
+
+    click.echo(f"\n{one_line(e)}" if sys.stderr.isatty() else one_line(e), err=True)
+    sys.exit(EXIT_WRITE_FAILED)
 
 
 def _open_bar(length: int, label: str):
@@ -150,6 +169,8 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
     except KeyboardInterrupt:
         click.echo("\ninterrupted: maps already stored are kept", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except OSError as e:
+        _write_failed(e)
     captured = sum(1 for m in result.maps if m.status == "captured")
     click.echo(f"{captured} captured, {len(result.maps) - captured} cached in {result.cache}")
 
@@ -186,22 +207,28 @@ def cache_clear(scene, folder) -> None:
               help="run jobs in this many local processes")
 @click.option("--scheduler", metavar="ADDRESS", help="run jobs on a Dask cluster")
 @click.option("--threads", type=int, help="numba threads per job")
-def bench(file, resume, workers, scheduler, threads) -> None:
+@click.option("--out", "out", type=click.Path(file_okay=False),
+              help="output folder (default: the bench file's bench.out, or out/bench/<name>)")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+              help="override a config field in every run (repeatable)")
+def bench(file, resume, workers, scheduler, threads, out, overrides) -> None:
     """Run the bench matrix in FILE; write results.csv/.jsonl, report.md and plots."""
     from .bench.runner import load_bench, run_bench
 
     progress = None
     try:
-        plan = load_bench(file)
+        plan = load_bench(file, out, overrides)
         progress = _open_bar(len(plan.jobs), "runs")
         result = run_bench(file, resume=resume, workers=workers, scheduler=scheduler,
-                           threads=threads,
+                           threads=threads, out=out, overrides=overrides,
                            on_row=(lambda row: progress.update(1)) if progress else None)
     except Problems as e:
         _fail(e)
     except KeyboardInterrupt:
         click.echo("\ninterrupted: finished runs are kept (--resume continues)", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except OSError as e:
+        _write_failed(e)
     finally:
         if progress is not None:
             progress.__exit__(None, None, None)
@@ -249,10 +276,22 @@ def validate(file) -> None:
     from .validate import validate_file
 
     try:
-        validate_file(file)
+        kind = validate_file(file)
     except Problems as e:
         _fail(e, stream=sys.stdout)
     click.echo("ok")
+    if kind != "scene":
+        click.echo(f"checked as a {kind}", err=True)
+
+
+@cli.command()
+def schema() -> None:
+    """Print the JSON schema of scene files (for editors; docs/scene-reference.md)."""
+    import json
+
+    from .reference import scene_schema
+
+    click.echo(json.dumps(scene_schema(), indent=2))
 
 
 @cli.command()
@@ -287,7 +326,23 @@ def main() -> None:
     logger = logging.getLogger("reflect")
     logger.addHandler(handler)
     logger.setLevel(logging.INFO)
-    cli(prog_name="reflect")
+    signal.signal(signal.SIGTERM, _terminated)  # handled like Ctrl-C: same exit, same promises
+    try:
+        code = cli(prog_name="reflect", standalone_mode=False)
+    except KeyboardInterrupt:  # during start-up (imports, loading), before a command's handler
+        click.echo("\ninterrupted", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except click.exceptions.Abort:
+        click.echo("\ninterrupted", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except click.ClickException as e:
+        e.show()
+        sys.exit(e.exit_code)
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+def _terminated(signum, frame) -> None:
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":

@@ -1,42 +1,47 @@
-"""`reflect validate`: a whole scene, or a section file (camera, mirrors, technique, ...)."""
+"""`reflect validate`: a whole scene, a bench file, or a section file / technique preset
+(camera, mirrors, technique, ...).
+
+A scene goes through every check `render` runs short of rendering (the scene build
+included), so the two always agree. A file that is not a scene says what it was checked as.
+"""
 
 from __future__ import annotations
 
-import os
+from pydantic import ValidationError, create_model
 
-from pydantic import TypeAdapter, ValidationError
-
+from .config.base import Strict
+from .config.files import display_path
 from .config.load import load_raw, validation_problems
-from .errors import Problems
+from .errors import Problem, Problems
 from .loading import load_config
 
 
-def validate_file(path: str) -> None:
-    """Raise Problems for everything wrong with the file; return quietly if it is fine."""
+def validate_file(path: str) -> str:
+    """Raise Problems for everything wrong with the file; else what it was checked as."""
     prov: dict = {}
+    display = display_path(path)
     raw = load_raw(path, prov)
-    display = os.path.relpath(path)
-    if "scene" in raw or "camera" in raw and "objects" in raw:
+    if not raw:
+        raise Problems([Problem(display, "", "empty file: no keys (a scene needs [scene] "
+                                             "and [camera])")])
+    if "bench" in raw:
+        from .bench.runner import load_bench
+
+        plan = load_bench(path)
+        return f"bench file, {len(plan.jobs)} run(s)"
+    from .techniques.registry import scene_model
+
+    fields = scene_model().model_fields
+    if "scene" in raw or "camera" in raw and "objects" in raw or not set(raw) <= set(fields):
         cfg, _ = load_config(path)
         from .scene.build import build_scene
 
         build_scene(cfg, path)
-        return
-    from .techniques.registry import scene_model
-
-    fields = scene_model().model_fields
-    problems = []
-    for key, value in raw.items():
-        if key not in fields:
-            from .errors import Problem
-
-            problems.append(Problem(prov.get((key,), display), key, "unknown key"))
-            continue
-        try:
-            TypeAdapter(fields[key].annotation).validate_python(value)
-        except ValidationError as e:
-            for p in validation_problems(e, value, prov, display):
-                p_field = f"{key}.{p.field}" if p.field else key
-                problems.append(type(p)(p.file, p_field, p.message))
-    if problems:
-        raise Problems(problems)
+        return "scene"
+    section = create_model("Section", __base__=Strict,
+                           **{key: (fields[key].annotation, fields[key]) for key in raw})
+    try:
+        section.model_validate(raw)
+    except ValidationError as e:
+        raise Problems(validation_problems(e, raw, prov, display, section)) from None
+    return f"section file ({', '.join(raw)}); `render` needs a whole scene"

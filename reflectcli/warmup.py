@@ -36,3 +36,14 @@ WARM_SCENE = {
 def warm_scene() -> tuple[Scene, Camera]:
     cfg = SceneConfig.model_validate(WARM_SCENE)
     return build_scene(cfg, "<warm-up>"), camera_from_config(cfg.camera, 0)
+
+
+def warm_params(params_json: str) -> str:
+    """The technique's parameters for the warm-up scene: entries that name the real scene's
+    mirrors (envmap `capture`) cannot apply to the warm-up scene's and are left out."""
+    import json
+
+    data = json.loads(params_json)
+    if isinstance(data.get("capture"), dict):
+        data["capture"] = {}
+    return json.dumps(data)

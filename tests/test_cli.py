@@ -404,7 +404,7 @@ def test_validate_reports_several_problems_one_line_each(here):
     assert result.exit_code == 2
     assert sorted(result.stdout.splitlines()) == [
         "scene.toml: camera.width: must be > 0",
-        "scene.toml: materials.red.colour: unknown key",
+        "scene.toml: materials.red.colour: unknown key (did you mean color?)",
         "scene.toml: mirrors.0.reflectance: must be <= 1.0",
         "scene.toml: objects.0.radius: must be > 0.0",
     ]

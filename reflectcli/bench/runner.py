@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
 import os
 import shutil
@@ -21,6 +22,7 @@ import numpy as np
 
 from ..errors import Problem, Problems
 from ..output.exr import read_exr
+from ..output.lock import folder_lock
 from ..output.log import append_jsonl, read_jsonl
 from .config import BenchConfig, expand
 
@@ -42,18 +44,38 @@ class BenchPlan:
     jobs: list[dict] = field(default_factory=list)
 
 
-def load_bench(path: str) -> BenchPlan:
-    """Read and validate a bench file and every job in it (Problems name the bench file)."""
+def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple = ()
+               ) -> BenchPlan:
+    """Read and validate a bench file and every job in it (Problems name the bench file).
+    `out` replaces the bench file's folder; `overrides` (bench --set) go on top of every
+    run's own."""
     from .. import api
 
     display = os.path.relpath(path)
     cfg = api.load_settings(path, BenchConfig)
     # an `out` written in the bench file is relative to it; the default is out/bench/<name>
-    out = (os.path.join(os.path.dirname(os.path.abspath(path)), cfg.bench.out)
-           if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
-    plan = BenchPlan(cfg, path, out)
-    problems = []
+    default_out = (os.path.join(os.path.dirname(os.path.abspath(path)), cfg.bench.out)
+                   if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
+    plan = BenchPlan(cfg, path, out if out is not None else default_out)
+    problems: list[Problem] = []
+    quiet = logging.getLogger("reflect")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)  # per-job --technique notices: the bench chooses on purpose
+    try:
+        _plan_jobs(plan, cfg, path, display, overrides, problems)
+    finally:
+        quiet.setLevel(level)
+    if problems:
+        raise Problems(problems[:20])
+    return plan
+
+
+def _plan_jobs(plan: BenchPlan, cfg: BenchConfig, path: str, display: str,
+               overrides: list[str] | tuple, problems: list[Problem]) -> None:
+    from .. import api
+
     for i, job in enumerate(expand(cfg, path)):
+        job["overrides"] = job["overrides"] + list(overrides)  # `bench --set`: on top
         try:
             run = api.open_scene(job["scene"], overrides=job["overrides"],
                                  technique=job["technique"])
@@ -78,9 +100,6 @@ def load_bench(path: str) -> BenchPlan:
         }
         job["index"] = i
         plan.jobs.append(job)
-    if problems:
-        raise Problems(problems[:20])
-    return plan
 
 
 def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> str:
@@ -252,8 +271,17 @@ class BenchResult:
 
 def run_bench(path: str, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, threads: int | None = None,
-              on_row: Callable[[dict], None] | None = None) -> BenchResult:
-    plan = load_bench(path)
+              on_row: Callable[[dict], None] | None = None, out: str | None = None,
+              overrides: list[str] | tuple = ()) -> BenchResult:
+    plan = load_bench(path, out, overrides)
+    if scheduler is not None:
+        check_scheduler(scheduler)  # fail fast, before any reference is rendered
+    with folder_lock(plan.out, "--out" if out is not None else os.path.relpath(path)):
+        return _run_plan(plan, resume, workers, scheduler, threads, on_row)
+
+
+def _run_plan(plan: BenchPlan, resume: bool, workers: int, scheduler: str | None,
+              threads: int | None, on_row: Callable[[dict], None] | None) -> BenchResult:
     os.makedirs(plan.out, exist_ok=True)
     rows_path = os.path.join(plan.out, "results.jsonl")
     done: dict[str, dict] = {}
@@ -286,6 +314,26 @@ def run_bench(path: str, *, resume: bool = False, workers: int = 1,
     return BenchResult(plan.out, rows, len(pending), len(plan.jobs) - len(pending))
 
 
+def _connect(client_class, scheduler: str):
+    """A Dask client, or one line within seconds when no scheduler answers."""
+    try:
+        return client_class(scheduler, timeout="5s")
+    except (OSError, TimeoutError, ValueError) as e:
+        reason = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise Problems([Problem("--scheduler", "", f"no Dask scheduler answers at "
+                                f"'{scheduler}' ({reason[:120]})")]) from None
+
+
+def check_scheduler(scheduler: str) -> None:
+    """Fail fast, before any reference is rendered."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise Problems([Problem("--scheduler", "", "needs the dask extra: "
+                                "pip install 'reflect[dask]'")]) from None
+    _connect(Client, scheduler).close()
+
+
 def _execute(jobs, settings, workers, scheduler):
     """Yield result rows in job order: serially, in local processes, or on a Dask cluster."""
     if scheduler is not None:
@@ -294,7 +342,7 @@ def _execute(jobs, settings, workers, scheduler):
         except ImportError:
             raise Problems([Problem("--scheduler", "", "needs the dask extra: "
                                     "pip install 'reflect[dask]'")]) from None
-        with Client(scheduler) as client:
+        with _connect(Client, scheduler) as client:
             futures = client.map(execute_job, jobs, settings=settings, pure=False)
             for f in futures:
                 yield f.result()

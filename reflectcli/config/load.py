@@ -17,6 +17,10 @@ import tomli
 from pydantic import BaseModel, ValidationError
 
 from ..errors import Problem, Problems
+from .files import file_problem, read_toml_file
+from .limits import MAX_INCLUDE_DEPTH, MAX_TOML_BYTES, limit_problems
+from .memory import memory_problem
+from .suggest import by_name, note_dropped_parameters, plain_message
 
 SECTION_FILES = ("camera", "mirrors", "technique", "materials", "lights", "objects", "output")
 
@@ -24,21 +28,7 @@ Provenance = dict[tuple, str]
 
 
 def read_toml(path: str, field: str = "", referrer: str | None = None) -> dict:
-    rel = os.path.relpath(path)
-    display = path if rel.startswith("..") else rel  # as every other message names files
-    try:
-        with open(path, "rb") as f:
-            return tomli.load(f)
-    except FileNotFoundError:
-        raise Problems([Problem(referrer or display, field, f"file not found: {path}")]) from None
-    except OSError as e:
-        raise Problems(
-            [Problem(referrer or display, field, f"cannot read {path}: {e.strerror}")]
-        ) from None
-    except UnicodeDecodeError as e:
-        raise Problems([Problem(display, "", f"not UTF-8 text: {e.reason}")]) from None
-    except tomli.TOMLDecodeError as e:
-        raise Problems([Problem(display, "", f"TOML syntax error: {e}")]) from None
+    return read_toml_file(path, field, referrer)
 
 
 def _mark(data: Any, source: str, prefix: tuple, prov: Provenance) -> None:
@@ -65,6 +55,9 @@ def load_raw(path: str, prov: Provenance, stack: tuple = ()) -> dict:
     display = os.path.relpath(path) if not os.path.relpath(path).startswith("..") else path
     if path in stack:
         raise Problems([Problem(display, "include", "include cycle")])
+    if len(stack) >= MAX_INCLUDE_DEPTH:
+        raise Problems([Problem(display, "include", f"includes nested more than "
+                                                    f"{MAX_INCLUDE_DEPTH} files deep")])
     data = read_toml(path)
     here = os.path.dirname(path)
     merged: dict = {}
@@ -77,8 +70,10 @@ def load_raw(path: str, prov: Provenance, stack: tuple = ()) -> dict:
     for inc in includes:
         sub: Provenance = {}
         inc_path = os.path.join(here, inc)
-        if not os.path.exists(inc_path):
-            raise Problems([Problem(display, "include", f"file not found: {inc}")])
+        reason = file_problem(inc_path, MAX_TOML_BYTES, "TOML file")
+        if reason is not None:
+            shown = f": {inc}" if "\0" not in inc else ""
+            raise Problems([Problem(display, "include", reason + shown)])
         included = load_raw(inc_path, sub, (*stack, path))
         _rebase(included, os.path.dirname(os.path.abspath(inc_path)), here)
         merged = _merge(merged, included)
@@ -144,6 +139,8 @@ def apply_override(data: dict, assignment: str, prov: Provenance) -> None:
             raise Problems([Problem("--set", key, "not a table")])
         path.append(part)
         if last:
+            for stale in [k for k in prov if k[: len(path)] == tuple(path)]:
+                del prov[stale]  # what the file had there is replaced, items included
             node[part] = parse_value(text.strip())
             _mark(node[part], "--set", tuple(path), prov)
         else:
@@ -163,6 +160,7 @@ def _list_index(items: list, part: str) -> int | None:
 
 
 _TAG_KEYS = ("shape", "kind", "name")
+_DEFAULT_TAGS = ("solid",)  # a material without `kind` is solid: pydantic names the tag
 
 
 def field_path(loc: tuple, data: Any) -> tuple:
@@ -175,7 +173,9 @@ def field_path(loc: tuple, data: Any) -> tuple:
             isinstance(node, dict)
             and not tag_dropped
             and part not in node
-            and any(node.get(k) == part for k in _TAG_KEYS)
+            and (any(node.get(k) == part for k in _TAG_KEYS)
+                 or (isinstance(part, str) and part is not loc[-1] and "kind" not in node
+                     and part in _DEFAULT_TAGS))
         ):
             tag_dropped = True
             continue
@@ -194,7 +194,10 @@ def field_path(loc: tuple, data: Any) -> tuple:
     return tuple(out)
 
 
-def _message(err: dict) -> str:
+def _message(err: dict, root=None, loc: tuple = (), data: Any = None) -> str:
+    plain = plain_message(err, root, loc, data)
+    if plain is not None:
+        return plain
     ctx = err.get("ctx") or {}
     kind = err["type"]
     simple = {
@@ -220,17 +223,20 @@ def origin(prov: Provenance, loc: tuple, default: str) -> str:
     return default
 
 
-def validation_problems(e: ValidationError, data: dict, prov: Provenance, default: str):
+def validation_problems(e: ValidationError, data: dict, prov: Provenance, default: str,
+                        root=None):
     problems = []
     seen = set()
     for err in e.errors():
         loc = field_path(tuple(err["loc"]), data)
+        if err["type"] in ("union_tag_invalid", "union_tag_not_found"):
+            loc = (*loc, str((err.get("ctx") or {}).get("discriminator", "")).strip("'"))
         field = ".".join(str(p) for p in loc)
         file = origin(prov, loc, default)
         if (file, field) in seen:
             continue  # the other members of a union (`1.5` vs `[r, g, b]`): report the first
         seen.add((file, field))
-        problems.append(Problem(file, field, _message(err)))
+        problems.append(Problem(file, field, _message(err, root, loc, data)))
     return problems
 
 
@@ -253,6 +259,7 @@ def load_document(
         current = data.get("technique")
         if not (isinstance(current, dict) and current.get("name") == technique):
             data["technique"] = {"name": technique}
+            note_dropped_parameters(current, technique, model)
             _mark(data["technique"], "--technique", ("technique",), prov)
     for assignment in overrides:
         apply_override(data, assignment, prov)
@@ -262,8 +269,11 @@ def load_document(
     try:
         cfg = model.model_validate(data)
     except ValidationError as e:
-        raise Problems(validation_problems(e, data, prov, display)) from None
-    problems = checks(cfg, path, prov, display) if checks is not None else []
+        problems = validation_problems(e, data, prov, display, model)
+        raise Problems(by_name(problems, overrides, data)) from None
+    problems = limit_problems(cfg, prov, display, path, memory=memory_problem)
+    if not problems and checks is not None:
+        problems = checks(cfg, path, prov, display)
     if problems:
-        raise Problems(problems)
+        raise Problems(by_name(problems, overrides, data))
     return cfg, prov

@@ -111,9 +111,18 @@ class TeapotObject(_Object):
     subdivisions: PositiveInt = 8
 
 
+class Fit(Strict):
+    """Scale a mesh uniformly so its largest extent is `size`, centred on `center`
+    (object space: the object's transform applies after)."""
+
+    center: Vec3 = (0.0, 0.0, 0.0)
+    size: float = Field(gt=0, le=1e6, description="largest extent after fitting")
+
+
 class MeshObject(_Object):
     shape: Literal["mesh"]
     path: str = Field(description="OBJ, PLY, GLB or STL, relative to the scene file")
+    fit: Fit | None = Field(default=None, description="centre and size in the scene's units")
 
 
 class ClutterObject(_Object):

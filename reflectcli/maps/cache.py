@@ -12,13 +12,17 @@ import hashlib
 import json
 import logging
 import os
+import re
 from collections.abc import Callable
 
 from ..output.exr import read_exr_parts, write_exr_parts
+from ..output.failures import write_failure
+from ..output.paths import remove_stale_temps
 
 log = logging.getLogger("reflect")
 
 KEY_ATTRIBUTE = "reflect:cache_key"
+MAP_NAME = re.compile(r"^[a-z]+-[0-9a-f]{32}\.exr$")  # what path() names
 
 
 def cache_key(**parts) -> str:
@@ -53,7 +57,8 @@ class MapCache:
             parts = None
         else:
             reason = "its content does not match its key"
-            if not parts or parts[0][2].get(KEY_ATTRIBUTE) != key or not valid(parts):
+            if (not parts or parts[0][2].get(KEY_ATTRIBUTE) != key or not finite(parts)
+                    or not valid(parts)):
                 parts = None
         if parts is None:
             log.warning("cache: %s is damaged (%s); recapturing", path, reason)
@@ -66,20 +71,42 @@ class MapCache:
         path = self.path(kind, key)
         if path is None:
             return None
-        os.makedirs(self.root, exist_ok=True)
-        write_exr_parts(path, parts, {**attributes, KEY_ATTRIBUTE: key}, part_attributes)
+        try:
+            os.makedirs(self.root, exist_ok=True)
+            remove_stale_temps(self.root)
+            write_exr_parts(path, parts, {**attributes, KEY_ATTRIBUTE: key}, part_attributes)
+        except FileNotFoundError:  # the temp file vanished mid-write: captured, not stored
+            log.warning("cache: %s could not be stored (its temporary file vanished)", path)
+            return None
+        except OSError as e:
+            raise write_failure(e, path) from None
         return path
 
     def clear(self) -> int:
-        """Delete every map file in the folder; the number deleted."""
+        """Delete reflect's own map files in the folder (<kind>-<32 hex digits>.exr, and
+        temporary files of killed captures), nothing else; the number of maps deleted."""
         if self.root is None or not os.path.isdir(self.root):
             return 0
+        remove_stale_temps(self.root)
         removed = 0
         for name in os.listdir(self.root):
-            if name.endswith(".exr"):
-                os.unlink(os.path.join(self.root, name))
-                removed += 1
+            if MAP_NAME.match(name):
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(os.path.join(self.root, name))
+                    removed += 1
         return removed
+
+
+def finite(parts) -> bool:
+    """Every texel a number: colors finite, depths not NaN (+inf marks 'nothing seen')."""
+    import numpy as np
+
+    for _, channels, _ in parts:
+        for name, values in channels.items():
+            bad = np.isnan(values) if name == "Z" else ~np.isfinite(values)
+            if bad.any():
+                return False
+    return True
 
 
 def default_cache_dir(scene_path: str) -> str:

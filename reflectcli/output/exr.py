@@ -31,7 +31,7 @@ def write_exr(path: str, channels: dict[str, np.ndarray], attributes: dict[str, 
         if out is None or not out.open(tmp, spec):
             raise OSError(f"cannot write {path}: {oiio.geterror()}")
         ok = out.write_image(data)
-        out.close()
+        ok = out.close() and ok
         if not ok:
             raise OSError(f"cannot write {path}: {oiio.geterror()}")
 
@@ -86,7 +86,7 @@ def write_exr_parts(
         ok = out.write_image(datas[0])
         for spec, data in zip(specs[1:], datas[1:], strict=True):
             ok = ok and out.open(tmp, spec, "AppendSubimage") and out.write_image(data)
-        out.close()
+        ok = out.close() and ok
         if not ok:
             raise OSError(f"cannot write {path}: {oiio.geterror()}")
 

@@ -22,5 +22,7 @@ def write_png(path: str, rgb: np.ndarray) -> None:
         out = oiio.ImageOutput.create(tmp)
         if out is None or not out.open(tmp, spec):
             raise OSError(f"cannot write {path}: {oiio.geterror()}")
-        out.write_image(data)
-        out.close()
+        ok = out.write_image(data)
+        ok = out.close() and ok
+        if not ok:
+            raise OSError(f"cannot write {path}: {oiio.geterror()}")

@@ -73,7 +73,9 @@ def object_mesh(obj, source: str) -> Mesh:
 
         return teapot(obj.subdivisions)
     if s == "mesh":
-        return _mesh_file(resolve(source, obj.path))
+        from .fit import fit_mesh
+
+        return fit_mesh(_mesh_file(resolve(source, obj.path)), obj.name, obj.path, obj.fit)
     if s == "clutter":
         from .procedural import music_room_clutter
 
@@ -262,7 +264,9 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         problems.append(Problem(source, f"materials.{e.material}.path", e.message))
     if problems:
         raise Problems(problems)
+    from .fit import warn_textured_without_uvs
 
+    warn_textured_without_uvs(cfg, meshes)
     mirror_tris = _concat(mirror_parts)
     mirror_exact = np.concatenate(exact) if exact else np.zeros(0, bool)
     static_parts: dict[int, Triangles] = {}

@@ -10,6 +10,8 @@ import os
 import numpy as np
 
 from ..camera import camera_from_config
+from ..config.files import file_problem
+from ..config.limits import MAX_MESH_BYTES, MAX_TEXTURE_BYTES
 from ..config.scene import SceneConfig
 from ..errors import Problem
 from .mirrors import mirror_corners, profile_normals, profile_points
@@ -17,6 +19,11 @@ from .mirrors import mirror_corners, profile_normals, profile_points
 
 def _resolve(source: str, path: str) -> str:
     return os.path.join(os.path.dirname(os.path.abspath(source)), path)
+
+
+def _unreadable(source: str, path: str, limit: int) -> str | None:
+    reason = file_problem(_resolve(source, path), limit)
+    return None if reason is None else reason + (f": {path}" if "\0" not in path else "")
 
 
 def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -> list[Problem]:
@@ -40,19 +47,19 @@ def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -
         if obj.material not in cfg.materials:
             known = ", ".join(sorted(cfg.materials)) or "none defined"
             add(("objects", i, "material"), f"unknown material '{obj.material}' (known: {known})")
-        if obj.shape == "mesh" and not os.path.isfile(_resolve(source, obj.path)):
-            add(("objects", i, "path"), f"file not found: {obj.path}")
+        if obj.shape == "mesh" and (why := _unreadable(source, obj.path, MAX_MESH_BYTES)):
+            add(("objects", i, "path"), why)
         if obj.shape in ("box", "room", "clutter") and not all(
             a < b for a, b in zip(obj.min, obj.max, strict=True)
         ):
             add(("objects", i, "max"), "must exceed min on every axis")
     for name, mat in cfg.materials.items():
-        if mat.kind == "texture" and not os.path.isfile(_resolve(source, mat.path)):
-            add(("materials", name, "path"), f"file not found: {mat.path}")
+        if mat.kind == "texture" and (why := _unreadable(source, mat.path, MAX_TEXTURE_BYTES)):
+            add(("materials", name, "path"), why)
     planes = []
     for j, m in enumerate(cfg.mirrors):
-        if m.shape == "mesh" and not os.path.isfile(_resolve(source, m.path)):
-            add(("mirrors", j, "path"), f"file not found: {m.path}")
+        if m.shape == "mesh" and (why := _unreadable(source, m.path, MAX_MESH_BYTES)):
+            add(("mirrors", j, "path"), why)
         if m.shape in ("cylinder", "cap") and np.linalg.norm(m.axis) == 0:
             add(("mirrors", j, "axis"), "must not be zero")
         if m.shape == "extrusion":

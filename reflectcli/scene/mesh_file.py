@@ -26,15 +26,24 @@ def load_mesh_file(path: str | Path) -> Mesh:
     """
     import trimesh  # slow to import; only mesh-file scenes pay for it
 
+    from ..config.files import file_problem
+    from ..config.limits import MAX_MESH_BYTES, MAX_TRIANGLES
+
     file = Path(path)
-    if not file.is_file():
-        raise FileNotFoundError(f"mesh file not found: {file}")
+    reason = file_problem(str(file), MAX_MESH_BYTES, "mesh file")
+    if reason is not None:
+        raise FileNotFoundError(f"{reason}: {file}")
     try:
         loaded = trimesh.load(file, force="mesh")
     except Exception as exc:  # trimesh raises many types for bad or unknown files
         raise ValueError(f"cannot read mesh file {file}: {exc}") from exc
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise ValueError(f"mesh file {file} contains no triangles")
+    if len(loaded.faces) > MAX_TRIANGLES:
+        raise ValueError(f"mesh file {file} has {len(loaded.faces)} triangles; "
+                         f"the limit is {MAX_TRIANGLES}")
+    if not np.isfinite(loaded.vertices).all():
+        raise ValueError(f"mesh file {file} has non-finite vertex coordinates")
 
     faces = np.asarray(loaded.faces, dtype=np.int64)
     vertices = np.asarray(loaded.vertices, dtype=np.float64)

@@ -14,11 +14,23 @@ def load_texture(path: str, srgb: bool) -> np.ndarray:
     """(H, W, 3) linear float32, row 0 at the top of the image (v = 1 maps to row 0)."""
     import OpenImageIO as oiio
 
+    from ..config.files import file_problem
+    from ..config.limits import MAX_TEXTURE_BYTES, MAX_TEXTURE_SIDE, MAX_TEXTURE_TEXELS
+
+    reason = file_problem(path, MAX_TEXTURE_BYTES, "texture file")
+    if reason is not None:
+        raise ValueError(reason)
     inp = oiio.ImageInput.open(path)
     if inp is None:
         raise ValueError(f"cannot read image: {oiio.geterror() or path}")
     try:
         spec = inp.spec()
+        if (max(spec.width, spec.height) > MAX_TEXTURE_SIDE
+                or spec.width * spec.height > MAX_TEXTURE_TEXELS):
+            raise ValueError(f"texture is {spec.width}x{spec.height}; the limit is "
+                             f"{MAX_TEXTURE_SIDE} texels a side, {MAX_TEXTURE_TEXELS} in all")
+        if spec.width * spec.height == 0:
+            raise ValueError("texture has no pixels")
         pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
     finally:
         inp.close()
@@ -31,4 +43,6 @@ def load_texture(path: str, srgb: bool) -> np.ndarray:
         rgb = np.repeat(pixels[:, :, :1], 3, axis=2)
     else:
         rgb = pixels[:, :, :3]
+    if not np.isfinite(rgb).all():
+        raise ValueError("texture has non-finite texels (NaN or infinity)")
     return srgb_to_linear(rgb) if srgb else np.ascontiguousarray(rgb)

@@ -75,12 +75,32 @@ def tessellate(tris: Triangles, subdivisions: int, max_edge: float | None,
     if min_edge > 0.0:
         n = np.minimum(n, np.maximum(1.0, np.floor(longest / min_edge)))
     n = np.minimum(n, 256).astype(np.int64)
+    n = _within_budget(n)
     parts = []
     for value in np.unique(n):
         pick = n == value
         parts.append(subdivide(Triangles(*(a[pick] for a in (
             tris.corners, tris.uvs, tris.normals, tris.material, tris.surface))), int(value)))
     return concatenate_tessellations(parts)
+
+
+def _within_budget(n: np.ndarray) -> np.ndarray:
+    """Scale the splits down (never below the scene's own triangles) so the tessellation
+    stays within MAX_TESSELLATED_TRIANGLES: a huge object next to a small reflector would
+    otherwise ask for hundreds of millions of triangles and never finish a frame."""
+    from ..config.limits import MAX_TESSELLATED_TRIANGLES
+
+    total = float(np.sum(n.astype(np.float64) ** 2))
+    if total <= MAX_TESSELLATED_TRIANGLES:
+        return n
+    scale = np.sqrt(MAX_TESSELLATED_TRIANGLES / total)
+    capped = np.maximum(1, np.floor(n * scale)).astype(np.int64)
+    import logging
+
+    logging.getLogger("reflect").warning(
+        "virtual: tessellation of the reflected objects capped at %d triangles (asked for "
+        "%d); raise tessellation.max_edge for fewer", int(np.sum(capped**2)), int(total))
+    return capped
 
 
 def concatenate_tessellations(parts: list[Tessellation]) -> Tessellation:

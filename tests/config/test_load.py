@@ -337,7 +337,8 @@ def test_set_creates_missing_tables(here):
 def test_set_errors_name_set_and_the_field(here):
     scene = write(here, "scene.toml", SCENE)
     assert problems_of(scene, ["camera.width=0"]) == ["--set: camera.width: must be > 0"]
-    assert problems_of(scene, ["camera.widht=3"]) == ["--set: camera.widht: unknown key"]
+    assert problems_of(scene, ["camera.widht=3"]) == [
+        "--set: camera.widht: unknown key (did you mean width?)"]
     (line,) = problems_of(scene, ["objects.nosuch.radius=1"])
     assert line.startswith("--set: objects.nosuch.radius:") and "nosuch" in line
     (line,) = problems_of(scene, ["objects.7.radius=1"])
@@ -383,7 +384,7 @@ def test_discriminator_tags_dropped_for_every_union(here):
         + '[technique]\nname = "raytrace"\nmax_depth = -1\n',
     )
     assert sorted(problems_of(scene)) == [
-        "scene.toml: materials.red.colour: unknown key",
+        "scene.toml: materials.red.colour: unknown key (did you mean color?)",
         "scene.toml: technique.max_depth: must be >= 0",
     ]
 

@@ -91,6 +91,7 @@ class Dprm(MapTechnique):
         cache = MapCache(self.cache_dir)
         near, far = scene_extent(scene)
         at = map_capture_frame(frame_index, self.params.update)
+        n_triangles = scene.geometry(at).all_triangles().count
         records = []
         for k, name in enumerate(scene.mirrors.names):
             if scene.mirrors.kind[k] != PLANAR:
@@ -104,7 +105,7 @@ class Dprm(MapTechnique):
                             layout=p.layout, radius=radius, spread=p.spread, near=near, far=far,
                             capture_frame=at)
             start = time.perf_counter()
-            parts = cache.load("dprm", key, lambda parts: _valid(parts, p))
+            parts = cache.load("dprm", key, lambda parts: _valid(parts, p, n_triangles))
             status = "cached"
             if parts is None:
                 status = "captured"
@@ -281,7 +282,15 @@ def _numbers(values) -> str:
     return " ".join(f"{x:.9g}" for x in np.asarray(values, float).reshape(-1))
 
 
-def _valid(parts, p: DprmMaps) -> bool:
+def _valid(parts, p: DprmMaps, n_triangles: int | None = None) -> bool:
+    """Parts, channels and shapes as captured; triangle ids are -1 or ids of this scene's
+    triangles (a map whose key matches but whose ids do not would index out of range)."""
     return len(parts) == p.count and all(
         set(c) >= {"R", "G", "B", "Z", "T"} and c["Z"].shape == (p.resolution, p.resolution)
+        and (n_triangles is None or _ids_valid(c["T"], n_triangles))
         for _, c, _ in parts)
+
+
+def _ids_valid(t: np.ndarray, n_triangles: int) -> bool:
+    return bool(np.isfinite(t).all() and (t == np.round(t)).all()
+                and (t.size == 0 or (t.min() >= -1 and t.max() < n_triangles)))

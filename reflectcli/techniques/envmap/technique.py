@@ -183,7 +183,10 @@ class Envmap(MapTechnique):
             box = scene.room_bounds
         else:
             pts = scene.geometry(0).objects.corners.reshape(-1, 3)
-            box = np.array([pts.min(axis=0), pts.max(axis=0)], float)
+            if len(pts) == 0:  # no objects: the mirrors' bounds (a proxy for nothing)
+                pts = scene.geometry(0).all_triangles().corners.reshape(-1, 3)
+            box = (np.array([pts.min(axis=0), pts.max(axis=0)], float) if len(pts)
+                   else np.array([[-1.0] * 3, [1.0] * 3]))
         warn_stale(scene, "envmap", params.update)
         return EnvmapState(scene, records, box, seconds,
                            sum(r.status == "captured" for r in records), MapCache(self.cache_dir))

@@ -1,0 +1,62 @@
+"""What made an output: the scene alone (its hash leaves out the technique and the output
+section, so an image pairs with its reference), the technique's parameters (their own
+attribute), the --set overrides and a run id per render call.
+
+A frame folder keeps frames of one set of overrides: a render with other overrides than
+the frames already there is refused in one line instead of silently mixing them, and
+`--resume` skips only frames whose stored scene hash and parameters match this run's.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import uuid
+
+from ..errors import Problem, Problems
+from .log import read_jsonl
+
+
+def scene_identity(content_hash: str, cfg) -> str:
+    """sha256 of the scene alone: its content (objects, mirrors, materials, lights, shading,
+    the referenced files' bytes), its name and its camera; not the technique, not output."""
+    extra = {"name": cfg.scene.name, "camera": cfg.camera.model_dump(mode="json")}
+    return hashlib.sha256((content_hash + json.dumps(extra, sort_keys=True)).encode()
+                          ).hexdigest()
+
+
+def new_run_id() -> str:
+    return uuid.uuid4().hex[:12]
+
+
+def logged_rows(log_path: str) -> dict[str, dict]:
+    """The last log row of each frame file in the folder's log (empty if there is none)."""
+    if not os.path.exists(log_path):
+        return {}
+    try:
+        rows = read_jsonl(log_path)
+    except OSError:
+        return {}
+    return {r["file"]: r for r in rows if isinstance(r.get("file"), str)}
+
+
+def check_same_overrides(rows: dict[str, dict], overrides: list[str], folder: str,
+                         source: str) -> None:
+    """Refuse to mix frames of other --set overrides into `folder`."""
+    mine = sorted(overrides)
+    for row in rows.values():
+        if "overrides" not in row:  # written before rows recorded them: unknown, not refused
+            continue
+        theirs = sorted(row["overrides"] or [])
+        if theirs != mine and os.path.exists(os.path.join(folder, row["file"])):
+            shown = " ".join(theirs) if theirs else "no --set"
+            raise Problems([Problem(source, "", (
+                f"{folder} holds frames rendered with other overrides ({shown}); "
+                "use another --out, the same --set, or remove those frames"))])
+
+
+def matches(row: dict | None, scene_hash: str, parameters: dict) -> bool:
+    """Whether a stored frame was made from this scene with these parameters."""
+    return (row is not None and row.get("scene_hash") == scene_hash
+            and row.get("parameters") == parameters)

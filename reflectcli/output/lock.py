@@ -1,0 +1,30 @@
+"""One writer per output folder: a second bench on the same folder stops in one line."""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+from collections.abc import Iterator
+
+from ..errors import Problem, Problems
+
+LOCK_NAME = ".reflect.lock"
+
+
+@contextlib.contextmanager
+def folder_lock(folder: str, source: str, field: str = "") -> Iterator[None]:
+    """Hold an exclusive lock on `folder` (released when the process ends, however)."""
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, LOCK_NAME)
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise Problems([Problem(source, field, f"{folder} is being written by another "
+                                                   "bench; wait for it or use another --out")]
+                           ) from None
+        yield
+    finally:
+        os.close(fd)

@@ -1,0 +1,50 @@
+"""Output paths: every file stays inside its output folder, and the temporary files of runs
+that were killed (see atomic.py for their names) are removed by the next run there."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+
+from ..errors import Problem, Problems
+
+# atomic.py: .<stem>.tmp<pid>-<thread id><ext>; log appends: .<name>.append<pid>
+TEMP = re.compile(r"^\..+\.(tmp|append)(\d+)(-\d+)?(\.\w+)?$")
+
+
+def inside(folder: str, name: str, source: str = "output", field: str = "") -> str:
+    """`folder/name`, refused in one line unless it stays inside `folder`."""
+    path = os.path.normpath(os.path.join(folder, name))
+    root = os.path.normpath(folder)
+    if os.path.dirname(path) != root or os.path.basename(path) in ("", ".", ".."):
+        raise Problems([Problem(source, field, f"'{name}' would be written outside {folder}")])
+    return path
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def remove_stale_temps(folder: str) -> list[str]:
+    """Delete temporary files left in `folder` by processes that no longer run; their names."""
+    removed = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for name in names:
+        m = TEMP.match(name)
+        if m and not _alive(int(m.group(2))):
+            with contextlib.suppress(OSError):
+                os.unlink(os.path.join(folder, name))
+                removed.append(name)
+    return removed

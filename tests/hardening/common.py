@@ -1,0 +1,87 @@
+"""Shared helpers for the hardening tests: a tiny scene and the one-line, exit-2 contract."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from reflectcli.cli import cli
+
+TINY = """\
+[scene]
+name = "tiny"
+
+[camera]
+eye = [0.0, 1.0, 3.0]
+target = [0.0, 0.5, 0.0]
+width = 16
+height = 12
+
+[materials.red]
+kind = "solid"
+color = [0.8, 0.1, 0.1]
+
+[[objects]]
+name = "ball"
+shape = "sphere"
+radius = 0.5
+segments = 8
+transform = { translate = [0.0, 0.5, 0.0] }
+material = "red"
+
+[[mirrors]]
+name = "floor"
+shape = "quad"
+corners = [[-2, 0, 2], [2, 0, 2], [2, 0, -2], [-2, 0, -2]]
+reflectance = 0.5
+"""
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def files_under(folder: Path) -> list[str]:
+    return sorted(str(p) for p in folder.rglob("*")) if folder.exists() else []
+
+
+def assert_one_line(result, *needles: str) -> str:
+    """Exit 2, exactly one output line, no traceback; the line contains every needle."""
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert result.exit_code == 2, (result.exit_code, result.output, result.exception)
+    assert len(lines) == 1, result.output
+    assert "Traceback" not in result.output
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+    return lines[0]
+
+
+def check_bad(scene: Path, *needles: str, extra: tuple = ()) -> str:
+    """`validate` and `render` both refuse `scene` in one line, and render writes nothing."""
+    out = scene.parent / "out-bad"
+    line = assert_one_line(invoke("validate", scene), *needles)
+    line2 = assert_one_line(invoke("render", scene, "--out", out, "--frames", "0", *extra),
+                            *needles)
+    assert files_under(out) == []
+    assert line == line2
+    return line
+
+
+def write(folder: Path, name: str, text: str) -> Path:
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+def chdir(path: Path):
+    class _Cd:
+        def __enter__(self):
+            self.old = os.getcwd()
+            os.chdir(path)
+
+        def __exit__(self, *exc):
+            os.chdir(self.old)
+
+    return _Cd()

@@ -1,0 +1,64 @@
+"""bench --out and --set; --scheduler with nothing behind it fails in seconds in one line;
+a second bench on the same output folder stops in one line."""
+
+from __future__ import annotations
+
+import time
+
+from reflectcli.output.lock import folder_lock
+
+from .common import TINY, assert_one_line, chdir, invoke, write
+
+BENCH = ('[bench]\nname = "b"\nframes = "0"\nplots = false\n'
+         '[[runs]]\nscenes = ["s.toml"]\ntechniques = ["raster"]\n')
+
+
+def test_bench_out_and_set(tmp_path):
+    write(tmp_path, "s.toml", TINY)
+    bench = write(tmp_path, "b.toml", BENCH)
+    with chdir(tmp_path):
+        result = invoke("bench", bench, "--out", tmp_path / "elsewhere", "--set",
+                        "camera.width=8")
+        assert result.exit_code == 0, result.output
+        rows = (tmp_path / "elsewhere" / "results.jsonl").read_text()
+        assert '"camera.width=8"' in rows
+        assert not (tmp_path / "out").exists()
+        assert_one_line(invoke("bench", bench, "--set", "camera.widht=8"), "camera.widht",
+                        "did you mean width?")
+
+
+def test_scheduler_without_a_cluster_fails_fast(tmp_path):
+    write(tmp_path, "s.toml", TINY)
+    bench = write(tmp_path, "b.toml", BENCH)
+    start = time.time()
+    with chdir(tmp_path):
+        result = invoke("bench", bench, "--scheduler", "tcp://127.0.0.1:9", "--out",
+                        tmp_path / "o")
+    assert_one_line(result, "--scheduler: no Dask scheduler answers at 'tcp://127.0.0.1:9'")
+    assert time.time() - start < 20
+    assert not (tmp_path / "o" / "references").exists()
+
+
+def test_second_bench_on_one_folder_stops(tmp_path):
+    write(tmp_path, "s.toml", TINY)
+    bench = write(tmp_path, "b.toml", BENCH)
+    import multiprocessing
+
+    ready, release = multiprocessing.Event(), multiprocessing.Event()
+    holder = multiprocessing.get_context("fork").Process(
+        target=_hold, args=(str(tmp_path / "o"), ready, release))
+    holder.start()
+    try:
+        assert ready.wait(30)
+        with chdir(tmp_path):
+            result = invoke("bench", bench, "--out", tmp_path / "o")
+        assert_one_line(result, "--out:", "is being written by another bench")
+    finally:
+        release.set()
+        holder.join(30)
+
+
+def _hold(folder, ready, release):
+    with folder_lock(folder, "x"):
+        ready.set()
+        release.wait(30)

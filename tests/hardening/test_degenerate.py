@@ -1,0 +1,99 @@
+"""Degenerate geometry and sizes past the documented limits: one line from validate and render
+alike, nothing written; nothing non-finite ever reaches an output file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from reflectcli.errors import Problems
+from reflectcli.output.finite import check_finite
+
+from .common import TINY, chdir, check_bad, write
+
+LAMBERT = TINY.replace('name = "tiny"', 'name = "tiny"\nshading = "lambert"')
+
+CASES = [  # (appended TOML, expected field)
+    ('\n[[lights]]\nkind = "directional"\ndirection = [0, 0, 0]\n', "lights.0.direction"),
+    ('\n[[objects]]\nname = "z"\nshape = "box"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\n'
+     'material = "red"\ntransform = { scale = 0.0 }\n', "objects.1.transform.scale"),
+    ('\n[[objects]]\nname = "z"\nshape = "box"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\n'
+     'material = "red"\ntransform = { scale = [1.0, 0.0, 1.0] }\n', "objects.1.transform.scale"),
+    ('\n[[objects]]\nname = "q"\nshape = "quad"\nmaterial = "red"\n'
+     'corners = [[0, 0, 0], [0, 0, 0], [1, 1, 0], [0, 1, 0]]\n', "objects.1.corners"),
+    ('\n[[objects]]\nname = "far"\nshape = "sphere"\nmaterial = "red"\n'
+     'transform = { translate = [1e16, 0, 0] }\n', "objects.1.transform.translate"),
+    ('\n[[mirrors]]\nname = "m2"\nshape = "quad"\n'
+     'corners = [[1e16, 0, 0], [0, 0, 0], [1, 1, 0], [0, 1, 0]]\n', "mirrors.1.corners"),
+]
+
+
+@pytest.mark.parametrize(("extra", "field"), CASES)
+def test_degenerate_scene_items(tmp_path, extra, field):
+    scene = write(tmp_path, "s.toml", LAMBERT + extra)
+    with chdir(tmp_path):
+        check_bad(scene, f"s.toml: {field}:")
+
+
+@pytest.mark.parametrize(("key", "value"), [
+    ("near", "1e-30"), ("fov_y", "5e-324"), ("width", "100000"), ("eye", "[1e16, 0, 0]"),
+    ("up", "[0, 0, 0]"),
+])
+def test_degenerate_camera(tmp_path, key, value):
+    text = TINY.replace("width = 16\n", f"width = 16\n{key} = {value}\n") if key not in (
+        "width", "eye") else TINY.replace(f"{key} = ", f"{key} = {value}\nxx_{key} = ", 1)
+    text = "\n".join(line for line in text.splitlines() if not line.startswith("xx_"))
+    scene = write(tmp_path, "s.toml", text)
+    with chdir(tmp_path):
+        check_bad(scene, f"s.toml: camera.{key}:")
+
+
+def test_sizes_past_the_limits(tmp_path):
+    path = ('\n[camera.path]\nframes = 10000000\n'
+            'keys = [{ eye = [0, 1, 3], target = [0, 0, 0] }]\n')
+    text = TINY.replace("height = 12\n", "height = 12\n" + path)
+    scene = write(tmp_path, "frames.toml", text)
+    with chdir(tmp_path):
+        check_bad(scene, "frames.toml: camera.path.frames: must be <= 100000")
+        scene = write(tmp_path, "seg.toml", TINY.replace("segments = 8", "segments = 100000"))
+        check_bad(scene, "seg.toml: objects.0.segments: must be <=")
+        scene = write(tmp_path, "tri.toml", TINY.replace("segments = 8", "segments = 4096")
+                      + '\n[[objects]]\nname = "t"\nshape = "teapot"\nsubdivisions = 64\n'
+                        'material = "red"\n[[objects]]\nname = "c"\nshape = "clutter"\n'
+                        'triangles = 20000000\nmin = [0, 0, 0]\nmax = [1, 1, 1]\n'
+                        'material = "red"\n')
+        check_bad(scene, "tri.toml: objects:", "the limit is 20,000,000")
+
+
+def test_memory_estimate_before_allocating(tmp_path):
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "dprm"\n'
+                  '[technique.maps]\ncount = 4096\nresolution = 8192\nlayout = "fibonacci"\n')
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: technique:", "of memory;", "available")
+
+
+def test_nothing_non_finite_is_written():
+    good = {"R": np.zeros((2, 2)), "Z": np.full((2, 2), np.inf)}
+    check_finite(good, "s.toml", 0)
+    with pytest.raises(Problems, match="channel R has 1 non-finite"):
+        check_finite({"R": np.array([[0.0, np.nan]])}, "s.toml", 3)
+
+
+def test_huge_color_is_refused_not_rendered_to_nan(tmp_path):
+    """fuzz seed 105258: a color component of 1e308 gave NaN pixels on the mask scene."""
+    scene = write(tmp_path, "s.toml", LAMBERT.replace("color = [0.8, 0.1, 0.1]",
+                                                      "color = [0.8, 0.1, 1e308]")
+                  + '\n[[lights]]\nkind = "point"\nposition = [0, 3, 2]\n')
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: materials.red.color: numbers must be within")
+
+
+def test_envmap_without_objects_renders(tmp_path):
+    """fuzz seed 105598: envmap's default proxy box over no objects was a traceback."""
+    from .common import invoke
+
+    text = TINY.split("[[objects]]")[0] + "[[mirrors]]" + TINY.split("[[mirrors]]")[1]
+    scene = write(tmp_path, "s.toml", text + '\n[technique]\nname = "envmap"\nresolution = 8\n')
+    with chdir(tmp_path):
+        result = invoke("render", scene, "--out", tmp_path / "o", "--cache", tmp_path / "c")
+    assert result.exit_code == 0, result.output

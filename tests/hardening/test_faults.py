@@ -1,0 +1,139 @@
+"""Faults: a full disk ends in one line naming the file and the OS reason, keeps every
+completed frame with its log line (never a torn line), and a resume completes the run; torn
+last lines of logs are skipped and reported by readers and removed by the next append."""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import os
+import subprocess
+import sys
+import uuid
+
+import pytest
+
+from reflectcli.output import log as logmod
+from reflectcli.output.log import append_jsonl, read_jsonl
+
+from .common import TINY, chdir, invoke, write
+
+WALK = TINY.replace("height = 12\n", "height = 12\n[camera.path]\nframes = 12\n"
+                    "keys = [{ eye = [0.0, 1.0, 3.0], target = [0.0, 0.5, 0.0] },\n"
+                    "        { eye = [1.0, 1.0, 3.0], target = [0.0, 0.5, 0.0] }]\n"
+                    ) + '\n[technique]\nname = "raster"\n'
+
+
+def consistent(folder) -> list[str]:
+    """Every EXR has its log line and every log line its EXR; no torn line."""
+    exrs = sorted(n for n in os.listdir(folder) if n.endswith(".exr"))
+    with open(os.path.join(folder, "timings.jsonl")) as f:
+        text = f.read()
+    assert text == "" or text.endswith("\n")
+    logged = sorted(json.loads(line)["file"] for line in text.splitlines())
+    assert exrs == logged
+    assert not [n for n in os.listdir(folder) if n.startswith(".")]
+    return exrs
+
+
+def test_log_write_failing_midway_keeps_frames_whole_and_resumes(tmp_path, monkeypatch):
+    scene = write(tmp_path, "s.toml", WALK)
+    real_write = os.write
+    calls = {"n": 0}
+
+    def failing_write(fd, data):  # the 5th log line: half written, then the disk is full
+        calls["n"] += 1
+        if calls["n"] == 5:
+            real_write(fd, data[: len(data) // 2])
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real_write(fd, data)
+
+    monkeypatch.setattr(logmod.os, "write", failing_write)
+    with chdir(tmp_path):
+        result = invoke("render", scene, "--out", tmp_path / "o")
+        folder = tmp_path / "o" / "tiny" / "raster"
+        lines = [line for line in result.output.splitlines() if line.strip()]
+        assert result.exit_code == 1 and len(lines) == 1, result.output
+        assert lines[0] == f"{folder / 'timings.jsonl'}: cannot write (No space left on device)"
+        assert len(consistent(folder)) == 4
+        monkeypatch.setattr(logmod.os, "write", real_write)
+        result = invoke("render", scene, "--out", tmp_path / "o", "--resume")
+        assert result.exit_code == 0, result.output
+        assert len(consistent(folder)) == 12
+
+
+def test_torn_last_line_is_skipped_reported_and_repaired(tmp_path, caplog):
+    path = str(tmp_path / "results.jsonl")
+    append_jsonl(path, {"run": "a"})
+    with open(path, "a") as f:
+        f.write('{"run": "b", "fra')  # a process killed mid-write
+    assert read_jsonl(path) == [{"run": "a"}]
+    assert "line 2 is not a whole record" in caplog.text
+    append_jsonl(path, {"run": "c"})
+    assert read_jsonl(path) == [{"run": "a"}, {"run": "c"}]
+
+
+@contextlib.contextmanager
+def tiny_filesystem(folder, size: str):
+    folder.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)],
+                          capture_output=True)
+    if done.returncode != 0:
+        pytest.skip("cannot mount a tmpfs here (not root)")
+    try:
+        yield folder
+    finally:
+        subprocess.run(["umount", "-l", str(folder)], check=False)
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="mounting a tiny filesystem needs root")
+def test_render_precompute_and_bench_on_a_tiny_filesystem(tmp_path):
+    scene = write(tmp_path, "s.toml", WALK.replace("width = 16", "width = 96")
+                  .replace("height = 12", "height = 72"))
+    reflect = [sys.executable, "-m", "reflectcli.cli"]
+    with tiny_filesystem(tmp_path / f"tiny-{uuid.uuid4().hex[:6]}", "64k") as tiny:
+        done = subprocess.run([*reflect, "render", str(scene), "--out", str(tiny), "--preview"],
+                              capture_output=True, text=True, cwd=tmp_path)
+        lines = done.stderr.strip().splitlines()
+        assert done.returncode == 1 and len(lines) == 1, done.stderr
+        assert "No space left on device" in lines[0] and str(tiny) in lines[0]
+        folder = tiny / "tiny" / "raster"
+        kept = consistent(folder)
+        pngs = sorted(n for n in os.listdir(folder) if n.endswith(".png"))
+        assert pngs == [n[:-4] + ".png" for n in kept]  # no empty or orphan previews
+        dprm = write(tmp_path, "d.toml", TINY + '\n[technique]\nname = "dprm"\n'
+                     '[technique.maps]\ncount = 4\nresolution = 256\n')
+        done = subprocess.run([*reflect, "precompute-maps", str(dprm), "--cache",
+                               str(tiny / "cache")], capture_output=True, text=True,
+                              cwd=tmp_path)
+        lines = done.stderr.strip().splitlines()
+        assert done.returncode == 1 and len(lines) == 1, done.stderr
+        assert "cannot write (No space left on device)" in lines[0]
+        bench = write(tmp_path, "b.toml", f'[bench]\nname = "b"\nframes = "0:2"\n'
+                      f'out = "{tiny / "bench"}"\nplots = false\n'
+                      '[[runs]]\nscenes = ["s.toml"]\ntechniques = ["raster", "rerender"]\n')
+        for _ in range(2):  # the first run fails in one line; so does a resume
+            done = subprocess.run([*reflect, "bench", str(bench)], capture_output=True,
+                                  text=True, cwd=tmp_path)
+            lines = done.stderr.strip().splitlines()
+            assert done.returncode == 1 and len(lines) == 1, done.stderr
+            assert "No space left on device" in lines[0]
+    with chdir(tmp_path):
+        result = invoke("render", scene, "--out", tmp_path / "o", "--frames", "0")
+        assert result.exit_code == 0
+
+
+def test_cache_temp_file_vanishing_mid_write_is_survived(tmp_path, monkeypatch, caplog):
+    import numpy as np
+
+    from reflectcli.maps import cache as cachemod
+
+    def vanish(path, *args, **kwargs):
+        raise FileNotFoundError(2, "No such file or directory")
+
+    monkeypatch.setattr(cachemod, "write_exr_parts", vanish)
+    store = cachemod.MapCache(str(tmp_path / "cache"))
+    parts = [("face", {"R": np.zeros((2, 2), np.float32)})]
+    assert store.store("envmap", "ab" * 16, parts, {}) is None
+    assert "could not be stored" in caplog.text

@@ -1,0 +1,74 @@
+"""validate agrees with render; bench files and presets validate; did-you-mean; no pydantic
+class names; a bad --set is blamed on --set and list items keep the name they were given."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from .common import TINY, assert_one_line, chdir, check_bad, invoke, write
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize("text", ["", "# only\n# comments\n"])
+def test_empty_and_comment_only_files_fail_validate_like_render(tmp_path, text):
+    scene = write(tmp_path, "s.toml", text)
+    with chdir(tmp_path):
+        assert_one_line(invoke("validate", scene), "s.toml: empty file")
+        result = invoke("render", scene, "--out", tmp_path / "o")
+        assert result.exit_code == 2
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "configs").glob("*/*.toml")))
+def test_bench_files_and_presets_validate(path):
+    result = invoke("validate", path)
+    assert result.exit_code == 0, result.output
+    assert result.stdout == "ok\n"
+
+
+def test_one_line_for_one_error_in_a_preset(tmp_path):
+    preset = write(tmp_path, "p.toml", '[technique]\nname = "raytrace"\nmax_depth = -1\n')
+    with chdir(tmp_path):
+        assert_one_line(invoke("validate", preset), "p.toml: technique.max_depth: must be >= 0")
+        preset = write(tmp_path, "p.toml", '[technique]\nname = "raytrac"\n')
+        line = assert_one_line(invoke("validate", preset), "p.toml: technique.name:",
+                               "did you mean raytrace?")
+    assert "Params" not in line
+
+
+def test_bench_file_with_a_bad_run_is_one_line(tmp_path):
+    bench = write(tmp_path, "b.toml", '[bench]\nname = "b"\n[[runs]]\nscenes = ["s.toml"]\n'
+                  'techniques = ["raster"]\n')
+    write(tmp_path, "s.toml", TINY.replace("width = 16", "width = -1"))
+    with chdir(tmp_path):
+        assert_one_line(invoke("validate", bench), "b.toml: runs", "camera.width")
+
+
+@pytest.mark.parametrize(("override", "expected"), [
+    ("camera.fov=30", "--set: camera.fov: unknown key (did you mean fov_y?)"),
+    ("objects.ball.radiu=1", "--set: objects.ball.radiu: unknown key (did you mean radius?)"),
+    ("objects.ball.radius=-1", "--set: objects.ball.radius: must be > 0.0"),
+    ('objects.ball.shape="sphre"', "--set: objects.ball.shape: unknown shape 'sphre' "
+                                   "(did you mean sphere?)"),
+    ("camera.eye=[1, 2]", "--set: camera.eye"),
+    ("camera=3", "--set: camera: must be a table"),
+    ("materials.red.colr=[1, 2, 3]", "--set: materials.red.colr: unknown key "
+                                     "(did you mean color?)"),
+])
+def test_bad_set_is_blamed_on_set(tmp_path, override, expected):
+    scene = write(tmp_path, "s.toml", TINY)
+    with chdir(tmp_path):
+        line = assert_one_line(invoke("render", scene, "--out", tmp_path / "o",
+                                      "--set", override), expected)
+    assert not (tmp_path / "o").exists()
+    assert "Config" not in line and "Params" not in line and "Input should" not in line
+
+
+def test_unknown_key_in_an_included_file_names_that_file(tmp_path):
+    (tmp_path / "parts").mkdir()
+    write(tmp_path, "parts/cam.toml", "[camera]\nfov = 3\n")
+    scene = write(tmp_path, "s.toml", 'include = ["parts/cam.toml"]\n' + TINY)
+    with chdir(tmp_path):
+        check_bad(scene, "parts/cam.toml: camera.fov: unknown key (did you mean fov_y?)")

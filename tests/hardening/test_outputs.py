@@ -1,0 +1,88 @@
+"""Outputs stay inside the output folder; `cache clear` deletes only reflect's cache files;
+temporary files of killed runs are removed; cache files with the right key but wrong content
+are recaptured, never trusted."""
+
+from __future__ import annotations
+
+import logging
+import os
+
+import numpy as np
+import pytest
+
+from reflectcli.output.exr import read_exr_parts, write_exr_parts
+
+from .common import TINY, chdir, check_bad, files_under, invoke, write
+
+
+@pytest.mark.parametrize(("override", "field"), [
+    ('scene.name=".."', "scene.name"),
+    ('scene.name="."', "scene.name"),
+    ('output.log="../x"', "output.log"),
+    ('output.log="frame_0001.exr"', "output.log"),
+    ('output.log="/tmp/x.jsonl"', "output.log"),
+])
+def test_outputs_stay_inside_the_output_folder(tmp_path, override, field):
+    scene = write(tmp_path, "s.toml", TINY)
+    with chdir(tmp_path):
+        result = invoke("render", scene, "--out", tmp_path / "o", "--set", override)
+    assert result.exit_code == 2 and result.output.startswith(f"--set: {field}:"), result.output
+    assert sorted(os.listdir(tmp_path)) == ["s.toml"]
+
+
+def test_log_named_like_a_frame_in_the_file(tmp_path):
+    scene = write(tmp_path, "s.toml", TINY + '\n[output]\nlog = "frame_0000.exr"\n')
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: output.log:")
+
+
+def test_cache_clear_deletes_only_cache_files(tmp_path):
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    mine = ["envmap-" + "a" * 32 + ".exr", "dprm-" + "0123456789abcdef" * 2 + ".exr"]
+    others = ["frame_0000.exr", "notes.exr", "envmap-short.exr", "timings.jsonl"]
+    for name in mine + others:
+        (cache / name).write_bytes(b"x")
+    (cache / ".dprm-x.tmp999999999-1.exr").write_bytes(b"x")  # a killed capture's temp file
+    result = invoke("cache", "clear", "--cache", cache)
+    assert result.exit_code == 0 and "removed 2 map(s)" in result.output
+    assert sorted(os.listdir(cache)) == sorted(others)
+
+
+def test_temp_files_of_killed_runs_are_removed(tmp_path):
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "raster"\n')
+    folder = tmp_path / "o" / "tiny" / "raster"
+    folder.mkdir(parents=True)
+    stale = folder / ".frame_0003.tmp999999999-12.exr"
+    stale.write_bytes(b"half")
+    live = folder / f".frame_0004.tmp{os.getpid()}-12.exr"  # a running process's: kept
+    live.write_bytes(b"half")
+    with chdir(tmp_path):
+        result = invoke("render", scene, "--out", tmp_path / "o", "--frames", "0")
+    assert result.exit_code == 0, result.output
+    assert not stale.exists() and live.exists()
+
+
+def test_cache_file_with_matching_key_but_wrong_content_is_recaptured(tmp_path, caplog):
+    caplog.set_level(logging.WARNING, logger="reflect")
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "dprm"\n'
+                  '[technique.maps]\nresolution = 16\n')
+    cache = tmp_path / "cache"
+    args = ("render", scene, "--out", tmp_path / "o", "--frames", "0", "--cache", cache)
+    with chdir(tmp_path):
+        assert invoke(*args).exit_code == 0
+        (path,) = [p for p in files_under(cache) if p.endswith(".exr")]
+        first = (tmp_path / "o" / "tiny" / "dprm" / "frame_0000.exr").read_bytes()
+        for damage in ("T", "R"):
+            parts = read_exr_parts(path)
+            names, channels, attrs = zip(*parts, strict=True)
+            bad = [dict(c) for c in channels]
+            bad[0][damage] = np.full_like(bad[0][damage], 1e7 if damage == "T" else np.nan)
+            write_exr_parts(path, list(zip(names, bad, strict=True)), attrs[0],
+                            [dict(a) for a in attrs])
+            caplog.clear()
+            result = invoke(*args)
+            assert result.exit_code == 0, result.output
+            assert "damaged" in caplog.text and "recapturing" in caplog.text
+            again = (tmp_path / "o" / "tiny" / "dprm" / "frame_0000.exr").read_bytes()
+            assert again == first
