@@ -7,10 +7,14 @@ import os
 import signal
 import sys
 
-import click
+try:  # Ctrl-C while the command line itself is still importing exits as any interrupt does
+    import click
 
-from . import __version__
-from .errors import Problems
+    from . import __version__
+    from .errors import Problems
+except KeyboardInterrupt:
+    sys.stderr.write("interrupted\n")
+    raise SystemExit(130) from None
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130

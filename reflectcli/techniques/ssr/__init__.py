@@ -9,7 +9,7 @@
 | `max_steps` | int in [1, 65536] | 1024 | steps (linear, dda) or cell lookups (hiz) per ray |
 | `max_distance` | float > 0.0 | 20.0 | ray length, eye-space units (clipped at near) |
 | `resolve` | "pixel", "surface" | "surface" | hit colour: hit pixel's, or its triangle shaded |
-| `fallback` | "none", "envmap", "rerender" | "envmap" | a miss: base, box-projected probe, rerender |
+| `fallback` | "none", "envmap", "rerender" | "envmap" | a miss: base, box probe, rerender |
 
 `resolve = "surface"` intersects the ray with the plane of the triangle the primary pass
 left at the hit pixel and shades that point (beyond the papers). `fallback`: "none" leaves
