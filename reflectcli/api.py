@@ -15,6 +15,7 @@ import contextlib
 import json
 import logging
 import os
+import queue
 import signal
 import threading
 import time
@@ -22,6 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal, TypeVar
 
+import numpy as np
 from pydantic import BaseModel
 
 from .camera import Camera, camera_from_config
@@ -30,7 +32,7 @@ from .errors import Problem, Problems
 from .frame import Frame
 from .loading import load_config
 from .maps.cache import MapCache, default_cache_dir
-from .output.exr import write_exr
+from .output.exr import pack_channels, write_exr_packed
 from .output.log import append_jsonl
 from .output.png import write_png
 from .provenance import cpu_name, versions
@@ -165,6 +167,80 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
         logger.setLevel(level)
     _warmed[key] = time.perf_counter() - start
     return _warmed[key]
+
+
+# --- frames written behind the renderer -----------------------------------------------------
+
+WRITE_QUEUE = 2  # rendered frames waiting for the writer, at most (each ~7 MB at 640x480)
+
+
+@dataclass
+class _PendingFrame:
+    """A rendered frame's copy and everything its files need."""
+
+    frame_index: int
+    exr: str
+    names: list[str]
+    data: np.ndarray  # (H, W, C) float32, owned (not a technique's buffer)
+    attributes: dict[str, str]
+    preview: bool
+    log: str
+    row: dict
+
+    def write(self) -> None:
+        """EXR, preview and log row, in this order (the log row last: a logged frame is
+        complete)."""
+        t1 = time.perf_counter()
+        write_exr_packed(self.exr, self.names, self.data, self.attributes)
+        if self.preview:
+            write_png(self.exr[:-4] + ".png", self.data[:, :, :3])
+        append_jsonl(self.log, {**self.row, "write_seconds": time.perf_counter() - t1})
+
+
+class _FrameWriter:
+    """One thread writing pending frames in order from a bounded queue. After its first
+    error it writes nothing more (later frames are dropped, the error kept for the caller).
+    Python runs signal handlers in the main thread only, so Ctrl-C never lands mid-write."""
+
+    def __init__(self, size: int = WRITE_QUEUE) -> None:
+        self._queue: queue.Queue[_PendingFrame | None] = queue.Queue(size)
+        self._done: queue.SimpleQueue[tuple[int, str]] = queue.SimpleQueue()
+        self.error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name="reflect-writer")
+        self._thread.start()
+
+    def _run(self) -> None:
+        while True:
+            pending = self._queue.get()
+            if pending is None:
+                return
+            if self.error is not None:
+                continue  # drained, not written
+            try:
+                pending.write()
+            except BaseException as e:  # noqa: BLE001 - handed to the main thread
+                self.error = e
+            else:
+                self._done.put((pending.frame_index, pending.exr))
+
+    def submit(self, pending: _PendingFrame) -> None:
+        """Queue a frame (waits while the queue is full); raises the writer's error."""
+        if self.error is not None:
+            raise self.error
+        self._queue.put(pending)
+
+    def completed(self) -> list[tuple[int, str]]:
+        """(frame index, EXR path) of the frames written since the last call, in order."""
+        done = []
+        while not self._done.empty():
+            done.append(self._done.get())
+        return done
+
+    def close(self) -> None:
+        """Write what is queued, then stop the thread."""
+        if self._thread.is_alive():
+            self._queue.put(None)
+            self._thread.join()
 
 
 # --- the opened scene -----------------------------------------------------------------------
@@ -316,6 +392,16 @@ class OpenedScene:
         the bench's warm-up and timed samples); the first render is written and every
         render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
         the repeats as extra frames."""
+        pending = self._render_for_writing(frame_index, folder, preview=preview,
+                                           repeats=repeats)
+        with interrupts_deferred():  # a frame is kept with its log line, or not at all
+            pending.write()
+        return pending.exr
+
+    def _render_for_writing(self, frame_index: int, folder: str, *,
+                            preview: bool | None = None, repeats: int = 1) -> _PendingFrame:
+        """Render a frame (with its repeats) into what a writer needs: channels copied out
+        of the technique's buffers (they are reused by the next frame), attributes, log row."""
         exr = os.path.join(folder, f"frame_{frame_index:04d}.exr")
         self.prepare()
         start = time.perf_counter()
@@ -353,34 +439,60 @@ class OpenedScene:
             "reflect:frame": str(frame_index),
         }
         preview = self.config.output.preview if preview is None else preview
-        with interrupts_deferred():  # a frame is kept with its log line, or not at all
-            t1 = time.perf_counter()
-            write_exr(exr, frame_channels(frame), attributes)
-            if preview:
-                write_png(exr[:-4] + ".png", frame.rgb)
-            append_jsonl(os.path.join(folder, self.config.output.log),
-                         {**row, "write_seconds": time.perf_counter() - t1})
-        return exr
+        names, data = pack_channels(frame_channels(frame))  # a copy: R, G, B come first
+        return _PendingFrame(frame_index, exr, names, data, attributes, preview,
+                             os.path.join(folder, self.config.output.log), row)
 
     def write_frames(self, frame_indices: range | list[int], *, out: str | None = None,
                      preview: bool | None = None, resume: bool = False,
                      on_frame: Callable[[int, str], None] | None = None,
-                     repeats: int = 1) -> RenderResult:
+                     repeats: int = 1, background: bool = True) -> RenderResult:
         """Write the given frames into <out>/<scene>/<technique>/ (with `resume`, frames
-        whose EXR exists are skipped)."""
+        whose EXR exists are skipped).
+
+        With `background` (the default) a writer thread writes frame k (EXR, preview, log
+        row; OIIO's compression drops the GIL) while frame k+1 renders, at most
+        WRITE_QUEUE frames behind. `on_frame` is called in this thread once a frame and its
+        log row are on disk. On Ctrl-C or an error the writer finishes the frames already
+        rendered (each kept with its log row, or not at all), then the exception goes on;
+        an error in the writer is raised here. Without `background` every frame is written
+        before the next one renders (frame times then never share the cores with a write)."""
         _check_threads(self.threads)  # before the build and the folder, as any bad argument
         result = RenderResult(self.output_folder(out))
         result.compile_seconds = self.warm_up()
         self.prepare()
-        for frame_index in frame_indices:
-            exr = os.path.join(result.folder, f"frame_{frame_index:04d}.exr")
-            if resume and os.path.exists(exr):
-                result.skipped.append(frame_index)
-                continue
-            self.write_frame(frame_index, result.folder, preview=preview, repeats=repeats)
-            result.written.append(exr)
-            if on_frame is not None:
-                on_frame(frame_index, exr)
+        writer = _FrameWriter() if background else None
+
+        def report(done: list[tuple[int, str]]) -> None:
+            for frame_index, exr in done:
+                result.written.append(exr)
+                if on_frame is not None:
+                    on_frame(frame_index, exr)
+
+        try:
+            for frame_index in frame_indices:
+                exr = os.path.join(result.folder, f"frame_{frame_index:04d}.exr")
+                if resume and os.path.exists(exr):
+                    result.skipped.append(frame_index)
+                    continue
+                if writer is None:
+                    self.write_frame(frame_index, result.folder, preview=preview,
+                                     repeats=repeats)
+                    report([(frame_index, exr)])
+                    continue
+                pending = self._render_for_writing(frame_index, result.folder,
+                                                   preview=preview, repeats=repeats)
+                writer.submit(pending)
+                report(writer.completed())
+        finally:
+            if writer is not None:
+                # the frames already rendered are written (or the first error stops the
+                # writer) before anything propagates; a second Ctrl-C waits as well
+                with interrupts_deferred():
+                    writer.close()
+                    report(writer.completed())
+        if writer is not None and writer.error is not None:
+            raise writer.error
         return result
 
     def precompute(self, on_map: Callable[[dict], None] | None = None,
@@ -427,18 +539,21 @@ def render(
     on_frame: Callable[[int, str], None] | None = None,
     cache: str | None = None,
     repeats: int = 1,
+    background: bool = True,
 ) -> RenderResult:
     """Render the selected frames of a scene file into out/<scene>/<technique>/.
 
     `repeats` > 1 renders each frame that many times in a row (for timing a scene of one
     frame: the bench's warm-up and timed samples); the first render is written and every
     render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
-    the repeats as extra frames. Raises Problems for bad input before anything is written.
+    the repeats as extra frames. `background`: EXRs written by a thread while the next
+    frame renders (see OpenedScene.write_frames). Raises Problems for bad input before
+    anything is written.
     """
     scene = open_scene(path, overrides=overrides, technique=technique, threads=threads,
                        cache=cache)
     return scene.write_frames(scene.frames(frames), out=out, preview=preview, resume=resume,
-                              on_frame=on_frame, repeats=repeats)
+                              on_frame=on_frame, repeats=repeats, background=background)
 
 
 @dataclass

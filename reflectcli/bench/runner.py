@@ -90,7 +90,8 @@ def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> 
     folder = os.path.join(plan.out, "references", job["reference"]["id"])
     result = api.render(job["scene"], out=folder, frames=plan.config.bench.frames,
                         technique="raytrace", overrides=job["reference"]["overrides"],
-                        resume=True, threads=threads, repeats=plan.config.bench.repeats)
+                        resume=True, threads=threads, repeats=plan.config.bench.repeats,
+                        background=False)
     return result.folder
 
 
@@ -142,7 +143,8 @@ def execute_job(job: dict, settings: dict) -> dict:
     result = api.render(job["scene"], out=folder, frames=settings["frames"],
                         technique=job["technique"], overrides=job["overrides"],
                         cache=os.path.join(settings["out"], "cache"),
-                        threads=settings.get("threads"), repeats=settings.get("repeats", 1))
+                        threads=settings.get("threads"), repeats=settings.get("repeats", 1),
+                        background=False)  # frame times never share the cores with a write
     frames_dir = result.folder
     log = read_jsonl(os.path.join(frames_dir, "timings.jsonl"))
     ref_dir = settings["reference_dirs"][job["reference"]["id"]]
