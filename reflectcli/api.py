@@ -35,6 +35,7 @@ from .maps.cache import MapCache, default_cache_dir
 from .output.exr import pack_channels, write_exr_packed
 from .output.log import append_jsonl
 from .output.png import write_png
+from .output.summary import SUMMARY_NAME, write_summary
 from .provenance import cpu_name, versions
 from .scene.build import build_scene, scene_hashes
 from .scene.types import Scene
@@ -181,7 +182,7 @@ class _PendingFrame:
     frame_index: int
     exr: str
     names: list[str]
-    data: np.ndarray  # (H, W, C) float32, owned (not a technique's buffer)
+    data: np.ndarray | None  # (H, W, C) float32, owned (not a technique's buffer)
     attributes: dict[str, str]
     preview: bool
     log: str
@@ -194,7 +195,8 @@ class _PendingFrame:
         write_exr_packed(self.exr, self.names, self.data, self.attributes)
         if self.preview:
             write_png(self.exr[:-4] + ".png", self.data[:, :, :3])
-        append_jsonl(self.log, {**self.row, "write_seconds": time.perf_counter() - t1})
+        self.row = {**self.row, "write_seconds": time.perf_counter() - t1}
+        append_jsonl(self.log, self.row)
 
 
 class _FrameWriter:
@@ -204,7 +206,7 @@ class _FrameWriter:
 
     def __init__(self, size: int = WRITE_QUEUE) -> None:
         self._queue: queue.Queue[_PendingFrame | None] = queue.Queue(size)
-        self._done: queue.SimpleQueue[tuple[int, str]] = queue.SimpleQueue()
+        self._done: queue.SimpleQueue[_PendingFrame] = queue.SimpleQueue()
         self.error: BaseException | None = None
         self._thread = threading.Thread(target=self._run, name="reflect-writer")
         self._thread.start()
@@ -221,7 +223,8 @@ class _FrameWriter:
             except BaseException as e:  # noqa: BLE001 - handed to the main thread
                 self.error = e
             else:
-                self._done.put((pending.frame_index, pending.exr))
+                pending.data = None  # the pixels are on disk: free them now
+                self._done.put(pending)
 
     def submit(self, pending: _PendingFrame) -> None:
         """Queue a frame (waits while the queue is full); raises the writer's error."""
@@ -229,8 +232,8 @@ class _FrameWriter:
             raise self.error
         self._queue.put(pending)
 
-    def completed(self) -> list[tuple[int, str]]:
-        """(frame index, EXR path) of the frames written since the last call, in order."""
+    def completed(self) -> list[_PendingFrame]:
+        """The frames written since the last call, in order."""
         done = []
         while not self._done.empty():
             done.append(self._done.get())
@@ -463,11 +466,14 @@ class OpenedScene:
         self.prepare()
         writer = _FrameWriter() if background else None
 
-        def report(done: list[tuple[int, str]]) -> None:
-            for frame_index, exr in done:
-                result.written.append(exr)
+        rows: list[dict] = []  # this call's log rows: the timings summary
+
+        def report(done: list[_PendingFrame]) -> None:
+            for pending in done:
+                rows.append(pending.row)
+                result.written.append(pending.exr)
                 if on_frame is not None:
-                    on_frame(frame_index, exr)
+                    on_frame(pending.frame_index, pending.exr)
 
         try:
             for frame_index in frame_indices:
@@ -475,22 +481,32 @@ class OpenedScene:
                 if resume and os.path.exists(exr):
                     result.skipped.append(frame_index)
                     continue
-                if writer is None:
-                    self.write_frame(frame_index, result.folder, preview=preview,
-                                     repeats=repeats)
-                    report([(frame_index, exr)])
-                    continue
                 pending = self._render_for_writing(frame_index, result.folder,
                                                    preview=preview, repeats=repeats)
+                if writer is None:
+                    with interrupts_deferred():  # kept with its log line, or not at all
+                        pending.write()
+                        report([pending])
+                    continue
                 writer.submit(pending)
                 report(writer.completed())
-        finally:
-            if writer is not None:
-                # the frames already rendered are written (or the first error stops the
-                # writer) before anything propagates; a second Ctrl-C waits as well
-                with interrupts_deferred():
+        except BaseException:
+            # the frames already rendered are written (or the first error stops the writer)
+            # before the exception goes on; a second Ctrl-C waits as well
+            with interrupts_deferred():
+                if writer is not None:
                     writer.close()
                     report(writer.completed())
+                if rows:
+                    with contextlib.suppress(OSError):  # the first error is the one to tell
+                        write_summary(os.path.join(result.folder, SUMMARY_NAME), rows)
+            raise
+        with interrupts_deferred():
+            if writer is not None:
+                writer.close()
+                report(writer.completed())
+            if rows:
+                write_summary(os.path.join(result.folder, SUMMARY_NAME), rows)
         if writer is not None and writer.error is not None:
             raise writer.error
         return result

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 
 import pytest
@@ -9,6 +10,7 @@ from conftest import open_scene
 
 from reflectcli import api
 from reflectcli.output.log import read_jsonl
+from reflectcli.output.summary import SUMMARY_NAME, timings_summary
 
 SMALL = ("camera.width=64", "camera.height=48", "camera.path.frames=4")
 
@@ -25,7 +27,7 @@ def test_background_writes_equal_inline_writes(tmp_path):
         calls: list[int] = []
         result = opened.write_frames(opened.frames(), out=str(tmp_path / str(background)),
                                      preview=True, background=background,
-                                     on_frame=lambda i, _: calls.append(i))
+                                     on_frame=lambda i, _, calls=calls: calls.append(i))
         assert calls == [0, 1, 2, 3] and len(result.written) == 4
         rows = read_jsonl(os.path.join(result.folder, "timings.jsonl"))
         assert [r["frame"] for r in rows] == [0, 1, 2, 3]
@@ -49,6 +51,31 @@ def test_writer_error_surfaces_and_keeps_written_frames(tmp_path, monkeypatch):
                             on_frame=lambda i, _: calls.append(i))
     folder = os.path.join(str(tmp_path), opened.name, "raster")
     assert calls == [0, 1]
-    assert sorted(n for n in os.listdir(folder) if not n.endswith(".jsonl")) == [
+    assert sorted(n for n in os.listdir(folder) if n.endswith(".exr")) == [
         "frame_0000.exr", "frame_0001.exr"]
     assert [r["frame"] for r in read_jsonl(os.path.join(folder, "timings.jsonl"))] == [0, 1]
+
+
+def test_timings_summary_after_warmup(tmp_path):
+    opened = open_scene("teapot-box", "rerender", SMALL, threads=1)
+    result = opened.write_frames(opened.frames(), out=str(tmp_path))
+    with open(os.path.join(result.folder, SUMMARY_NAME)) as f:
+        summary = json.load(f)
+    assert summary["frames"] == [0, 1, 2, 3] and summary["warmup_renders"] == 1
+    assert summary["timed_renders"] == 3 and summary["warning"] == ""
+    frame = summary["frame"]
+    assert frame["p25_ms"] <= frame["median_ms"] <= frame["p75_ms"]
+    rows = read_jsonl(os.path.join(result.folder, "timings.jsonl"))
+    assert set(summary["stages"]) == set(rows[1]["stages"])
+    times = sorted(1e3 * r["frame_seconds"] for r in rows[1:])
+    assert frame["median_ms"] == pytest.approx(times[1])
+
+
+def test_timings_summary_warns_on_one_cold_frame():
+    row = {"scene": "s", "technique": "t", "frame": 0, "frame_seconds": 0.5,
+           "stages": {"a": 0.25}, "write_seconds": 0.1}
+    summary = timings_summary([row])
+    assert "cold" in summary["warning"] and summary["timed_renders"] == 1
+    assert summary["frame"]["median_ms"] == 500.0
+    repeated = timings_summary([{**row, "repeat_seconds": [0.5, 0.2, 0.3, 0.4]}])
+    assert repeated["warning"] == "" and repeated["frame"]["median_ms"] == pytest.approx(300)
