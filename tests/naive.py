@@ -233,6 +233,17 @@ def shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
     return rgb, surf
 
 
+def shade_stencil(stencil, rgb, surf, *args):
+    """Twin of raster.shade._shade_stencil: `shade` where `stencil` is set, the given rgb and
+    surface arrays untouched elsewhere. Returns (rgb, surface id) as new arrays."""
+    want_rgb, want_surf = shade(*args)
+    rgb = np.array(rgb, np.float64)
+    surf = np.array(surf)
+    rgb[stencil] = want_rgb[stencil]
+    surf[stencil] = want_surf[stencil]
+    return rgb, surf
+
+
 # =================================================================================== trace
 
 GRAZE = 1e-5  # barycentric margin: a ray this close to an edge may fall either side

@@ -44,6 +44,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "shading.py:surface_color": ([SR + "test_surface_color_matches_twin"], None),
     "trace/rays.py:_primary_rays": ([SR + "test_primary_rays_match_pixel_directions"], None),
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
+    "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
+    "raster/shade.py:_shade_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade"),
     "raster/rasterize.py:_setup": (RASTER, "rasterize"),
     "raster/rasterize.py:_setup_one": (RASTER, "_setup"),
     "raster/rasterize.py:_band_range": (RASTER, "_bin_count"),
