@@ -103,7 +103,10 @@ def trace_frame(
             surface = hit_surface
         origins, directions, weight, slot = next_o[alive], next_d[alive], next_w[alive], slot[alive]
         tfar = np.full(origins.shape[0], _FAR_AWAY, np.float32)
-    rgb = color.reshape(h, w, spp, 3).mean(axis=2, dtype=np.float64).astype(np.float32)
+    if spp == 1:  # the mean of one sample is the sample (bit for bit): no float64 pass
+        rgb = color.reshape(h, w, 3)
+    else:
+        rgb = color.reshape(h, w, spp, 3).mean(axis=2, dtype=np.float64).astype(np.float32)
     if spp > 1:  # Z, A and ids come from the pixel-center ray, traced once more
         o, d = primary_rays(camera, 1)
         m = d.shape[0]
@@ -127,8 +130,8 @@ def trace_frame(
     timings["trace"] = time.perf_counter() - start
     return Frame(
         rgb=rgb,
-        depth=depth.astype(np.float32),
-        surface=surface.astype(np.int32),
+        depth=depth.astype(np.float32, copy=False),
+        surface=surface.astype(np.int32, copy=False),
         mirror_mask=surface >= scene.n_objects,
         timings=timings,
         stats={"rays": int(rays)},
