@@ -1,6 +1,6 @@
 """Triangle intersection through Embree 4: the library shipped inside the embreex wheel,
-called straight from a numba kernel (one `rtcIntersect1` per ray, rays split over numba's
-threads), no Python loop and no per-call array copies.
+called straight from a numba kernel (`rtcIntersect16` on packets of 16 rays, packets split
+over numba's threads), no Python loop and no per-call array copies.
 
 The scene is built as embreex builds it (one triangle geometry of unshared float3 vertices,
 scene flag ROBUST, default build quality), so hits are bit-identical to embreex's
@@ -19,13 +19,15 @@ import numpy as np
 from numba import njit, prange, types
 
 _POOL: ThreadPoolExecutor | None = None
-_RAYHIT_FLOATS = 32  # RTCRayHit: 12 ray + 12 hit floats (Embree 4, one instance level) + spare
+_LANES = 16
+# RTCRayHit16: 12 ray + 10 hit fields (Ng xyz, u, v, primID, geomID, instID, instPrimID of
+# Embree 4 with one instance level) of 16 lanes each
+_PACKET_FLOATS = 22 * _LANES
 _ROBUST = 1 << 2  # RTC_SCENE_FLAG_ROBUST (embreex's default)
 _TRIANGLE, _INDEX, _VERTEX, _UINT3, _FLOAT3 = 0, 0, 1, 0x5003, 0x9003
-_INVALID = np.uint32(0xFFFFFFFF)
 
-_rtc_intersect1 = types.ExternalFunction(
-    "rtcIntersect1", types.void(types.intp, types.intp, types.intp))
+_rtc_intersect16 = types.ExternalFunction(
+    "rtcIntersect16", types.void(types.intp, types.intp, types.intp, types.intp))
 
 
 class _Embree:
@@ -34,7 +36,7 @@ class _Embree:
     def __init__(self, path: str) -> None:
         import llvmlite.binding as llvm
 
-        llvm.load_library_permanently(path)  # numba's cached kernels resolve rtcIntersect1
+        llvm.load_library_permanently(path)  # numba's cached kernels resolve rtcIntersect16
         lib = self.lib = ctypes.CDLL(path)
         p, u, i, z = ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_size_t
         for name, res, args in [
@@ -101,43 +103,57 @@ def _pool() -> ThreadPoolExecutor:
 
 @njit(cache=True, parallel=True, nogil=True)
 def _intersect(scene, origins, directions, tfar, chunks, t, prim, u, v):
-    """Nearest hit of each ray through rtcIntersect1, rays split into `chunks` contiguous
-    runs; each run fills one RTCRayHit (16-byte aligned) per ray as embreex does (tnear 0,
-    mask all ones, ids invalid) and writes t, primitive id, u, v (inf, -1, 0, 0 on a miss)."""
+    """Nearest hit of each ray through rtcIntersect16: packets of 16 consecutive rays (image
+    rows: coherent primary rays), packets split into `chunks` contiguous runs. Each run fills
+    one RTCRayHit16 (structure of arrays, 64-byte aligned, the valid mask after it) as
+    embreex fills its single rays (tnear 0, mask all ones, ids invalid) and writes t,
+    primitive id, u, v (inf, -1, 0, 0 on a miss). Embree's packet and single-ray paths give
+    the same hits to the bit (tests/trace/test_embree_bruteforce.py)."""
     n = origins.shape[0]
+    packets = (n + _LANES - 1) // _LANES
     for c in prange(chunks):
-        buf = np.empty(_RAYHIT_FLOATS + 4, np.float32)
-        ints = buf.view(np.uint32)
+        buf = np.empty(_PACKET_FLOATS + _LANES + 16, np.float32)
+        ints = buf.view(np.int32)
         base = buf.ctypes.data
-        off = ((16 - base % 16) % 16) // 4
+        off = ((64 - base % 64) % 64) // 4
         address = base + 4 * off
-        for i in range(c * n // chunks, (c + 1) * n // chunks):
-            buf[off + 0] = origins[i, 0]
-            buf[off + 1] = origins[i, 1]
-            buf[off + 2] = origins[i, 2]
-            buf[off + 3] = 0.0  # tnear
-            buf[off + 4] = directions[i, 0]
-            buf[off + 5] = directions[i, 1]
-            buf[off + 6] = directions[i, 2]
-            buf[off + 7] = 0.0  # time
-            buf[off + 8] = tfar[i]
-            ints[off + 9] = _INVALID  # mask: every geometry
-            ints[off + 10] = 0  # id
-            ints[off + 11] = 0  # flags
-            ints[off + 17] = _INVALID  # primID
-            ints[off + 18] = _INVALID  # geomID
-            ints[off + 19] = _INVALID  # instID
-            _rtc_intersect1(scene, address, 0)
-            p = np.int32(ints[off + 17])
-            prim[i] = p
-            if p >= 0:
-                t[i] = buf[off + 8]
-                u[i] = buf[off + 15]
-                v[i] = buf[off + 16]
-            else:  # a miss: nothing of the last ray's hit stays behind
-                t[i] = np.inf
-                u[i] = 0.0
-                v[i] = 0.0
+        valid = off + _PACKET_FLOATS  # the valid mask: 16 ints, 64-byte aligned too
+        for pk in range(c * packets // chunks, (c + 1) * packets // chunks):
+            first = pk * _LANES
+            for lane in range(_LANES):
+                i = first + lane
+                if i >= n:
+                    ints[valid + lane] = 0
+                    continue
+                ints[valid + lane] = -1
+                buf[off + 0 * _LANES + lane] = origins[i, 0]
+                buf[off + 1 * _LANES + lane] = origins[i, 1]
+                buf[off + 2 * _LANES + lane] = origins[i, 2]
+                buf[off + 3 * _LANES + lane] = 0.0  # tnear
+                buf[off + 4 * _LANES + lane] = directions[i, 0]
+                buf[off + 5 * _LANES + lane] = directions[i, 1]
+                buf[off + 6 * _LANES + lane] = directions[i, 2]
+                buf[off + 7 * _LANES + lane] = 0.0  # time
+                buf[off + 8 * _LANES + lane] = tfar[i]
+                ints[off + 9 * _LANES + lane] = -1  # mask: every geometry
+                ints[off + 10 * _LANES + lane] = 0  # id
+                ints[off + 11 * _LANES + lane] = 0  # flags
+                ints[off + 17 * _LANES + lane] = -1  # primID
+                ints[off + 18 * _LANES + lane] = -1  # geomID
+                ints[off + 19 * _LANES + lane] = -1  # instID
+            _rtc_intersect16(base + 4 * valid, scene, address, 0)
+            for lane in range(min(_LANES, n - first)):
+                i = first + lane
+                p = ints[off + 17 * _LANES + lane]
+                prim[i] = p
+                if p >= 0:
+                    t[i] = buf[off + 8 * _LANES + lane]
+                    u[i] = buf[off + 15 * _LANES + lane]
+                    v[i] = buf[off + 16 * _LANES + lane]
+                else:
+                    t[i] = np.inf
+                    u[i] = 0.0
+                    v[i] = 0.0
 
 
 class TriangleScene:
