@@ -15,6 +15,7 @@ import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
 from numba import njit, prange, types
 
@@ -204,8 +205,11 @@ class TriangleScene:
             prim = np.empty(n, np.int32)
             u = np.empty(n, np.float32)
             v = np.empty(n, np.float32)
-            chunks = max(1, min(4 * threads, n // 1024 or 1))
-            _intersect(self._handle, origins, directions, tfar, chunks, t, prim, u, v)
+            # runs of 64 packets handed out one at a time to whichever thread is free: on a
+            # busy machine a thread that loses its core does not hold the others up
+            chunks = max(1, n // (64 * _LANES))
+            with numba.parallel_chunksize(1):
+                _intersect(self._handle, origins, directions, tfar, chunks, t, prim, u, v)
             return t, prim, u, v
         return self._intersect_embreex(origins, directions, tfar, threads)
 

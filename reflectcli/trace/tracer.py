@@ -11,6 +11,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -64,7 +65,28 @@ def trace_frame(
     samples: int = 1,
     threads: int = 1,
 ) -> Frame:
-    """Ray trace one frame; `samples` x `samples` rays per pixel on a regular grid."""
+    """Ray trace one frame; `samples` x `samples` rays per pixel on a regular grid.
+
+    The kernels' parallel loops hand out CHUNK rays at a time to whichever thread is free
+    (not one fixed share per thread): on a busy machine a thread that loses its core no
+    longer holds the others up. Every ray writes only its own outputs, so results do not
+    depend on who traced what."""
+    with numba.parallel_chunksize(CHUNK):
+        return _trace_frame(scene, geometry, accel, camera, max_depth, samples, threads)
+
+
+CHUNK = 2048  # rays per parallel work item
+
+
+def _trace_frame(
+    scene: Scene,
+    geometry: Geometry,
+    accel: Accelerators,
+    camera: Camera,
+    max_depth: int,
+    samples: int = 1,
+    threads: int = 1,
+) -> Frame:
     timings: dict[str, float] = {"intersect": 0.0, "shade": 0.0}
     start = time.perf_counter()
     h, w = camera.height, camera.width
