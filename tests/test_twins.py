@@ -22,6 +22,7 @@ V = "tests/twins/test_virtual_twins.py::"
 D = "tests/maps/test_distance_search.py::"
 
 RASTER = [R + "test_matches_reference_on_random_scenes",
+          R + "test_fill_row_span_is_bit_identical_to_the_full_box_scan",
           R + "test_near_plane_clipping_matches_ray_casting",
           SR + "test_rasterizer_with_mask_and_depth_floor_matches_twin",
           SR + "test_rasterizer_culling_and_skip_match_twin"]
@@ -59,6 +60,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize.py:_area": (RASTER, "_fill"),
     "raster/rasterize.py:_clip_polygon": (CLIP, "_draw"),
     "raster/rasterize.py:_fill": (RASTER, "_draw"),
+    "raster/rasterize.py:_row_span": (RASTER, "_fill"),
     "raster/rasterize.py:_draw": (RASTER, "rasterize"),
     "trace/embree.py:_intersect": ([E + "test_embree_matches_moller_trumbore",
                                     E + "test_embree_hits_are_common_in_the_property_test",
