@@ -143,8 +143,11 @@ def rasterize(
     total = _bin_starts(counts, offsets, starts)
     items = ws.get("items", (total,), np.int32)
     _bin_fill(status, flags, rows, y0, y1, bands, starts, items)
-    _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets, items,
-          stencil, floor, x0, x1, y0, y1, tri, b1, b2, depth)
+    # bands handed out one at a time to whichever thread is free (their work differs, and on
+    # a busy machine a thread may lose its core); each band owns its rows: same result
+    with numba.parallel_chunksize(1):
+        _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets,
+              items, stencil, floor, x0, x1, y0, y1, tri, b1, b2, depth)
     return RasterBuffers(tri, b1, b2, depth)
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -33,10 +34,13 @@ def shade_buffers(
             scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
             scene.lights.light_f, scene.shading, scene.ambient, scene.background,
             scene.mirrors.reflectance, scene.mirrors.base, rgb, surf)
-    if stencil is None:
-        _shade(*args)
-    else:
-        _shade_stencil(np.ascontiguousarray(stencil, dtype=np.bool_), *args)
+    # rows handed out a few at a time to whichever thread is free (rows cost differently:
+    # background, mirrors and lit surfaces); each pixel is written once: same result
+    with numba.parallel_chunksize(4):
+        if stencil is None:
+            _shade(*args)
+        else:
+            _shade_stencil(np.ascontiguousarray(stencil, dtype=np.bool_), *args)
     return rgb, surf
 
 
