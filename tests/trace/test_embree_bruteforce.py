@@ -265,3 +265,24 @@ def test_embree_kernel_equals_embreex_bit_for_bit():
         np.testing.assert_array_equal(u[hit], res["u"][hit])
         np.testing.assert_array_equal(v[hit], res["v"][hit])
         assert (u[~hit] == 0).all() and (v[~hit] == 0).all()
+
+
+def test_embreex_fallback_gives_the_same_hits(monkeypatch):
+    """Without the library file the binding traces the rays: the same answers."""
+    import reflectcli.trace.embree as embree
+
+    rng = np.random.default_rng(5)
+    corners = rng.uniform(-1, 1, (100, 3, 3)).astype(np.float32)
+    origins = rng.uniform(-2, 2, (3000, 3)).astype(np.float32)
+    d = (rng.uniform(-1, 1, (3000, 3)) - origins).astype(np.float32)
+    tfar = np.full(3000, np.inf, np.float32)
+    fast = TriangleScene(corners).intersect(origins, d, tfar, threads=2)
+    monkeypatch.setattr(embree, "_embree", lambda: None)
+    slow_scene = TriangleScene(corners)
+    assert not slow_scene._handle
+    slow = slow_scene.intersect(origins, d, tfar, threads=2)
+    hit = slow[1] >= 0
+    for a, b in zip(fast[:2], slow[:2], strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(fast[2:], slow[2:], strict=True):
+        np.testing.assert_array_equal(a[hit], b[hit])
