@@ -205,10 +205,11 @@ def ray_triangle(o: np.ndarray, d: np.ndarray, c: np.ndarray):
 
 
 def shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye, mat_i, mat_f,
-          texels, light_f, shading, ambient, background, refl, base):
+          texels, light_f, shading, ambient, background, refl, base, incoming=None):
     """Twin of raster.shade._shade: per pixel, background where nothing was drawn, the
     mirror's (1 - r) * base on mirrors, else the surface color at the barycentric blend of the
-    triangle's corners, uvs and normals, seen from `eye`. Returns (rgb, surface id)."""
+    triangle's corners, uvs and normals, seen from `eye` (or along the pixel's own ray
+    `incoming[y, x]` when given). Returns (rgb, surface id)."""
     h, w = tri.shape
     rgb = np.zeros((h, w, 3))
     surf = np.full((h, w), -1)
@@ -228,7 +229,8 @@ def shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
             uv = bary @ uvs[t].astype(np.float64)
             p = bary @ corners[t].astype(np.float64)
             n = bary @ normals[t].astype(np.float64)
-            rgb[y, x] = surface_color(material[t], uv[0], uv[1], p, n, p - eye, mat_i, mat_f,
+            view = p - eye if incoming is None else incoming[y, x]
+            rgb[y, x] = surface_color(material[t], uv[0], uv[1], p, n, view, mat_i, mat_f,
                                       texels, light_f, shading, ambient)
     return rgb, surf
 

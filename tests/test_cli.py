@@ -26,6 +26,8 @@ SHIPPED = sorted(SCENES.glob("*.toml"))
 TEAPOT_BOX = SCENES / "teapot-box.toml"  # has a 48-frame camera path
 SMALL = ("--set", "camera.width=64", "--set", "camera.height=48")
 CHANNELS = {"R", "G", "B", "A", "Z", "mirror"}
+# raytrace with max_depth >= 1 also writes what each mirror pixel should reflect
+RAYTRACE_CHANNELS = CHANNELS | {"reflected_hit"}
 
 TINY = """\
 [scene]
@@ -97,7 +99,7 @@ def test_render_writes_exr_and_log(tmp_path):
     assert sorted(os.listdir(folder)) == ["frame_0000.exr", "timings.jsonl"]  # no preview
 
     channels, attrs = read_exr(str(folder / "frame_0000.exr"))
-    assert set(channels) == CHANNELS
+    assert set(channels) == RAYTRACE_CHANNELS
     for values in channels.values():
         assert values.shape == (48, 64) and values.dtype == np.float32
     rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
@@ -438,7 +440,7 @@ def test_subprocess_render(here):
     assert proc.returncode == 0, proc.stderr
     assert "wrote 1 frame(s)" in proc.stdout
     channels, attrs = read_exr(str(here / "o" / "tiny" / "raytrace" / "frame_0000.exr"))
-    assert set(channels) == CHANNELS and attrs["reflect:technique"] == "raytrace"
+    assert set(channels) == RAYTRACE_CHANNELS and attrs["reflect:technique"] == "raytrace"
 
 
 def test_subprocess_bad_input_has_no_traceback(here):
@@ -505,7 +507,7 @@ def test_ctrl_c_keeps_complete_frames_only(here):
     assert written == [f"frame_{i:04d}.exr" for i in range(len(written))]
     for name in written:
         channels, attrs = read_exr(str(folder / name))
-        assert set(channels) == CHANNELS and channels["Z"].shape == (120, 160)
+        assert set(channels) == RAYTRACE_CHANNELS and channels["Z"].shape == (120, 160)
         assert attrs["reflect:frame"] == str(int(name[6:10]))
     # Ctrl-C is held while a frame and its log line are written: every kept frame is logged
     rows = read_jsonl(str(folder / "timings.jsonl"))  # every line is complete JSON

@@ -37,6 +37,12 @@ REFINE = [V + "test_screen_refinement_matches_twin"]
 FILL = [V + "test_fill_kernels_match_twin"]
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
 LOOKUP = [V + "test_explosion_lookup_matches_twin"]
+S = "tests/techniques/test_ssr.py::"
+P = "tests/techniques/test_ppr.py::"
+HIZ = [S + "test_hiz_equals_pixel_walk_on_random_buffers",
+       S + "test_hiz_equals_pixel_walk_on_frames"]
+DDA = [S + "test_dda_equals_listing"]
+RESOLVE = [S + "test_resolve_and_confidence_match_twins"]
 
 # kernel -> (tests comparing it with its twin, the kernel it is reached through or None)
 KERNELS: dict[str, tuple[list[str], str | None]] = {
@@ -126,6 +132,27 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/distance_search.py:_distance": (SEARCH, "search_ray"),
     "maps/distance_search.py:_point": (SEARCH, "search_ray"),
     "maps/distance_search.py:_angle": (SEARCH, "search_ray"),
+    "screenspace/rays.py:to_screen": ([S + "test_mirror_rays_match_twin"], None),
+    "screenspace/rays.py:_rays": ([S + "test_mirror_rays_match_twin"], "mirror_rays"),
+    "screenspace/rays.py:distance_at": ([S + "test_distance_at_matches_twin"], None),
+    "screenspace/march.py:jitter_offset": ([S + "test_jitter_offset_matches_twin"], None),
+    "screenspace/march.py:march_linear": ([S + "test_linear_equals_twin"], None),
+    "screenspace/march.py:march_dda": (DDA, None),
+    "screenspace/march.py:march_all": (DDA + [S + "test_linear_equals_twin"], None),
+    "screenspace/hiz.py:_build": ([S + "test_pyramid_matches_twin"], "build_pyramid"),
+    "screenspace/hiz.py:_exit_u": (HIZ, "march_hiz"),
+    "screenspace/hiz.py:pixel_overlap": (HIZ, "march_hiz"),
+    "screenspace/hiz.py:march_hiz": (HIZ, None),
+    "screenspace/hiz.py:march_hiz_all": ([S + "test_hiz_equals_pixel_walk_on_frames"], None),
+    "screenspace/resolve.py:_surface_hit": (RESOLVE, "resolve_hits"),
+    "screenspace/resolve.py:resolve_hits": (RESOLVE, None),
+    "screenspace/resolve.py:confidence": (RESOLVE, None),
+    "screenspace/project.py:project_sources": ([P + "test_projection_and_scatter_match_twin"],
+                                               None),
+    "screenspace/project.py:scatter_min": ([P + "test_projection_and_scatter_match_twin"], None),
+    "screenspace/project.py:_key_at": ([P + "test_fill_matches_twin"], "fill_holes"),
+    "screenspace/project.py:fill_holes": ([P + "test_fill_matches_twin"], None),
+    "screenspace/project.py:decode": ([P + "test_decode_matches_twin"], None),
 }
 
 
@@ -175,13 +202,16 @@ def test_every_named_twin_test_exists():
 
 
 def test_naive_twins_name_their_kernels():
-    """Each twin in tests/naive.py says in its docstring which kernel it twins, and every
-    kernel name in KERNELS (bar helpers reached through a caller) is named by some twin."""
+    """Each twin in tests/naive.py (and tests/naive_screenspace.py) says in its docstring
+    which kernel it twins, and every kernel name in KERNELS (bar helpers reached through a
+    caller) is named by some twin."""
     import naive
+    import naive_screenspace  # the screen-space kernels' twins (issue 15)
 
-    docs = " ".join((getattr(naive, n).__doc__ or "") for n in dir(naive)
-                    if callable(getattr(naive, n)) and not n.startswith("_")
-                    and getattr(getattr(naive, n), "__module__", "") == "naive")
+    docs = " ".join((getattr(mod, n).__doc__ or "") for mod in (naive, naive_screenspace)
+                    for n in dir(mod)
+                    if callable(getattr(mod, n)) and not n.startswith("_")
+                    and getattr(getattr(mod, n), "__module__", "") == mod.__name__)
     for kernel, (_, via) in KERNELS.items():
         path, name = kernel.split(":")
         if via is None or not name.startswith("_"):

@@ -18,6 +18,8 @@ class RunGroup(Strict):
     techniques: list[str] = Field(min_length=1)
     set: list[str] = Field(default_factory=list, description="KEY=VALUE overrides for all")
     sweep: dict[str, list[Any]] = Field(default_factory=dict, description="KEY = [values]")
+    frames: str | None = Field(default=None, description="this block's frames (N or A:B); "
+                               "default: the bench's")
 
 
 class BenchSection(Strict):
@@ -51,7 +53,8 @@ def expand(cfg: BenchConfig, source: str) -> list[dict]:
                     sweep = dict(zip(keys, values, strict=True))
                     overrides = list(group.set) + [f"{k}={_toml(v)}" for k, v in sweep.items()]
                     jobs.append({"scene": path, "technique": technique,
-                                 "overrides": overrides, "sweep": sweep})
+                                 "overrides": overrides, "sweep": sweep,
+                                 "frames": group.frames or cfg.bench.frames})
     return jobs
 
 

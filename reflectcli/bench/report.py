@@ -14,8 +14,9 @@ _METRIC_COLUMNS = [f"{m}_{scope}" for scope in ("mirror", "image") for m in (
     "ssim", "temporal")]
 CSV_COLUMNS = [
     "run", "scene", "technique", "sweep", *_METRIC_COLUMNS,
-    "hole_fraction", "frame_ms_median", "frame_ms_p25", "frame_ms_p75", "timing_warning",
-    "reference_ms_median", "prepare_seconds", "first_frame_ms", "numba_compile_seconds",
+    "hole_fraction", "unreached_fraction", "frame_ms_median", "frame_ms_p25", "frame_ms_p75",
+    "timing_warning", "reference_ms_median", "capture_ms_per_frame", "prepare_seconds",
+    "first_frame_ms", "numba_compile_seconds",
     "triangles", "frames", "repeats", "warmup_renders", "timed_frames", "threads", "cpu",
     "parameters", "overrides", "scene_file",
 ]
@@ -110,7 +111,10 @@ def report_markdown(name: str, rows: list[dict]) -> str:
              "the median (p25-p75) of the timed renders after the warm-up ones; one-time work "
              "(prepare: map capture, decomposition, ...) is its own column and never in frame "
              "time; 'first' is the first render (warm-up: first-frame caches, JIT). Ratios are "
-             "frame-time ratios measured in this run.", ""]
+             "frame-time ratios measured in this run. 'holes': of the mirror pixels whose "
+             "reflected ray meets geometry in the reference, those the technique left empty; "
+             "'unreached': every mirror pixel it did not reach, background reflections "
+             "included.", ""]
     rerender = {_scene_key(r): r["frame_ms_median"] for r in rows if r["technique"] == "rerender"}
     if rows:
         first = rows[0]
@@ -120,9 +124,9 @@ def report_markdown(name: str, rows: list[dict]) -> str:
         lines += [f"## {scene}", "",
                   "| technique | parameters | PSNR mirror | FLIP mirror | SSIM mirror "
                   "| relMSE mirror | p99 mirror | temporal mirror | PSNR image | FLIP image "
-                  "| holes | frame ms (p25-p75) | one-time s | first ms | x rerender "
+                  "| holes | unreached | frame ms (p25-p75) | one-time s | first ms | x rerender "
                   "| x raytrace | triangles |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in (r for r in rows if r["scene"] == scene):
             rr = rerender.get(_scene_key(r))
             timing = (f"{_fmt(r['frame_ms_median'])} ({_fmt(r['frame_ms_p25'])}-"
@@ -135,6 +139,7 @@ def report_markdown(name: str, rows: list[dict]) -> str:
                 f"{_fmt(r.get('relmse_mirror'), 3)} | {_fmt(r.get('p99_mirror'), 3)} | "
                 f"{_fmt(r.get('temporal_mirror'), 3)} | {_fmt(r['psnr_image'])} | "
                 f"{_fmt(r.get('flip_image'), 3)} | {_fmt(100 * r['hole_fraction'], 2)}% | "
+                f"{_fmt(100 * r.get('unreached_fraction', 0.0), 2)}% | "
                 f"{timing} | {_fmt(r.get('prepare_seconds'), 2)} | "
                 f"{_fmt(r.get('first_frame_ms'))} | "
                 f"{_fmt(r['frame_ms_median'] / rr, 2) if rr else '-'} | "
@@ -156,4 +161,3 @@ def report_markdown(name: str, rows: list[dict]) -> str:
                              f"{_fmt(r['psnr_mirror'])} |")
             lines.append("")
     return "\n".join(lines) + "\n"
-

@@ -62,7 +62,7 @@ def load_bench(path: str) -> BenchPlan:
             problems += [Problem(display, where, str(p)) for p in e.problems]
             continue
         job["id"] = _digest(os.path.relpath(job["scene"]), job["technique"], job["overrides"],
-                            cfg.bench.frames)
+                            job["frames"])
         job["scene_name"] = run.name
         job["parameters"] = run.params.model_dump(mode="json")
         ref_overrides = scene_overrides(job["overrides"]) + [
@@ -71,7 +71,7 @@ def load_bench(path: str) -> BenchPlan:
         # the scene's content (files it reads included) is in the id: an edited scene gets a
         # new reference instead of being scored against the old one
         job["reference"] = {
-            "id": _digest(os.path.relpath(job["scene"]), ref_overrides, cfg.bench.frames,
+            "id": _digest(os.path.relpath(job["scene"]), ref_overrides, job["frames"],
                           ref.scene_hash),
             "overrides": ref_overrides,
             "scene_name": ref.name,
@@ -88,7 +88,7 @@ def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> 
     from .. import api
 
     folder = os.path.join(plan.out, "references", job["reference"]["id"])
-    result = api.render(job["scene"], out=folder, frames=plan.config.bench.frames,
+    result = api.render(job["scene"], out=folder, frames=job["frames"],
                         technique="raytrace", overrides=job["reference"]["overrides"],
                         resume=True, threads=threads, repeats=plan.config.bench.repeats,
                         background=False)
@@ -140,7 +140,7 @@ def execute_job(job: dict, settings: dict) -> dict:
 
     folder = os.path.join(settings["out"], "runs", job["id"])
     shutil.rmtree(folder, ignore_errors=True)  # a run without a result row starts over
-    result = api.render(job["scene"], out=folder, frames=settings["frames"],
+    result = api.render(job["scene"], out=folder, frames=job.get("frames", settings["frames"]),
                         technique=job["technique"], overrides=job["overrides"],
                         cache=os.path.join(settings["out"], "cache"),
                         threads=settings.get("threads"), repeats=settings.get("repeats", 1),
@@ -161,7 +161,7 @@ def execute_job(job: dict, settings: dict) -> dict:
         per_frame.append({
             "frame": row["frame"],
             **{f"{k}_{scope}": v for scope in SCOPES for k, v in scores[scope].items()},
-            "hole_fraction": float(row.get("hole_fraction", 0.0)),
+            **hole_fractions(ours, ref, mirror, row),
         })
         for key, value in (("test", a), ("ref", b), ("mirror", mirror)):
             images[key].append(value)
@@ -186,6 +186,11 @@ def execute_job(job: dict, settings: dict) -> dict:
         # one-time work, never in frame time: everything the technique does before its first
         # frame (map capture, decomposition, ...); first_frame_ms shows first-frame caches
         "prepare_seconds": float(first.get("prepare_seconds", 0.0)),
+        # maps (re)captured, amortised over every frame of the run (frame 0's precompute
+        # included): what an update policy costs per frame
+        "capture_ms_per_frame": 1e3 * sum(
+            r.get("stages", {}).get("capture", 0.0) + r.get("stages", {}).get("precompute", 0.0)
+            for r in log) / len(log),
         "numba_compile_seconds": float(first["numba_compile_seconds"]),
         "triangles": int(first.get("triangles", 0)),
         "threads": first["threads"], "cpu": first["cpu"], "versions": first["versions"],
@@ -203,7 +208,8 @@ def execute_job(job: dict, settings: dict) -> dict:
             else:
                 out[key] = _nan_reduce(np.mean, values)
         out[f"temporal_{scope}"] = per_frame[0].pop(f"temporal_{scope}_total")
-    out["hole_fraction"] = float(np.mean([f["hole_fraction"] for f in per_frame]))
+    for key in ("hole_fraction", "unreached_fraction"):
+        out[key] = float(np.mean([f[key] for f in per_frame]))
     out["per_frame"] = per_frame
     return out
 
@@ -211,6 +217,21 @@ def execute_job(job: dict, settings: dict) -> dict:
 def _nan_reduce(fn, values: list[float]) -> float:
     finite = [v for v in values if not math.isnan(v)]
     return float(fn(finite)) if finite else math.nan
+
+
+def hole_fractions(ours: dict, ref: dict, mirror: np.ndarray, row: dict) -> dict:
+    """`hole_fraction`: of the mirror pixels whose reflection the reference shows as
+    geometry (its `reflected_hit` channel), those the technique left as holes (its `holes`
+    channel); `unreached_fraction`: the technique's raw figure from its log (every mirror
+    pixel it did not reach, background reflections included)."""
+    unreached = float(row.get("unreached_fraction", 0.0))
+    if "holes" not in ours or "reflected_hit" not in ref:
+        return {"hole_fraction": unreached if "holes" in ours else 0.0,
+                "unreached_fraction": unreached}
+    should = mirror & (ref["reflected_hit"] >= 0.5)
+    holes = should & (ours["holes"] > 0)
+    return {"hole_fraction": float(holes.sum() / max(int(should.sum()), 1)),
+            "unreached_fraction": unreached}
 
 
 def _mean_psnr(values: list[float]) -> float:
@@ -234,8 +255,6 @@ class BenchResult:
 def run_bench(path: str, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, threads: int | None = None,
               on_row: Callable[[dict], None] | None = None) -> BenchResult:
-    from .outputs import write_outputs
-
     plan = load_bench(path)
     os.makedirs(plan.out, exist_ok=True)
     rows_path = os.path.join(plan.out, "results.jsonl")
@@ -294,3 +313,19 @@ def _execute(jobs, settings, workers, scheduler):
         return
     for job in jobs:
         yield execute_job(job, settings)
+
+
+def write_outputs(plan, rows: list[dict]) -> None:
+    """results.csv, report.md and (with the plots extra) the plots of a bench's rows. Here,
+    not in report.py: plots.py builds on report.py, so report.py must not import it."""
+    from .report import report_markdown, write_csv, write_text
+
+    out = plan.out
+    write_csv(os.path.join(out, "results.csv"), rows)
+    write_text(os.path.join(out, "report.md"), report_markdown(plan.config.bench.name, rows))
+    if plan.config.bench.plots:
+        try:
+            from .plots import write_plots
+        except ImportError:
+            return  # matplotlib is an optional extra
+        write_plots(out, rows)

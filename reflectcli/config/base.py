@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -11,13 +11,15 @@ Vec2 = tuple[float, float]
 Color = Annotated[tuple[float, float, float], Field(description="linear RGB")]
 PositiveInt = Annotated[int, Field(gt=0)]
 UnitFloat = Annotated[float, Field(ge=0.0, le=1.0)]
+# map techniques: capture at frame 0 only, every frame, or every N frames (maps/update.py)
+UpdatePolicy = Literal["once", "every"] | Annotated[int, Field(ge=1)]
 
 
 class Strict(BaseModel):
     """Unknown keys are errors (pbrt-style): a typo must not silently fall back to a default.
     NaN and infinity are errors too: every range check would let them through."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True)
 
 
 # ---------------------------------------------------------------- parameter tables

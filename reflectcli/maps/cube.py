@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from ..camera import Camera
-from ..raster.rasterize import FLAG_SKIP, rasterize
+from ..raster.rasterize import FLAG_SKIP, rasterize, screen_from_ndc
 from ..raster.shade import shade_buffers
 from ..scene.types import Scene, Triangles
 
@@ -38,13 +38,15 @@ def face_bases(point=(0.0, 0.0, 0.0)) -> np.ndarray:
 
 def capture_cube(
     scene: Scene, tris: Triangles, flags: np.ndarray, point: np.ndarray, resolution: int,
-    exclude_surface: int, near: float, far: float,
+    exclude_surface: int, near: float, far: float, which=range(6), out: np.ndarray | None = None,
 ) -> np.ndarray:
     """(6, R, R, 3) float32 linear colors seen from `point`, without surface `exclude_surface`
-    (the reflector itself). Mirrors in view show (1 - r) * base: maps hold no reflections."""
-    faces = np.empty((6, resolution, resolution, 3), np.float32)
+    (the reflector itself). Mirrors in view show (1 - r) * base: maps hold no reflections.
+    Only the faces in `which` are captured; with `out` the others keep their contents
+    (time-sliced updates), else they stay uninitialized."""
+    faces = np.empty((6, resolution, resolution, 3), np.float32) if out is None else out
     pass_flags = flags | np.where(tris.surface == exclude_surface, FLAG_SKIP, 0).astype(np.uint8)
-    for f in range(6):
+    for f in which:
         cam = face_camera(f, point, resolution, near, far)
         buffers = rasterize(tris.corners, pass_flags, cam.clip_from_world(),
                             resolution, resolution)
@@ -75,7 +77,8 @@ def cube_face_coords(bases, rx, ry, rz):
     fwd = rx * bases[face, 2, 0] + ry * bases[face, 2, 1] + rz * bases[face, 2, 2]
     x_ndc = (rx * bases[face, 0, 0] + ry * bases[face, 0, 1] + rz * bases[face, 0, 2]) / fwd
     y_ndc = (rx * bases[face, 1, 0] + ry * bases[face, 1, 1] + rz * bases[face, 1, 2]) / fwd
-    return face, (x_ndc + 1.0) * 0.5, (1.0 - y_ndc) * 0.5
+    sx, sy = screen_from_ndc(x_ndc, y_ndc, 1, 1)  # a face 1 pixel wide
+    return face, sx, sy
 
 
 @njit(cache=True)

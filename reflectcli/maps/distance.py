@@ -47,7 +47,7 @@ def capture_distance_faces(
     pass_flags = flags | np.where(tris.surface == exclude_surface, FLAG_SKIP, 0).astype(np.uint8)
     for f in faces:
         cam = face_camera(f, point, resolution, near, far)
-        clip_from_world = cam.projection_matrix() @ cam.view_matrix()
+        clip_from_world = cam.clip_from_world()
         floor = None
         for k in range(layers):
             buffers = rasterize(tris.corners, pass_flags, clip_from_world, resolution,

@@ -40,7 +40,15 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..scene.types import CYLINDER, PLANAR, SPHERE
+from ..scene.types import (
+    CYLINDER,
+    CYLINDER_AXIS,
+    CYLINDER_ORIGIN,
+    PLANAR,
+    PLANE_NORMAL,
+    SPHERE,
+    SPHERE_CENTER,
+)
 from .cube import cube_face_coords, image_sample
 
 # two different surfaces meet (a crease) when their stored distances at neighbouring samples
@@ -219,13 +227,18 @@ def mirror_ray(tri, b1, b2, corners, normals, kind, p, eye):
     py = c0 * corners[t, 0, 1] + c1 * corners[t, 1, 1] + c2 * corners[t, 2, 1]
     pz = c0 * corners[t, 0, 2] + c1 * corners[t, 1, 2] + c2 * corners[t, 2, 2]
     if kind == PLANAR:
-        nx, ny, nz = p[0], p[1], p[2]
+        nx, ny, nz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
     elif kind == SPHERE:
-        nx, ny, nz = px - p[0], py - p[1], pz - p[2]
-    elif kind == CYLINDER:
-        lx, ly, lz = px - p[0], py - p[1], pz - p[2]
-        d = lx * p[3] + ly * p[4] + lz * p[5]
-        nx, ny, nz = lx - d * p[3], ly - d * p[4], lz - d * p[5]
+        nx = px - p[SPHERE_CENTER]
+        ny = py - p[SPHERE_CENTER + 1]
+        nz = pz - p[SPHERE_CENTER + 2]
+    elif kind == CYLINDER:  # radial direction from the axis
+        lx = px - p[CYLINDER_ORIGIN]
+        ly = py - p[CYLINDER_ORIGIN + 1]
+        lz = pz - p[CYLINDER_ORIGIN + 2]
+        ax, ay, az = p[CYLINDER_AXIS], p[CYLINDER_AXIS + 1], p[CYLINDER_AXIS + 2]
+        d = lx * ax + ly * ay + lz * az
+        nx, ny, nz = lx - d * ax, ly - d * ay, lz - d * az
     else:
         nx = c0 * normals[t, 0, 0] + c1 * normals[t, 1, 0] + c2 * normals[t, 2, 0]
         ny = c0 * normals[t, 0, 1] + c1 * normals[t, 1, 1] + c2 * normals[t, 2, 1]

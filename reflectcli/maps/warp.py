@@ -34,8 +34,7 @@ from numba import njit, prange
 
 from ..camera import Camera
 from ..camera import screen_from_ndc as _screen_from_ndc
-
-screen_from_ndc = njit(cache=True, inline="always")(_screen_from_ndc)
+from ..raster.rasterize import screen_from_ndc
 
 
 def pixel_to_eye(camera: Camera) -> np.ndarray:

@@ -212,18 +212,18 @@ def _setup_one(corners, t, m, planes, width, height, cull, screen, status, rows,
     if rows[t, 0] > rows[t, 1]:
         status[t] = _CULLED
         return
-    if cull != 0:
+    if cull != CULL_NONE:
         area = _area(screen[t, 0], screen[t, 1], screen[t, 3], screen[t, 4],
                      screen[t, 6], screen[t, 7])
         # screen y points down: a counter-clockwise (front) triangle has negative area here
-        if (cull == 1 and area > 0.0) or (cull == 2 and area < 0.0):
+        if (cull == CULL_BACK and area > 0.0) or (cull == CULL_FRONT and area < 0.0):
             status[t] = _CULLED
 
 
 @njit(cache=True, inline="always")
 def _band_range(t, status, flags, rows, top, bottom, band_of):
     """First and last band triangle t reaches (last < first if it is drawn in none)."""
-    if status[t] == _CULLED or flags[t] & 2:
+    if status[t] == _CULLED or flags[t] & FLAG_SKIP:
         return 0, -1
     lo = max(rows[t, 0], top)
     hi = min(rows[t, 1], bottom - 1)
@@ -439,7 +439,7 @@ def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
         for item in range(offsets[band], offsets[band + 1]):
             t = items[item]
             st = status[t]
-            key_scale = MIRROR_TIE if flags[t] & 1 else 1.0
+            key_scale = MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0
             if st == _SIMPLE:
                 s = screen[t]
                 _fill(t, key_scale, s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8],
@@ -448,12 +448,12 @@ def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
             n = _clip_polygon(corners, t, m, planes, width, height, xyw, bary)
             if n < 3:
                 continue
-            if cull != 0:
+            if cull != CULL_NONE:
                 a = 0.0
                 for i in range(1, n - 1):
                     a += _area(xyw[0, 0], xyw[0, 1], xyw[i, 0], xyw[i, 1],
                                xyw[i + 1, 0], xyw[i + 1, 1])
-                if (cull == 1 and a > 0.0) or (cull == 2 and a < 0.0):
+                if (cull == CULL_BACK and a > 0.0) or (cull == CULL_FRONT and a < 0.0):
                     continue
             for i in range(1, n - 1):
                 _fill(t, key_scale, xyw[0, 0], xyw[0, 1], xyw[0, 2],
@@ -467,5 +467,5 @@ def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands,
         for py in range(row0, row1):
             for px in range(col0, col1):
                 t = tri[py, px]
-                if t >= 0 and flags[t] & 1:
+                if t >= 0 and flags[t] & FLAG_MIRROR:
                     depth[py, px] = depth[py, px] / MIRROR_TIE

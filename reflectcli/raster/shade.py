@@ -13,13 +13,18 @@ from .rasterize import RasterBuffers
 
 def shade_buffers(
     buffers: RasterBuffers, tris: Triangles, scene: Scene, eye: np.ndarray,
-    stencil: np.ndarray | None = None, out: tuple[np.ndarray, np.ndarray] | None = None,
+    incoming: np.ndarray | None = None, stencil: np.ndarray | None = None,
+    out: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(rgb (H, W, 3) float32, surface id (H, W) int32).
 
     Object pixels get their shaded color; mirror pixels get (1 - r) * base, the part of the
     mirror's color that does not depend on the reflection (techniques add r * reflected);
-    background pixels get the scene background. `eye` is the world-space viewpoint.
+    background pixels get the scene background. `eye` is the world-space viewpoint: each
+    point is shaded as seen along the ray eye -> point. `incoming` (H, W, 3, world), when
+    given, is instead each pixel's own ray direction arriving at its point (e.g. the
+    reflected ray of a curved mirror's pixel, whose viewpoint differs per pixel); shading
+    uses it only for its side (two-sided normals), as the ray tracer uses its ray.
     With `stencil` (H, W) bool only its pixels are shaded: the others keep whatever `out`
     (rgb, surface arrays to write into, e.g. kept from the last frame) held.
     """
@@ -29,8 +34,14 @@ def shade_buffers(
         surf = np.empty((h, w), np.int32)
     else:
         rgb, surf = out
+    if incoming is None:
+        dirs, per_pixel = np.zeros((1, 1, 3)), False
+    else:
+        dirs, per_pixel = np.ascontiguousarray(incoming, np.float64), True
+        assert dirs.shape == (h, w, 3)
     args = (buffers.triangle, buffers.b1, buffers.b2, tris.corners, tris.uvs, tris.normals,
             tris.material, tris.surface, scene.n_objects, np.asarray(eye, np.float64),
+            dirs, per_pixel,
             scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
             scene.lights.light_f, scene.shading, scene.ambient, scene.background,
             scene.mirrors.reflectance, scene.mirrors.base, rgb, surf)
@@ -46,33 +57,34 @@ def shade_buffers(
 
 @njit(cache=True, parallel=True)
 def _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
-           mat_i, mat_f, texels, light_f, shading, ambient, background, refl, base, rgb, surf):
+           dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient, background, refl,
+           base, rgb, surf):
     h, w = tri.shape
     for y in prange(h):
         for x in range(w):
             _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
-                         n_objects, eye, mat_i, mat_f, texels, light_f, shading, ambient,
-                         background, refl, base, rgb, surf)
+                         n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                         shading, ambient, background, refl, base, rgb, surf)
 
 
 @njit(cache=True, parallel=True)
 def _shade_stencil(stencil, tri, b1, b2, corners, uvs, normals, material, surface, n_objects,
-                   eye, mat_i, mat_f, texels, light_f, shading, ambient, background, refl,
-                   base, rgb, surf):
+                   eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient,
+                   background, refl, base, rgb, surf):
     """_shade of the pixels where `stencil` is set; the others are left as they are."""
     h, w = tri.shape
     for y in prange(h):
         for x in range(w):
             if stencil[y, x]:
                 _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
-                             n_objects, eye, mat_i, mat_f, texels, light_f, shading, ambient,
-                             background, refl, base, rgb, surf)
+                             n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                             shading, ambient, background, refl, base, rgb, surf)
 
 
 @njit(cache=True, inline="always")
 def _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
-                 mat_i, mat_f, texels, light_f, shading, ambient, background, refl, base, rgb,
-                 surf):
+                 dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient, background,
+                 refl, base, rgb, surf):
     t = tri[y, x]
     if t < 0:
         surf[y, x] = -1
@@ -97,8 +109,11 @@ def _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface, n_
     nx = c0 * normals[t, 0, 0] + c1 * normals[t, 1, 0] + c2 * normals[t, 2, 0]
     ny = c0 * normals[t, 0, 1] + c1 * normals[t, 1, 1] + c2 * normals[t, 2, 1]
     nz = c0 * normals[t, 0, 2] + c1 * normals[t, 1, 2] + c2 * normals[t, 2, 2]
-    r, g, bl = surface_color(material[t], u, v, px, py, pz, nx, ny, nz,
-                             px - eye[0], py - eye[1], pz - eye[2],
+    if per_pixel:
+        dx, dy, dz = dirs[y, x, 0], dirs[y, x, 1], dirs[y, x, 2]
+    else:
+        dx, dy, dz = px - eye[0], py - eye[1], pz - eye[2]
+    r, g, bl = surface_color(material[t], u, v, px, py, pz, nx, ny, nz, dx, dy, dz,
                              mat_i, mat_f, texels, light_f, shading, ambient)
     rgb[y, x, 0] = r
     rgb[y, x, 1] = g

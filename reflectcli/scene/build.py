@@ -81,21 +81,22 @@ def object_mesh(obj, source: str) -> Mesh:
     raise AssertionError(s)
 
 
-def transform_at(obj, frame: int) -> np.ndarray:
-    """The object's 4x4 transform at a frame: keyframes interpolate linearly, clamped at ends."""
+def transform_at(obj, frame_index: int) -> np.ndarray:
+    """The object's 4x4 world_from_object transform at frame `frame_index`: keyframes
+    (`motion`, each at its `frame` index) interpolate linearly, clamped at the ends."""
     if not obj.motion:
         t = obj.transform
         return trs_matrix(t.translate, t.rotate, t.scale)
     keys: list[TransformKey] = obj.motion
-    if frame <= keys[0].frame or len(keys) == 1:
+    if frame_index <= keys[0].frame or len(keys) == 1:
         k = keys[0]
         return trs_matrix(k.translate, k.rotate, k.scale)
-    if frame >= keys[-1].frame:
+    if frame_index >= keys[-1].frame:
         k = keys[-1]
         return trs_matrix(k.translate, k.rotate, k.scale)
-    i = max(j for j in range(len(keys)) if keys[j].frame <= frame)
+    i = max(j for j in range(len(keys)) if keys[j].frame <= frame_index)
     a, b = keys[i], keys[i + 1]
-    u = (frame - a.frame) / (b.frame - a.frame)
+    u = (frame_index - a.frame) / (b.frame - a.frame)
 
     def mix(x, y):
         return (1 - u) * np.asarray(x, float) + u * np.asarray(y, float)
@@ -274,8 +275,8 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             )
     last: dict = {}
 
-    def geometry_at(frame: int) -> Geometry:
-        mats = tuple(transform_at(cfg.objects[i], frame).tobytes() for i in moving)
+    def geometry_at(frame_index: int) -> Geometry:
+        mats = tuple(transform_at(cfg.objects[i], frame_index).tobytes() for i in moving)
         if last.get("key") == mats:
             return last["geometry"]
         parts = []
@@ -283,7 +284,7 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             if i in static_parts:
                 parts.append(static_parts[i])
             else:
-                world = mesh.transformed(transform_at(obj, frame)).without_degenerate()
+                world = mesh.transformed(transform_at(obj, frame_index)).without_degenerate()
                 parts.append(_triangles(world, material_index[obj.material], i))
         geometry = Geometry(_concat(parts), mirror_tris, mirror_exact, ("geometry", mats))
         last.update(key=mats, geometry=geometry)

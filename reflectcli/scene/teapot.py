@@ -12,10 +12,15 @@ import json
 from importlib import resources
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from reflectcli.scene.mesh import Mesh
 from reflectcli.scene.primitives import grid_mesh
 
+# Grid points closer than this (native units; the teapot is ~6 across) are one vertex.
+_WELD = 1e-9
 # Below this |du x dv| the patch is pinched (lid top, bottom centre) and the face normal wins.
 _DEGENERATE_NORMAL = 1e-9
 
@@ -42,13 +47,32 @@ def _signed_volume(mesh: Mesh) -> float:
     return float(np.einsum("ij,ij->i", c[:, 0], np.cross(c[:, 1], c[:, 2])).sum() / 6.0)
 
 
+def weld_points(points: np.ndarray, tolerance: float = _WELD) -> np.ndarray:
+    """(..., 3) points with every cluster closer than `tolerance` replaced by its first
+    member (in flat index order), so that shared vertices are bit-identical.
+
+    Adjacent patches share their boundary control points, but evaluating the same boundary
+    curve from two nets (summed in another order, or with t and 1 - t swapped) differs in
+    the last bits: triangles of the two patches then meet along slightly different edges,
+    and a ray (or a rasterized pixel center) can pass between them, a pinhole.
+    """
+    flat = points.reshape(-1, 3)
+    pairs = cKDTree(flat).query_pairs(tolerance, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(len(flat), len(flat)))
+    _, label = connected_components(graph, directed=False)
+    first = np.full(label.max() + 1, len(flat))
+    np.minimum.at(first, label, np.arange(len(flat)))
+    return flat[first[label]].reshape(points.shape)
+
+
 @functools.lru_cache(maxsize=16)
 def _tessellate(subdivisions: int) -> Mesh:
     nets = _control_points()
     t = np.linspace(0.0, 1.0, subdivisions + 1)
     b, db = _bernstein(t)
     # grids indexed [patch, u, v]: rows follow u, columns follow v
-    pos = np.einsum("ai,bj,pijk->pabk", b, b, nets)
+    pos = weld_points(np.einsum("ai,bj,pijk->pabk", b, b, nets))
     d_u = np.einsum("ai,bj,pijk->pabk", db, b, nets)
     d_v = np.einsum("ai,bj,pijk->pabk", b, db, nets)
     # grid_mesh's front is d/dcol x d/drow = Sv x Su, which is outward for Newell's data;
@@ -75,7 +99,10 @@ def _tessellate(subdivisions: int) -> Mesh:
 def teapot(subdivisions: int = 8) -> Mesh:
     """Utah teapot, z-up, about x in [-3, 3.43], y in [-2, 2], z in [0, 3.15].
 
-    Each patch is sampled on a (subdivisions+1)^2 grid. UV: per patch, (u, v) = the patch
+    Each patch is sampled on a (subdivisions+1)^2 grid, and grid points shared by
+    neighbouring patches are welded (bit-identical), so the surface has no cracks along the
+    patch seams; what stays open is Newell's own design (the gap around the lid, the spout's
+    mouth, the handle and spout ends inside the body). UV: per patch, (u, v) = the patch
     parameters in [0,1] (u along the control-net rows, v along the columns), so the texture
     repeats once per patch. Normals come from the patch derivatives, oriented outward, with
     the face normal where the patch is pinched; zero-area triangles are dropped. Results are

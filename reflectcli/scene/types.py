@@ -16,6 +16,13 @@ SOLID, CHECKER, TEXTURE = 0, 1, 2
 # mirror kinds
 PLANAR, SPHERE, CYLINDER, MESH = 0, 1, 2, 3
 MIRROR_PARAMS = 16
+# Column offsets into a row of Mirrors.params. Python code reads rows through the named
+# accessors of Mirrors (plane, corners, sphere, cylinder); numba kernels, which cannot call
+# them, index a row with these (`p[SPHERE_RADIUS]`, `p[CYLINDER_AXIS + 1]`).
+PLANE_NORMAL, PLANE_D = 0, 3  # planar: unit normal xyz, d (n . x + d = 0 on the plane)
+PLANE_P00, PLANE_P10, PLANE_P11, PLANE_P01 = 4, 7, 10, 13  # planar: corners, xyz each
+SPHERE_CENTER, SPHERE_RADIUS = 0, 3  # sphere: center xyz, radius
+CYLINDER_ORIGIN, CYLINDER_AXIS, CYLINDER_RADIUS, CYLINDER_HEIGHT = 0, 3, 6, 7  # axis unit
 
 # shading modes
 UNLIT, LAMBERT = 0, 1
@@ -51,9 +58,10 @@ class Lights:
 class Mirrors:
     """Per mirror: kind, reflectance rgb, base rgb and shape parameters (world space).
 
-    params (float64) columns: planar: n xyz, d, then corners p00 p10 p11 p01 (xyz each);
-    sphere: center xyz, radius; cylinder: origin xyz, axis xyz (unit), radius, height;
-    mesh: unused (its triangles are in Geometry.mirror_tris).
+    params (float64) columns (offsets named PLANE_*, SPHERE_*, CYLINDER_* above): planar: n
+    xyz, d, then corners p00 p10 p11 p01 (xyz each); sphere: center xyz, radius; cylinder:
+    origin xyz, axis xyz (unit), radius, height; mesh: unused (its triangles are in
+    Geometry.mirror_tris).
     """
 
     names: list[str]
@@ -69,37 +77,43 @@ class Mirrors:
     # named views of `params` (read them through these, not by column)
     def plane(self, k: int) -> tuple[np.ndarray, float]:
         """Planar mirror k's plane (n, d): unit n (float64 copy), n.x + d = 0 on it."""
-        return self.params[k, :3].astype(np.float64), float(self.params[k, 3])
+        n = self.params[k, PLANE_NORMAL:PLANE_NORMAL + 3]
+        return n.astype(np.float64), float(self.params[k, PLANE_D])
 
     def corners(self, k: int) -> np.ndarray:
         """Planar mirror k's corners p00, p10, p11, p01 (4, 3), world."""
-        return self.params[k, 4:16].reshape(4, 3)
+        return self.params[k, PLANE_P00:PLANE_P01 + 3].reshape(4, 3)
 
     def sphere(self, k: int) -> tuple[np.ndarray, float]:
         """Sphere mirror k's (center (3,), radius)."""
-        return self.params[k, :3], self.params[k, 3]
+        p = self.params[k]
+        return p[SPHERE_CENTER:SPHERE_CENTER + 3], p[SPHERE_RADIUS]
 
     def cylinder(self, k: int) -> tuple[np.ndarray, np.ndarray, float, float]:
         """Cylinder mirror k's (origin (3,), unit axis (3,), radius, height)."""
         p = self.params[k]
-        return p[:3], p[3:6], p[6], p[7]
+        return (p[CYLINDER_ORIGIN:CYLINDER_ORIGIN + 3], p[CYLINDER_AXIS:CYLINDER_AXIS + 3],
+                p[CYLINDER_RADIUS], p[CYLINDER_HEIGHT])
 
     @staticmethod
     def planar_row(n, d: float, corners) -> np.ndarray:
         row = np.zeros(MIRROR_PARAMS)
-        row[:16] = (*n, d, *np.asarray(corners).reshape(-1))
+        row[PLANE_NORMAL:PLANE_NORMAL + 3], row[PLANE_D] = n, d
+        row[PLANE_P00:PLANE_P01 + 3] = np.asarray(corners).reshape(-1)
         return row
 
     @staticmethod
     def sphere_row(center, radius: float) -> np.ndarray:
         row = np.zeros(MIRROR_PARAMS)
-        row[:4] = (*center, radius)
+        row[SPHERE_CENTER:SPHERE_CENTER + 3], row[SPHERE_RADIUS] = center, radius
         return row
 
     @staticmethod
     def cylinder_row(origin, axis, radius: float, height: float) -> np.ndarray:
         row = np.zeros(MIRROR_PARAMS)
-        row[:8] = (*origin, *axis, radius, height)
+        row[CYLINDER_ORIGIN:CYLINDER_ORIGIN + 3] = origin
+        row[CYLINDER_AXIS:CYLINDER_AXIS + 3] = axis
+        row[CYLINDER_RADIUS], row[CYLINDER_HEIGHT] = radius, height
         return row
 
 

@@ -74,8 +74,19 @@ def precompute_logged(technique: MapTechnique, scene: Scene,
     disk: a render without a cache captures everything, and that is no news) and time it."""
     start = time.perf_counter()
     records = technique.precompute(scene)
-    captured = [r.mirror for r in records if r.status == "captured"]
+    # distmap's records are still dicts (issue 16 merge, WIP); read both forms
+    fields = [(r["mirror"], r["status"]) if isinstance(r, dict) else (r.mirror, r.status)
+              for r in records]
+    captured = [mirror for mirror, status in fields if status == "captured"]
     if captured and technique.cache_dir is not None:
         log.info("%s: captured maps of %s; cached %d", label, ", ".join(captured),
                  len(records) - len(captured))
     return records, time.perf_counter() - start
+
+
+def warn_stale(scene: Scene, technique: str, update="once") -> None:
+    """Map techniques captured once say that objects moving later are missing from them."""
+    if update == "once" and scene.frame_count > 1 and scene.geometry(0).key[1]:
+        log.warning("%s: objects move in this scene, but its maps are captured at frame 0 "
+                    "(update = \"once\"): reflections show them where they were then",
+                    technique)

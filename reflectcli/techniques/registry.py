@@ -16,14 +16,14 @@ from typing import TYPE_CHECKING
 
 from pydantic import BaseModel
 
-from . import distmap, dprm, envmap, raster, raytrace, rerender, virtual
+from . import distmap, dprm, envmap, ppr, raster, raytrace, rerender, ssr, virtual
 
 if TYPE_CHECKING:
     from .base import Technique
 
 DEFAULT_TECHNIQUE = "raytrace"  # a scene that names no technique renders with the ray tracer
 
-_PACKAGES = (raytrace, raster, rerender, envmap, dprm, virtual, distmap)
+_PACKAGES = (raytrace, raster, rerender, envmap, dprm, virtual, distmap, ssr, ppr)
 PARAMS: dict[str, type[BaseModel]] = {
     p.__name__.rsplit(".", 1)[1]: p.Params for p in _PACKAGES
 }
@@ -35,6 +35,8 @@ CLASSES: dict[str, str] = {
     "dprm": "reflectcli.techniques.dprm.technique:Dprm",
     "virtual": "reflectcli.techniques.virtual.technique:Virtual",
     "distmap": "reflectcli.techniques.distmap.technique:Distmap",
+    "ssr": "reflectcli.techniques.ssr.technique:Ssr",
+    "ppr": "reflectcli.techniques.ppr.technique:Ppr",
 }
 
 
@@ -65,13 +67,6 @@ class _Classes(Mapping):
 
 
 TECHNIQUES: Mapping[str, type[Technique]] = _Classes()
-
-
-def map_techniques() -> list[str]:
-    """Names of the techniques that precompute maps (imports their classes)."""
-    from .base import MapTechnique
-
-    return sorted(n for n in CLASSES if issubclass(technique_class(n), MapTechnique))
 
 
 def default_technique() -> BaseModel:

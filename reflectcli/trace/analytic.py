@@ -11,7 +11,23 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..scene.types import CYLINDER, PLANAR, SPHERE
+from ..scene.types import (
+    CYLINDER,
+    CYLINDER_AXIS,
+    CYLINDER_HEIGHT,
+    CYLINDER_ORIGIN,
+    CYLINDER_RADIUS,
+    PLANAR,
+    PLANE_D,
+    PLANE_NORMAL,
+    PLANE_P00,
+    PLANE_P01,
+    PLANE_P10,
+    PLANE_P11,
+    SPHERE,
+    SPHERE_CENTER,
+    SPHERE_RADIUS,
+)
 
 
 def intersect_analytic(
@@ -56,9 +72,10 @@ def _sphere(ox, oy, oz, dx, dy, dz, cx, cy, cz, r, tmin):
 
 @njit(cache=True, inline="always")
 def _cylinder(ox, oy, oz, dx, dy, dz, p, tmin):
-    """Smallest t > tmin on the open tube (origin p[0:3], unit axis p[3:6], radius, height)."""
-    ax, ay, az = p[3], p[4], p[5]
-    lx, ly, lz = ox - p[0], oy - p[1], oz - p[2]
+    """Smallest t > tmin on the open tube of mirror params row p (origin, unit axis, radius,
+    height)."""
+    ax, ay, az = p[CYLINDER_AXIS], p[CYLINDER_AXIS + 1], p[CYLINDER_AXIS + 2]
+    lx, ly, lz = ox - p[CYLINDER_ORIGIN], oy - p[CYLINDER_ORIGIN + 1], oz - p[CYLINDER_ORIGIN + 2]
     dd = dx * ax + dy * ay + dz * az
     ld = lx * ax + ly * ay + lz * az
     # components perpendicular to the axis
@@ -68,7 +85,7 @@ def _cylinder(ox, oy, oz, dx, dy, dz, p, tmin):
     if a == 0.0:
         return np.inf
     b = ux * wx + uy * wy + uz * wz
-    c = wx * wx + wy * wy + wz * wz - p[6] * p[6]
+    c = wx * wx + wy * wy + wz * wz - p[CYLINDER_RADIUS] * p[CYLINDER_RADIUS]
     disc = b * b - a * c
     if disc < 0.0:
         return np.inf
@@ -77,16 +94,16 @@ def _cylinder(ox, oy, oz, dx, dy, dz, p, tmin):
         t = (-b + sign * s) / a
         if t > tmin:
             h = ld + t * dd
-            if 0.0 <= h <= p[7]:
+            if 0.0 <= h <= p[CYLINDER_HEIGHT]:
                 return t
     return np.inf
 
 
 @njit(cache=True, inline="always")
 def _in_triangle(px, py, pz, p, a, b, c):
-    """Is the point (on the plane of normal p[0:3]) inside corner triangle (a, b, c)?
-    Corners are 3-column offsets into p; edges inclusive."""
-    nx, ny, nz = p[0], p[1], p[2]
+    """Is the point (on the plane of planar mirror row p) inside corner triangle (a, b, c)?
+    Corners are column offsets into p (PLANE_P00, ...); edges inclusive."""
+    nx, ny, nz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
     for e in range(3):
         i = (a, b, c)[e]
         j = (a, b, c)[(e + 1) % 3]
@@ -103,14 +120,16 @@ def _in_triangle(px, py, pz, p, a, b, c):
 @njit(cache=True, inline="always")
 def _quad(ox, oy, oz, dx, dy, dz, p, tmin):
     """t > tmin where the ray meets the planar quad (triangles p00 p10 p11 and p00 p11 p01)."""
-    denom = p[0] * dx + p[1] * dy + p[2] * dz
+    nx, ny, nz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
+    denom = nx * dx + ny * dy + nz * dz
     if denom == 0.0:
         return np.inf
-    t = -(p[0] * ox + p[1] * oy + p[2] * oz + p[3]) / denom
+    t = -(nx * ox + ny * oy + nz * oz + p[PLANE_D]) / denom
     if not t > tmin:
         return np.inf
     px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
-    if _in_triangle(px, py, pz, p, 4, 7, 10) or _in_triangle(px, py, pz, p, 4, 10, 13):
+    if (_in_triangle(px, py, pz, p, PLANE_P00, PLANE_P10, PLANE_P11)
+            or _in_triangle(px, py, pz, p, PLANE_P00, PLANE_P11, PLANE_P01)):
         return t
     return np.inf
 
@@ -127,7 +146,8 @@ def _intersect(origins, directions, tfar, kind, params, tmin, t_out, idx_out):
         for k in range(kind.shape[0]):
             p = params[k]
             if kind[k] == SPHERE:
-                t = _sphere(ox, oy, oz, dx, dy, dz, p[0], p[1], p[2], p[3], tmin)
+                t = _sphere(ox, oy, oz, dx, dy, dz, p[SPHERE_CENTER], p[SPHERE_CENTER + 1],
+                            p[SPHERE_CENTER + 2], p[SPHERE_RADIUS], tmin)
             elif kind[k] == CYLINDER:
                 t = _cylinder(ox, oy, oz, dx, dy, dz, p, tmin)
             elif kind[k] == PLANAR:

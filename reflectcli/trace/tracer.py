@@ -17,7 +17,17 @@ from numba import njit, prange
 
 from ..camera import Camera
 from ..frame import Frame
-from ..scene.types import MIRROR_TIE, PLANAR, SPHERE, Geometry, Scene
+from ..scene.types import (
+    CYLINDER_AXIS,
+    CYLINDER_ORIGIN,
+    MIRROR_TIE,
+    PLANAR,
+    PLANE_NORMAL,
+    SPHERE,
+    SPHERE_CENTER,
+    Geometry,
+    Scene,
+)
 from ..shading import surface_color
 from .analytic import intersect_analytic
 from .embree import TriangleScene
@@ -100,6 +110,7 @@ def _trace_frame(
     color = np.zeros((n, 3), np.float32)
     depth = np.full(n, np.inf, np.float32)
     surface = np.full(n, -1, np.int32)
+    reflected_hit = np.zeros(n, np.float32)  # first reflected ray hit geometry
     timings["primary_rays"] = time.perf_counter() - start
     rays = 0
     for bounce in range(max_depth + 1):
@@ -123,12 +134,15 @@ def _trace_frame(
         if bounce == 0:
             depth = np.where(hit_surface >= 0, hit_t + np.float32(camera.near), np.inf)
             surface = hit_surface
+        elif bounce == 1:
+            reflected_hit[slot[hit_surface >= 0]] = 1.0
         origins, directions, weight, slot = next_o[alive], next_d[alive], next_w[alive], slot[alive]
         tfar = np.full(origins.shape[0], _FAR_AWAY, np.float32)
     if spp == 1:  # the mean of one sample is the sample (bit for bit): no float64 pass
         rgb = color.reshape(h, w, 3)
     else:
         rgb = color.reshape(h, w, spp, 3).mean(axis=2, dtype=np.float64).astype(np.float32)
+    reflected_hit = reflected_hit.reshape(h, w, spp).mean(axis=2).astype(np.float32)
     if spp > 1:  # Z, A and ids come from the pixel-center ray, traced once more
         o, d = primary_rays(camera, 1)
         m = d.shape[0]
@@ -155,6 +169,10 @@ def _trace_frame(
         depth=depth.astype(np.float32, copy=False),
         surface=surface.astype(np.int32, copy=False),
         mirror_mask=surface >= scene.n_objects,
+        # what a mirror pixel's reflection should show: 1 where its reflected ray meets
+        # geometry (an object or another mirror), 0 where it leaves for the background (the
+        # fraction of samples that do, with supersampling); techniques' holes count against it
+        extra={"reflected_hit": reflected_hit} if max_depth >= 1 else {},
         timings=timings,
         stats={"rays": int(rays)},
     )
@@ -362,13 +380,18 @@ def _resolve(
             p = m_params[k]
             px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
             if m_kind[k] == PLANAR:
-                gx, gy, gz = p[0], p[1], p[2]
+                gx, gy, gz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
             elif m_kind[k] == SPHERE:
-                gx, gy, gz = px - p[0], py - p[1], pz - p[2]
+                gx = px - p[SPHERE_CENTER]
+                gy = py - p[SPHERE_CENTER + 1]
+                gz = pz - p[SPHERE_CENTER + 2]
             else:  # CYLINDER: radial direction from the axis
-                lx, ly, lz = px - p[0], py - p[1], pz - p[2]
-                h = lx * p[3] + ly * p[4] + lz * p[5]
-                gx, gy, gz = lx - h * p[3], ly - h * p[4], lz - h * p[5]
+                lx = px - p[CYLINDER_ORIGIN]
+                ly = py - p[CYLINDER_ORIGIN + 1]
+                lz = pz - p[CYLINDER_ORIGIN + 2]
+                ax, ay, az = p[CYLINDER_AXIS], p[CYLINDER_AXIS + 1], p[CYLINDER_AXIS + 2]
+                h = lx * ax + ly * ay + lz * az
+                gx, gy, gz = lx - h * ax, ly - h * ay, lz - h * az
             nx, ny, nz = gx, gy, gz
         hit_t[i] = t
         hit_surface[i] = n_objects + k

@@ -13,7 +13,7 @@ import numpy as np
 from ..camera import Camera
 from ..geometry import reflect_point
 from ..raster.primary import Primary
-from ..scene.types import CYLINDER, PLANAR, SPHERE, Scene
+from ..scene.types import CYLINDER, PLANAR, SPHERE, Mirrors, Scene
 from .direct import cylinder_virtual_vertices, profile_virtual_vertices, sphere_virtual_vertices
 from .part import ExplosionPart
 from .shape import ShapeCache, soup_key
@@ -58,9 +58,9 @@ def choose_method(requested: str, kind: int, profiled: bool) -> Method:
     return requested  # type: ignore[return-value]
 
 
-def facing_plane(plane: np.ndarray, eye: np.ndarray) -> tuple[np.ndarray, float]:
-    """A planar mirror's (n, d) (world), signed so that the eye is on its positive side."""
-    n, d = plane[:3].astype(np.float64), float(plane[3])
+def facing_plane(mirrors: Mirrors, k: int, eye: np.ndarray) -> tuple[np.ndarray, float]:
+    """Planar mirror k's (n, d) (world), signed so that the eye is on its positive side."""
+    n, d = mirrors.plane(k)
     if n @ eye + d < 0:
         n, d = -n, -d
     return n, d
@@ -73,22 +73,23 @@ def reflector_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, ca
     `primary`. Explosion parts build their maps when reached (this is a generator)."""
     sid = scene.n_objects + k
     kind = int(scene.mirrors.kind[k])
-    p = scene.mirrors.params[k]
     eye = np.asarray(camera.eye, np.float64)
     method = choose_method(rule.method, kind, k in scene.mirror_profiles)
     stencil_all = primary.frame.surface == sid
     if method == "planar":
-        n, d = facing_plane(p, eye)
+        n, d = facing_plane(scene.mirrors, k, eye)
         # points on or behind the plane (a wall the mirror hangs on) are not reflected:
         # they count as hidden, and draw_virtual clips virtual geometry to behind the plane
         yield stencil_all, lambda pts, _=None: (reflect_point(pts, n, d), pts @ n + d <= 0.0)
         return
-    if method == "sphere":  # params: center (3), radius
-        yield stencil_all, lambda pts, _=None: sphere_virtual_vertices(pts, eye, p[:3], p[3])
+    if method == "sphere":
+        center, radius = scene.mirrors.sphere(k)
+        yield stencil_all, lambda pts, _=None: sphere_virtual_vertices(pts, eye, center, radius)
         return
-    if method == "extrusion" and kind == CYLINDER:  # params: origin (3), axis (3), radius
+    if method == "extrusion" and kind == CYLINDER:
+        origin, axis, radius, _height = scene.mirrors.cylinder(k)
         yield stencil_all, lambda pts, _=None: cylinder_virtual_vertices(
-            pts, eye, p[:3], p[3:6], p[6])
+            pts, eye, origin, axis, radius)
         return
     if method == "extrusion":
         profile, normals, world_from_local, _ = scene.mirror_profiles[k]
@@ -112,7 +113,7 @@ def explosion_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, ca
     mode = rule.decompose_overrides.get(scene.mirrors.names[k], rule.decompose)
     soup = soup_key(corners, normals)
     shape = shapes.get(soup, corners, normals, mode == "auto")
-    clip_from_world = camera.projection_matrix() @ camera.view_matrix()
+    clip_from_world = camera.clip_from_world()
     params = rule.explosion
     view = views.get((soup, mode == "auto"), corners, normals, shape, camera, clip_from_world,
                      params.refine == "screen")

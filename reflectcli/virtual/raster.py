@@ -11,15 +11,21 @@ from ..raster.primary import Primary
 from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP, rasterize, standard_planes
 from ..raster.shade import shade_buffers
 from ..scene.types import Scene, Triangles
+from .refine import reflector_grid
 
 
 def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world: np.ndarray,
                  reflected: Triangles, virtual: np.ndarray, dropped: np.ndarray,
                  stencil: np.ndarray, sid: int, mirror_plane: np.ndarray | None,
-                 reflector_test: str) -> np.ndarray:
+                 reflector_test: str, incoming: np.ndarray) -> np.ndarray:
     """(H, W, 3) colors of the virtual triangles `virtual` (T, 3, 3 world) over `stencil`
     (H, W screen); `dropped` (T,) are skipped. A planar mirror (`mirror_plane` n, d facing
-    the eye) clips them exactly; a curved one applies `reflector_test`."""
+    the eye) clips them exactly; a curved one applies `reflector_test`.
+
+    Each fragment is shaded as the ray tracer shades the same hit: seen along the reflected
+    ray that reaches it, `incoming` (H, W, 3 world: per pixel, the eye ray reflected at the
+    reflector point under it; `reflected_rays`), not from the real eye, which sees the
+    original surface from its other side wherever the mirror shows its underside."""
     planes = standard_planes()  # clip space
     floor = None
     if mirror_plane is not None:  # the exact case: the mirror plane clips
@@ -34,8 +40,59 @@ def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world
     flags[dropped] |= FLAG_SKIP
     buffers = rasterize(virtual.astype(np.float32), flags, clip_from_world, camera.width,
                         camera.height, planes, mask=stencil, depth_floor=floor)
-    colors, _ = shade_buffers(buffers, reflected, scene, camera.eye)
+    colors, _ = shade_buffers(buffers, reflected, scene, camera.eye, incoming)
+    if mirror_plane is None:
+        fill_cracks(colors, buffers.triangle >= 0, stencil)
     return colors
+
+
+def fill_cracks(colors: np.ndarray, covered: np.ndarray, stencil: np.ndarray) -> None:
+    """Close one-pixel cracks between virtual triangles, in place: a stencil pixel no
+    fragment covered whose two neighbours across it (left and right, or above and below)
+    are covered takes their mean color.
+
+    Curved reflectors only. Reflected triangles are split n x n with n chosen per triangle
+    (by its longest edge), so two neighbours split differently meet in a T-junction; the
+    finer side's extra virtual vertices bend off the coarser side's straight virtual edge,
+    and pixel centers fall through the sliver between them (cylinder: 21 background pixels
+    along the reflected wall/floor seam). A reflection one pixel wide between covered pixels
+    on both sides is not something the tessellated objects can show, so the fill is safe;
+    wider gaps (a reflection of the background) are kept."""
+    h, w = covered.shape
+    crack = stencil & ~covered
+    if not crack.any():
+        return
+    total = np.zeros((h, w, 3), np.float64)
+    count = np.zeros((h, w), np.int64)
+    for axis in (0, 1):
+        before = np.zeros_like(covered)
+        after = np.zeros_like(covered)
+        if axis == 0:
+            before[1:] = covered[:-1]
+            after[:-1] = covered[1:]
+        else:
+            before[:, 1:] = covered[:, :-1]
+            after[:, :-1] = covered[:, 1:]
+        pair = crack & before & after
+        if not pair.any():
+            continue
+        ys, xs = np.nonzero(pair)
+        dy, dx = (1, 0) if axis == 0 else (0, 1)
+        total[ys, xs] += colors[ys - dy, xs - dx].astype(np.float64)
+        total[ys, xs] += colors[ys + dy, xs + dx].astype(np.float64)
+        count[ys, xs] += 2
+    filled = count > 0
+    colors[filled] = (total[filled] / count[filled][:, None]).astype(np.float32)
+
+
+def reflected_rays(primary: Primary, eye: np.ndarray) -> np.ndarray:
+    """(H, W, 3) world: per pixel of the primary pass, the direction of the eye ray reflected
+    at the surface point under it (interpolated normal; NaN where nothing was drawn). For a
+    planar mirror every such ray leaves the mirrored eye; for a curved one each pixel has
+    its own viewpoint."""
+    _, r = reflector_grid(primary.buffers.triangle, primary.buffers.b1, primary.buffers.b2,
+                          primary.triangles.corners, primary.triangles.normals, eye)
+    return r
 
 
 def mirror_clip_plane(plane: np.ndarray, eye: np.ndarray,

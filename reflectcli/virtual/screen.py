@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..camera import screen_from_ndc
+
 
 def screen_from_world(points: np.ndarray, clip_from_world: np.ndarray, width: int,
                       height: int) -> np.ndarray:
@@ -12,7 +14,5 @@ def screen_from_world(points: np.ndarray, clip_from_world: np.ndarray, width: in
     h = points @ clip_from_world[:3, :3].T + clip_from_world[:3, 3]  # clip x, y, z
     w = points @ clip_from_world[3, :3] + clip_from_world[3, 3]
     with np.errstate(divide="ignore", invalid="ignore"):
-        # NDC -> screen
-        x = (h[:, 0] / w + 1.0) * 0.5 * width
-        y = (1.0 - h[:, 1] / w) * 0.5 * height
+        x, y = screen_from_ndc(h[:, 0] / w, h[:, 1] / w, width, height)
     return np.stack([x, y, w], axis=1)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -16,7 +17,8 @@ from reflectcli.output.log import read_jsonl
 ROOT = Path(__file__).resolve().parents[2]
 TIMING = {"frame_ms_median", "frame_ms_p25", "frame_ms_p75", "reference_ms_median",
           "precompute_seconds", "prepare_seconds", "first_frame_ms", "numba_compile_seconds",
-          "images", "reference_images"}
+          "images", "reference_images",
+          "capture_ms_per_frame"}
 
 
 def _bench_file(tmp_path, name="t"):
@@ -38,7 +40,8 @@ set = ["camera.width=48", "camera.height=36"]
 [[runs]]
 scenes = ["{scenes / 'teapot-box.toml'}"]
 techniques = ["dprm"]
-set = ["camera.width=48", "camera.height=36"]
+set = ["camera.width=48", "camera.height=36", "technique.maps.count=1",
+       "technique.maps.per_frame=1", 'technique.reconstruct="color"']
 [runs.sweep]
 "technique.maps.resolution" = [16, 32]
 """)
@@ -176,3 +179,25 @@ set = ["camera.width=32", "camera.height=24"]
     refs = list((tmp_path / "out-b" / "references").iterdir())
     assert len(refs) == 2  # the old reference is not reused for the edited scene
     assert first.rows[0]["psnr_mirror"] > 60 and second.rows[0]["psnr_mirror"] > 60
+
+
+def test_holes_count_only_where_the_reference_reflects_geometry():
+    """A technique's raw holes include mirror pixels whose reflection is the background
+    (open scenes: 46-64% 'holes' while looking complete); the bench's hole_fraction counts
+    only the pixels where the reference's reflected ray meets geometry."""
+    from reflectcli.bench.runner import hole_fractions
+
+    mirror = np.zeros((4, 4), bool)
+    mirror[:, :2] = True  # 8 mirror pixels
+    hit = np.zeros((4, 4), np.float32)
+    hit[:2, :2] = 1.0  # 4 of them reflect geometry, 4 the sky
+    holes = np.zeros((4, 4), np.float32)
+    holes[:, 0] = 1.0  # 4 holes: 2 over geometry, 2 over the sky
+    row = {"unreached_fraction": 0.5}
+    got = hole_fractions({"holes": holes}, {"reflected_hit": hit}, mirror, row)
+    assert got == {"hole_fraction": 0.5, "unreached_fraction": 0.5}
+    holes[:2, 0] = 0.0  # only the sky's pixels left empty: no holes at all
+    got = hole_fractions({"holes": holes}, {"reflected_hit": hit}, mirror, {})
+    assert got["hole_fraction"] == 0.0
+    # techniques without holes (rerender, virtual) report none
+    assert hole_fractions({}, {"reflected_hit": hit}, mirror, {})["hole_fraction"] == 0.0

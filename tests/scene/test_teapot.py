@@ -62,3 +62,26 @@ def test_cached_and_frozen():
         a.corners[0, 0, 0] = 1.0
     with pytest.raises(ValueError):
         teapot(0)
+
+
+@pytest.mark.parametrize("level", [5, 8])
+def test_patch_seams_are_welded(level):
+    """Neighbouring patches meet at bit-identical vertices (else rays slip between them):
+    no two distinct vertices closer than 1e-6, and the only open edges are Newell's own
+    (the lid's gap at z = 2.4, the spout's mouth, handle and spout ends)."""
+    from scipy.spatial import cKDTree
+
+    m = teapot(level)
+    pts, inverse = np.unique(m.corners.reshape(-1, 3), axis=0, return_inverse=True)
+    assert len(cKDTree(pts).query_pairs(1e-6)) == 0
+    tri = inverse.reshape(-1, 3)
+    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    unique, count = np.unique(edges, axis=0, return_counts=True)
+    assert count.max() == 2
+    open_points = pts[np.unique(unique[count == 1])]
+    on_lid_gap = np.isclose(open_points[:, 2], 2.4)
+    radius = np.hypot(open_points[:, 0], open_points[:, 1])
+    assert np.isclose(radius[on_lid_gap], 1.3, atol=0.01).sum() == 4 * level  # lid's rim
+    assert np.isclose(radius[on_lid_gap], 1.4, atol=0.01).sum() == 4 * level  # body's rim
+    # the rest: spout mouth and the handle's and spout's ends, all away from the lid
+    assert (~on_lid_gap).sum() <= 8 * level + 8

@@ -174,3 +174,28 @@ def test_sphere_mirror_reflects_by_the_law(tmp_path):
     either = np.minimum(np.abs(got - CHECKER["color0"]).max(1),
                         np.abs(got - CHECKER["color1"]).max(1))
     assert either.max() <= 1e-6
+
+
+def test_reflected_hit_marks_reflections_of_geometry():
+    """`reflected_hit` is 1 on mirror pixels whose reflected ray meets geometry and 0 where
+    it leaves for the background (teapot-floor's floor mirror shows the open sky above the
+    backdrop), 0 off the mirrors; only traced when reflections are (max_depth >= 1)."""
+    from conftest import render_frame
+
+    size = ("camera.width=160", "camera.height=120")
+    frame, scene = render_frame("teapot-floor", "raytrace", 0, ("technique.max_depth=1", *size))
+    hit = frame.extra["reflected_hit"]
+    mirror = frame.mirror_mask
+    assert set(np.unique(hit)) == {0.0, 1.0}
+    assert not hit[~mirror].any()
+    on_mirror = hit[mirror]
+    assert 0.05 < on_mirror.mean() < 0.95  # both kinds of reflection are in view
+    # where the reflection is the background, the pixel shows r * background + (1-r) * base
+    k = 0
+    r, base = scene.mirrors.reflectance[k], scene.mirrors.base[k]
+    sky = mirror & (hit == 0)
+    expected = (1 - r) * base + r * np.asarray(scene.background)
+    np.testing.assert_allclose(frame.rgb[sky], np.broadcast_to(expected, frame.rgb[sky].shape),
+                               atol=1e-6)
+    flat, _ = render_frame("teapot-floor", "raytrace", 0, ("technique.max_depth=0", *size))
+    assert "reflected_hit" not in flat.extra

@@ -154,7 +154,8 @@ def random_scene_arrays(rng, n_tri, n_objects, n_mirrors):
 
 @pytest.mark.parametrize("shading", [UNLIT, LAMBERT])
 @pytest.mark.parametrize("seed", range(2))
-def test_shade_pass_matches_twin(seed, shading):
+@pytest.mark.parametrize("per_pixel", [False, True])
+def test_shade_pass_matches_twin(seed, shading, per_pixel):
     rng = np.random.default_rng(seed)
     mat_i, mat_f, texels = materials(rng)
     light_f = lights(rng)
@@ -173,11 +174,15 @@ def test_shade_pass_matches_twin(seed, shading):
     base = rng.random((n_mirrors, 3)).astype(np.float32)
     rgb = np.empty((h, w, 3), np.float32)
     surf = np.empty((h, w), np.int32)
-    _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye, mat_i,
-           mat_f, texels, light_f, shading, 0.1, background, refl, base, rgb, surf)
+    # per pixel incoming rays (a curved mirror's reflected rays), or the eye's
+    incoming = rng.normal(size=(h, w, 3)) if per_pixel else None
+    dirs = incoming if per_pixel else np.zeros((1, 1, 3))
+    _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye, dirs,
+           per_pixel, mat_i, mat_f, texels, light_f, shading, 0.1, background, refl, base, rgb,
+           surf)
     want_rgb, want_surf = shade(tri, b1, b2, corners, uvs, normals, material, surface,
                                 n_objects, eye, mat_i, mat_f, texels, light_f, shading, 0.1,
-                                background, refl, base)
+                                background, refl, base, incoming)
     np.testing.assert_array_equal(surf, want_surf)
     np.testing.assert_allclose(rgb, want_rgb, rtol=2e-5, atol=1e-6)
     # the stencilled kernel: the same pixels where the stencil is set, nothing else touched
@@ -186,10 +191,10 @@ def test_shade_pass_matches_twin(seed, shading):
     stencil[:, -1] = False
     rgb_s = np.full((h, w, 3), -7.0, np.float32)
     surf_s = np.full((h, w), -9, np.int32)
-    args = (tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye, mat_i,
-            mat_f, texels, light_f, shading, 0.1, background, refl, base)
-    want_rgb_s, want_surf_s = shade_stencil(stencil, rgb_s, surf_s, *args)
-    _shade_stencil(stencil, *args, rgb_s, surf_s)
+    head = (tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye)
+    tail = (mat_i, mat_f, texels, light_f, shading, 0.1, background, refl, base)
+    want_rgb_s, want_surf_s = shade_stencil(stencil, rgb_s, surf_s, *head, *tail, incoming)
+    _shade_stencil(stencil, *head, dirs, per_pixel, *tail, rgb_s, surf_s)
     np.testing.assert_array_equal(surf_s, want_surf_s)
     np.testing.assert_allclose(rgb_s, want_rgb_s, rtol=2e-5, atol=1e-6)
     assert (rgb_s[~stencil] == -7.0).all() and (surf_s[~stencil] == -9).all()

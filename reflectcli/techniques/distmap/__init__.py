@@ -5,8 +5,8 @@ Szirmay-Kalos, "Robust Multiple Specular Reflections and Refractions", GPU Gems 
 | parameter | type | default | meaning |
 |---|---|---|---|
 | `resolution` | int in [4, 4096] | 256 | texels per cube face side |
-| `layers` | int in [1, 8] | 1 | surfaces per texel, depth-peeled (1: the distance impostor) |
-| `steps` | int in [1, 1024] | 16 | linear-march samples along the reflected ray |
+| `layers` | int in [1, 8] | 4 | surfaces per texel, depth-peeled (1: the distance impostor) |
+| `steps` | int in [1, 1024] | 32 | linear-march samples along the reflected ray |
 | `refine_steps` | int in [0, 64] | 4 | secant steps after the march (0: the march alone) |
 | `filter` | "nearest", "bilinear" | "bilinear" | colour filter at the hit direction |
 | `capture_offset` | float >= 0.0 | 0.05 | planar mirrors: capture point in front of the center |
@@ -51,8 +51,8 @@ class DistmapParams(Strict):
 
     name: Literal["distmap"] = "distmap"
     resolution: int = Field(default=256, ge=4, le=4096, description="texels per face side")
-    layers: int = Field(default=1, ge=1, le=8, description="surfaces per texel")
-    steps: int = Field(default=16, ge=1, le=1024, description="linear-march samples")
+    layers: int = Field(default=4, ge=1, le=8, description="surfaces per texel")
+    steps: int = Field(default=32, ge=1, le=1024, description="linear-march samples")
     refine_steps: int = Field(default=4, ge=0, le=64, description="secant steps")
     filter: Literal["nearest", "bilinear"] = Field(default="bilinear", description="filter")
     capture_offset: float = Field(default=0.05, ge=0.0, description="planar capture offset")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -17,11 +18,34 @@ from ...maps.update import face_capture_frames
 from ...raster.primary import render_primary
 from ...raster.rasterize import FLAG_MIRROR
 from ...scene.types import Scene, scene_extent
-from ..base import MapTechnique, precompute_logged
+from ..base import MapRecord, MapTechnique, precompute_logged, warn_stale
 from ..envmap.technique import capture_point
 from . import DistmapParams as Params
 
 MAP_FORMAT = 1  # bump when the stored layout changes
+
+
+@dataclass
+class DistmapRecord(MapRecord):
+    """One reflector's layered distance cube map and the frame each face was captured at."""
+
+    index: int  # the mirror's index k
+    point: np.ndarray  # (3,) capture point, world
+    color: np.ndarray  # (layers, 6, S, S, 3) float32, linear RGB
+    depth: np.ndarray  # (layers, 6, S, S) float32, eye depth along the face's axis
+    surface: np.ndarray  # (layers, 6, S, S) int32 surface ids (-1: none)
+    q: np.ndarray  # inverse depth of `depth`, what the search interpolates
+    faces_frame: list[int]  # per cube face, the frame_index its capture comes from
+
+
+@dataclass
+class DistmapState:
+    scene: Scene
+    maps: list[DistmapRecord]
+    precompute_seconds: float
+    near: float
+    far: float
+    cache: MapCache
 
 
 class Distmap(MapTechnique):
@@ -29,18 +53,20 @@ class Distmap(MapTechnique):
     Params = Params
 
     # -- capture -------------------------------------------------------------------------
-    def _key(self, scene: Scene, name: str, point, near: float, far: float, frame: int) -> str:
+    def _key(self, scene: Scene, name: str, point, near: float, far: float,
+             frame_index: int) -> str:
         p: Params = self.params
         return cache_key(format=MAP_FORMAT, technique="distmap", scene=scene.content_hash,
                          mirror=name, point=point, resolution=p.resolution, layers=p.layers,
-                         near=near, far=far, capture_frame=frame)
+                         near=near, far=far, capture_frame=frame_index)
 
-    def _capture_whole(self, scene: Scene, k: int, point, frame: int, cache: MapCache):
-        """All six faces at `frame`, through the cache: (color, depth, surface, status)."""
+    def _capture_whole(self, scene: Scene, k: int, point, frame_index: int, cache: MapCache):
+        """All six faces at `frame_index`, through the cache: (color, depth, surface,
+        status)."""
         p: Params = self.params
         name = scene.mirrors.names[k]
         near, far = scene_extent(scene)
-        key = self._key(scene, name, point, near, far, frame)
+        key = self._key(scene, name, point, near, far, frame_index)
         parts = cache.load("distmap", key, lambda parts: _valid(parts, p))
         if parts is not None:
             shape = (p.layers, 6, p.resolution, p.resolution)
@@ -53,7 +79,7 @@ class Distmap(MapTechnique):
                 depth[layer, face] = c["Z"]
                 surface[layer, face] = c["S"].astype(np.int32)
             return color, depth, surface, "cached"
-        color, depth, surface = self._capture(scene, k, point, frame, range(6), None)
+        color, depth, surface = self._capture(scene, k, point, frame_index, range(6), None)
         parts = [(f"layer{layer}{FACE_NAMES[face]}",
                   {"R": color[layer, face, :, :, 0], "G": color[layer, face, :, :, 1],
                    "B": color[layer, face, :, :, 2], "Z": depth[layer, face],
@@ -62,20 +88,23 @@ class Distmap(MapTechnique):
         cache.store("distmap", key, parts, {
             "reflect:mirror": name, "reflect:layers": str(p.layers),
             "reflect:capture_point": " ".join(f"{v:.9g}" for v in point),
-            "reflect:capture_frame": str(frame), "reflect:resolution": str(p.resolution)})
+            "reflect:capture_frame": str(frame_index), "reflect:resolution": str(p.resolution)})
         return color, depth, surface, "captured"
 
-    def _capture(self, scene: Scene, k: int, point, frame: int, faces, out):
+    def _capture(self, scene: Scene, k: int, point, frame_index: int, faces, out):
+        """The given faces of mirror k's map from the geometry of `frame_index`, into `out`
+        (color, depth, surface) or new arrays."""
         p: Params = self.params
         near, far = scene_extent(scene)
-        tris = scene.geometry(frame).all_triangles()
+        tris = scene.geometry(frame_index).all_triangles()
         flags = np.where(tris.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
         return capture_distance_faces(scene, tris, flags, point, p.resolution, p.layers,
                                       scene.n_objects + k, near, far, faces, out)
 
     def precompute(self, scene: Scene, on_map=None, on_progress=None,
-                   frame: int = 0) -> list[dict]:
-        """Capture (or load) every reflector's map as used at frame 0; one record each."""
+                   frame_index: int = 0) -> list[DistmapRecord]:
+        """Capture (or load) every reflector's map as used at `frame_index`; one record
+        each."""
         p: Params = self.params
         unknown = sorted(set(p.capture) - set(scene.mirrors.names))
         if unknown:
@@ -86,14 +115,23 @@ class Distmap(MapTechnique):
         for k, name in enumerate(scene.mirrors.names):
             point = capture_point(scene, k, p)
             start = time.perf_counter()
-            color, depth, surface, status = self._capture_whole(scene, k, point, frame, cache)
+            wanted = face_capture_frames(frame_index, p.update, p.faces_per_frame)
+            at = wanted[0] if len(set(wanted)) == 1 else frame_index
+            color, depth, surface, status = self._capture_whole(scene, k, point, at, cache)
+            faces_frame = [at] * 6
+            stale = [f for f in range(6) if wanted[f] != at]
+            for then in sorted({wanted[f] for f in stale}):
+                color, depth, surface = self._capture(
+                    scene, k, point, then, [f for f in stale if wanted[f] == then],
+                    (color, depth, surface))
+                for f in stale:
+                    if wanted[f] == then:
+                        faces_frame[f] = then
             near, far = scene_extent(scene)
-            record = {"mirror": name, "index": k, "status": status, "point": point,
-                      "seconds": time.perf_counter() - start,
-                      "path": cache.path("distmap", self._key(scene, name, point, near, far,
-                                                              frame)),
-                      "color": color, "depth": depth, "surface": surface,
-                      "q": inverse_depth(depth), "faces_frame": [frame] * 6}
+            record = DistmapRecord(
+                name, status, time.perf_counter() - start,
+                cache.path("distmap", self._key(scene, name, point, near, far, at)),
+                k, point, color, depth, surface, inverse_depth(depth), faces_frame)
             records.append(record)
             if on_map is not None:
                 on_map(record)
@@ -102,70 +140,72 @@ class Distmap(MapTechnique):
         return records
 
     # -- render --------------------------------------------------------------------------
-    def prepare(self, scene: Scene) -> dict:
+    def prepare(self, scene: Scene) -> DistmapState:
         records, seconds = precompute_logged(self, scene, "distmap")
         near, far = scene_extent(scene)
-        return {"scene": scene, "maps": records, "precompute_seconds": seconds,
-                "near": near, "far": far, "cache": MapCache(self.cache_dir)}
+        warn_stale(scene, "distmap", self.params.update)
+        return DistmapState(scene, records, seconds, near, far, MapCache(self.cache_dir))
 
-    def _update(self, state: dict, frame: int) -> int:
-        """Recapture what the update policy asks for at `frame`; the faces captured."""
+    def _update(self, state: DistmapState, frame_index: int) -> int:
+        """Recapture what the update policy asks for at `frame_index`; the faces captured."""
         p: Params = self.params
-        scene: Scene = state["scene"]
-        wanted = face_capture_frames(frame, p.update, p.faces_per_frame)
+        scene = state.scene
+        wanted = face_capture_frames(frame_index, p.update, p.faces_per_frame)
         captured = 0
-        for record in state["maps"]:
-            stale = [f for f in range(6) if record["faces_frame"][f] != wanted[f]]
+        for record in state.maps:
+            stale = [f for f in range(6) if record.faces_frame[f] != wanted[f]]
             if not stale:
                 continue
-            k = record["index"]
+            k = record.index
             if len(stale) == 6 and len(set(wanted)) == 1:
-                color, depth, surface, _ = self._capture_whole(scene, k, record["point"],
-                                                               wanted[0], state["cache"])
-                record.update(color=color, depth=depth, surface=surface)
+                record.color, record.depth, record.surface, _ = self._capture_whole(
+                    scene, k, record.point, wanted[0], state.cache)
             else:
-                out = (record["color"].copy(), record["depth"].copy(), record["surface"].copy())
+                out = (record.color.copy(), record.depth.copy(), record.surface.copy())
                 for at in sorted({wanted[f] for f in stale}):
                     faces = [f for f in stale if wanted[f] == at]
-                    out = self._capture(scene, k, record["point"], at, faces, out)
-                record.update(color=out[0], depth=out[1], surface=out[2])
-            record["q"] = inverse_depth(record["depth"])
-            record["faces_frame"] = list(wanted)
+                    out = self._capture(scene, k, record.point, at, faces, out)
+                record.color, record.depth, record.surface = out
+            record.q = inverse_depth(record.depth)
+            record.faces_frame = list(wanted)
             captured += len(stale)
         return captured
 
-    def render(self, state: dict, frame: int, camera: Camera) -> Frame:
-        scene: Scene = state["scene"]
+    def render(self, state: DistmapState, frame_index: int, camera: Camera) -> Frame:
+        scene = state.scene
         p: Params = self.params
         t0 = time.perf_counter()
-        faces = self._update(state, frame)
+        faces = self._update(state, frame_index)
         t1 = time.perf_counter()
-        primary = render_primary(scene, frame, camera)
+        primary = render_primary(scene, frame_index, camera)
         result = primary.frame
         h, w = result.surface.shape
         holes = np.zeros((h, w), np.float32)
         taken = np.zeros((h, w), np.int32)
         bases = face_bases()
-        a_min = 1e-3 * state["far"]
+        a_min = 1e-3 * state.far
         t2 = time.perf_counter()
-        for record in state["maps"]:
-            k = record["index"]
+        for record in state.maps:
+            k = record.index
             search_reflections(
                 result.rgb, holes, taken, primary.buffers, result.surface, scene.n_objects + k,
                 primary.triangles, int(scene.mirrors.kind[k]), scene.mirrors.params[k],
-                scene.mirrors.reflectance[k], camera.eye, record["point"], a_min, state["far"],
-                record["q"], record["surface"], record["color"], bases, p.steps, p.refine_steps,
+                scene.mirrors.reflectance[k], camera.eye, record.point, a_min, state.far,
+                record.q, record.surface, record.color, bases, p.steps, p.refine_steps,
                 p.filter == "bilinear", scene.background)
         t3 = time.perf_counter()
         mirror = result.surface >= scene.n_objects
         n_mirror = int(mirror.sum())
         result.extra["holes"] = holes
         result.timings.update({"capture": t1 - t0, "search": t3 - t2,
-                               "precompute": state["precompute_seconds"] if frame == 0 else 0.0})
+                               "precompute": state.precompute_seconds if frame_index == 0
+                               else 0.0})
         result.stats.update({
-            "maps": len(state["maps"]),
-            "faces_captured": faces if frame else 6 * len(state["maps"]),
-            "holes": int(holes.sum()), "hole_fraction": float(holes.sum() / max(n_mirror, 1)),
+            "maps": len(state.maps),
+            "faces_captured": faces if frame_index else 6 * len(state.maps),
+            # raw: rays that crossed nothing, background reflections included (see dprm)
+            "unreached": int(holes.sum()),
+            "unreached_fraction": float(holes.sum() / max(n_mirror, 1)),
             "search_steps": float(taken[mirror].mean()) if n_mirror else 0.0})
         return result
 

@@ -15,6 +15,7 @@ from ...frame import Frame
 from ...geometry import reflection_matrix
 from ...maps.cache import MapCache, cache_key
 from ...maps.surface import surface_colors
+from ...maps.update import map_capture_frame
 from ...maps.warp import WarpBuffers, fill_blend, gather_colors, stencil_box, warp_maps
 from ...maps.zexel import (
     ZexelMap,
@@ -27,7 +28,7 @@ from ...maps.zexel import (
 from ...raster.primary import render_primary
 from ...raster.rasterize import RasterWorkspace
 from ...scene.types import PLANAR, Scene, Triangles, scene_extent
-from ..base import MapRecord, MapTechnique, precompute_logged, warn_non_planar
+from ..base import MapRecord, MapTechnique, precompute_logged, warn_non_planar, warn_stale
 from . import DprmMaps, DprmParams
 
 log = logging.getLogger("reflect")
@@ -43,6 +44,7 @@ class DprmRecord(MapRecord):
     plane: tuple[np.ndarray, float]  # (n, d) of the mirror, world
     viewpoints: np.ndarray  # (count, 3) the maps' viewpoints, world
     pyramids: dict[int, list[ZexelMap]] = field(default_factory=dict)  # map j -> mip levels
+    capture_frame: int = 0  # the frame_index whose geometry the maps show
 
 
 @dataclass
@@ -50,7 +52,7 @@ class DprmState:
     scene: Scene
     mirrors: list[DprmRecord]
     precompute_seconds: float
-    triangles: Triangles  # the frame-0 triangles the maps' T channel indexes
+    triangles: Triangles  # the capture frame's triangles the maps' T channel indexes
     # per mirror index: (reflected colors, filled pixels) of the previous frame
     previous: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     buffers: FrameBuffers | None = None  # per-frame arrays kept across frames
@@ -79,14 +81,16 @@ class Dprm(MapTechnique):
     name = "dprm"
     Params = DprmParams
 
-    def precompute(self, scene: Scene, on_map=None, on_progress=None) -> list[DprmRecord]:
-        """Capture (or load) every planar mirror's maps; one record per mirror.
-        on_progress(maps done, maps in all) follows the capture map by map."""
+    def precompute(self, scene: Scene, on_map=None, on_progress=None,
+                   frame_index: int = 0) -> list[DprmRecord]:
+        """Capture (or load) every planar mirror's maps as used at `frame_index`; one record
+        per mirror. on_progress(maps done, maps in all) follows the capture map by map."""
         p: DprmMaps = self.params.maps
         total = p.count * int(np.count_nonzero(scene.mirrors.kind == PLANAR))
         done = 0
         cache = MapCache(self.cache_dir)
         near, far = scene_extent(scene)
+        at = map_capture_frame(frame_index, self.params.update)
         records = []
         for k, name in enumerate(scene.mirrors.names):
             if scene.mirrors.kind[k] != PLANAR:
@@ -97,7 +101,8 @@ class Dprm(MapTechnique):
             cams = [map_camera(mf, v, p.resolution, near, far) for v in points]
             key = cache_key(format=MAP_FORMAT, technique="dprm", scene=scene.content_hash,
                             mirror=name, count=p.count, resolution=p.resolution,
-                            layout=p.layout, radius=radius, spread=p.spread, near=near, far=far)
+                            layout=p.layout, radius=radius, spread=p.spread, near=near, far=far,
+                            capture_frame=at)
             start = time.perf_counter()
             parts = cache.load("dprm", key, lambda parts: _valid(parts, p))
             status = "cached"
@@ -105,7 +110,7 @@ class Dprm(MapTechnique):
                 status = "captured"
                 maps = []
                 for cam in cams:
-                    maps.append(capture_map(scene, k, cam))
+                    maps.append(capture_map(scene, k, cam, at))
                     done += 1
                     if on_progress is not None:
                         on_progress(done, total)
@@ -116,7 +121,8 @@ class Dprm(MapTechnique):
                          for j, m in enumerate(maps)]
                 cache.store("dprm", key, parts, {
                     "reflect:mirror": name, "reflect:maps": str(p.count),
-                    "reflect:near": repr(near), "reflect:far": repr(far)}, [
+                    "reflect:near": repr(near), "reflect:far": repr(far),
+                    "reflect:capture_frame": str(at)}, [
                     {"reflect:viewpoint": _numbers(cam.eye),
                      "reflect:view_matrix": _numbers(cam.view_matrix()),
                      "reflect:projection_matrix": _numbers(cam.projection_matrix()),
@@ -130,7 +136,8 @@ class Dprm(MapTechnique):
                     on_progress(done, total)
             record = DprmRecord(name, status, time.perf_counter() - start,
                                 cache.path("dprm", key), k, maps,
-                                (mf.normal, float(-mf.normal @ mf.center)), points)
+                                (mf.normal, float(-mf.normal @ mf.center)), points,
+                                capture_frame=at)
             records.append(record)
             if on_map is not None:
                 on_map(record)
@@ -139,14 +146,25 @@ class Dprm(MapTechnique):
     def prepare(self, scene: Scene) -> DprmState:
         warn_non_planar(scene, "dprm")
         records, seconds = precompute_logged(self, scene, "dprm")
-        if scene.frame_count > 1 and scene.geometry(0).key[1]:
-            log.warning("dprm: objects move in this scene, but its maps are captured at "
-                        "frame 0: reflections show them where they were then")
+        warn_stale(scene, "dprm", self.params.update)
         return DprmState(scene, records, seconds, scene.geometry(0).all_triangles())
+
+    def _update(self, state: DprmState, frame_index: int) -> int:
+        """Recapture every mirror's maps if the update policy asks for another capture frame
+        than theirs at `frame_index`; the maps captured."""
+        at = map_capture_frame(frame_index, self.params.update)
+        if all(r.capture_frame == at for r in state.mirrors):
+            return 0
+        state.mirrors = self.precompute(state.scene, frame_index=frame_index)
+        state.triangles = state.scene.geometry(at).all_triangles()
+        return sum(len(r.maps) for r in state.mirrors)
 
     def render(self, state: DprmState, frame_index: int, camera: Camera) -> Frame:
         scene = state.scene
         params: DprmParams = self.params
+        t_capture = time.perf_counter()
+        captured = self._update(state, frame_index)
+        t_capture = time.perf_counter() - t_capture
         primary = render_primary(scene, frame_index, camera, state.buffers_raster)
         result = primary.frame
         self.last_lod_level = 0
@@ -190,12 +208,17 @@ class Dprm(MapTechnique):
         mirror_pixels = int(np.count_nonzero(result.surface >= scene.n_objects))
         hole_count = int(np.count_nonzero(holes))
         result.extra["holes"] = holes
-        result.timings.update({"warp": warp_s, "fill": fill_s,
+        result.timings.update({"warp": warp_s, "fill": fill_s, "capture": t_capture,
                                "precompute": state.precompute_seconds if frame_index == 0 else 0.0})
         result.stats.update({"maps_used": used, "zexels_warped": warped,
+                             "maps_captured": captured if frame_index
+                             else sum(len(r.maps) for r in state.mirrors),
                              "lod_level": getattr(self, "last_lod_level", 0),
-                             "holes": hole_count,
-                             "hole_fraction": float(hole_count / max(mirror_pixels, 1))})
+                             # raw: mirror pixels no zexel reached, including those
+                             # whose reflection is the background (the bench's
+                             # hole_fraction counts only where geometry should show)
+                             "unreached": hole_count,
+                             "unreached_fraction": float(hole_count / max(mirror_pixels, 1))})
         return result
 
     def _lod(self, record: DprmRecord, chosen, stencil: np.ndarray):

@@ -88,7 +88,8 @@ class Rerender(Technique):
             # only the stencil's pixels are shaded (and read below): the rest of the pass's
             # buffers is never looked at
             reflected, reflected_surface = shade_buffers(
-                buffers, tris, scene, new_eye, stencil, self._shade_out(level, stencil.shape))
+                buffers, tris, scene, new_eye, stencil=stencil,
+                out=self._shade_out(level, stencil.shape))
             stats["passes"] += 1
             stats["triangles_rasterized"] += tris.count
             stats["pass_seconds"].append(time.perf_counter() - start)

@@ -1,0 +1,126 @@
+"""Reflected rays of a frame's mirror pixels, in eye space and on the screen (numba).
+
+Spaces: world -> eye (camera at the origin looking down -z; depth = -z, the Z channel)
+-> screen (x right, y down, pixels [i, i+1); the projection of `Camera.projection_matrix`).
+Along a straight eye-space segment, screen x, y and q = 1 / depth are affine in one
+parameter u in [0, 1] (perspective-correct interpolation, McGuire & Mara 2014 sec. 2.2: their
+k = 1/w with w = -z = depth); every march works on (x, y, q).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ..scene.types import CYLINDER, PLANAR, SPHERE
+
+# columns of the per-pixel ray table
+# 0-2 world origin, 3-5 world unit direction, 6-8 eye origin, 9-11 eye direction,
+# 12 n.v (cosine between normal and view vector), 13 ray length L (clipped at the near plane),
+# 14-16 screen start (x, y, q), 17-19 screen end (x, y, q)
+RAY_COLS = 20
+
+
+def mirror_rays(buffers, surface_ids, n_objects, tris, mirrors, camera, max_distance):
+    """(rays (H, W, RAY_COLS) float32, valid (H, W) bool): one reflected ray per mirror pixel.
+
+    The ray starts at the mirror pixel's point (barycentric on the rasterized triangle) with
+    the mirror's normal there (exact for planes, spheres and cylinders, interpolated for
+    meshes), turned toward the viewer: r = 2 n (n.v) - v. It is `max_distance` long, clipped
+    where it would cross the near plane.
+    """
+    h, w = surface_ids.shape
+    rays = np.zeros((h, w, RAY_COLS), np.float32)
+    valid = np.zeros((h, w), np.bool_)
+    p = camera.projection_matrix()
+    _rays(buffers.triangle, buffers.b1, buffers.b2, surface_ids, n_objects, tris.corners,
+          tris.normals, mirrors.kind, mirrors.params, camera.view_matrix(),
+          np.asarray(camera.eye, np.float64), float(p[0, 0]), float(p[1, 1]), w, h,
+          float(camera.near), float(max_distance), rays, valid)
+    return rays, valid
+
+
+@njit(cache=True)
+def to_screen(xe, ye, ze, p00, p11, w, h):
+    """Eye-space point -> (screen x, screen y, q = 1 / depth)."""
+    depth = -ze
+    q = 1.0 / depth
+    sx = (p00 * xe * q + 1.0) * 0.5 * w
+    sy = (1.0 - p11 * ye * q) * 0.5 * h
+    return sx, sy, q
+
+
+@njit(cache=True, parallel=True)
+def _rays(tri, b1, b2, surface_ids, n_objects, corners, normals, kind, params, view, eye,
+          p00, p11, w, h, near, max_distance, rays, valid):
+    for y in prange(h):
+        for x in range(w):
+            s = surface_ids[y, x]
+            if s < n_objects:
+                continue
+            k = s - n_objects
+            t = tri[y, x]
+            c1 = b1[y, x]
+            c2 = b2[y, x]
+            c0 = 1.0 - c1 - c2
+            px = c0 * corners[t, 0, 0] + c1 * corners[t, 1, 0] + c2 * corners[t, 2, 0]
+            py = c0 * corners[t, 0, 1] + c1 * corners[t, 1, 1] + c2 * corners[t, 2, 1]
+            pz = c0 * corners[t, 0, 2] + c1 * corners[t, 1, 2] + c2 * corners[t, 2, 2]
+            pk = params[k]
+            if kind[k] == PLANAR:
+                nx, ny, nz = pk[0], pk[1], pk[2]
+            elif kind[k] == SPHERE:
+                nx, ny, nz = px - pk[0], py - pk[1], pz - pk[2]
+            elif kind[k] == CYLINDER:
+                lx, ly, lz = px - pk[0], py - pk[1], pz - pk[2]
+                a = lx * pk[3] + ly * pk[4] + lz * pk[5]
+                nx, ny, nz = lx - a * pk[3], ly - a * pk[4], lz - a * pk[5]
+            else:
+                nx = c0 * normals[t, 0, 0] + c1 * normals[t, 1, 0] + c2 * normals[t, 2, 0]
+                ny = c0 * normals[t, 0, 1] + c1 * normals[t, 1, 1] + c2 * normals[t, 2, 1]
+                nz = c0 * normals[t, 0, 2] + c1 * normals[t, 1, 2] + c2 * normals[t, 2, 2]
+            inv = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz)
+            nx, ny, nz = nx * inv, ny * inv, nz * inv
+            vx, vy, vz = eye[0] - px, eye[1] - py, eye[2] - pz
+            inv = 1.0 / math.sqrt(vx * vx + vy * vy + vz * vz)
+            vx, vy, vz = vx * inv, vy * inv, vz * inv
+            nv = nx * vx + ny * vy + nz * vz
+            if nv < 0.0:  # two-sided: the normal faces the viewer
+                nx, ny, nz, nv = -nx, -ny, -nz, -nv
+            rx, ry, rz = 2.0 * nv * nx - vx, 2.0 * nv * ny - vy, 2.0 * nv * nz - vz
+            inv = 1.0 / math.sqrt(rx * rx + ry * ry + rz * rz)
+            rx, ry, rz = rx * inv, ry * inv, rz * inv
+            # eye space
+            ox = view[0, 0] * px + view[0, 1] * py + view[0, 2] * pz + view[0, 3]
+            oy = view[1, 0] * px + view[1, 1] * py + view[1, 2] * pz + view[1, 3]
+            oz = view[2, 0] * px + view[2, 1] * py + view[2, 2] * pz + view[2, 3]
+            dx = view[0, 0] * rx + view[0, 1] * ry + view[0, 2] * rz
+            dy = view[1, 0] * rx + view[1, 1] * ry + view[1, 2] * rz
+            dz = view[2, 0] * rx + view[2, 1] * ry + view[2, 2] * rz
+            length = max_distance
+            if oz + dz * length > -near:  # would cross the near plane (depth = -z < near)
+                length = (-near - oz) / dz if dz > 0.0 else length
+            if length <= 0.0 or -oz < near:
+                continue
+            r = rays[y, x]
+            r[0], r[1], r[2] = px, py, pz
+            r[3], r[4], r[5] = rx, ry, rz
+            r[6], r[7], r[8] = ox, oy, oz
+            r[9], r[10], r[11] = dx, dy, dz
+            r[12] = nv
+            r[13] = length
+            r[14], r[15], r[16] = to_screen(ox, oy, oz, p00, p11, w, h)
+            r[17], r[18], r[19] = to_screen(ox + dx * length, oy + dy * length,
+                                            oz + dz * length, p00, p11, w, h)
+            valid[y, x] = True
+
+
+@njit(cache=True)
+def distance_at(r, u):
+    """Eye-space distance from the ray's origin to its point at screen parameter u."""
+    q0 = r[16]
+    q1 = r[19]
+    q = q0 + u * (q1 - q0)
+    return u * q1 / q * r[13]

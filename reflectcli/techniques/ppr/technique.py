@@ -1,0 +1,106 @@
+"""The pixel-projected reflection technique class (parameters and method: the package
+docstring; kernels in reflectcli/screenspace/project.py)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ...camera import Camera
+from ...frame import Frame
+from ...raster.primary import render_primary
+from ...scene.types import PLANAR, Scene
+from ...screenspace.march import new_outputs
+from ...screenspace.project import EMPTY, decode, fill_holes, project_sources, scatter_min
+from ...screenspace.rays import mirror_rays
+from ...screenspace.resolve import resolve_hits
+from ..base import Technique, warn_non_planar
+from ..ssr.fallback import BASE, Fallback
+from . import PprParams
+
+
+def project_frame(primary, scene: Scene, camera: Camera, fill: bool) -> dict:
+    """The projection and reflection passes over the primary frame: per-pixel arrays."""
+    frame = primary.frame
+    h, w = frame.depth.shape
+    t0 = time.perf_counter()
+    buf = primary.buffers
+    tris = primary.triangles
+    world_to_clip = camera.projection_matrix() @ camera.view_matrix()
+    buffer = np.full(h * w, EMPTY, np.uint64)
+    targets = np.empty(h * w, np.int32)
+    keys = np.empty(h * w, np.uint64)
+    mirrors = scene.mirrors
+    eye = np.asarray(camera.eye, np.float64)
+    projected = 0
+    for k in range(mirrors.count):
+        sid = scene.n_objects + k
+        if mirrors.kind[k] != PLANAR or not (frame.surface == sid).any():
+            continue
+        n, d = mirrors.plane(k)
+        plane = np.append(np.asarray(n, np.float64), float(d))
+        if plane[:3] @ eye + plane[3] < 0:  # face the plane toward the eye
+            plane = -plane
+        project_sources(buf.triangle, buf.b1, buf.b2, frame.surface, scene.n_objects,
+                        tris.corners, plane, sid, world_to_clip, targets, keys)
+        scatter_min(targets, keys, buffer)
+        projected += int((targets >= 0).sum())
+    t1 = time.perf_counter()
+    filled = np.zeros((h, w), np.bool_)
+    if fill:
+        out = np.empty_like(buffer)
+        fill_holes(buffer, frame.surface, scene.n_objects, w, out, filled)
+        buffer = out
+    rays, valid = mirror_rays(buf, frame.surface, scene.n_objects, tris, mirrors, camera,
+                              camera.far)
+    hit, hx, hy, dist, _, _ = new_outputs(h, w)
+    decode(buffer, w, rays, buf.triangle, buf.b1, buf.b2, tris.corners, hit, hx, hy, dist)
+    t2 = time.perf_counter()
+    return {"rays": rays, "hit": hit, "hx": hx, "hy": hy, "dist": dist, "filled": filled,
+            "projected": projected,
+            "timings": {"project": t1 - t0, "reflect": t2 - t1}}
+
+
+class Ppr(Technique):
+    name = "ppr"
+    Params = PprParams
+
+    def prepare(self, scene: Scene) -> dict:
+        warn_non_planar(scene, "ppr")
+        fallback = Fallback(self.params.fallback, self.threads, self.cache_dir)
+        fallback.prepare(scene)
+        return {"scene": scene, "fallback": fallback}
+
+    def render(self, state: dict, frame_index: int, camera: Camera) -> Frame:
+        scene: Scene = state["scene"]
+        params = self.params
+        primary = render_primary(scene, frame_index, camera)
+        result = primary.frame
+        p = project_frame(primary, scene, camera, params.fill)
+        t0 = time.perf_counter()
+        colors = result.rgb.copy()
+        tris = primary.triangles
+        mats = scene.materials
+        resolve_hits(params.resolve == "surface", p["hit"], p["hx"], p["hy"], p["dist"],
+                     p["rays"], colors, primary.buffers.triangle, result.surface,
+                     scene.n_objects, tris.corners, tris.uvs, tris.normals, tris.material,
+                     mats.mat_i, mats.mat_f, mats.texels, scene.lights.light_f, scene.shading,
+                     scene.ambient, scene.mirrors.reflectance, result.rgb)
+        result.timings.update(p["timings"])
+        result.timings["resolve"] = time.perf_counter() - t0
+        hit = p["hit"]
+        source = state["fallback"].apply(scene, primary, camera, hit, result.rgb,
+                                         result.timings)
+        result.extra["ppr_hit"] = hit.astype(np.float32)
+        result.extra["ppr_distance"] = np.where(hit != 0, p["dist"], 0.0).astype(np.float32)
+        result.extra["source"] = source
+        result.extra["holes"] = (source == BASE).astype(np.float32)  # base only
+        mirror_pixels = int(result.mirror_mask.sum())
+        result.stats["hole_fraction"] = (float((source == BASE).sum()) / mirror_pixels
+                                         if mirror_pixels else 0.0)
+        mirror = int(result.mirror_mask.sum())
+        result.stats["projected"] = p["projected"]
+        result.stats["filled"] = int(p["filled"].sum())
+        result.stats["hit_fraction"] = float((hit != 0).sum()) / mirror if mirror else 0.0
+        return result
