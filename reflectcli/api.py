@@ -24,6 +24,7 @@ from typing import Any, Literal, TypeVar
 
 from pydantic import BaseModel
 
+from . import interrupts
 from .camera import Camera, camera_from_config
 from .config.scene import SceneConfig
 from .errors import Problem, Problems
@@ -43,6 +44,7 @@ from .output.identity import (
 from .output.log import append_jsonl
 from .output.paths import inside, remove_stale_temps
 from .output.png import write_png
+from .output.summary import SUMMARY_NAME, write_summary
 from .provenance import cpu_name, versions
 from .scene.build import build_scene, scene_hashes
 from .scene.types import Scene
@@ -160,6 +162,7 @@ def interrupts_deferred():
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     if caught:
+        interrupts.requested.set()
         raise KeyboardInterrupt
 
 
@@ -347,15 +350,16 @@ class OpenedScene:
 
     def write_frame(self, frame_index: int, folder: str, *, preview: bool | None = None,
                     repeats: int = 1,
-                    on_written: Callable[[str], None] | None = None) -> str:
+                    on_written: Callable[[str, dict], None] | None = None) -> str:
         """Render a frame and write it into `folder`: EXR, optional PNG preview and its log
         row, all or nothing (Ctrl-C waits until the three are written). The EXR's path.
 
         `repeats` > 1 renders the frame that many times in a row (timing a scene of one frame:
         the bench's warm-up and timed samples); the first render is written and every
         render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
-        the repeats as extra frames. `on_written(exr)` runs once the three are written, before
-        an interrupt held meanwhile is raised (so a count of kept frames is exact)."""
+        the repeats as extra frames. `on_written(exr, log row)` runs once the three are
+        written, before an interrupt held meanwhile is raised (so a count of kept frames is
+        exact)."""
         exr = os.path.join(folder, f"frame_{frame_index:04d}.exr")
         self.prepare()
         start = time.perf_counter()
@@ -412,7 +416,7 @@ class OpenedScene:
                 discard(exr, *([exr[:-4] + ".png"] if preview else []))
                 raise write_failure(e, target) from None
             if on_written is not None:
-                on_written(exr)
+                on_written(exr, row)
         return exr
 
     def write_frames(self, frame_indices: range | list[int], *, out: str | None = None,
@@ -428,12 +432,26 @@ class OpenedScene:
         stored = logged_rows(self.log_path(result.folder))
         check_same_overrides(stored, self.overrides, result.folder,
                              "--set" if self.overrides else self.display)
-        result.compile_seconds = self.warm_up()
-        self.prepare()
-        wants_preview = self.config.output.preview if preview is None else preview
-        scene_hash = self.scene_hash
-        params = json.loads(self.params.model_dump_json())
+        rows: list[dict] = []  # this call's log rows: the timings summary
+        try:
+            result.compile_seconds = self.warm_up()
+            self.prepare()
+            interrupts.check()  # a Ctrl-C a compile swallowed stops the run here
+            wants_preview = self.config.output.preview if preview is None else preview
+            params = json.loads(self.params.model_dump_json())
+            self._write_each(frame_indices, result, stored, resume, wants_preview,
+                             self.scene_hash, params, preview, repeats, on_frame, rows)
+        finally:
+            if rows:
+                with interrupts_deferred(), contextlib.suppress(OSError):
+                    write_summary(os.path.join(result.folder, SUMMARY_NAME), rows)
+        return result
+
+    def _write_each(self, frame_indices, result: RenderResult, stored: dict, resume: bool,
+                    wants_preview: bool, scene_hash: str, params: dict, preview: bool | None,
+                    repeats: int, on_frame, rows: list[dict]) -> None:
         for frame_index in frame_indices:
+            interrupts.check()  # between frames, even if the interrupt itself was swallowed
             exr = os.path.join(result.folder, f"frame_{frame_index:04d}.exr")
             if resume and os.path.exists(exr) and matches(
                     stored.get(os.path.basename(exr)), scene_hash, params):
@@ -441,14 +459,14 @@ class OpenedScene:
                     write_missing_preview(exr)
                 result.skipped.append(frame_index)
                 continue
-            def kept(path: str, frame_index: int = frame_index) -> None:
+            def kept(path: str, row: dict, frame_index: int = frame_index) -> None:
                 result.written.append(path)  # counted before an interrupt held meanwhile
+                rows.append(row)
                 if on_frame is not None:
                     on_frame(frame_index, path)
 
             self.write_frame(frame_index, result.folder, preview=preview, repeats=repeats,
                              on_written=kept)
-        return result
 
     def precompute(self, on_map: Callable[[dict], None] | None = None,
                    on_progress: Callable[[int, int], None] | None = None) -> list[dict]:
@@ -474,6 +492,7 @@ def open_scene(path: str, *, overrides: tuple[str, ...] | list[str] = (),
     first needed. cache: the map folder (None: .reflect-cache/ beside the scene; False: maps
     in memory only). Raises Problems for bad input; nothing is built or written yet.
     """
+    interrupts.requested.clear()  # a new run: earlier interrupts were answered
     config, _ = load_config(path, overrides, technique)
     return OpenedScene(config, path, threads=threads, cache=cache, technique_option=technique,
                        overrides=overrides)

@@ -330,7 +330,13 @@ def main() -> None:
     logger = logging.getLogger("reflect")
     logger.addHandler(handler)
     logger.setLevel(logging.INFO)
-    signal.signal(signal.SIGTERM, _terminated)  # handled like Ctrl-C: same exit, same promises
+    from . import interrupts
+
+    # SIGTERM is handled like Ctrl-C (same exit, same promises); both are also remembered, so
+    # one swallowed by a C callback (a numba compile) still stops the run at the next frame
+    signal.signal(signal.SIGTERM, interrupts.on_signal)
+    signal.signal(signal.SIGINT, interrupts.on_signal)
+    sys.unraisablehook = _quiet_interrupts
     try:
         code = cli(prog_name="reflect", standalone_mode=False)
     except KeyboardInterrupt:  # during start-up (imports, loading), before a command's handler
@@ -342,11 +348,21 @@ def main() -> None:
     except click.ClickException as e:
         e.show()
         sys.exit(e.exit_code)
+    except Exception:
+        if not interrupts.requested.is_set():
+            raise
+        # an interrupt inside a numba compile can leave it failing in its own words
+        click.echo("\ninterrupted", err=True)
+        sys.exit(EXIT_INTERRUPTED)
     sys.exit(code if isinstance(code, int) else 0)
 
 
-def _terminated(signum, frame) -> None:
-    raise KeyboardInterrupt
+def _quiet_interrupts(unraisable) -> None:
+    """A Ctrl-C dropped inside a C callback is no traceback for the user: it is recorded
+    (reflectcli/interrupts.py) and ends the run at the next frame."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 if __name__ == "__main__":

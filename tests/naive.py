@@ -235,6 +235,53 @@ def shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
     return rgb, surf
 
 
+def fill_triangle_scan(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0,
+                       row1, col0, col1, stencil, floor, tri, b1, b2, depth):
+    """Twin of raster.rasterize._fill: every pixel of the triangle's bounding box (clamped
+    to rows [row0, row1) and columns [col0, col1)) tested, in Python floats (float64, the
+    kernel's operations in the kernel's order), no span. Writes into tri, b1, b2, depth."""
+    def area(ax, ay, bx, by, cx, cy):
+        return (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+
+    a = area(x0, y0, x1, y1, x2, y2)
+    if a == 0.0:
+        return
+    inv = 1.0 / a
+    xmin = max(int(np.floor(min(x0, x1, x2) - 0.5)), col0)
+    xmax = min(int(np.ceil(max(x0, x1, x2) - 0.5)), col1 - 1)
+    ymin = max(int(np.floor(min(y0, y1, y2) - 0.5)), row0)
+    ymax = min(int(np.ceil(max(y0, y1, y2) - 0.5)), row1 - 1)
+    for py in range(ymin, ymax + 1):
+        for px in range(xmin, xmax + 1):
+            if not stencil[py, px]:
+                continue
+            sx, sy = px + 0.5, py + 0.5
+            l0 = area(x1, y1, x2, y2, sx, sy) * inv
+            l1 = area(x2, y2, x0, y0, sx, sy) * inv
+            l2 = 1.0 - l0 - l1
+            if l0 < 0.0 or l1 < 0.0 or l2 < 0.0:
+                continue
+            q0, q1, q2 = l0 * w0, l1 * w1, l2 * w2
+            w = 1.0 / (q0 + q1 + q2)
+            key = w * key_scale
+            if key < depth[py, px] and w > floor[py, px]:
+                depth[py, px] = key
+                tri[py, px] = t
+                b1[py, px] = (q0 * ba[1] + q1 * bb[1] + q2 * bc[1]) * w
+                b2[py, px] = (q0 * ba[2] + q1 * bb[2] + q2 * bc[2]) * w
+
+
+def shade_stencil(stencil, rgb, surf, *args):
+    """Twin of raster.shade._shade_stencil: `shade` where `stencil` is set, the given rgb and
+    surface arrays untouched elsewhere. Returns (rgb, surface id) as new arrays."""
+    want_rgb, want_surf = shade(*args)
+    rgb = np.array(rgb, np.float64)
+    surf = np.array(surf)
+    rgb[stencil] = want_rgb[stencil]
+    surf[stencil] = want_surf[stencil]
+    return rgb, surf
+
+
 # =================================================================================== trace
 
 GRAZE = 1e-5  # barycentric margin: a ray this close to an edge may fall either side

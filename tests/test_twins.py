@@ -22,6 +22,7 @@ V = "tests/twins/test_virtual_twins.py::"
 D = "tests/maps/test_distance_search.py::"
 
 RASTER = [R + "test_matches_reference_on_random_scenes",
+          R + "test_fill_row_span_is_bit_identical_to_the_full_box_scan",
           R + "test_near_plane_clipping_matches_ray_casting",
           SR + "test_rasterizer_with_mask_and_depth_floor_matches_twin",
           SR + "test_rasterizer_culling_and_skip_match_twin"]
@@ -50,6 +51,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "shading.py:surface_color": ([SR + "test_surface_color_matches_twin"], None),
     "trace/rays.py:_primary_rays": ([SR + "test_primary_rays_match_pixel_directions"], None),
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
+    "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
+    "raster/shade.py:_shade_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade"),
     "raster/rasterize.py:_setup": (RASTER, "rasterize"),
     "raster/rasterize.py:_setup_one": (RASTER, "_setup"),
     "raster/rasterize.py:_band_range": (RASTER, "_bin_count"),
@@ -63,7 +66,13 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize.py:_area": (RASTER, "_fill"),
     "raster/rasterize.py:_clip_polygon": (CLIP, "_draw"),
     "raster/rasterize.py:_fill": (RASTER, "_draw"),
+    "raster/rasterize.py:_row_span": (RASTER, "_fill"),
     "raster/rasterize.py:_draw": (RASTER, "rasterize"),
+    "trace/embree.py:_intersect": ([E + "test_embree_matches_moller_trumbore",
+                                    E + "test_embree_hits_are_common_in_the_property_test",
+                                    E + "test_embree_kernel_equals_embreex_bit_for_bit",
+                                    E + "test_embreex_fallback_gives_the_same_hits"],
+                                   "TriangleScene.intersect"),
     "trace/analytic.py:_sphere": (ANALYTIC, "_intersect"),
     "trace/analytic.py:_cylinder": (ANALYTIC, "_intersect"),
     "trace/analytic.py:_in_triangle": (ANALYTIC, "_quad"),

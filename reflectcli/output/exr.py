@@ -13,12 +13,23 @@ from .atomic import atomic_path
 FIXED_DATETIME = "2000:01:01 00:00:00"
 
 
-def write_exr(path: str, channels: dict[str, np.ndarray], attributes: dict[str, str]) -> None:
-    """Write (H, W) float channels in the given order, zip-compressed, atomically."""
-    import OpenImageIO as oiio
-
+def pack_channels(channels: dict[str, np.ndarray]) -> tuple[list[str], np.ndarray]:
+    """(names, (H, W, C) float32 array): a fresh copy of the channels, ready to write."""
     names = list(channels)
     data = np.ascontiguousarray(np.stack([channels[n] for n in names], axis=-1), np.float32)
+    return names, data
+
+
+def write_exr(path: str, channels: dict[str, np.ndarray], attributes: dict[str, str]) -> None:
+    """Write (H, W) float channels in the given order, zip-compressed, atomically."""
+    write_exr_packed(path, *pack_channels(channels), attributes)
+
+
+def write_exr_packed(path: str, names: list[str], data: np.ndarray,
+                     attributes: dict[str, str]) -> None:
+    """write_exr of channels already packed by pack_channels."""
+    import OpenImageIO as oiio
+
     h, w = data.shape[:2]
     spec = oiio.ImageSpec(w, h, len(names), oiio.FLOAT)
     spec.channelnames = tuple(names)

@@ -143,8 +143,11 @@ def rasterize(
     total = _bin_starts(counts, offsets, starts)
     items = ws.get("items", (total,), np.int32)
     _bin_fill(status, flags, rows, y0, y1, bands, starts, items)
-    _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets, items,
-          stencil, floor, x0, x1, y0, y1, tri, b1, b2, depth)
+    # bands handed out one at a time to whichever thread is free (their work differs, and on
+    # a busy machine a thread may lose its core); each band owns its rows: same result
+    with numba.parallel_chunksize(1):
+        _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets,
+              items, stencil, floor, x0, x1, y0, y1, tri, b1, b2, depth)
     return RasterBuffers(tri, b1, b2, depth)
 
 
@@ -346,6 +349,36 @@ def _clip_polygon(corners, t, m, planes, width, height, out_xyw, out_bary):
     return n
 
 
+_SPAN_MIN = 6  # bounding boxes at least this many pixels wide get a span per row
+
+
+@njit(cache=True, inline="always")
+def _row_span(xa, ya, xb, yb, sy, sgn, lo, hi):
+    """Narrow the pixel columns [lo, hi] of row centre `sy` to those that can lie on the
+    inner side of edge a -> b (sgn: the sign of the triangle's area), by a margin.
+
+    The edge function _area(xa, ya, xb, yb, sx, sy) = c - (sx - xa) * d changes sign at
+    sx = xa + c / d. The bound is widened by a pixel plus far more than the float64 rounding
+    of the per-pixel test can move that crossing (a few ulps of the terms, over |d|), so the
+    set of pixels the exact test accepts never changes; nearly horizontal edges (whose
+    crossing is ill-conditioned) narrow nothing."""
+    d = yb - ya
+    c = (xb - xa) * (sy - ya)
+    if abs(d) < 1e-6:
+        return lo, hi
+    root = xa + c / d  # the column where the edge function is zero
+    slack = 1.0 + 1e-9 * (abs(c / d) + abs(xa) + abs(xb) + 1.0)
+    if sgn * d > 0.0:  # inside: sx <= root
+        edge = root - 0.5 + slack
+        if edge < hi:
+            hi = int(np.floor(edge)) if edge > lo - 1 else lo - 1
+    else:  # inside: sx >= root
+        edge = root - 0.5 - slack
+        if edge > lo:
+            lo = int(np.ceil(edge)) if edge < hi + 1 else hi + 1
+    return lo, hi
+
+
 @njit(cache=True)
 def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, row1, col0, col1,
           stencil, floor, tri, b1, b2, depth):
@@ -360,9 +393,16 @@ def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, ro
     xmax = min(int(np.ceil(max(x0, x1, x2) - 0.5)), col1 - 1)
     ymin = max(int(np.floor(min(y0, y1, y2) - 0.5)), row0)
     ymax = min(int(np.ceil(max(y0, y1, y2) - 0.5)), row1 - 1)
+    sgn = 1.0 if area > 0.0 else -1.0
+    wide = xmax - xmin >= _SPAN_MIN
     for py in range(ymin, ymax + 1):
         sy = py + 0.5
-        for px in range(xmin, xmax + 1):
+        lo, hi = xmin, xmax
+        if wide:  # the row's span, widened: the exact test below still decides every pixel
+            lo, hi = _row_span(x1, y1, x2, y2, sy, sgn, lo, hi)
+            lo, hi = _row_span(x2, y2, x0, y0, sy, sgn, lo, hi)
+            lo, hi = _row_span(x0, y0, x1, y1, sy, sgn, lo, hi)
+        for px in range(lo, hi + 1):
             if stencil[py, px] == 0:
                 continue
             sx = px + 0.5

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -12,7 +13,8 @@ from .rasterize import RasterBuffers
 
 def shade_buffers(
     buffers: RasterBuffers, tris: Triangles, scene: Scene, eye: np.ndarray,
-    incoming: np.ndarray | None = None,
+    incoming: np.ndarray | None = None, stencil: np.ndarray | None = None,
+    out: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(rgb (H, W, 3) float32, surface id (H, W) int32).
 
@@ -23,21 +25,33 @@ def shade_buffers(
     given, is instead each pixel's own ray direction arriving at its point (e.g. the
     reflected ray of a curved mirror's pixel, whose viewpoint differs per pixel); shading
     uses it only for its side (two-sided normals), as the ray tracer uses its ray.
+    With `stencil` (H, W) bool only its pixels are shaded: the others keep whatever `out`
+    (rgb, surface arrays to write into, e.g. kept from the last frame) held.
     """
     h, w = buffers.triangle.shape
-    rgb = np.empty((h, w, 3), np.float32)
-    surf = np.empty((h, w), np.int32)
+    if out is None:
+        rgb = np.empty((h, w, 3), np.float32)
+        surf = np.empty((h, w), np.int32)
+    else:
+        rgb, surf = out
     if incoming is None:
         dirs, per_pixel = np.zeros((1, 1, 3)), False
     else:
         dirs, per_pixel = np.ascontiguousarray(incoming, np.float64), True
         assert dirs.shape == (h, w, 3)
-    _shade(buffers.triangle, buffers.b1, buffers.b2, tris.corners, tris.uvs, tris.normals,
-           tris.material, tris.surface, scene.n_objects, np.asarray(eye, np.float64),
-           dirs, per_pixel,
-           scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
-           scene.lights.light_f, scene.shading, scene.ambient, scene.background,
-           scene.mirrors.reflectance, scene.mirrors.base, rgb, surf)
+    args = (buffers.triangle, buffers.b1, buffers.b2, tris.corners, tris.uvs, tris.normals,
+            tris.material, tris.surface, scene.n_objects, np.asarray(eye, np.float64),
+            dirs, per_pixel,
+            scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
+            scene.lights.light_f, scene.shading, scene.ambient, scene.background,
+            scene.mirrors.reflectance, scene.mirrors.base, rgb, surf)
+    # rows handed out a few at a time to whichever thread is free (rows cost differently:
+    # background, mirrors and lit surfaces); each pixel is written once: same result
+    with numba.parallel_chunksize(4):
+        if stencil is None:
+            _shade(*args)
+        else:
+            _shade_stencil(np.ascontiguousarray(stencil, dtype=np.bool_), *args)
     return rgb, surf
 
 
@@ -48,36 +62,59 @@ def _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye
     h, w = tri.shape
     for y in prange(h):
         for x in range(w):
-            t = tri[y, x]
-            if t < 0:
-                surf[y, x] = -1
-                for c in range(3):
-                    rgb[y, x, c] = background[c]
-                continue
-            s = surface[t]
-            surf[y, x] = s
-            if s >= n_objects:
-                k = s - n_objects
-                for c in range(3):
-                    rgb[y, x, c] = (1.0 - refl[k, c]) * base[k, c]
-                continue
-            c1 = b1[y, x]
-            c2 = b2[y, x]
-            c0 = 1.0 - c1 - c2
-            u = c0 * uvs[t, 0, 0] + c1 * uvs[t, 1, 0] + c2 * uvs[t, 2, 0]
-            v = c0 * uvs[t, 0, 1] + c1 * uvs[t, 1, 1] + c2 * uvs[t, 2, 1]
-            px = c0 * corners[t, 0, 0] + c1 * corners[t, 1, 0] + c2 * corners[t, 2, 0]
-            py = c0 * corners[t, 0, 1] + c1 * corners[t, 1, 1] + c2 * corners[t, 2, 1]
-            pz = c0 * corners[t, 0, 2] + c1 * corners[t, 1, 2] + c2 * corners[t, 2, 2]
-            nx = c0 * normals[t, 0, 0] + c1 * normals[t, 1, 0] + c2 * normals[t, 2, 0]
-            ny = c0 * normals[t, 0, 1] + c1 * normals[t, 1, 1] + c2 * normals[t, 2, 1]
-            nz = c0 * normals[t, 0, 2] + c1 * normals[t, 1, 2] + c2 * normals[t, 2, 2]
-            if per_pixel:
-                dx, dy, dz = dirs[y, x, 0], dirs[y, x, 1], dirs[y, x, 2]
-            else:
-                dx, dy, dz = px - eye[0], py - eye[1], pz - eye[2]
-            r, g, bl = surface_color(material[t], u, v, px, py, pz, nx, ny, nz, dx, dy, dz,
-                                     mat_i, mat_f, texels, light_f, shading, ambient)
-            rgb[y, x, 0] = r
-            rgb[y, x, 1] = g
-            rgb[y, x, 2] = bl
+            _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
+                         n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                         shading, ambient, background, refl, base, rgb, surf)
+
+
+@njit(cache=True, parallel=True)
+def _shade_stencil(stencil, tri, b1, b2, corners, uvs, normals, material, surface, n_objects,
+                   eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient,
+                   background, refl, base, rgb, surf):
+    """_shade of the pixels where `stencil` is set; the others are left as they are."""
+    h, w = tri.shape
+    for y in prange(h):
+        for x in range(w):
+            if stencil[y, x]:
+                _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
+                             n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                             shading, ambient, background, refl, base, rgb, surf)
+
+
+@njit(cache=True, inline="always")
+def _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
+                 dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient, background,
+                 refl, base, rgb, surf):
+    t = tri[y, x]
+    if t < 0:
+        surf[y, x] = -1
+        for c in range(3):
+            rgb[y, x, c] = background[c]
+        return
+    s = surface[t]
+    surf[y, x] = s
+    if s >= n_objects:
+        k = s - n_objects
+        for c in range(3):
+            rgb[y, x, c] = (1.0 - refl[k, c]) * base[k, c]
+        return
+    c1 = b1[y, x]
+    c2 = b2[y, x]
+    c0 = 1.0 - c1 - c2
+    u = c0 * uvs[t, 0, 0] + c1 * uvs[t, 1, 0] + c2 * uvs[t, 2, 0]
+    v = c0 * uvs[t, 0, 1] + c1 * uvs[t, 1, 1] + c2 * uvs[t, 2, 1]
+    px = c0 * corners[t, 0, 0] + c1 * corners[t, 1, 0] + c2 * corners[t, 2, 0]
+    py = c0 * corners[t, 0, 1] + c1 * corners[t, 1, 1] + c2 * corners[t, 2, 1]
+    pz = c0 * corners[t, 0, 2] + c1 * corners[t, 1, 2] + c2 * corners[t, 2, 2]
+    nx = c0 * normals[t, 0, 0] + c1 * normals[t, 1, 0] + c2 * normals[t, 2, 0]
+    ny = c0 * normals[t, 0, 1] + c1 * normals[t, 1, 1] + c2 * normals[t, 2, 1]
+    nz = c0 * normals[t, 0, 2] + c1 * normals[t, 1, 2] + c2 * normals[t, 2, 2]
+    if per_pixel:
+        dx, dy, dz = dirs[y, x, 0], dirs[y, x, 1], dirs[y, x, 2]
+    else:
+        dx, dy, dz = px - eye[0], py - eye[1], pz - eye[2]
+    r, g, bl = surface_color(material[t], u, v, px, py, pz, nx, ny, nz, dx, dy, dz,
+                             mat_i, mat_f, texels, light_f, shading, ambient)
+    rgb[y, x, 0] = r
+    rgb[y, x, 1] = g
+    rgb[y, x, 2] = bl

@@ -1,40 +1,190 @@
-"""Triangle intersection through Embree (embreex), split over threads (Embree drops the GIL)."""
+"""Triangle intersection through Embree 4: the library shipped inside the embreex wheel,
+called straight from a numba kernel (`rtcIntersect16` on packets of 16 rays, packets split
+over numba's threads), no Python loop and no per-call array copies.
+
+The scene is built as embreex builds it (one triangle geometry of unshared float3 vertices,
+scene flag ROBUST, default build quality), so hits are bit-identical to embreex's
+`EmbreeScene.run`; when the library cannot be found the embreex binding is used instead.
+"""
 
 from __future__ import annotations
 
+import ctypes
+import glob
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
+from numba import njit, prange, types
 
 _POOL: ThreadPoolExecutor | None = None
+_LANES = 16
+# RTCRayHit16: 12 ray + 10 hit fields (Ng xyz, u, v, primID, geomID, instID, instPrimID of
+# Embree 4 with one instance level) of 16 lanes each
+_PACKET_FLOATS = 22 * _LANES
+_ROBUST = 1 << 2  # RTC_SCENE_FLAG_ROBUST (embreex's default)
+_TRIANGLE, _INDEX, _VERTEX, _UINT3, _FLOAT3 = 0, 0, 1, 0x5003, 0x9003
+
+_rtc_intersect16 = types.ExternalFunction(
+    "rtcIntersect16", types.void(types.intp, types.intp, types.intp, types.intp))
+
+
+class _Embree:
+    """The Embree library (ctypes for building, its symbols loaded for numba) and one device."""
+
+    def __init__(self, path: str) -> None:
+        import llvmlite.binding as llvm
+
+        llvm.load_library_permanently(path)  # numba's cached kernels resolve rtcIntersect16
+        lib = self.lib = ctypes.CDLL(path)
+        p, u, i, z = ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_size_t
+        for name, res, args in [
+            ("rtcNewDevice", p, [ctypes.c_char_p]), ("rtcNewScene", p, [p]),
+            ("rtcSetSceneFlags", None, [p, i]), ("rtcNewGeometry", p, [p, i]),
+            ("rtcSetNewGeometryBuffer", p, [p, i, u, i, z, z]),
+            ("rtcCommitGeometry", None, [p]), ("rtcAttachGeometry", u, [p, p]),
+            ("rtcReleaseGeometry", None, [p]), ("rtcCommitScene", None, [p]),
+            ("rtcReleaseScene", None, [p]),
+        ]:
+            fn = getattr(lib, name)
+            fn.restype, fn.argtypes = res, args
+        self.device = lib.rtcNewDevice(None)
+        if not self.device:
+            raise OSError("Embree: no device")
+
+    def scene(self, corners: np.ndarray) -> int:
+        """A committed scene over (T, 3, 3) float32 triangles; its handle."""
+        lib, nt = self.lib, corners.shape[0]
+        scene = lib.rtcNewScene(self.device)
+        lib.rtcSetSceneFlags(scene, _ROBUST)
+        geom = lib.rtcNewGeometry(self.device, _TRIANGLE)
+        vp = lib.rtcSetNewGeometryBuffer(geom, _VERTEX, 0, _FLOAT3, 16, nt * 3)
+        vertices = np.ctypeslib.as_array(ctypes.cast(vp, ctypes.POINTER(ctypes.c_float)),
+                                         (nt * 3, 4))
+        vertices[:, :3] = corners.reshape(-1, 3)
+        ip = lib.rtcSetNewGeometryBuffer(geom, _INDEX, 0, _UINT3, 12, nt)
+        indices = np.ctypeslib.as_array(ctypes.cast(ip, ctypes.POINTER(ctypes.c_uint32)),
+                                        (nt * 3,))
+        indices[:] = np.arange(nt * 3, dtype=np.uint32)
+        lib.rtcCommitGeometry(geom)
+        lib.rtcAttachGeometry(scene, geom)
+        lib.rtcReleaseGeometry(geom)
+        lib.rtcCommitScene(scene)
+        return int(scene)
+
+
+_EMBREE: _Embree | None | bool = None
+
+
+def _embree() -> _Embree | None:
+    """The library inside the embreex wheel (None when it is not found there)."""
+    global _EMBREE
+    if _EMBREE is None:
+        import embreex
+
+        site = os.path.dirname(os.path.dirname(os.path.abspath(embreex.__file__)))
+        found = sorted(glob.glob(os.path.join(site, "embreex.libs", "libembree4*")))
+        try:
+            _EMBREE = _Embree(found[0]) if found else False
+        except OSError:
+            _EMBREE = False
+    return _EMBREE or None
 
 
 def _pool() -> ThreadPoolExecutor:
-    """One long-lived pool: starting threads per call costs more than small batches take."""
+    """One long-lived pool (the embreex fallback): starting threads per call costs more than
+    small batches take."""
     global _POOL
     if _POOL is None:
         _POOL = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 1))
     return _POOL
 
 
+@njit(cache=True, parallel=True, nogil=True)
+def _intersect(scene, origins, directions, tfar, chunks, t, prim, u, v):
+    """Nearest hit of each ray through rtcIntersect16: packets of 16 consecutive rays (image
+    rows: coherent primary rays), packets split into `chunks` contiguous runs. Each run fills
+    one RTCRayHit16 (structure of arrays, 64-byte aligned, the valid mask after it) as
+    embreex fills its single rays (tnear 0, mask all ones, ids invalid) and writes t,
+    primitive id, u, v (inf, -1, 0, 0 on a miss). Embree's packet and single-ray paths give
+    the same hits to the bit (tests/trace/test_embree_bruteforce.py)."""
+    n = origins.shape[0]
+    packets = (n + _LANES - 1) // _LANES
+    for c in prange(chunks):
+        buf = np.empty(_PACKET_FLOATS + _LANES + 16, np.float32)
+        ints = buf.view(np.int32)
+        base = buf.ctypes.data
+        off = ((64 - base % 64) % 64) // 4
+        address = base + 4 * off
+        valid = off + _PACKET_FLOATS  # the valid mask: 16 ints, 64-byte aligned too
+        for pk in range(c * packets // chunks, (c + 1) * packets // chunks):
+            first = pk * _LANES
+            for lane in range(_LANES):
+                i = first + lane
+                if i >= n:
+                    ints[valid + lane] = 0
+                    continue
+                ints[valid + lane] = -1
+                buf[off + 0 * _LANES + lane] = origins[i, 0]
+                buf[off + 1 * _LANES + lane] = origins[i, 1]
+                buf[off + 2 * _LANES + lane] = origins[i, 2]
+                buf[off + 3 * _LANES + lane] = 0.0  # tnear
+                buf[off + 4 * _LANES + lane] = directions[i, 0]
+                buf[off + 5 * _LANES + lane] = directions[i, 1]
+                buf[off + 6 * _LANES + lane] = directions[i, 2]
+                buf[off + 7 * _LANES + lane] = 0.0  # time
+                buf[off + 8 * _LANES + lane] = tfar[i]
+                ints[off + 9 * _LANES + lane] = -1  # mask: every geometry
+                ints[off + 10 * _LANES + lane] = 0  # id
+                ints[off + 11 * _LANES + lane] = 0  # flags
+                ints[off + 17 * _LANES + lane] = -1  # primID
+                ints[off + 18 * _LANES + lane] = -1  # geomID
+                ints[off + 19 * _LANES + lane] = -1  # instID
+            _rtc_intersect16(base + 4 * valid, scene, address, 0)
+            for lane in range(min(_LANES, n - first)):
+                i = first + lane
+                p = ints[off + 17 * _LANES + lane]
+                prim[i] = p
+                if p >= 0:
+                    t[i] = buf[off + 8 * _LANES + lane]
+                    u[i] = buf[off + 15 * _LANES + lane]
+                    v[i] = buf[off + 16 * _LANES + lane]
+                else:
+                    t[i] = np.inf
+                    u[i] = 0.0
+                    v[i] = 0.0
+
+
 class TriangleScene:
     """An Embree scene over world-space triangles (T, 3, 3); empty scenes never hit."""
 
     def __init__(self, corners: np.ndarray) -> None:
-        from embreex import rtcore_scene
-        from embreex.mesh_construction import TriangleMesh
-
         start = time.perf_counter()
         self.count = int(corners.shape[0])
-        self._scene = None
+        self._handle = 0
+        self._scene = None  # the embreex fallback's scene
+        self._embree = _embree()
         if self.count:
-            self._scene = rtcore_scene.EmbreeScene()
-            TriangleMesh(self._scene, np.ascontiguousarray(corners, dtype=np.float32))
-            # embree commits lazily on the first query; force it so build time is measured here
-            self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), output=1)
+            corners = np.ascontiguousarray(corners, dtype=np.float32)
+            if self._embree is not None:
+                self._handle = self._embree.scene(corners)
+            else:
+                from embreex import rtcore_scene
+                from embreex.mesh_construction import TriangleMesh
+
+                self._scene = rtcore_scene.EmbreeScene()
+                TriangleMesh(self._scene, corners)
+                # embree commits lazily on the first query: force it, so build time is here
+                self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32),
+                                output=1)
         self.build_seconds = time.perf_counter() - start
+
+    def __del__(self) -> None:
+        if getattr(self, "_handle", 0) and self._embree is not None:
+            self._embree.lib.rtcReleaseScene(ctypes.c_void_p(self._handle))
+            self._handle = 0
 
     def intersect(
         self, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray, threads: int = 1
@@ -45,15 +195,40 @@ class TriangleScene:
         direction's length; rays start at their origin (tnear = 0) and stop at tfar.
         """
         n = origins.shape[0]
+        if self.count == 0 or n == 0:
+            return self._misses(n)
+        origins = np.ascontiguousarray(origins, dtype=np.float32)
+        directions = np.ascontiguousarray(directions, dtype=np.float32)
+        tfar = np.ascontiguousarray(tfar, dtype=np.float32)
+        if self._handle:
+            t = np.empty(n, np.float32)
+            prim = np.empty(n, np.int32)
+            u = np.empty(n, np.float32)
+            v = np.empty(n, np.float32)
+            # runs of 64 packets handed out one at a time to whichever thread is free: on a
+            # busy machine a thread that loses its core does not hold the others up
+            chunks = max(1, n // (64 * _LANES))
+            with numba.parallel_chunksize(1):
+                _intersect(self._handle, origins, directions, tfar, chunks, t, prim, u, v)
+            return t, prim, u, v
+        return self._intersect_embreex(origins, directions, tfar, threads)
+
+    def _misses(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(inf, -1, 0, 0) for n rays: views of arrays kept by this (empty) scene, filled once
+        (an empty scene is asked every bounce of every frame). Callers only read them."""
+        kept = getattr(self, "_miss_arrays", None)
+        if kept is None or kept[0].shape[0] < n:
+            kept = (np.full(n, np.inf, np.float32), np.full(n, -1, np.int32),
+                    np.zeros(n, np.float32), np.zeros(n, np.float32))
+            self._miss_arrays = kept
+        return tuple(a[:n] for a in kept)
+
+    def _intersect_embreex(self, origins, directions, tfar, threads):
+        n = origins.shape[0]
         t = np.full(n, np.inf, np.float32)
         prim = np.full(n, -1, np.int32)
         u = np.zeros(n, np.float32)
         v = np.zeros(n, np.float32)
-        if self._scene is None or n == 0:
-            return t, prim, u, v
-        origins = np.ascontiguousarray(origins, dtype=np.float32)
-        directions = np.ascontiguousarray(directions, dtype=np.float32)
-        tfar = np.ascontiguousarray(tfar, dtype=np.float32)
 
         def run(a: int, b: int) -> None:
             res = self._scene.run(origins[a:b], directions[a:b], dists=tfar[a:b].copy(), output=1)

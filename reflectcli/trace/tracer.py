@@ -11,6 +11,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -74,7 +75,28 @@ def trace_frame(
     samples: int = 1,
     threads: int = 1,
 ) -> Frame:
-    """Ray trace one frame; `samples` x `samples` rays per pixel on a regular grid."""
+    """Ray trace one frame; `samples` x `samples` rays per pixel on a regular grid.
+
+    The kernels' parallel loops hand out CHUNK rays at a time to whichever thread is free
+    (not one fixed share per thread): on a busy machine a thread that loses its core no
+    longer holds the others up. Every ray writes only its own outputs, so results do not
+    depend on who traced what."""
+    with numba.parallel_chunksize(CHUNK):
+        return _trace_frame(scene, geometry, accel, camera, max_depth, samples, threads)
+
+
+CHUNK = 2048  # rays per parallel work item
+
+
+def _trace_frame(
+    scene: Scene,
+    geometry: Geometry,
+    accel: Accelerators,
+    camera: Camera,
+    max_depth: int,
+    samples: int = 1,
+    threads: int = 1,
+) -> Frame:
     timings: dict[str, float] = {"intersect": 0.0, "shade": 0.0}
     start = time.perf_counter()
     h, w = camera.height, camera.width
@@ -116,7 +138,10 @@ def trace_frame(
             reflected_hit[slot[hit_surface >= 0]] = 1.0
         origins, directions, weight, slot = next_o[alive], next_d[alive], next_w[alive], slot[alive]
         tfar = np.full(origins.shape[0], _FAR_AWAY, np.float32)
-    rgb = color.reshape(h, w, spp, 3).mean(axis=2, dtype=np.float64).astype(np.float32)
+    if spp == 1:  # the mean of one sample is the sample (bit for bit): no float64 pass
+        rgb = color.reshape(h, w, 3)
+    else:
+        rgb = color.reshape(h, w, spp, 3).mean(axis=2, dtype=np.float64).astype(np.float32)
     reflected_hit = reflected_hit.reshape(h, w, spp).mean(axis=2).astype(np.float32)
     if spp > 1:  # Z, A and ids come from the pixel-center ray, traced once more
         o, d = primary_rays(camera, 1)
@@ -141,8 +166,8 @@ def trace_frame(
     timings["trace"] = time.perf_counter() - start
     return Frame(
         rgb=rgb,
-        depth=depth.astype(np.float32),
-        surface=surface.astype(np.int32),
+        depth=depth.astype(np.float32, copy=False),
+        surface=surface.astype(np.int32, copy=False),
         mirror_mask=surface >= scene.n_objects,
         # what a mirror pixel's reflection should show: 1 where its reflected ray meets
         # geometry (an object or another mirror), 0 where it leaves for the background (the

@@ -237,3 +237,52 @@ def test_analytic_sphere_and_tube_by_hand():
     # the segment stops short: tfar below the hit leaves the ray unhit
     t, idx = intersect_analytic(o[:1], d[:1], np.array([3.9], np.float32), kind, params, 0.0)
     assert idx[0] == -1 and np.isinf(t[0])
+
+
+def test_embree_kernel_equals_embreex_bit_for_bit():
+    """The kernel calling Embree's C API builds and queries as embreex does: same hits, same
+    t, u, v to the bit, on any thread count (misses: inf, -1, 0, 0)."""
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    rng = np.random.default_rng(11)
+    corners = rng.uniform(-1, 1, (300, 3, 3)).astype(np.float32)
+    origins = rng.uniform(-2, 2, (20000, 3)).astype(np.float32)
+    goal = rng.uniform(-1, 1, (20000, 3))
+    d = (goal - origins).astype(np.float32)
+    tfar = rng.choice([np.inf, 1.0, 3.0], 20000).astype(np.float32)
+    scene = TriangleScene(corners)
+    assert scene._handle, "the Embree library inside the embreex wheel was not found"
+    ref = rtcore_scene.EmbreeScene()
+    TriangleMesh(ref, corners)
+    res = ref.run(origins, d, dists=tfar.copy(), output=1)
+    hit = res["primID"] >= 0
+    assert 0.2 < hit.mean() < 0.95
+    for threads in (1, 2, 3):
+        t, prim, u, v = scene.intersect(origins, d, tfar, threads=threads)
+        np.testing.assert_array_equal(prim, res["primID"])
+        np.testing.assert_array_equal(t, np.where(hit, res["tfar"], np.inf))
+        np.testing.assert_array_equal(u[hit], res["u"][hit])
+        np.testing.assert_array_equal(v[hit], res["v"][hit])
+        assert (u[~hit] == 0).all() and (v[~hit] == 0).all()
+
+
+def test_embreex_fallback_gives_the_same_hits(monkeypatch):
+    """Without the library file the binding traces the rays: the same answers."""
+    import reflectcli.trace.embree as embree
+
+    rng = np.random.default_rng(5)
+    corners = rng.uniform(-1, 1, (100, 3, 3)).astype(np.float32)
+    origins = rng.uniform(-2, 2, (3000, 3)).astype(np.float32)
+    d = (rng.uniform(-1, 1, (3000, 3)) - origins).astype(np.float32)
+    tfar = np.full(3000, np.inf, np.float32)
+    fast = TriangleScene(corners).intersect(origins, d, tfar, threads=2)
+    monkeypatch.setattr(embree, "_embree", lambda: None)
+    slow_scene = TriangleScene(corners)
+    assert not slow_scene._handle
+    slow = slow_scene.intersect(origins, d, tfar, threads=2)
+    hit = slow[1] >= 0
+    for a, b in zip(fast[:2], slow[:2], strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(fast[2:], slow[2:], strict=True):
+        np.testing.assert_array_equal(a[hit], b[hit])

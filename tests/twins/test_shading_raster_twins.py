@@ -5,7 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from naive import material_albedo, primary_rays, rasterize, shade, surface_color
+from naive import (
+    material_albedo,
+    primary_rays,
+    rasterize,
+    shade,
+    shade_stencil,
+    surface_color,
+)
 
 from reflectcli.camera import Camera
 from reflectcli.raster.rasterize import (
@@ -17,7 +24,7 @@ from reflectcli.raster.rasterize import (
 from reflectcli.raster.rasterize import (
     rasterize as fast_rasterize,
 )
-from reflectcli.raster.shade import _shade
+from reflectcli.raster.shade import _shade, _shade_stencil
 from reflectcli.scene.types import CHECKER, DIRECTIONAL, LAMBERT, POINT, SOLID, TEXTURE, UNLIT
 from reflectcli.shading import material_albedo as fast_albedo
 from reflectcli.shading import surface_color as fast_surface_color
@@ -178,6 +185,21 @@ def test_shade_pass_matches_twin(seed, shading, per_pixel):
                                 background, refl, base, incoming)
     np.testing.assert_array_equal(surf, want_surf)
     np.testing.assert_allclose(rgb, want_rgb, rtol=2e-5, atol=1e-6)
+    # the stencilled kernel: the same pixels where the stencil is set, nothing else touched
+    stencil = rng.random((h, w)) < 0.5
+    stencil[0, :2] = True  # background under the stencil
+    stencil[:, -1] = False
+    rgb_s = np.full((h, w, 3), -7.0, np.float32)
+    surf_s = np.full((h, w), -9, np.int32)
+    head = (tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye)
+    tail = (mat_i, mat_f, texels, light_f, shading, 0.1, background, refl, base)
+    want_rgb_s, want_surf_s = shade_stencil(stencil, rgb_s, surf_s, *head, *tail, incoming)
+    _shade_stencil(stencil, *head, dirs, per_pixel, *tail, rgb_s, surf_s)
+    np.testing.assert_array_equal(surf_s, want_surf_s)
+    np.testing.assert_allclose(rgb_s, want_rgb_s, rtol=2e-5, atol=1e-6)
+    assert (rgb_s[~stencil] == -7.0).all() and (surf_s[~stencil] == -9).all()
+    # and bit for bit the full kernel's values where it shades
+    np.testing.assert_array_equal(rgb_s[stencil], rgb[stencil])
 
 
 W, H = 32, 24

@@ -23,7 +23,12 @@ class Raytrace(Technique):
     Params = RaytraceParams
 
     def prepare(self, scene: Scene) -> RaytraceState:
-        return RaytraceState(scene)
+        """The Embree scenes of frame 0's geometry are built here, in the one-time work:
+        a static scene never builds again, and frame 0's time holds no build."""
+        state = RaytraceState(scene)
+        if scene.frame_count:
+            state.accel = build_accelerators(scene.geometry(0))
+        return state
 
     def render(self, state: RaytraceState, frame_index: int, camera: Camera) -> Frame:
         scene = state.scene

@@ -23,13 +23,24 @@ class Rerender(Technique):
     Params = RerenderParams
     _primary_ws: RasterWorkspace | None = None
     _pass_ws: RasterWorkspace | None = None
+    _levels: dict[int, tuple[np.ndarray, np.ndarray]]
 
     def prepare(self, scene: Scene) -> Scene:
         warn_non_planar(scene, "rerender")
         # rasterizer scratch kept across frames; reflection passes' buffers are shaded at once
         self._primary_ws = RasterWorkspace()
         self._pass_ws = RasterWorkspace(outputs=True)
+        self._levels = {}
         return scene
+
+    def _shade_out(self, level: int, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """rgb and surface arrays of a reflection level's passes, kept across frames (a
+        level's passes run one after another; deeper levels have their own)."""
+        kept = self._levels.get(level)
+        if kept is None or kept[1].shape != shape:
+            kept = (np.empty((*shape, 3), np.float32), np.empty(shape, np.int32))
+            self._levels[level] = kept
+        return kept
 
     def render(self, scene: Scene, frame_index: int, camera: Camera) -> Frame:
         if self._pass_ws is None:
@@ -74,7 +85,11 @@ class Rerender(Technique):
             pass_flags = flags | np.where(tris.surface == sid, FLAG_SKIP, 0).astype(np.uint8)
             buffers = rasterize(tris.corners, pass_flags, world_to_clip, camera.width,
                                 camera.height, planes, mask=stencil, workspace=self._pass_ws)
-            reflected, reflected_surface = shade_buffers(buffers, tris, scene, new_eye)
+            # only the stencil's pixels are shaded (and read below): the rest of the pass's
+            # buffers is never looked at
+            reflected, reflected_surface = shade_buffers(
+                buffers, tris, scene, new_eye, stencil=stencil,
+                out=self._shade_out(level, stencil.shape))
             stats["passes"] += 1
             stats["triangles_rasterized"] += tris.count
             stats["pass_seconds"].append(time.perf_counter() - start)

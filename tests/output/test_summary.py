@@ -1,0 +1,44 @@
+"""timings-summary.json: per-stage medians with their spread after the warm-up render."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import pytest
+from conftest import open_scene
+
+from reflectcli.output.log import read_jsonl
+from reflectcli.output.summary import SUMMARY_NAME, timings_summary
+
+SMALL = ("camera.width=64", "camera.height=48", "camera.path.frames=4")
+
+
+def _files(folder: str) -> dict[str, bytes]:
+    return {n: open(os.path.join(folder, n), "rb").read()
+            for n in sorted(os.listdir(folder)) if n.endswith((".exr", ".png"))}
+
+
+def test_timings_summary_after_warmup(tmp_path):
+    opened = open_scene("teapot-box", "rerender", SMALL, threads=1)
+    result = opened.write_frames(opened.frames(), out=str(tmp_path))
+    with open(os.path.join(result.folder, SUMMARY_NAME)) as f:
+        summary = json.load(f)
+    assert summary["frames"] == [0, 1, 2, 3] and summary["warmup_renders"] == 1
+    assert summary["timed_renders"] == 3 and summary["warning"] == ""
+    frame = summary["frame"]
+    assert frame["p25_ms"] <= frame["median_ms"] <= frame["p75_ms"]
+    rows = read_jsonl(os.path.join(result.folder, "timings.jsonl"))
+    assert set(summary["stages"]) == set(rows[1]["stages"])
+    times = sorted(1e3 * r["frame_seconds"] for r in rows[1:])
+    assert frame["median_ms"] == pytest.approx(times[1])
+
+
+def test_timings_summary_warns_on_one_cold_frame():
+    row = {"scene": "s", "technique": "t", "frame": 0, "frame_seconds": 0.5,
+           "stages": {"a": 0.25}, "write_seconds": 0.1}
+    summary = timings_summary([row])
+    assert "cold" in summary["warning"] and summary["timed_renders"] == 1
+    assert summary["frame"]["median_ms"] == 500.0
+    repeated = timings_summary([{**row, "repeat_seconds": [0.5, 0.2, 0.3, 0.4]}])
+    assert repeated["warning"] == "" and repeated["frame"]["median_ms"] == pytest.approx(300)
