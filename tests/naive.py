@@ -1286,7 +1286,7 @@ def naive_search(x, r, a, t_end, q, surface, color, steps, refine):
 
 
 def reflected_ray(tri, b1, b2, corners, normals, kind, p, eye):
-    """Twin of maps.distance_search.mirror_ray: the point at barycentrics (b1, b2) of
+    """Twin of reflection.reflected_ray: the point at barycentrics (b1, b2) of
     triangle `tri` and the law of reflection r = 2 (n.v) n - v about its normal (the plane's,
     the sphere's radial, the cylinder's radial across its axis, or the mesh's interpolated
     one), turned toward the eye."""

@@ -126,7 +126,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/distance_search.py:search_ray": (SEARCH, "_search_pixels"),
     "maps/distance_search.py:_search_pixels": (SEARCH, None),
     "maps/distance_search.py:sample_layer": (SEARCH, "search_ray"),
-    "maps/distance_search.py:mirror_ray": ([D + "test_mirror_ray_matches_twin"], None),
+    "reflection.py:reflected_ray": ([D + "test_reflected_ray_matches_twin"], None),
     "maps/distance_search.py:_g_of": (SEARCH, "search_ray"),
     "maps/distance_search.py:_g_surface": (SEARCH, "search_ray"),
     "maps/distance_search.py:_distance": (SEARCH, "search_ray"),

@@ -40,15 +40,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..scene.types import (
-    CYLINDER,
-    CYLINDER_AXIS,
-    CYLINDER_ORIGIN,
-    PLANAR,
-    PLANE_NORMAL,
-    SPHERE,
-    SPHERE_CENTER,
-)
+from ..reflection import reflected_ray
 from .cube import cube_face_coords, image_sample
 
 # two different surfaces meet (a crease) when their stored distances at neighbouring samples
@@ -214,46 +206,6 @@ def search_ray(xx, xy, xz, rx, ry, rz, a, t_end, q, surface, color, bases, steps
     return 0, taken
 
 
-@njit(cache=True)
-def mirror_ray(tri, b1, b2, corners, normals, kind, p, eye):
-    """World point p on a reflector's pixel and its reflected direction r (as in
-    maps/lookup.py: exact normals for planes, spheres and cylinders, interpolated for
-    meshes, the normal turned toward the viewer)."""
-    c1 = b1
-    c2 = b2
-    c0 = 1.0 - c1 - c2
-    t = tri
-    px = c0 * corners[t, 0, 0] + c1 * corners[t, 1, 0] + c2 * corners[t, 2, 0]
-    py = c0 * corners[t, 0, 1] + c1 * corners[t, 1, 1] + c2 * corners[t, 2, 1]
-    pz = c0 * corners[t, 0, 2] + c1 * corners[t, 1, 2] + c2 * corners[t, 2, 2]
-    if kind == PLANAR:
-        nx, ny, nz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
-    elif kind == SPHERE:
-        nx = px - p[SPHERE_CENTER]
-        ny = py - p[SPHERE_CENTER + 1]
-        nz = pz - p[SPHERE_CENTER + 2]
-    elif kind == CYLINDER:  # radial direction from the axis
-        lx = px - p[CYLINDER_ORIGIN]
-        ly = py - p[CYLINDER_ORIGIN + 1]
-        lz = pz - p[CYLINDER_ORIGIN + 2]
-        ax, ay, az = p[CYLINDER_AXIS], p[CYLINDER_AXIS + 1], p[CYLINDER_AXIS + 2]
-        d = lx * ax + ly * ay + lz * az
-        nx, ny, nz = lx - d * ax, ly - d * ay, lz - d * az
-    else:
-        nx = c0 * normals[t, 0, 0] + c1 * normals[t, 1, 0] + c2 * normals[t, 2, 0]
-        ny = c0 * normals[t, 0, 1] + c1 * normals[t, 1, 1] + c2 * normals[t, 2, 1]
-        nz = c0 * normals[t, 0, 2] + c1 * normals[t, 1, 2] + c2 * normals[t, 2, 2]
-    inv = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz)
-    nx, ny, nz = nx * inv, ny * inv, nz * inv
-    vx, vy, vz = eye[0] - px, eye[1] - py, eye[2] - pz
-    inv = 1.0 / math.sqrt(vx * vx + vy * vy + vz * vz)
-    vx, vy, vz = vx * inv, vy * inv, vz * inv
-    nv = nx * vx + ny * vy + nz * vz
-    if nv < 0.0:
-        nx, ny, nz, nv = -nx, -ny, -nz, -nv
-    return px, py, pz, 2.0 * nv * nx - vx, 2.0 * nv * ny - vy, 2.0 * nv * nz - vz
-
-
 def search_reflections(rgb, holes, steps_taken, buffers, surface_ids, surface, tris, kind,
                        params, reflectance, eye, capture, a_min, far, q, surf, color, bases,
                        steps, refine, bilinear, background):
@@ -277,8 +229,8 @@ def _search_pixels(rgb, holes, steps_taken, tri, b1, b2, surface_ids, surface, c
         for x in range(w):
             if surface_ids[y, x] != surface:
                 continue
-            px, py, pz, rx, ry, rz = mirror_ray(tri[y, x], b1[y, x], b2[y, x], corners,
-                                                normals, kind, p, eye)
+            px, py, pz, rx, ry, rz, _ = reflected_ray(tri[y, x], b1[y, x], b2[y, x], corners,
+                                                      normals, kind, p, eye)
             inv = 1.0 / math.sqrt(rx * rx + ry * ry + rz * rz)
             rx, ry, rz = rx * inv, ry * inv, rz * inv
             xx, xy, xz = px - capture[0], py - capture[1], pz - capture[2]

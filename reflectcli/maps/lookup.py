@@ -9,20 +9,10 @@ and the map's color in that direction, added with the mirror's reflectance.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit, prange
 
-from ..scene.types import (
-    CYLINDER,
-    CYLINDER_AXIS,
-    CYLINDER_ORIGIN,
-    PLANAR,
-    PLANE_NORMAL,
-    SPHERE,
-    SPHERE_CENTER,
-)
+from ..reflection import reflected_ray
 from .cube import cube_sample
 from .sphere import sphere_sample
 
@@ -67,39 +57,8 @@ def _add(rgb, tri, b1, b2, surface_ids, surface, corners, normals, kind, p, refl
         for x in range(w):
             if surface_ids[y, x] != surface:
                 continue
-            t = tri[y, x]
-            c1 = b1[y, x]
-            c2 = b2[y, x]
-            c0 = 1.0 - c1 - c2
-            px = c0 * corners[t, 0, 0] + c1 * corners[t, 1, 0] + c2 * corners[t, 2, 0]
-            py = c0 * corners[t, 0, 1] + c1 * corners[t, 1, 1] + c2 * corners[t, 2, 1]
-            pz = c0 * corners[t, 0, 2] + c1 * corners[t, 1, 2] + c2 * corners[t, 2, 2]
-            if kind == PLANAR:
-                nx, ny, nz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
-            elif kind == SPHERE:
-                nx = px - p[SPHERE_CENTER]
-                ny = py - p[SPHERE_CENTER + 1]
-                nz = pz - p[SPHERE_CENTER + 2]
-            elif kind == CYLINDER:  # radial direction from the axis
-                lx = px - p[CYLINDER_ORIGIN]
-                ly = py - p[CYLINDER_ORIGIN + 1]
-                lz = pz - p[CYLINDER_ORIGIN + 2]
-                ax, ay, az = p[CYLINDER_AXIS], p[CYLINDER_AXIS + 1], p[CYLINDER_AXIS + 2]
-                a = lx * ax + ly * ay + lz * az
-                nx, ny, nz = lx - a * ax, ly - a * ay, lz - a * az
-            else:
-                nx = c0 * normals[t, 0, 0] + c1 * normals[t, 1, 0] + c2 * normals[t, 2, 0]
-                ny = c0 * normals[t, 0, 1] + c1 * normals[t, 1, 1] + c2 * normals[t, 2, 1]
-                nz = c0 * normals[t, 0, 2] + c1 * normals[t, 1, 2] + c2 * normals[t, 2, 2]
-            inv = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz)
-            nx, ny, nz = nx * inv, ny * inv, nz * inv
-            vx, vy, vz = eye[0] - px, eye[1] - py, eye[2] - pz
-            inv = 1.0 / math.sqrt(vx * vx + vy * vy + vz * vz)
-            vx, vy, vz = vx * inv, vy * inv, vz * inv
-            nv = nx * vx + ny * vy + nz * vz
-            if nv < 0.0:  # two-sided: the normal faces the viewer
-                nx, ny, nz, nv = -nx, -ny, -nz, -nv
-            rx, ry, rz = 2.0 * nv * nx - vx, 2.0 * nv * ny - vy, 2.0 * nv * nz - vz
+            px, py, pz, rx, ry, rz, _ = reflected_ray(tri[y, x], b1[y, x], b2[y, x], corners,
+                                                      normals, kind, p, eye)
             if parallax:
                 te = box_exit(px, py, pz, rx, ry, rz, lo, hi)
                 if te > 0.0:

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..scene.types import CYLINDER, PLANAR, SPHERE
+from ..reflection import reflected_ray
 
 # columns of the per-pixel ray table
 # 0-2 world origin, 3-5 world unit direction, 6-8 eye origin, 9-11 eye direction,
@@ -61,35 +61,8 @@ def _rays(tri, b1, b2, surface_ids, n_objects, corners, normals, kind, params, v
             if s < n_objects:
                 continue
             k = s - n_objects
-            t = tri[y, x]
-            c1 = b1[y, x]
-            c2 = b2[y, x]
-            c0 = 1.0 - c1 - c2
-            px = c0 * corners[t, 0, 0] + c1 * corners[t, 1, 0] + c2 * corners[t, 2, 0]
-            py = c0 * corners[t, 0, 1] + c1 * corners[t, 1, 1] + c2 * corners[t, 2, 1]
-            pz = c0 * corners[t, 0, 2] + c1 * corners[t, 1, 2] + c2 * corners[t, 2, 2]
-            pk = params[k]
-            if kind[k] == PLANAR:
-                nx, ny, nz = pk[0], pk[1], pk[2]
-            elif kind[k] == SPHERE:
-                nx, ny, nz = px - pk[0], py - pk[1], pz - pk[2]
-            elif kind[k] == CYLINDER:
-                lx, ly, lz = px - pk[0], py - pk[1], pz - pk[2]
-                a = lx * pk[3] + ly * pk[4] + lz * pk[5]
-                nx, ny, nz = lx - a * pk[3], ly - a * pk[4], lz - a * pk[5]
-            else:
-                nx = c0 * normals[t, 0, 0] + c1 * normals[t, 1, 0] + c2 * normals[t, 2, 0]
-                ny = c0 * normals[t, 0, 1] + c1 * normals[t, 1, 1] + c2 * normals[t, 2, 1]
-                nz = c0 * normals[t, 0, 2] + c1 * normals[t, 1, 2] + c2 * normals[t, 2, 2]
-            inv = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz)
-            nx, ny, nz = nx * inv, ny * inv, nz * inv
-            vx, vy, vz = eye[0] - px, eye[1] - py, eye[2] - pz
-            inv = 1.0 / math.sqrt(vx * vx + vy * vy + vz * vz)
-            vx, vy, vz = vx * inv, vy * inv, vz * inv
-            nv = nx * vx + ny * vy + nz * vz
-            if nv < 0.0:  # two-sided: the normal faces the viewer
-                nx, ny, nz, nv = -nx, -ny, -nz, -nv
-            rx, ry, rz = 2.0 * nv * nx - vx, 2.0 * nv * ny - vy, 2.0 * nv * nz - vz
+            px, py, pz, rx, ry, rz, nv = reflected_ray(tri[y, x], b1[y, x], b2[y, x], corners,
+                                                       normals, kind[k], params[k], eye)
             inv = 1.0 / math.sqrt(rx * rx + ry * ry + rz * rz)
             rx, ry, rz = rx * inv, ry * inv, rz * inv
             # eye space

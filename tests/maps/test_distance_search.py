@@ -123,11 +123,11 @@ def test_depth_peeling_layers(tmp_path):
     assert behind.size > 0 and (behind >= 0).mean() > 0.95
 
 
-def test_mirror_ray_matches_twin():
+def test_reflected_ray_matches_twin():
     """The reflected ray of a reflector pixel, for each reflector kind, on random triangles."""
     from naive import reflected_ray
 
-    from reflectcli.maps.distance_search import mirror_ray
+    from reflectcli.reflection import reflected_ray as mirror_ray
     from reflectcli.scene.types import CYLINDER, MESH, PLANAR, SPHERE
 
     rng = np.random.default_rng(3)
@@ -149,4 +149,8 @@ def test_mirror_ray_matches_twin():
             got = mirror_ray(t, np.float32(b1), np.float32(b2), corners, normals, kind, p, eye)
             point, r = reflected_ray(t, b1, b2, corners, normals, kind, p, eye)
             np.testing.assert_allclose(got[:3], point, atol=1e-5)
-            np.testing.assert_allclose(got[3:], r, atol=1e-4)
+            np.testing.assert_allclose(got[3:6], r, atol=1e-4)
+            # n.v, the cosine of incidence (the normal turned toward the eye): r.v
+            v = eye - point
+            np.testing.assert_allclose(got[6], np.sqrt((1.0 + r @ (v / np.linalg.norm(v))) / 2),
+                                       atol=1e-4)
