@@ -12,9 +12,6 @@ import json
 from importlib import resources
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from reflectcli.scene.mesh import Mesh
 from reflectcli.scene.primitives import grid_mesh
@@ -56,6 +53,10 @@ def weld_points(points: np.ndarray, tolerance: float = _WELD) -> np.ndarray:
     the last bits: triangles of the two patches then meet along slightly different edges,
     and a ray (or a rasterized pixel center) can pass between them, a pinhole.
     """
+    from scipy.sparse import coo_matrix  # scipy costs 0.25 s to import: only when welding
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
     flat = points.reshape(-1, 3)
     pairs = cKDTree(flat).query_pairs(tolerance, output_type="ndarray")
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
