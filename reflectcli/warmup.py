@@ -29,6 +29,13 @@ WARM_SCENE = {
          "segments": 8},
         {"name": "tube", "shape": "cylinder", "origin": [-1.5, 0, -1], "radius": 0.3,
          "height": 1, "segments": 8},
+        # a concave mesh reflector (explosion maps, refinement, tiles) and an extrusion
+        # (the profile search): their kernels compile here, not in a render's first frame
+        {"name": "dish", "shape": "cap", "center": [0.7, 1.8, -0.4], "radius": 0.6,
+         "axis": [0.0, 0.0, -1.0], "angle": 30.0, "concave": True, "segments": 12},
+        {"name": "screen", "shape": "extrusion", "height": 0.4,
+         "profile": [[0.3, 0.0], [0.0, 0.05], [-0.3, 0.0]],
+         "transform": {"translate": [-0.7, 1.6, -1.0]}},
     ],
 }
 
