@@ -83,8 +83,10 @@ def _plan_jobs(plan: BenchPlan, cfg: BenchConfig, path: str, display: str,
             where = f"runs ({job['technique']} on {os.path.relpath(job['scene'])})"
             problems += [Problem(display, where, str(p)) for p in e.problems]
             continue
+        # the scene's content and the timing settings are in the id too: `--resume` re-runs
+        # a job whose scene was edited or whose warm-up / repeats changed
         job["id"] = _digest(os.path.relpath(job["scene"]), job["technique"], job["overrides"],
-                            job["frames"])
+                            job["frames"], run.scene_hash, cfg.bench.repeats, cfg.bench.warmup)
         job["scene_name"] = run.name
         job["parameters"] = run.params.model_dump(mode="json")
         ref_overrides = scene_overrides(job["overrides"]) + [

@@ -201,3 +201,33 @@ def test_holes_count_only_where_the_reference_reflects_geometry():
     assert got["hole_fraction"] == 0.0
     # techniques without holes (rerender, virtual) report none
     assert hole_fractions({}, {"reflected_hit": hit}, mirror, {})["hole_fraction"] == 0.0
+
+
+def test_resume_reruns_a_job_whose_scene_was_edited(tmp_path):
+    scene = tmp_path / "scene.toml"
+    original = (ROOT / "scenes" / "teapot-box.toml").read_text()
+    scene.write_text(original)
+    path = tmp_path / "e.toml"
+    path.write_text(f"""
+[bench]
+name = "e"
+frames = "0"
+warmup = 0
+repeats = 1
+out = "out-e"
+
+[[runs]]
+scenes = ["{scene}"]
+techniques = ["envmap"]
+set = ["camera.width=24", "camera.height=18"]
+""")
+    first = run_bench(str(path), resume=True)
+    assert first.ran == 1
+    assert run_bench(str(path), resume=True).skipped == 1  # unchanged: kept
+    scene.write_text(original.replace("color = [0.8, 0.1, 0.1]", "color = [0.1, 0.8, 0.1]"))
+    edited = run_bench(str(path), resume=True)
+    assert edited.ran == 1 and edited.skipped == 0
+    assert edited.rows[0]["run"] != first.rows[0]["run"]
+    # changed timing settings re-run the job as well
+    path.write_text(path.read_text().replace("repeats = 1", "repeats = 2"))
+    assert run_bench(str(path), resume=True).ran == 1
