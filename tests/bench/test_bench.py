@@ -72,7 +72,8 @@ def test_bench_writes_every_output(tmp_path):
     assert dprm[0]["hole_fraction"] > dprm[1]["hole_fraction"]  # denser maps, fewer holes
     for r in rows:
         assert r["versions"]["reflect"] and r["cpu"] and r["threads"] >= 1
-        assert r["timed_frames"] == 1 and r["frames"] == 2
+        # two frames after one warm-up: each rendered twice so that 3 renders are timed
+        assert r["timed_frames"] == 3 and r["frames"] == 2 and r["repeats"] == 2
 
 
 def test_resumed_bench_equals_uninterrupted(tmp_path):
@@ -231,3 +232,29 @@ set = ["camera.width=24", "camera.height=18"]
     # changed timing settings re-run the job as well
     path.write_text(path.read_text().replace("repeats = 1", "repeats = 2"))
     assert run_bench(str(path), resume=True).ran == 1
+
+
+def test_a_still_scene_is_timed_on_warmup_plus_three_renders(tmp_path):
+    path = tmp_path / "still.toml"
+    text = f"""
+[bench]
+name = "still"
+frames = "0"
+warmup = 1
+out = "out-still"
+plots = false
+
+[[runs]]
+scenes = ["{ROOT / 'scenes' / 'four-spheres.toml'}"]
+techniques = ["envmap"]
+set = ["camera.width=24", "camera.height=24"]
+"""
+    path.write_text(text)
+    row = run_bench(str(path)).rows[0]
+    assert row["frames"] == 1 and row["repeats"] == 4
+    assert row["warmup_renders"] == 1 and row["timed_frames"] == 3
+    assert row["timing_warning"] == ""
+    # a bench file that asks for fewer renders gets them, and the warning
+    path.write_text(text.replace("warmup = 1", "warmup = 1\nrepeats = 1"))
+    row = run_bench(str(path)).rows[0]
+    assert row["repeats"] == 1 and "timed" in row["timing_warning"]
