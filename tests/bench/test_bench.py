@@ -258,3 +258,17 @@ set = ["camera.width=24", "camera.height=24"]
     path.write_text(text.replace("warmup = 1", "warmup = 1\nrepeats = 1"))
     row = run_bench(str(path)).rows[0]
     assert row["repeats"] == 1 and "timed" in row["timing_warning"]
+
+
+def test_modern_preset_measures_screen_space_alone_and_the_chain_apart():
+    from reflectcli.bench.runner import load_bench
+
+    plan = load_bench(str(ROOT / "configs" / "bench" / "modern.toml"))
+    screen = [j for j in plan.jobs if j["technique"] in ("ssr", "ppr")]
+    alone = [j for j in screen if "technique.fallback" not in j["sweep"]
+             and "technique.thickness" not in j["sweep"]]
+    chain = [j for j in screen if "technique.fallback" in j["sweep"]]
+    assert alone and chain
+    assert {j["parameters"]["fallback"] for j in alone} == {"none"}
+    assert {j["parameters"]["fallback"] for j in chain} == {"envmap"}
+    assert {j["technique"] for j in alone} == {"ssr", "ppr"}
