@@ -536,3 +536,13 @@ def test_more_bad_input_found_in_review(tmp_path):
         assert len(lines) == 1 and where in lines[0] and what in lines[0], result.output
         assert "Traceback" not in result.output
     assert not (tmp_path / "o").exists()
+
+
+def test_a_bad_set_under_a_chosen_technique_blames_set():
+    from reflectcli import api
+    from reflectcli.errors import Problems
+
+    with pytest.raises(Problems) as e:
+        api.open_scene(str(TEAPOT_BOX), technique="dprm", overrides=["technique.maps.count=1"])
+    (problem,) = e.value.problems
+    assert str(problem).startswith("--set: technique.maps: per_frame = 4 exceeds count = 1")
