@@ -16,6 +16,7 @@ import os
 import shutil
 import statistics
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,6 +35,19 @@ def _digest(*parts) -> str:
 def scene_overrides(overrides: list[str]) -> list[str]:
     """The overrides that change the scene itself (everything but technique.*)."""
     return [o for o in overrides if not o.split("=", 1)[0].strip().startswith("technique")]
+
+
+@contextmanager
+def technique_notices_quiet():
+    """No per-job "--technique X: the scene's ... parameters do not apply" notices: the bench
+    chooses each run's technique on purpose (the user passed no --technique)."""
+    quiet = logging.getLogger("reflect")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        quiet.setLevel(level)
 
 
 @dataclass
@@ -58,13 +72,8 @@ def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple =
                    if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
     plan = BenchPlan(cfg, path, out if out is not None else default_out)
     problems: list[Problem] = []
-    quiet = logging.getLogger("reflect")
-    level = quiet.level
-    quiet.setLevel(logging.ERROR)  # per-job --technique notices: the bench chooses on purpose
-    try:
+    with technique_notices_quiet():
         _plan_jobs(plan, cfg, path, display, overrides, problems)
-    finally:
-        quiet.setLevel(level)
     if problems:
         raise Problems(problems[:20])
     return plan
@@ -176,10 +185,12 @@ def execute_job(job: dict, settings: dict) -> dict:
     folder = os.path.join(settings["out"], "runs", job["id"])
     repeats = job.get("repeats", settings.get("repeats", 1))
     shutil.rmtree(folder, ignore_errors=True)  # a run without a result row starts over
-    result = api.render(job["scene"], out=folder, frames=job.get("frames", settings["frames"]),
-                        technique=job["technique"], overrides=job["overrides"],
-                        cache=os.path.join(settings["out"], "cache"),
-                        threads=settings.get("threads"), repeats=repeats)
+    with technique_notices_quiet():
+        result = api.render(job["scene"], out=folder,
+                            frames=job.get("frames", settings["frames"]),
+                            technique=job["technique"], overrides=job["overrides"],
+                            cache=os.path.join(settings["out"], "cache"),
+                            threads=settings.get("threads"), repeats=repeats)
     frames_dir = result.folder
     log = read_jsonl(os.path.join(frames_dir, "timings.jsonl"))
     ref_dir = settings["reference_dirs"][job["reference"]["id"]]

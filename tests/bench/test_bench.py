@@ -272,3 +272,23 @@ def test_modern_preset_measures_screen_space_alone_and_the_chain_apart():
     assert {j["parameters"]["fallback"] for j in alone} == {"none"}
     assert {j["parameters"]["fallback"] for j in chain} == {"envmap"}
     assert {j["technique"] for j in alone} == {"ssr", "ppr"}
+
+
+def test_running_jobs_prints_no_technique_notices(tmp_path, caplog):
+    path = tmp_path / "n.toml"
+    path.write_text(f"""
+[bench]
+name = "n"
+frames = "0"
+repeats = 1
+out = "out-n"
+plots = false
+
+[[runs]]
+scenes = ["{ROOT / 'scenes' / 'teapot-box.toml'}"]
+techniques = ["envmap"]
+set = ["camera.width=24", "camera.height=18"]
+""")
+    caplog.set_level("WARNING", logger="reflect")
+    run_bench(str(path))
+    assert not [r for r in caplog.records if "do not apply" in r.getMessage()]
