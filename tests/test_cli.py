@@ -115,7 +115,14 @@ def test_render_writes_exr_and_log(tmp_path):
     params = json.loads(attrs["reflect:parameters"])
     assert params == {"name": "raytrace", "max_depth": 4, "samples": 1}
     scene_hash = attrs["reflect:scene_hash"]
-    assert len(scene_hash) == 64 and int(scene_hash, 16) >= 0
+    from reflectcli import api
+
+    assert len(scene_hash) == 64
+    assert scene_hash == api.open_scene(str(TEAPOT_BOX), overrides=list(SMALL[1::2])).scene_hash
+    edited = tmp_path / "edited.toml"
+    edited.write_text(TEAPOT_BOX.read_text().replace("color = [0.8, 0.1, 0.1]",
+                                                     "color = [0.1, 0.8, 0.1]"))
+    assert api.open_scene(str(edited), overrides=list(SMALL[1::2])).scene_hash != scene_hash
 
     (row,) = read_jsonl(str(folder / "timings.jsonl"))
     assert row["frame"] == 0 and row["file"] == "frame_0000.exr"
@@ -536,3 +543,13 @@ def test_more_bad_input_found_in_review(tmp_path):
         assert len(lines) == 1 and where in lines[0] and what in lines[0], result.output
         assert "Traceback" not in result.output
     assert not (tmp_path / "o").exists()
+
+
+def test_a_bad_set_under_a_chosen_technique_blames_set():
+    from reflectcli import api
+    from reflectcli.errors import Problems
+
+    with pytest.raises(Problems) as e:
+        api.open_scene(str(TEAPOT_BOX), technique="dprm", overrides=["technique.maps.count=1"])
+    (problem,) = e.value.problems
+    assert str(problem).startswith("--set: technique.maps: per_frame = 4 exceeds count = 1")

@@ -16,6 +16,7 @@ import os
 import shutil
 import statistics
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,6 +35,19 @@ def _digest(*parts) -> str:
 def scene_overrides(overrides: list[str]) -> list[str]:
     """The overrides that change the scene itself (everything but technique.*)."""
     return [o for o in overrides if not o.split("=", 1)[0].strip().startswith("technique")]
+
+
+@contextmanager
+def technique_notices_quiet():
+    """No per-job "--technique X: the scene's ... parameters do not apply" notices: the bench
+    chooses each run's technique on purpose (the user passed no --technique)."""
+    quiet = logging.getLogger("reflect")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        quiet.setLevel(level)
 
 
 @dataclass
@@ -58,13 +72,8 @@ def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple =
                    if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
     plan = BenchPlan(cfg, path, out if out is not None else default_out)
     problems: list[Problem] = []
-    quiet = logging.getLogger("reflect")
-    level = quiet.level
-    quiet.setLevel(logging.ERROR)  # per-job --technique notices: the bench chooses on purpose
-    try:
+    with technique_notices_quiet():
         _plan_jobs(plan, cfg, path, display, overrides, problems)
-    finally:
-        quiet.setLevel(level)
     if problems:
         raise Problems(problems[:20])
     return plan
@@ -83,8 +92,11 @@ def _plan_jobs(plan: BenchPlan, cfg: BenchConfig, path: str, display: str,
             where = f"runs ({job['technique']} on {os.path.relpath(job['scene'])})"
             problems += [Problem(display, where, str(p)) for p in e.problems]
             continue
+        # the scene's content and the timing settings are in the id too: `--resume` re-runs
+        # a job whose scene was edited or whose warm-up / repeats changed
         job["id"] = _digest(os.path.relpath(job["scene"]), job["technique"], job["overrides"],
-                            job["frames"])
+                            job["frames"], run.scene_hash, cfg.bench.repeats, cfg.bench.warmup)
+        job["repeats"] = run_repeats(cfg, len(run.frames(job["frames"])))
         job["scene_name"] = run.name
         job["parameters"] = run.params.model_dump(mode="json")
         ref_overrides = scene_overrides(job["overrides"]) + [
@@ -109,12 +121,26 @@ def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> 
     folder = os.path.join(plan.out, "references", job["reference"]["id"])
     result = api.render(job["scene"], out=folder, frames=job["frames"],
                         technique="raytrace", overrides=job["reference"]["overrides"],
-                        resume=True, threads=threads, repeats=plan.config.bench.repeats)
+                        resume=True, threads=threads,
+                        repeats=job.get("repeats", plan.config.bench.repeats))
     return result.folder
 
 
 MIN_TIMED = 3  # frame times are medians of at least this many timed renders...
 MIN_WARMUP = 1  # ...after at least this many warm-up renders
+
+
+def run_repeats(cfg: BenchConfig, frame_count: int) -> int:
+    """Renders of each frame of a run: the bench file's `repeats` if it sets them, otherwise
+    enough that `warmup` + MIN_TIMED renders are made (a still scene is not timed on one cold
+    render). A bench file that sets fewer gets them, and the timing warning with them."""
+    repeats = cfg.bench.repeats
+    if "repeats" in cfg.bench.model_fields_set:
+        return repeats
+    needed = cfg.bench.warmup + MIN_TIMED
+    if frame_count * repeats < needed:
+        repeats = min(100, math.ceil(needed / max(frame_count, 1)))
+    return repeats
 SCOPES = ("mirror", "image")
 MEAN_OF_FRAMES = ("rmse", "frac_off", "relmse", "p50", "p95", "p99", "flip", "flip_ldr", "ssim")
 
@@ -157,11 +183,14 @@ def execute_job(job: dict, settings: dict) -> dict:
     from ..metrics.temporal import temporal_errors
 
     folder = os.path.join(settings["out"], "runs", job["id"])
+    repeats = job.get("repeats", settings.get("repeats", 1))
     shutil.rmtree(folder, ignore_errors=True)  # a run without a result row starts over
-    result = api.render(job["scene"], out=folder, frames=job.get("frames", settings["frames"]),
-                        technique=job["technique"], overrides=job["overrides"],
-                        cache=os.path.join(settings["out"], "cache"),
-                        threads=settings.get("threads"), repeats=settings.get("repeats", 1))
+    with technique_notices_quiet():
+        result = api.render(job["scene"], out=folder,
+                            frames=job.get("frames", settings["frames"]),
+                            technique=job["technique"], overrides=job["overrides"],
+                            cache=os.path.join(settings["out"], "cache"),
+                            threads=settings.get("threads"), repeats=repeats)
     frames_dir = result.folder
     log = read_jsonl(os.path.join(frames_dir, "timings.jsonl"))
     ref_dir = settings["reference_dirs"][job["reference"]["id"]]
@@ -195,7 +224,7 @@ def execute_job(job: dict, settings: dict) -> dict:
         "run": job["id"], "scene": job["scene_name"],
         "scene_file": os.path.relpath(job["scene"]), "technique": job["technique"],
         "sweep": job["sweep"], "overrides": job["overrides"], "parameters": job["parameters"],
-        "frames": len(per_frame), "repeats": settings.get("repeats", 1),
+        "frames": len(per_frame), "repeats": repeats,
         **timing_stats(timing_samples(log), settings["warmup"]),
         "reference_ms_median": timing_stats(
             timing_samples([ref_log[r["file"]] for r in log]),

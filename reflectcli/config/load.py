@@ -217,6 +217,12 @@ def _message(err: dict, root=None, loc: tuple = (), data: Any = None) -> str:
 
 
 def origin(prov: Provenance, loc: tuple, default: str) -> str:
+    """Where the value at `loc` came from. A table's own error (a check across its fields)
+    is blamed on `--set` when an override changed anything in it: the table as a whole may
+    come from the file or `--technique`, but the override is what made it wrong."""
+    if any(source == "--set" and len(k) > len(loc) and k[: len(loc)] == loc
+           for k, source in prov.items()):
+        return "--set"
     for n in range(len(loc), -1, -1):
         if loc[:n] in prov:
             return prov[loc[:n]]

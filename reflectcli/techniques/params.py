@@ -5,8 +5,8 @@ Light: pydantic and config.base only, so listing techniques loads no kernels.
 
 from __future__ import annotations
 
-from types import UnionType
-from typing import Literal, Union, get_args, get_origin
+from types import SimpleNamespace, UnionType
+from typing import Annotated, Literal, Union, get_args, get_origin
 
 from pydantic import BaseModel
 
@@ -38,8 +38,15 @@ def type_name(annotation) -> str:
     args = get_args(annotation)
     if origin is Literal:
         return " | ".join(toml_value(a) for a in args)
+    if origin is Annotated:  # Annotated[int, Field(ge=1)] -> "int >= 1"
+        base, *extra = args
+        # a Field(...) carries its constraints in .metadata; annotated_types.Ge & co. are bare
+        metadata = [m for e in extra for m in getattr(e, "metadata", [e])]
+        bounds = range_text(SimpleNamespace(metadata=metadata))
+        return f"{type_name(base)} {bounds}" if bounds else type_name(base)
     if origin in (Union, UnionType):
-        return " | ".join(type_name(a) for a in args if a is not type(None)) + " (optional)"
+        text = " | ".join(type_name(a) for a in args if a is not type(None))
+        return text + " (optional)" if type(None) in args else text
     if origin is tuple and len(args) == 3 and all(a is float for a in args):
         return "xyz"
     if origin is dict:

@@ -72,7 +72,8 @@ def test_bench_writes_every_output(tmp_path):
     assert dprm[0]["hole_fraction"] > dprm[1]["hole_fraction"]  # denser maps, fewer holes
     for r in rows:
         assert r["versions"]["reflect"] and r["cpu"] and r["threads"] >= 1
-        assert r["timed_frames"] == 1 and r["frames"] == 2
+        # two frames after one warm-up: each rendered twice so that 3 renders are timed
+        assert r["timed_frames"] == 3 and r["frames"] == 2 and r["repeats"] == 2
 
 
 def test_resumed_bench_equals_uninterrupted(tmp_path):
@@ -201,3 +202,93 @@ def test_holes_count_only_where_the_reference_reflects_geometry():
     assert got["hole_fraction"] == 0.0
     # techniques without holes (rerender, virtual) report none
     assert hole_fractions({}, {"reflected_hit": hit}, mirror, {})["hole_fraction"] == 0.0
+
+
+def test_resume_reruns_a_job_whose_scene_was_edited(tmp_path):
+    scene = tmp_path / "scene.toml"
+    original = (ROOT / "scenes" / "teapot-box.toml").read_text()
+    scene.write_text(original)
+    path = tmp_path / "e.toml"
+    path.write_text(f"""
+[bench]
+name = "e"
+frames = "0"
+warmup = 0
+repeats = 1
+out = "out-e"
+
+[[runs]]
+scenes = ["{scene}"]
+techniques = ["envmap"]
+set = ["camera.width=24", "camera.height=18"]
+""")
+    first = run_bench(str(path), resume=True)
+    assert first.ran == 1
+    assert run_bench(str(path), resume=True).skipped == 1  # unchanged: kept
+    scene.write_text(original.replace("color = [0.8, 0.1, 0.1]", "color = [0.1, 0.8, 0.1]"))
+    edited = run_bench(str(path), resume=True)
+    assert edited.ran == 1 and edited.skipped == 0
+    assert edited.rows[0]["run"] != first.rows[0]["run"]
+    # changed timing settings re-run the job as well
+    path.write_text(path.read_text().replace("repeats = 1", "repeats = 2"))
+    assert run_bench(str(path), resume=True).ran == 1
+
+
+def test_a_still_scene_is_timed_on_warmup_plus_three_renders(tmp_path):
+    path = tmp_path / "still.toml"
+    text = f"""
+[bench]
+name = "still"
+frames = "0"
+warmup = 1
+out = "out-still"
+plots = false
+
+[[runs]]
+scenes = ["{ROOT / 'scenes' / 'four-spheres.toml'}"]
+techniques = ["envmap"]
+set = ["camera.width=24", "camera.height=24"]
+"""
+    path.write_text(text)
+    row = run_bench(str(path)).rows[0]
+    assert row["frames"] == 1 and row["repeats"] == 4
+    assert row["warmup_renders"] == 1 and row["timed_frames"] == 3
+    assert row["timing_warning"] == ""
+    # a bench file that asks for fewer renders gets them, and the warning
+    path.write_text(text.replace("warmup = 1", "warmup = 1\nrepeats = 1"))
+    row = run_bench(str(path)).rows[0]
+    assert row["repeats"] == 1 and "timed" in row["timing_warning"]
+
+
+def test_modern_preset_measures_screen_space_alone_and_the_chain_apart():
+    from reflectcli.bench.runner import load_bench
+
+    plan = load_bench(str(ROOT / "configs" / "bench" / "modern.toml"))
+    screen = [j for j in plan.jobs if j["technique"] in ("ssr", "ppr")]
+    alone = [j for j in screen if "technique.fallback" not in j["sweep"]
+             and "technique.thickness" not in j["sweep"]]
+    chain = [j for j in screen if "technique.fallback" in j["sweep"]]
+    assert alone and chain
+    assert {j["parameters"]["fallback"] for j in alone} == {"none"}
+    assert {j["parameters"]["fallback"] for j in chain} == {"envmap"}
+    assert {j["technique"] for j in alone} == {"ssr", "ppr"}
+
+
+def test_running_jobs_prints_no_technique_notices(tmp_path, caplog):
+    path = tmp_path / "n.toml"
+    path.write_text(f"""
+[bench]
+name = "n"
+frames = "0"
+repeats = 1
+out = "out-n"
+plots = false
+
+[[runs]]
+scenes = ["{ROOT / 'scenes' / 'teapot-box.toml'}"]
+techniques = ["envmap"]
+set = ["camera.width=24", "camera.height=18"]
+""")
+    caplog.set_level("WARNING", logger="reflect")
+    run_bench(str(path))
+    assert not [r for r in caplog.records if "do not apply" in r.getMessage()]

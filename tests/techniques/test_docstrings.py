@@ -66,3 +66,17 @@ def test_techniques_cli_shows_table_descriptions_and_ranges():
     out = CliRunner().invoke(cli, ["techniques"]).output
     line = next(x for x in out.splitlines() if x.strip().startswith("max_depth"))
     assert "in [0, 64]" in line and "(mirror bounces followed;" in line
+
+
+def test_type_names_unwrap_annotated_and_say_optional_only_for_none():
+    from typing import Annotated, Literal
+
+    from pydantic import Field
+
+    from reflectcli.config.base import UpdatePolicy
+    from reflectcli.techniques.params import type_name
+
+    assert type_name(UpdatePolicy) == '"once" | "every" | int >= 1'
+    assert type_name(Annotated[int, Field(ge=1)]) == "int >= 1"
+    assert type_name(Literal["a"] | int) == '"a" | int'  # a Union without None
+    assert type_name(float | None) == "float (optional)"
