@@ -497,3 +497,13 @@ def test_fill_cracks_closes_one_pixel_gaps_only():
     np.testing.assert_allclose(colors[2, 3], expected)
     np.testing.assert_allclose(colors[3, 5], (colors[3, 4] + colors[3, 6]) / 2)
     assert (colors[0:2, 0:2] == -1.0).all()
+
+
+def test_reflector_without_triangles_is_skipped_in_prepare():
+    """Found by the fuzzer (seed 702651): a cap of radius 2e-6 keeps no triangles; prepare's
+    one-time tessellation skipped it in render but not in prepare (a traceback)."""
+    from conftest import render_frame
+
+    frame, _ = render_frame("concave-mirror", "virtual", 0, (
+        "mirrors.dish.radius=1.999e-06", "camera.width=32", "camera.height=32"))
+    assert frame.rgb.shape == (32, 32, 3) and not frame.mirror_mask.any()

@@ -72,11 +72,13 @@ class Virtual(Technique):
         geometry = scene.geometry(0)
         tris = geometry.all_triangles()
         for k in range(scene.mirrors.count):
+            mine = np.flatnonzero(tris.surface == scene.n_objects + k)
+            if not mine.size:
+                continue  # a reflector with no triangles is never seen (render skips it too)
             state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation)
             method = choose_method(self.params.method, int(scene.mirrors.kind[k]),
                                    k in scene.mirror_profiles)
-            mine = np.flatnonzero(tris.surface == scene.n_objects + k)
-            if method != "explosion" or not mine.size:
+            if method != "explosion":
                 continue
             first, count = int(mine[0]), int(mine.size)  # a reflector's triangles are contiguous
             corners = tris.corners[first:first + count]
