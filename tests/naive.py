@@ -1345,3 +1345,20 @@ def fill_and_blend(stencil, best_id, reflected, prev_rgb, prev_filled, backgroun
     rgb = rgb.copy()
     rgb[stencil] += np.asarray(reflectance) * reflected[stencil]
     return rgb, hole.astype(np.float32), reflected, filled
+
+
+def weld_within(points, tolerance=1e-9):
+    """Twin of scene.teapot.weld_points: every cluster of points closer than `tolerance`
+    (a KD-tree's pairs, joined transitively) replaced by its first member."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    flat = points.reshape(-1, 3)
+    pairs = cKDTree(flat).query_pairs(tolerance, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(len(flat), len(flat)))
+    _, label = connected_components(graph, directed=False)
+    first = np.full(label.max() + 1, len(flat))
+    np.minimum.at(first, label, np.arange(len(flat)))
+    return flat[first[label]].reshape(points.shape)

@@ -17,7 +17,7 @@ from reflectcli.scene.mesh import Mesh
 from reflectcli.scene.primitives import grid_mesh
 
 # Grid points closer than this (native units; the teapot is ~6 across) are one vertex.
-_WELD = 1e-9
+_WELD_CELL = 1e-7  # grid cell of the seam weld (model units; the teapot is ~3 wide)
 # Below this |du x dv| the patch is pinched (lid top, bottom centre) and the face normal wins.
 _DEGENERATE_NORMAL = 1e-9
 
@@ -44,27 +44,30 @@ def _signed_volume(mesh: Mesh) -> float:
     return float(np.einsum("ij,ij->i", c[:, 0], np.cross(c[:, 1], c[:, 2])).sum() / 6.0)
 
 
-def weld_points(points: np.ndarray, tolerance: float = _WELD) -> np.ndarray:
-    """(..., 3) points with every cluster closer than `tolerance` replaced by its first
-    member (in flat index order), so that shared vertices are bit-identical.
+def weld_points(points: np.ndarray, cell: float = _WELD_CELL) -> np.ndarray:
+    """(..., 3) points with every group that shares a `cell`-sized grid cell replaced by its
+    first member (in flat index order), so that shared vertices are bit-identical.
 
     Adjacent patches share their boundary control points, but evaluating the same boundary
     curve from two nets (summed in another order, or with t and 1 - t swapped) differs in
     the last bits: triangles of the two patches then meet along slightly different edges,
-    and a ray (or a rasterized pixel center) can pass between them, a pinhole.
+    and a ray (or a rasterized pixel center) can pass between them, a pinhole. Those copies
+    differ by ~1e-15 and distinct vertices by over 1e-4, so a 1e-7 grid groups exactly the
+    copies; a test holds it to a KD-tree weld at 1e-9 (tests/naive.py) for every size.
     """
-    from scipy.sparse import coo_matrix  # scipy costs 0.25 s to import: only when welding
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
     flat = points.reshape(-1, 3)
-    pairs = cKDTree(flat).query_pairs(tolerance, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
-                       shape=(len(flat), len(flat)))
-    _, label = connected_components(graph, directed=False)
+    keys = np.round(flat / cell).astype(np.int64)
+    _, label = np.unique(keys, axis=0, return_inverse=True)
+    label = label.reshape(-1)
     first = np.full(label.max() + 1, len(flat))
     np.minimum.at(first, label, np.arange(len(flat)))
     return flat[first[label]].reshape(points.shape)
+
+
+def patch_points(subdivisions: int) -> np.ndarray:
+    """(patches, n + 1, n + 1, 3) points of every patch's n x n grid, before welding."""
+    b, _ = _bernstein(np.linspace(0.0, 1.0, subdivisions + 1))
+    return np.einsum("ai,bj,pijk->pabk", b, b, _control_points())
 
 
 @functools.lru_cache(maxsize=16)
@@ -73,7 +76,7 @@ def _tessellate(subdivisions: int) -> Mesh:
     t = np.linspace(0.0, 1.0, subdivisions + 1)
     b, db = _bernstein(t)
     # grids indexed [patch, u, v]: rows follow u, columns follow v
-    pos = weld_points(np.einsum("ai,bj,pijk->pabk", b, b, nets))
+    pos = weld_points(patch_points(subdivisions))
     d_u = np.einsum("ai,bj,pijk->pabk", db, b, nets)
     d_v = np.einsum("ai,bj,pijk->pabk", b, db, nets)
     # grid_mesh's front is d/dcol x d/drow = Sv x Su, which is outward for Newell's data;

@@ -85,3 +85,15 @@ def test_patch_seams_are_welded(level):
     assert np.isclose(radius[on_lid_gap], 1.4, atol=0.01).sum() == 4 * level  # body's rim
     # the rest: spout mouth and the handle's and spout's ends, all away from the lid
     assert (~on_lid_gap).sum() <= 8 * level + 8
+
+
+@pytest.mark.parametrize("level", [1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 64])
+def test_grid_weld_equals_kd_tree_weld(level):
+    """The seam weld (a 1e-7 grid, numpy only: validate stays fast) groups exactly the
+    points a KD-tree groups within 1e-9 (its twin in tests/naive.py), at every size."""
+    from naive import weld_within
+
+    from reflectcli.scene.teapot import patch_points, weld_points
+
+    raw = patch_points(level)
+    np.testing.assert_array_equal(weld_points(raw), weld_within(raw))
