@@ -37,6 +37,11 @@ class Technique:
     def render(self, state: Any, frame_index: int, camera: Camera) -> Frame:
         raise NotImplementedError
 
+    def forget_view(self, state: Any) -> None:
+        """Drop what the state caches per camera view, so that rendering the same frame
+        again (the bench's repeats of a still scene) costs what a new view costs. Caches of
+        the scene (shapes, tessellations, maps) stay: they are one-time work."""
+
 
 @dataclass
 class MapRecord:

@@ -507,3 +507,18 @@ def test_reflector_without_triangles_is_skipped_in_prepare():
     frame, _ = render_frame("concave-mirror", "virtual", 0, (
         "mirrors.dish.radius=1.999e-06", "camera.width=32", "camera.height=32"))
     assert frame.rgb.shape == (32, 32, 3) and not frame.mirror_mask.any()
+
+
+def test_forget_view_drops_view_caches_and_changes_no_pixel():
+    """The bench's repeats of a still frame call forget_view, so each repeat pays the per-view
+    work (hidden map, ray grid, tiles) a new camera position pays; the image is the same."""
+    from conftest import open_scene
+
+    opened = open_scene("concave-mirror", "virtual", ("camera.width=48", "camera.height=48"))
+    first = opened.render_frame(0)
+    state = opened.prepare()
+    assert state.views.entries
+    opened.technique.forget_view(state)
+    assert not state.views.entries
+    again = opened.render_frame(0)
+    np.testing.assert_array_equal(first.rgb, again.rgb)

@@ -88,6 +88,9 @@ class Virtual(Technique):
             state.shapes.get(soup_key(corners, normals), corners, normals, mode == "auto")
         return state
 
+    def forget_view(self, state: VirtualState) -> None:
+        state.views.entries.clear()  # hidden maps, ray grids and tiles belong to one view
+
     def render(self, state: VirtualState, frame_index: int, camera: Camera) -> Frame:
         scene = state.scene
         primary = render_primary(scene, frame_index, camera)
