@@ -293,8 +293,9 @@ class OpenedScene:
             import numba
 
             _check_threads(self.threads)
-            if self.threads is not None:
-                numba.set_num_threads(self.threads)
+            # None is every core, whatever an earlier run in this process set
+            numba.set_num_threads(self.threads if self.threads is not None
+                                  else numba.config.NUMBA_NUM_THREADS)
             cls = technique_class(self.technique_name)
             self._technique = cls(self.params, numba.get_num_threads(), self.cache)
         return self._technique
@@ -440,34 +441,29 @@ class OpenedScene:
             interrupts.check()  # a Ctrl-C a compile swallowed stops the run here
             wants_preview = self.config.output.preview if preview is None else preview
             params = json.loads(self.params.model_dump_json())
-            self._write_each(frame_indices, result, stored, resume, wants_preview,
-                             self.scene_hash, params, preview, repeats, on_frame, rows)
+            for frame_index in frame_indices:
+                interrupts.check()  # between frames, even if the interrupt was swallowed
+                exr = os.path.join(result.folder, f"frame_{frame_index:04d}.exr")
+                if resume and os.path.exists(exr) and matches(
+                        stored.get(os.path.basename(exr)), self.scene_hash, params):
+                    if wants_preview and not os.path.exists(exr[:-4] + ".png"):
+                        write_missing_preview(exr)
+                    result.skipped.append(frame_index)
+                    continue
+
+                def kept(path: str, row: dict, frame_index: int = frame_index) -> None:
+                    result.written.append(path)  # counted before an interrupt held meanwhile
+                    rows.append(row)
+                    if on_frame is not None:
+                        on_frame(frame_index, path)
+
+                self.write_frame(frame_index, result.folder, preview=preview, repeats=repeats,
+                                 on_written=kept)
         finally:
             if rows:
                 with interrupts_deferred(), contextlib.suppress(OSError):
                     write_summary(os.path.join(result.folder, SUMMARY_NAME), rows)
         return result
-
-    def _write_each(self, frame_indices, result: RenderResult, stored: dict, resume: bool,
-                    wants_preview: bool, scene_hash: str, params: dict, preview: bool | None,
-                    repeats: int, on_frame, rows: list[dict]) -> None:
-        for frame_index in frame_indices:
-            interrupts.check()  # between frames, even if the interrupt itself was swallowed
-            exr = os.path.join(result.folder, f"frame_{frame_index:04d}.exr")
-            if resume and os.path.exists(exr) and matches(
-                    stored.get(os.path.basename(exr)), scene_hash, params):
-                if wants_preview and not os.path.exists(exr[:-4] + ".png"):
-                    write_missing_preview(exr)
-                result.skipped.append(frame_index)
-                continue
-            def kept(path: str, row: dict, frame_index: int = frame_index) -> None:
-                result.written.append(path)  # counted before an interrupt held meanwhile
-                rows.append(row)
-                if on_frame is not None:
-                    on_frame(frame_index, path)
-
-            self.write_frame(frame_index, result.folder, preview=preview, repeats=repeats,
-                             on_written=kept)
 
     def precompute(self, on_map: Callable[[dict], None] | None = None,
                    on_progress: Callable[[int, int], None] | None = None) -> list[dict]:

@@ -13,9 +13,9 @@ SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
 
 def render_frame(scene: str | Path, technique: str | None = None, frame: int = 0,
-                 overrides: tuple[str, ...] = ()):
+                 overrides: tuple[str, ...] = (), **options):
     """Render one frame of a scene file in-process, maps kept in memory: (Frame, Scene)."""
-    opened = open_scene(scene, technique, overrides)
+    opened = open_scene(scene, technique, overrides, **options)
     return opened.render_frame(frame), opened.scene
 
 

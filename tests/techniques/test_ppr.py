@@ -115,14 +115,10 @@ def test_curved_mirrors_fall_back():
 
 
 def test_deterministic_across_runs_and_threads():
-    previous = numba.get_num_threads()
     outs = []
-    try:
-        for threads in (1, 2, 2):
-            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
-            outs.append(render_frame("teapot-box", "ppr", 0, SMALL)[0])
-    finally:
-        numba.set_num_threads(previous)
+    for threads in (1, 2, 2):
+        outs.append(render_frame("teapot-box", "ppr", 0, SMALL,
+                                 threads=min(threads, numba.config.NUMBA_NUM_THREADS))[0])
     for other in outs[1:]:
         assert other.rgb.tobytes() == outs[0].rgb.tobytes()
         for key in ("ppr_hit", "ppr_distance", "source"):

@@ -198,17 +198,12 @@ def test_fallback_fills_misses_and_says_so():
 
 @pytest.mark.parametrize("march", ["linear", "dda", "hiz"])
 def test_deterministic_across_runs_and_threads(march):
-    previous = numba.get_num_threads()
     outs = []
-    try:
-        for threads in (1, 2, 2):
-            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
-            out, _ = render_frame("teapot-floor", "ssr", 0, (
-                *SMALL, f'technique.march="{march}"', "technique.jitter=1.0",
-                "technique.stride=2"))
-            outs.append(out)
-    finally:
-        numba.set_num_threads(previous)
+    for threads in (1, 2, 2):
+        out, _ = render_frame("teapot-floor", "ssr", 0, (
+            *SMALL, f'technique.march="{march}"', "technique.jitter=1.0",
+            "technique.stride=2"), threads=min(threads, numba.config.NUMBA_NUM_THREADS))
+        outs.append(out)
     for other in outs[1:]:
         assert other.rgb.tobytes() == outs[0].rgb.tobytes()
         for key in ("ssr_hit", "ssr_distance", "confidence", "source"):
