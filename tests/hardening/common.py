@@ -6,37 +6,13 @@ import os
 from pathlib import Path
 
 from click.testing import CliRunner
+from test_cli import TINY as CLI_TINY
 
 from reflectcli.cli import cli
 
-TINY = """\
-[scene]
-name = "tiny"
-
-[camera]
-eye = [0.0, 1.0, 3.0]
-target = [0.0, 0.5, 0.0]
-width = 16
-height = 12
-
-[materials.red]
-kind = "solid"
-color = [0.8, 0.1, 0.1]
-
-[[objects]]
-name = "ball"
-shape = "sphere"
-radius = 0.5
-segments = 8
-transform = { translate = [0.0, 0.5, 0.0] }
-material = "red"
-
-[[mirrors]]
-name = "floor"
-shape = "quad"
-corners = [[-2, 0, 2], [2, 0, 2], [2, 0, -2], [-2, 0, -2]]
-reflectance = 0.5
-"""
+# test_cli's tiny scene (a ball over a floor mirror) at 16x12
+TINY = CLI_TINY.replace("width = 32\nheight = 24", "width = 16\nheight = 12")
+assert TINY != CLI_TINY
 
 
 def invoke(*args: str):
