@@ -15,7 +15,6 @@ import contextlib
 import json
 import logging
 import os
-import signal
 import threading
 import time
 from collections.abc import Callable
@@ -31,9 +30,8 @@ from .errors import Problem, Problems
 from .frame import Frame
 from .loading import load_config
 from .maps.cache import MapCache, default_cache_dir
-from .output.exr import write_exr
-from .output.failures import discard, write_failure
 from .output.finite import check_finite
+from .output.frame_writer import FrameFiles, FrameWriter, OnWritten
 from .output.identity import (
     check_same_overrides,
     logged_rows,
@@ -41,7 +39,6 @@ from .output.identity import (
     new_run_id,
     scene_identity,
 )
-from .output.log import append_jsonl
 from .output.paths import inside, remove_stale_temps
 from .output.png import write_png
 from .output.summary import SUMMARY_NAME, write_summary
@@ -144,26 +141,6 @@ def frame_channels(frame: Frame) -> dict:
     }
     channels.update(frame.extra)
     return channels
-
-
-@contextlib.contextmanager
-def interrupts_deferred():
-    """Hold Ctrl-C until the block ends, so an interrupted run never keeps a frame without
-    its log line. Signal handlers can only be set from the main thread."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list = []
-    previous = {sig: signal.signal(sig, lambda *args: caught.append(args))
-                for sig in (signal.SIGINT, signal.SIGTERM)}  # SIGTERM is handled like Ctrl-C
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-    if caught:
-        interrupts.requested.set()
-        raise KeyboardInterrupt
 
 
 _warmed: dict[tuple, float] = {}
@@ -350,8 +327,8 @@ class OpenedScene:
         return inside(folder, self.config.output.log, self.display, "output.log")
 
     def write_frame(self, frame_index: int, folder: str, *, preview: bool | None = None,
-                    repeats: int = 1,
-                    on_written: Callable[[str, dict], None] | None = None) -> str:
+                    repeats: int = 1, on_written: OnWritten | None = None,
+                    writer: FrameWriter | None = None) -> str:
         """Render a frame and write it into `folder`: EXR, optional PNG preview and its log
         row, all or nothing (Ctrl-C waits until the three are written). The EXR's path.
 
@@ -360,7 +337,8 @@ class OpenedScene:
         render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
         the repeats as extra frames. `on_written(exr, log row)` runs once the three are
         written, before an interrupt held meanwhile is raised (so a count of kept frames is
-        exact)."""
+        exact). With an overlapping `writer` the files are written while the caller goes on
+        (see write_frames); without one, before this returns."""
         exr = os.path.join(folder, f"frame_{frame_index:04d}.exr")
         self.prepare()
         start = time.perf_counter()
@@ -372,6 +350,7 @@ class OpenedScene:
             start = time.perf_counter()
             self.render_frame(frame_index)
             repeat_seconds.append(time.perf_counter() - start)
+        overlapped = writer is not None and writer.overlap
         params = json.loads(self.params.model_dump_json())
         row = {
             "scene": self.name,
@@ -391,6 +370,9 @@ class OpenedScene:
             "run_id": self.run_id,
             "overrides": self.overrides,
             **({"repeat_seconds": repeat_seconds} if repeats > 1 else {}),
+            # the previous frame's files were being written (another thread) while this
+            # frame rendered: its times include that competition for the cores
+            **({"writes_overlapped": True} if overlapped else {}),
         }
         attributes = {
             "reflect:technique": self.technique_name,
@@ -401,40 +383,36 @@ class OpenedScene:
             "reflect:frame": str(frame_index),
         }
         preview = self.config.output.preview if preview is None else preview
-        log_path = self.log_path(folder)
         channels = frame_channels(frame)
         check_finite(channels, self.display, frame_index)  # nothing non-finite is written
-        with interrupts_deferred():  # a frame is kept with its log line, or not at all
-            t1 = time.perf_counter()
-            target = exr
-            try:
-                write_exr(exr, channels, attributes)
-                if preview:
-                    target = exr[:-4] + ".png"
-                    write_png(target, frame.rgb)
-                target = log_path
-                append_jsonl(log_path, {**row, "write_seconds": time.perf_counter() - t1})
-            except OSError as e:
-                discard(exr, *([exr[:-4] + ".png"] if preview else []))
-                raise write_failure(e, target) from None
-            if on_written is not None:
-                on_written(exr, row)
+        files = FrameFiles.of(exr, channels, attributes, frame.rgb if preview else None,
+                              self.log_path(folder), row)
+        if writer is None:
+            FrameWriter(overlap=False).submit(files, on_written)
+        else:
+            writer.submit(files, on_written)
         return exr
 
     def write_frames(self, frame_indices: range | list[int], *, out: str | None = None,
                      preview: bool | None = None, resume: bool = False,
                      on_frame: Callable[[int, str], None] | None = None,
-                     repeats: int = 1) -> RenderResult:
+                     repeats: int = 1, overlap_writes: bool = False) -> RenderResult:
         """Write the given frames into <out>/<scene>/<technique>/ (with `resume`, frames
         whose EXR exists and whose log row has this scene hash and these parameters are
         skipped, their missing previews written). A folder holding frames of other --set
-        overrides is refused before anything is rendered."""
+        overrides is refused before anything is rendered.
+
+        `overlap_writes` writes each frame's files on a background thread while the next
+        frame renders (`reflect render` does; the bench does not, and repeats never do, so
+        that their times are the render's alone). Rows rendered so are marked
+        `writes_overlapped`."""
         _check_threads(self.threads)  # before the build and the folder, as any bad argument
         result = RenderResult(self.output_folder(out))
         stored = logged_rows(self.log_path(result.folder))
         check_same_overrides(stored, self.overrides, result.folder,
                              "--set" if self.overrides else self.display)
         rows: list[dict] = []  # this call's log rows: the timings summary
+        writer = FrameWriter(overlap=overlap_writes and repeats == 1)
         try:
             result.compile_seconds = self.warm_up()
             self.prepare()
@@ -458,10 +436,18 @@ class OpenedScene:
                         on_frame(frame_index, path)
 
                 self.write_frame(frame_index, result.folder, preview=preview, repeats=repeats,
-                                 on_written=kept)
+                                 on_written=kept, writer=writer)
+            writer.close()  # the last frame's files; a write failure is raised here
+        except BaseException:
+            # the frame in flight is kept (and counted) if its files were all written; a
+            # failure of it is not what this run stops for, so it is not raised over the
+            # error (or Ctrl-C) that is
+            with interrupts.deferred(), contextlib.suppress(OSError):
+                writer.close()
+            raise
         finally:
             if rows:
-                with interrupts_deferred(), contextlib.suppress(OSError):
+                with interrupts.deferred(), contextlib.suppress(OSError):
                     write_summary(os.path.join(result.folder, SUMMARY_NAME), rows)
         return result
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import atexit
 import logging
 import os
 import signal
@@ -19,6 +20,27 @@ except KeyboardInterrupt:
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 EXIT_WRITE_FAILED = 1
+
+
+_interrupted_exit: list[bool] = []
+
+
+def _exit_interrupted() -> None:
+    """Leave with exit code 130 (the caller has said what was kept)."""
+    _interrupted_exit.append(True)
+    sys.exit(EXIT_INTERRUPTED)
+
+
+def _keep_exit_code_130() -> None:
+    """atexit, registered first so that it runs last. CPython ends a process by re-raising
+    SIGINT (exit status -2), whatever sys.exit said, once a KeyboardInterrupt has passed out
+    of code run through its C API (a Ctrl-C during a numba compile does). An interrupted run
+    promises 130: flush what is buffered and leave with it."""
+    if _interrupted_exit:
+        logging.shutdown()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(EXIT_INTERRUPTED)
 
 
 def _fail(problems: Problems, stream=None) -> None:
@@ -76,14 +98,14 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
                 progress.update(1)
 
         result = opened.write_frames(selected, out=out, preview=preview, resume=resume,
-                                     on_frame=on_frame)
+                                     on_frame=on_frame, overlap_writes=True)
     except Problems as e:
         _fail(e)
     except KeyboardInterrupt:
         if progress is not None:
             progress.__exit__(None, None, None)
         click.echo(f"\ninterrupted: {len(done)} completed frame(s) kept", err=True)
-        sys.exit(EXIT_INTERRUPTED)
+        _exit_interrupted()
     except OSError as e:
         _write_failed(e)
     if progress is not None:
@@ -172,7 +194,7 @@ def precompute_maps(scene, technique, overrides, cache, threads) -> None:
         _fail(e)
     except KeyboardInterrupt:
         click.echo("\ninterrupted: maps already stored are kept", err=True)
-        sys.exit(EXIT_INTERRUPTED)
+        _exit_interrupted()
     except OSError as e:
         _write_failed(e)
     captured = sum(1 for m in result.maps if m.status == "captured")
@@ -230,7 +252,7 @@ def bench(file, resume, workers, scheduler, threads, out, overrides) -> None:
         _fail(e)
     except KeyboardInterrupt:
         click.echo("\ninterrupted: finished runs are kept (--resume continues)", err=True)
-        sys.exit(EXIT_INTERRUPTED)
+        _exit_interrupted()
     except OSError as e:
         _write_failed(e)
     finally:
@@ -332,6 +354,7 @@ def main() -> None:
     logger.setLevel(logging.INFO)
     from . import interrupts
 
+    atexit.register(_keep_exit_code_130)
     # SIGTERM is handled like Ctrl-C (same exit, same promises); both are also remembered, so
     # one swallowed by a C callback (a numba compile) still stops the run at the next frame
     signal.signal(signal.SIGTERM, interrupts.on_signal)
@@ -341,10 +364,10 @@ def main() -> None:
         code = cli(prog_name="reflect", standalone_mode=False)
     except KeyboardInterrupt:  # during start-up (imports, loading), before a command's handler
         click.echo("\ninterrupted", err=True)
-        sys.exit(EXIT_INTERRUPTED)
+        _exit_interrupted()
     except click.exceptions.Abort:
         click.echo("\ninterrupted", err=True)
-        sys.exit(EXIT_INTERRUPTED)
+        _exit_interrupted()
     except click.ClickException as e:
         e.show()
         sys.exit(e.exit_code)
@@ -353,7 +376,7 @@ def main() -> None:
             raise
         # an interrupt inside a numba compile can leave it failing in its own words
         click.echo("\ninterrupted", err=True)
-        sys.exit(EXIT_INTERRUPTED)
+        _exit_interrupted()
     sys.exit(code if isinstance(code, int) else 0)
 
 

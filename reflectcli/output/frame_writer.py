@@ -1,0 +1,111 @@
+"""A rendered frame's files (EXR, optional PNG preview, log row), written all or nothing,
+either at once or on one background thread while the next frame renders.
+
+A frame is kept with its log line or not at all: the EXR, then the preview, then the log row;
+if any of them fails, what was written of the frame is removed and the failure names the file.
+With `overlap`, at most one frame is in flight: submitting the next one first waits for it,
+so log rows stay in frame order and a write failure stops the run one frame later at most.
+The writer thread receives private copies of the pixels (the technique reuses its buffers).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..interrupts import deferred
+from .exr import pack_channels, write_exr_packed
+from .failures import discard, write_failure
+from .log import append_jsonl
+from .png import write_png
+
+
+@dataclass
+class FrameFiles:
+    """Everything one frame writes, detached from the renderer's buffers."""
+
+    exr: str
+    channel_names: list[str]
+    channel_data: np.ndarray  # (H, W, C) float32, a private copy
+    attributes: dict[str, str]
+    preview_rgb: np.ndarray | None  # (H, W, 3) linear RGB, a private copy; None: no preview
+    log_path: str
+    row: dict  # the log row, without write_seconds (added when written)
+
+    @classmethod
+    def of(cls, exr: str, channels: dict[str, np.ndarray], attributes: dict[str, str],
+           preview_rgb: np.ndarray | None, log_path: str, row: dict) -> FrameFiles:
+        names, data = pack_channels(channels)  # a fresh copy
+        preview = None if preview_rgb is None else np.array(preview_rgb, copy=True)
+        return cls(exr, names, data, attributes, preview, log_path, row)
+
+    @property
+    def png(self) -> str:
+        return self.exr[:-4] + ".png"
+
+
+def write_frame_files(files: FrameFiles) -> None:
+    """EXR, preview, log row; on an OSError the frame's files are removed and a WriteFailed
+    naming the file being written is raised."""
+    start = time.perf_counter()
+    target = files.exr
+    try:
+        write_exr_packed(files.exr, files.channel_names, files.channel_data, files.attributes)
+        if files.preview_rgb is not None:
+            target = files.png
+            write_png(target, files.preview_rgb)
+        target = files.log_path
+        append_jsonl(files.log_path,
+                     {**files.row, "write_seconds": time.perf_counter() - start})
+    except OSError as e:
+        discard(files.exr, *([files.png] if files.preview_rgb is not None else []))
+        raise write_failure(e, target) from None
+
+
+OnWritten = Callable[[str, dict], None]
+
+
+class FrameWriter:
+    """Writes frames in submission order; with `overlap`, behind the renderer.
+
+    `on_written(exr, row)` runs in the calling thread once a frame's files are all written,
+    with Ctrl-C held, so a count of kept frames is exact."""
+
+    def __init__(self, overlap: bool) -> None:
+        self.overlap = overlap
+        self._pool = (ThreadPoolExecutor(1, thread_name_prefix="reflect-writer")
+                      if overlap else None)
+        self._pending: tuple[Future, FrameFiles, OnWritten | None] | None = None
+
+    def submit(self, files: FrameFiles, on_written: OnWritten | None = None) -> None:
+        if self._pool is None:
+            with deferred():  # a frame is kept with its log line, or not at all
+                write_frame_files(files)
+                if on_written is not None:
+                    on_written(files.exr, files.row)
+            return
+        self.drain()
+        self._pending = (self._pool.submit(write_frame_files, files), files, on_written)
+
+    def drain(self) -> None:
+        """Wait for the frame in flight; raises its write failure."""
+        if self._pending is None:
+            return
+        future, files, on_written = self._pending
+        with deferred():
+            self._pending = None
+            future.result()
+            if on_written is not None:
+                on_written(files.exr, files.row)
+
+    def close(self) -> None:
+        """Wait for the frame in flight (its failure is raised) and stop the thread."""
+        try:
+            self.drain()
+        finally:
+            if self._pool is not None:
+                self._pool.shutdown(wait=True)
