@@ -16,6 +16,16 @@ from .errors import Problem, Problems
 from .loading import load_config
 
 
+def _check_output_folder(cfg, display: str) -> None:
+    """The checks render makes of its output folder, short of creating it."""
+    from .output.paths import check_writable, inside
+
+    folder = inside(inside(cfg.output.dir, cfg.scene.name, display, "scene.name"),
+                    cfg.technique.name, display)
+    inside(folder, cfg.output.log, display, "output.log")
+    check_writable(folder, display, "output.dir")
+
+
 def validate_file(path: str) -> str:
     """Raise Problems for everything wrong with the file; else what it was checked as."""
     prov: dict = {}
@@ -37,6 +47,7 @@ def validate_file(path: str) -> str:
         from .scene.build import build_scene
 
         build_scene(cfg, path)
+        _check_output_folder(cfg, display)
         return "scene"
     section = create_model("Section", __base__=Strict,
                            **{key: (fields[key].annotation, fields[key]) for key in raw})

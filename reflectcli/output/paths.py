@@ -22,6 +22,21 @@ def inside(folder: str, name: str, source: str = "output", field: str = "") -> s
     return path
 
 
+def check_writable(folder: str, source: str, field: str) -> None:
+    """Refuse in one line a folder that a render could not create or write into, creating
+    nothing (`validate`): its nearest existing ancestor must be a directory we may write."""
+    existing = os.path.abspath(folder)
+    while not os.path.lexists(existing) and os.path.dirname(existing) != existing:
+        existing = os.path.dirname(existing)
+    if not os.path.isdir(existing):
+        reason = "Not a directory"
+    elif not os.access(existing, os.W_OK | os.X_OK):
+        reason = "Permission denied"
+    else:
+        return
+    raise Problems([Problem(source, field, f"cannot write to '{folder}': {reason}")])
+
+
 def _alive(pid: int) -> bool:
     if pid == os.getpid():
         return True

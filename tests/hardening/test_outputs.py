@@ -12,7 +12,7 @@ import pytest
 
 from reflectcli.output.exr import read_exr_parts, write_exr_parts
 
-from .common import TINY, chdir, check_bad, files_under, invoke, write
+from .common import TINY, assert_one_line, chdir, check_bad, files_under, invoke, write
 
 
 @pytest.mark.parametrize(("override", "field"), [
@@ -86,3 +86,15 @@ def test_cache_file_with_matching_key_but_wrong_content_is_recaptured(tmp_path, 
             assert "damaged" in caplog.text and "recapturing" in caplog.text
             again = (tmp_path / "o" / "tiny" / "dprm" / "frame_0000.exr").read_bytes()
             assert again == first
+
+
+def test_validate_refuses_an_output_folder_render_could_not_write(tmp_path):
+    (tmp_path / "blocker").write_text("a file, not a folder")
+    scene = write(tmp_path, "s.toml", TINY + '\n[output]\ndir = "blocker/out"\n')
+    with chdir(tmp_path):
+        line = assert_one_line(invoke("validate", scene), "s.toml: output.dir:",
+                               "cannot write to", "Not a directory")
+        assert line == assert_one_line(invoke("render", scene, "--frames", "0"))
+        ok = write(tmp_path, "ok.toml", TINY + '\n[output]\ndir = "new/deeper/out"\n')
+        assert invoke("validate", ok).exit_code == 0
+    assert sorted(os.listdir(tmp_path)) == ["blocker", "ok.toml", "s.toml"]  # nothing made
