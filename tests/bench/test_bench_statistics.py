@@ -90,3 +90,30 @@ def test_render_repeats_write_the_first_render_and_log_every_time(tmp_path):
     a, _ = read_exr(once.written[0])
     b, _ = read_exr(thrice.written[0])
     assert all((a[c] == b[c]).all() for c in a)
+
+
+def test_repeats_write_the_first_render_not_a_later_one(tmp_path):
+    """Each render of the frame is told apart by its colour, so writing any repeat but the
+    first would show (a real technique gives the same pixels at every repeat)."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    from reflectcli import api
+    from reflectcli.output.exr import read_exr
+
+    scene = str(Path(__file__).resolve().parents[2] / "scenes" / "teapot-box.toml")
+    opened = api.open_scene(scene, technique="raster", threads=1,
+                            overrides=["camera.width=16", "camera.height=12"])
+    technique_render = opened.technique.render
+    renders = []
+
+    def numbered(*args):
+        frame = technique_render(*args)
+        renders.append(len(renders) + 1)
+        return replace(frame, rgb=frame.rgb * 0 + len(renders))
+
+    opened.technique.render = numbered
+    result = opened.write_frames([0], out=str(tmp_path), repeats=3)
+    assert renders == [1, 2, 3]
+    channels, _ = read_exr(result.written[0])
+    assert (channels["R"] == 1).all()
