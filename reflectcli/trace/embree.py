@@ -79,8 +79,11 @@ _EMBREE: _Embree | None | bool = None
 
 
 def _embree() -> _Embree | None:
-    """The library inside the embreex wheel (None when it is not found there)."""
+    """The library inside the embreex wheel (None when it is not found there, or with numba's
+    JIT off, as `make coverage` runs: then embreex traces)."""
     global _EMBREE
+    if _EMBREE is None and numba.config.DISABLE_JIT:
+        _EMBREE = False  # interpreted, the packet kernel cannot call into the library
     if _EMBREE is None:
         import embreex
 

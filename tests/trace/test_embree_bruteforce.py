@@ -4,6 +4,7 @@ closed forms."""
 from __future__ import annotations
 
 import numpy as np
+from conftest import compiled_only
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -239,6 +240,7 @@ def test_analytic_sphere_and_tube_by_hand():
     assert idx[0] == -1 and np.isinf(t[0])
 
 
+@compiled_only
 def test_embree_kernel_equals_embreex_bit_for_bit():
     """The kernel calling Embree's C API builds and queries as embreex does: same hits, same
     t, u, v to the bit, on any thread count (misses: inf, -1, 0, 0)."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import compiled_only
 from naive import (
     material_albedo,
     primary_rays,
@@ -68,6 +69,7 @@ def uv_samples(rng, n=60):
     return uv
 
 
+@compiled_only
 @pytest.mark.parametrize("seed", range(3))
 def test_material_albedo_matches_twin(seed):
     rng = np.random.default_rng(seed)

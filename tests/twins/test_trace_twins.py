@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import compiled_only
 from naive import pick, resolve
 from test_shading_raster_twins import lights, materials
 
@@ -11,6 +12,7 @@ from reflectcli.scene.types import CYLINDER, LAMBERT, MESH, MIRROR_PARAMS, PLANA
 from reflectcli.trace.tracer import _pick, _resolve
 
 
+@compiled_only
 def test_pick_matches_twin_on_ties_and_misses():
     inf = np.float32(np.inf)
     values = [np.float32(x) for x in (1.0, 2.0, 1.0 / (1.0 - 1e-4), 0.5, 0.0)] + [inf]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import compiled_only
 from naive import (
     explosion_virtual,
     fill_extensions,
@@ -106,6 +107,7 @@ def sphere_grid(w=40, h=32):
                                                                          np.nan)
 
 
+@compiled_only
 def test_reflector_grid_matches_twin():
     rng = np.random.default_rng(0)
     h, w = 7, 9
