@@ -103,6 +103,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp.py:_spread_row": (SPREAD, "_spread"),
     "maps/warp.py:_min_into": (SPREAD, "_spread_row"),
     "maps/warp.py:_min_shifted": (SPREAD, "_spread_row"),
+    "maps/warp.py:_copy_row": ([W + "test_payload_rows_follow_the_ids_over_several_maps"],
+                               "_splat_pixels"),
     "virtual/direct.py:_circle_law": (SPHERE_METHOD, "_circle_reflection"),
     "virtual/direct.py:_circle_reflection": (SPHERE_METHOD, "_mirror_on_circle"),
     "virtual/direct.py:_mirror_on_circle": (SPHERE_METHOD, "_many"),

@@ -74,6 +74,7 @@ class Projection:
     sy: np.ndarray  # (n,) float32 screen y
     z: np.ndarray  # (n,) float32 eye depth in the target camera
     pix: np.ndarray  # (n,) int32 flat screen pixel y * width + x of the zexel, -1: not warped
+    d: np.ndarray  # (n,) float32 squared distance to its pixel's center (positions=False)
     row_lo: np.ndarray  # (mh,) int64 first screen row a map row reaches
     row_hi: np.ndarray  # (mh,) int64 last screen row a map row reaches
     count: np.ndarray  # (mh,) int64 zexels of the map row that were warped
@@ -82,32 +83,34 @@ class Projection:
     def empty(cls, mh: int, mw: int) -> Projection:
         n = mh * mw
         return cls(np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
-                   np.empty(n, np.int32), np.empty(mh, np.int64), np.empty(mh, np.int64),
-                   np.empty(mh, np.int64))
+                   np.empty(n, np.int32), np.empty(n, np.float32), np.empty(mh, np.int64),
+                   np.empty(mh, np.int64), np.empty(mh, np.int64))
 
 
 def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near: float,
                 box: tuple[int, int, int, int] | None = None, margin: int = 3,
-                out: Projection | None = None):
+                out: Projection | None = None, positions: bool = True):
     """Screen positions (float32, pixels) and eye depths of every zexel, and per map row the
     first and last screen row its zexels reach (row_lo > row_hi if none). Zexels behind the
     eye or outside `box` = (x0, x1, y0, y1) grown by `margin` pixels get sx = NaN; pix is
     -1 for those and for zexels off the screen. Float32 arithmetic throughout (one 4x4 from
     map pixel to homogeneous screen point). `out`: arrays to write into (kept across
-    frames), returned filled."""
+    frames), returned filled. `positions=False`: instead of sx and sy (left as they were),
+    only each zexel's squared distance to its pixel's center (out.d), all a one-pixel
+    splat needs."""
     if out is None:
         out = Projection.empty(*depth.shape)
     x0, x1, y0, y1 = box if box is not None else (0, width, 0, height)
     m = np.ascontiguousarray(screen_matrix(width, height) @ w, np.float32)
     _project(np.ascontiguousarray(depth, np.float32), m, near, x0 - margin, x1 + margin,
-             y0 - margin, y1 + margin, width, height, out.sx, out.sy, out.z, out.pix,
-             out.row_lo, out.row_hi, out.count)
+             y0 - margin, y1 + margin, width, height, positions, out.sx, out.sy, out.z, out.pix,
+             out.d, out.row_lo, out.row_hi, out.count)
     return out.sx, out.sy, out.z, out.row_lo, out.row_hi
 
 
 @njit(cache=True, parallel=True)
-def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, pix, row_lo,
-             row_hi, count):
+def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, positions, sx, sy, z, pix,
+             dist, row_lo, row_hi, count):
     # homogeneous screen point (hx, hy, hw) = M (u, v, 1, delta), scaled by the depth d
     # (the same point for d > 0, without dividing by d): hw is then the eye depth in the
     # target camera. Written without branches (selects) so that the row loop vectorizes.
@@ -116,6 +119,7 @@ def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, p
     zero = np.float32(0.0)
     inf = np.float32(np.inf)
     nan = np.float32(np.nan)
+    half = np.float32(0.5)
     near32 = np.float32(near)
     fx0, fx1 = np.float32(xmin), np.float32(xmax)
     fy0, fy1 = np.float32(ymin), np.float32(ymax)
@@ -151,8 +155,13 @@ def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, p
             px = np.int32(np.floor(xs))
             py = np.int32(np.floor(ys))
             k = base + u
-            sx[k] = x if ok else nan
-            sy[k] = ys
+            if positions:
+                sx[k] = x if ok else nan
+                sy[k] = ys
+            else:
+                ex = xs - np.floor(xs) - half
+                ey = ys - np.floor(ys) - half
+                dist[k] = ex * ex + ey * ey
             z[k] = hw if finite else inf
             on_screen = ok & (xs >= zero) & (xs < fw) & (ys >= zero) & (ys < fh)
             pix[k] = py * wid + px if on_screen else np.int32(-1)
@@ -237,7 +246,7 @@ SAME_SURFACE = 0.01  # relative eye-depth difference within which two zexels are
 def splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_zd, best_id,
           ordered: bool, bands: int | None = None, rows: np.ndarray | None = None) -> None:
     """Write the zexels, visited run by run, into the per-pixel buffers over `stencil`:
-    best_zd (2, H, W) float32 (front depth, squared distance of the kept zexel to the pixel
+    best_zd (H, W, 2) float32 (front depth, squared distance of the kept zexel to the pixel
     center) and best_id; ids are slot * stride + zexel index. `row_lo`/`row_hi`: per map row, the
     screen rows its zexels land on (splats add their radius).
 
@@ -298,24 +307,24 @@ def _splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, be
 @njit(cache=True, inline="always")
 def _write(y, x, zk, dk, ident, slot, stride, best_zd, best_id, ordered):
     """The visibility rule at one pixel, against the zexel kept so far (its eye depth in
-    best_zd[0], its squared distance to the pixel center in best_zd[1]: one cache
+    best_zd[..., 0], its squared distance to the pixel center in best_zd[..., 1]: one cache
     line). z-buffer: a zexel more than SAME_SURFACE nearer takes the pixel; one within
     SAME_SURFACE of it (the same surface) takes it if it lands nearer the center (ties to the
     lower id). So the kept zexel is never more than SAME_SURFACE behind any that arrived.
     Ordered mode: a zexel of the same map wins regardless (McMillan's order)."""
     current = best_id[y, x]
-    bz = best_zd[0, y, x]
+    bz = best_zd[y, x, 0]
     if current < 0 or zk < bz * (1.0 - SAME_SURFACE) or (
             ordered and current // stride == slot):
-        best_zd[0, y, x] = zk
-        best_zd[1, y, x] = dk
+        best_zd[y, x, 0] = zk
+        best_zd[y, x, 1] = dk
         best_id[y, x] = ident
     elif zk <= bz * (1.0 + SAME_SURFACE) or zk == bz:  # == for two zexels at infinity
         # selects, not branches: which zexel lands nearer the center is close to random
-        bd = best_zd[1, y, x]
+        bd = best_zd[y, x, 1]
         take = (dk < bd) | ((dk == bd) & (ident < current))
-        best_zd[0, y, x] = zk if take else bz
-        best_zd[1, y, x] = dk if take else bd
+        best_zd[y, x, 0] = zk if take else bz
+        best_zd[y, x, 1] = dk if take else bd
         best_id[y, x] = ident if take else current
 
 
@@ -323,11 +332,11 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
                  region, clear: bool, use_stencil: bool, offsets=None,
                  bands: int | None = None, payload=None, payload_out=None) -> None:
     """The one-pixel splat: each zexel of `proj` (visited run by run) at the pixel it lands
-    in, by the visibility rule of `_write`, into best_zd (2, H, W) float32 (depth, squared
+    in, by the visibility rule of `_write`, into best_zd (H, W, 2) float32 (depth, squared
     distance of the zexel to the pixel center) and best_id (ids base + zexel index), only
     inside `region` = (x0, x1, y0, y1) (and, with `use_stencil`, only on stencil pixels);
     `proj` must come from `project_map` with that region as its grown box (its columns are
-    not checked again).
+    not checked again), with positions if `offsets` are asked for, else with distances.
     `clear`: reset the region first (inside the kernel, each band its rows). `offsets`:
     (ox, oy) (H, W) float32 receiving the kept zexel's offset from the pixel center (for
     `spread`). One band of rows per task, balanced by zexel count; each band visits every
@@ -344,11 +353,28 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
     else:
         ox, oy = offsets[0].reshape(-1), offsets[1].reshape(-1)
     pay, pay_out = _payload_args(payload, payload_out)
-    _splat_pixels(proj.pix, proj.sx, proj.sy, proj.z, runs, mw, proj.row_lo, proj.row_hi,
+    _splat_pixels(proj.pix, proj.sx, proj.sy, proj.d, proj.z, runs, mw, proj.row_lo,
+                  proj.row_hi,
                   proj.count, base, ordered, stencil.reshape(-1), use_stencil,
                   offsets is not None, x0, x1, y0, y1, w, clear, bands,
-                  best_zd[0].reshape(-1), best_zd[1].reshape(-1), best_id.reshape(-1), ox, oy,
+                  best_zd.reshape(-1), best_id.reshape(-1), ox, oy,
                   payload is not None, pay, pay_out)
+
+
+@njit(cache=True, inline="always")
+def _copy_row(src, k, dst, p):
+    """dst[p] = src[k], with the common widths (3: colour, 4: colour and triangle) as
+    constant loops."""
+    c = src.shape[1]
+    if c == 3:
+        for j in range(3):
+            dst[p, j] = src[k, j]
+    elif c == 4:
+        for j in range(4):
+            dst[p, j] = src[k, j]
+    else:
+        for j in range(c):
+            dst[p, j] = src[k, j]
 
 
 def _payload_args(payload, payload_out):
@@ -362,9 +388,10 @@ def _payload_args(payload, payload_out):
 
 
 @njit(cache=True, parallel=True)
-def _splat_pixels(pix, sx, sy, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
-                  use_stencil, keep_offsets, x0, x1, y0, y1, width, clear, bands, zs, ds, ids,
-                  ox, oy, with_payload, pay, pay_out):
+def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
+                  use_stencil, keep_offsets, x0, x1, y0, y1, width, clear, bands, zd, ids, ox,
+                  oy, with_payload, pay, pay_out):
+    # zd: (depth, squared distance) interleaved per pixel: one cache line for both
     # band edges over rows [y0, y1): each map row's zexels counted at its middle row
     hist = np.zeros(y1 - y0 + 1, np.int64)
     total = 0
@@ -396,8 +423,7 @@ def _splat_pixels(pix, sx, sy, z, runs, mw, row_lo, row_hi, count, base, ordered
         if clear:
             for y in range(r0, r1):
                 for p in range(y * width + x0, y * width + x1):
-                    zs[p] = inf
-                    ds[p] = inf
+                    zd[2 * p] = inf  # (the distance is read only where ids holds a zexel)
                     ids[p] = -1
         p0 = r0 * width
         p1 = r1 * width
@@ -412,59 +438,65 @@ def _splat_pixels(pix, sx, sy, z, runs, mw, row_lo, row_hi, count, base, ordered
                     continue
                 if use_stencil and not stencil[p]:
                     continue
-                fx = sx[k]
-                fy = sy[k]
-                dx = fx - np.floor(fx) - half
-                dy = fy - np.floor(fy) - half
+                if keep_offsets:  # positions projected: the offsets for spread
+                    fx = sx[k]
+                    fy = sy[k]
+                    dx = fx - np.floor(fx) - half
+                    dy = fy - np.floor(fy) - half
+                    dk = dx * dx + dy * dy
+                else:  # only the squared distance projected
+                    dx = dy = half
+                    dk = dist[k]
                 zk = z[k]
-                dk = dx * dx + dy * dy
                 ident = base + k
                 current = ids[p]
-                bz = zs[p]
+                bz = zd[2 * p]
                 take = False
                 if current < 0 or zk < bz * (1.0 - SAME_SURFACE) or (
                         ordered and current >= base):
                     take = True
                 elif zk <= bz * (1.0 + SAME_SURFACE) or zk == bz:
-                    bd = ds[p]
+                    bd = zd[2 * p + 1]
                     take = (dk < bd) | ((dk == bd) & (ident < current))
                 if take:
-                    zs[p] = zk
-                    ds[p] = dk
+                    zd[2 * p] = zk
+                    zd[2 * p + 1] = dk
                     ids[p] = ident
                     if keep_offsets:
                         ox[p] = dx
                         oy[p] = dy
                     if with_payload:
-                        for c in range(pay.shape[1]):
-                            pay_out[p, c] = pay[k, c]
+                        _copy_row(pay, k, pay_out, p)
 
 
 def spread(best_zd, best_id, offsets, radius: int, stencil, box, out_z, out_id,
-           payload=None, payload_out=None) -> None:
+           payloads=None, stride: int = 1, payload_out=None) -> None:
     """A splat of (2 radius + 1)^2 pixels from the one-pixel splat's result: of the zexels
     kept in the square around a stencil pixel of `box` = (x0, x1, y0, y1), the front surface
     is those within SAME_SURFACE of the nearest depth (or equal to it: at infinity). The
     pixel keeps its own zexel if that is on the front surface (where zexels are dense, the
     wide splat is the one-pixel one); else it takes the front surface's zexel landing
     nearest its center (ties to the lower id). Writes out_z / out_id over the box (inf / -1
-    off the stencil). `payload` (H, W, c): the one-pixel splat's payload image; each
-    reached pixel of the box gets its chosen zexel's row in `payload_out`."""
+    off the stencil). `payloads`: per map (n, c) rows, ids slot * stride + index (stride a
+    power of two); `payload_out` (H, W, c) already holds each pixel's own zexel's row (the
+    one-pixel splat wrote it), and a pixel that takes another zexel gets that one's row."""
     x0, x1, y0, y1 = box
-    if payload is None:
-        pay, pay_out = _payload_args(None, None)
+    if payloads is None:
+        rows = (np.empty((0, 1), np.float32),)
+        pay_out = rows[0]
     else:
-        pay, pay_out = _payload_args(payload.reshape(-1, payload.shape[2]), payload_out)
+        rows = tuple(np.ascontiguousarray(p) for p in payloads)
+        _, pay_out = _payload_args(rows[0], payload_out)
     _spread(best_zd, best_id, offsets[0], offsets[1], radius, stencil, x0, x1, y0, y1, out_z,
-            out_id, payload is not None, pay, pay_out)
+            out_id, payloads is not None, rows, stride.bit_length() - 1, pay_out)
 
 
 @njit(cache=True, parallel=True)
-def _spread(zd, ids, ox, oy, r, stencil, x0, x1, y0, y1, out_z, out_id, with_payload, pay,
-            pay_out):
+def _spread(zd, ids, ox, oy, r, stencil, x0, x1, y0, y1, out_z, out_id, with_payload, rows,
+            shift, pay_out):
     h, w = ids.shape
     # flat views: one index per pixel, neighbours at fixed offsets from it
-    z = zd[0].reshape(-1)
+    z = zd.reshape(-1)[::2]
     idf = ids.reshape(-1)
     oxf = ox.reshape(-1)
     oyf = oy.reshape(-1)
@@ -472,18 +504,18 @@ def _spread(zd, ids, ox, oy, r, stencil, x0, x1, y0, y1, out_z, out_id, with_pay
         # the common radii as constants: their loops unroll
         if r == 1:
             _spread_row(z, idf, oxf, oyf, 1, stencil, x0, x1, y, h, w, out_z, out_id,
-                        with_payload, pay, pay_out)
+                        with_payload, rows, shift, pay_out)
         elif r == 2:
             _spread_row(z, idf, oxf, oyf, 2, stencil, x0, x1, y, h, w, out_z, out_id,
-                        with_payload, pay, pay_out)
+                        with_payload, rows, shift, pay_out)
         else:
             _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id,
-                        with_payload, pay, pay_out)
+                        with_payload, rows, shift, pay_out)
 
 
 @njit(cache=True, inline="always")
 def _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id, with_payload,
-                pay, pay_out):
+                rows, shift, pay_out):
     """Row y of `spread`. Neighbours off the screen are replaced by the nearest pixel on it
     (clamped coordinates, no branches): a pixel counted twice changes no minimum. Indices
     are unsigned where it matters (numba then adds no negative-index wraparound, and the
@@ -519,12 +551,6 @@ def _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id, wi
         oi[i] = own[i] if keep else -1
         rest[n_rest] = x0 + i
         n_rest += 0 if keep or not on[i] else 1
-    if with_payload:
-        for i in range(x1 - x0):
-            if oi[i] >= 0:
-                p = y * w + x0 + i
-                for c in range(pay.shape[1]):
-                    pay_out[p, c] = pay[p, c]
     none = np.int64(0x7FFFFFFFFFFFFFFF)
     for j in range(n_rest):
         x = rest[j]
@@ -535,7 +561,6 @@ def _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id, wi
         # 2^32: warp_depths checks)
         best = none
         best_z = inf
-        best_n = np.uint64(0)
         inside = (r <= y < h - r) and (r <= x < w - r)
         for dy in range(-r, r + 1):
             yy = y + dy if inside else min(max(y + dy, 0), h - 1)
@@ -550,14 +575,13 @@ def _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id, wi
                 take = (q >= 0) & ((zq <= limit) | (zq == f)) & (key < best)
                 best = key if take else best
                 best_z = zq if take else best_z
-                best_n = n if take else best_n
         if best != none:
             oz[x - x0] = best_z
             oi[x - x0] = best & 0xFFFFFFFF
-            if with_payload:
-                p = y * w + x
-                for c in range(pay.shape[1]):
-                    pay_out[p, c] = pay[best_n, c]
+            if with_payload:  # another pixel's zexel: its row from its map
+                q = best & 0xFFFFFFFF
+                slot = q >> shift
+                _copy_row(rows[slot], q - (slot << shift), pay_out, y * w + x)
 
 
 @njit(cache=True, inline="always")
@@ -583,13 +607,12 @@ class WarpBuffers:
 
     def __init__(self, height: int, width: int) -> None:
         self.shape = (height, width)
-        self.best_zd = np.full((2, height, width), np.inf, np.float32)
+        self.best_zd = np.full((height, width, 2), np.inf, np.float32)
         self.best_id = np.full((height, width), -1, np.int64)
         self.offsets = (np.zeros((height, width), np.float32),
                         np.zeros((height, width), np.float32))
         self.out_z = np.full((height, width), np.inf, np.float32)
         self.out_id = np.full((height, width), -1, np.int64)
-        self.payloads: dict[tuple, np.ndarray] = {}  # (c, dtype) -> (H, W, c) scratch
         self.projections: dict[tuple[int, int], Projection] = {}
         self.radii: dict[tuple, np.ndarray] = {}
         self.runs: dict[tuple[int, int], np.ndarray] = {}
@@ -601,7 +624,7 @@ class WarpBuffers:
         caller clears or overwrites itself, or None) does not cover; mark `region` dirty."""
         if self.dirty is not None and not _covers(written, self.dirty):
             x0, x1, y0, y1 = self.dirty
-            self.best_zd[:, y0:y1, x0:x1] = np.inf
+            self.best_zd[y0:y1, x0:x1] = np.inf
             self.best_id[y0:y1, x0:x1] = -1
         self.dirty = region
 
@@ -612,13 +635,6 @@ class WarpBuffers:
             self.out_z[y0:y1, x0:x1] = np.inf
             self.out_id[y0:y1, x0:x1] = -1
         self.dirty_out = box
-
-    def payload(self, c: int, dtype) -> np.ndarray:
-        """Scratch (H, W, c) for the one-pixel splat's payload before `spread`."""
-        key = (c, np.dtype(dtype).str)
-        if key not in self.payloads:
-            self.payloads[key] = np.zeros((*self.shape, c), dtype)
-        return self.payloads[key]
 
     def projection(self, mh: int, mw: int) -> Projection:
         if (mh, mw) not in self.projections:
@@ -690,7 +706,8 @@ def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bo
 
     `payloads`: per map an (n, c) array, a row per zexel (colours, triangle ids...); each
     pixel of the box a zexel reached gets its zexel's row in `out` (H, W, c, C-contiguous),
-    written by the splat itself (no gather pass); other pixels of `out` are left alone."""
+    written by the splat itself (no gather pass); other pixels of `out` (unreached, or off
+    the stencil) hold anything."""
     h, w = stencil.shape
     if buffers is None:
         buffers = WarpBuffers(h, w)
@@ -701,35 +718,34 @@ def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bo
         _, box = stencil_box(stencil)
     if box is None:
         buffers.claim(None)
-        return buffers.best_zd[0], buffers.best_id, stride, 0
+        return buffers.best_zd[:, :, 0], buffers.best_id, stride, 0
     x0, x1, y0, y1 = box
     radius = None if splat_mode == "adaptive" else (int(splat_mode) - 1) // 2
     zexels = 0
     if radius is not None and (radius == 0 or not ordered):
         stencil = np.ascontiguousarray(stencil)
+        # a stencil filling its box (a mirror seen whole and unoccluded) needs no test
+        use_stencil = radius == 0 and not stencil[y0:y1, x0:x1].all()
         region = (max(x0 - radius, 0), min(x1 + radius, w), max(y0 - radius, 0),
                   min(y1 + radius, h))
         buffers.claim(region, region)
-        scratch = None
-        if payloads is not None:
-            scratch = out if radius == 0 else buffers.payload(out.shape[2], out.dtype)
         for slot, (depth, wm, runs) in enumerate(items):
             mh, mw = depth.shape
             proj = buffers.projection(mh, mw)
-            project_map(depth, wm, w, h, near, box, radius, proj)
+            project_map(depth, wm, w, h, near, box, radius, proj, positions=radius > 0)
             if runs is None:
                 runs = buffers.raster_runs(mh, mw)
             splat_pixels(proj, runs, mw, slot * stride, stencil, buffers.best_zd,
-                         buffers.best_id, ordered, region, slot == 0, radius == 0,
+                         buffers.best_id, ordered, region, slot == 0, use_stencil,
                          buffers.offsets if radius > 0 else None,
                          payload=None if payloads is None else payloads[slot],
-                         payload_out=scratch)
+                         payload_out=out)
             zexels += int(proj.count.sum())
         if radius == 0:
-            return buffers.best_zd[0], buffers.best_id, stride, zexels
+            return buffers.best_zd[:, :, 0], buffers.best_id, stride, zexels
         buffers.claim_out(box)
         spread(buffers.best_zd, buffers.best_id, buffers.offsets, radius, stencil, box,
-               buffers.out_z, buffers.out_id, scratch, out)
+               buffers.out_z, buffers.out_id, payloads, stride, out)
         return buffers.out_z, buffers.out_id, stride, zexels
     buffers.claim(box)
     best_zd, best_id = buffers.best_zd, buffers.best_id
@@ -750,7 +766,7 @@ def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bo
         zexels += int(proj.count.sum())
     if payloads is not None:
         gather_colors(best_id, stride, payloads, box, out)
-    return best_zd[0], best_id, stride, zexels
+    return best_zd[:, :, 0], best_id, stride, zexels
 
 
 def gather_colors(best_id: np.ndarray, stride: int, per_map: list[np.ndarray],

@@ -33,7 +33,7 @@ def _zexels(seed, mh=24, mw=24, width=20, height=16):
 
 
 def _kernel(sx, sy, z, radii, mh, mw, shape, stencil, bands=None):
-    best_zd = np.full((2, *shape), np.inf, np.float32)
+    best_zd = np.full((*shape, 2), np.inf, np.float32)
     best_id = np.full(shape, -1, np.int64)
     rows = np.floor(sy).reshape(mh, mw)
     with np.errstate(invalid="ignore"):
@@ -75,16 +75,16 @@ def _pixels(sx, sy, z, mh, mw, shape, stencil, radius, box=None, bands=None):
     buffers = WarpBuffers(h, w)
     proj = projection_of(sx, sy, z, mh, mw, shape)
     payload = np.random.default_rng(3).random((sx.size, 3)).astype(np.float32)
-    scratch = np.full((h, w, 3), -5.0, np.float32)
+    out = np.full((h, w, 3), -5.0, np.float32)
     splat_pixels(proj, raster_runs(mh, mw), mw, 0, stencil, buffers.best_zd, buffers.best_id,
                  False, region, True, radius == 0, buffers.offsets if radius else None,
-                 bands, payload, scratch)
+                 bands, payload, out)
     if radius == 0:
-        got_z, got_id, out = buffers.best_zd[0], buffers.best_id, scratch
+        got_z, got_id = buffers.best_zd[..., 0], buffers.best_id
     else:
-        out = np.full((h, w, 3), -5.0, np.float32)
+        stride = 1 << (sx.size - 1).bit_length()
         spread(buffers.best_zd, buffers.best_id, buffers.offsets, radius, stencil,
-               (x0, x1, y0, y1), buffers.out_z, buffers.out_id, scratch, out)
+               (x0, x1, y0, y1), buffers.out_z, buffers.out_id, [payload], stride, out)
         got_z, got_id = buffers.out_z, buffers.out_id
     reached = got_id >= 0
     np.testing.assert_array_equal(out[reached], payload[got_id[reached]])
@@ -190,3 +190,35 @@ def test_gather_and_fill_blend_match_twins():
         np.testing.assert_array_equal(holes, want[1])
         np.testing.assert_array_equal(save_filled, want[3])
         np.testing.assert_array_equal(save_rgb[want[3]], want[2][want[3]])
+
+
+@pytest.mark.parametrize("radius", [0, 1])
+def test_payload_rows_follow_the_ids_over_several_maps(radius):
+    """Two maps into one buffer (ids slot * stride + index, stride a power of two): every
+    reached pixel's payload row is the row of its id's map and zexel."""
+    shape = (16, 20)
+    h, w = shape
+    buffers = WarpBuffers(h, w)
+    stencil = np.random.default_rng(1).random(shape) < 0.8
+    region = (0, w, 0, h)
+    out = np.full((h, w, 4), -5.0, np.float32)
+    stride = 1 << (24 * 24 - 1).bit_length()
+    payloads = []
+    for slot in range(2):
+        sx, sy, z, mh, mw, _ = _zexels(slot + 30)
+        payloads.append(np.random.default_rng(slot).random((sx.size, 4)).astype(np.float32))
+        splat_pixels(projection_of(sx, sy, z, mh, mw, shape), raster_runs(mh, mw), mw,
+                     slot * stride, stencil, buffers.best_zd, buffers.best_id, False, region,
+                     slot == 0, radius == 0, buffers.offsets if radius else None, None,
+                     payloads[slot], out)
+    ids = buffers.best_id
+    if radius:
+        spread(buffers.best_zd, buffers.best_id, buffers.offsets, radius, stencil, region,
+               buffers.out_z, buffers.out_id, payloads, stride, out)
+        ids = buffers.out_id
+    reached = ids >= 0
+    slots = ids[reached] // stride
+    assert set(slots) == {0, 1}
+    want = np.where((slots == 0)[:, None], payloads[0][ids[reached] % stride],
+                    payloads[1][ids[reached] % stride])
+    np.testing.assert_array_equal(out[reached], want)
