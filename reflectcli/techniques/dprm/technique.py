@@ -131,7 +131,9 @@ class Dprm(MapTechnique):
                      "reflect:projection_matrix": _numbers(cam.projection_matrix()),
                      "reflect:fov_y": repr(cam.fov_y)} for cam in cams])
             else:
-                maps = [ZexelMap(cam, np.stack([c["R"], c["G"], c["B"]], axis=-1), c["Z"],
+                # contiguous: the warp reads them every frame
+                maps = [ZexelMap(cam, np.stack([c["R"], c["G"], c["B"]], axis=-1),
+                                 np.ascontiguousarray(c["Z"], np.float32),
                                  c["T"].astype(np.int32))
                         for cam, (_, c, _) in zip(cams, parts, strict=True)]
                 done += len(maps)
@@ -274,15 +276,17 @@ class Dprm(MapTechnique):
                                                buffers.warp if buffers is not None else None,
                                                box, payloads, out)
         reflected = out[:, :, :3]
-        if surface:
+        if surface and box is not None:
+            x0, x1, y0, y1 = box
             tri = np.full((h, w), -1, np.int32)
-            if box is not None:
-                x0, x1, y0, y1 = box
-                reached = best_id[y0:y1, x0:x1] >= 0
-                tri[y0:y1, x0:x1][reached] = out[y0:y1, x0:x1, 3][reached]
+            # the reached pixels' triangles (exact in float32), -1 elsewhere
+            np.copyto(tri[y0:y1, x0:x1], out[y0:y1, x0:x1, 3], casting="unsafe",
+                      where=best_id[y0:y1, x0:x1] >= 0)
             shaded, ok = surface_colors(tri, camera, reflect, mirrored_eye, (n, d), triangles,
                                         scene)
-            reflected[ok] = shaded[ok]  # ok: pixels a zexel reached, inside the box
+            # ok: pixels a zexel reached, inside the box
+            np.copyto(reflected[y0:y1, x0:x1], shaded[y0:y1, x0:x1],
+                      where=ok[y0:y1, x0:x1, None])
         return reflected, best_id, len(chosen), zexels
 
 
