@@ -19,8 +19,18 @@ Keeping simply the nearest depth would pick, on a slanted surface, the zexel on 
 edge of the pixel, a bias that grows as maps get denser; the center rule makes a denser
 map converge on the point sample at the center.
 `ordered` paints each map in McMillan's occlusion-compatible order (later overwrite),
-z-testing only against other maps. Both run one band of screen rows per task over zexels
-skipping map rows that cannot reach it, so results do not depend on the thread count.
+z-testing only against other maps. Both run one band of screen rows per task (balanced by
+zexel count) over zexels skipping map rows that cannot reach it, so results do not depend
+on the thread count (the order within a band is fixed: map rows in run order).
+
+Fixed splats wider than a pixel in z-buffer mode are a `spread` of the one-pixel result:
+over its (2r + 1)^2 square a pixel keeps its own zexel if that is on the square's front
+surface, else takes the front surface's kept zexel landing nearest its center; adaptive
+splats and ordered wide ones splat each zexel over its square (`splat`).
+
+The projection is float32 throughout (one 4x4 from map pixel to homogeneous screen point,
+written with selects so that it vectorizes); the warp writes each reached pixel's payload
+row (colour, triangle) as it goes, so no gather pass follows it.
 """
 
 from __future__ import annotations
