@@ -339,17 +339,16 @@ def _write(y, x, zk, dk, ident, slot, stride, best_zd, best_id, ordered):
 
 
 def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, ordered: bool,
-                 region, clear: bool, use_stencil: bool, offsets=None,
-                 bands: int | None = None, payload=None, payload_out=None) -> None:
+                 region, clear: bool, use_stencil: bool, bands: int | None = None,
+                 payload=None, payload_out=None) -> None:
     """The one-pixel splat: each zexel of `proj` (visited run by run) at the pixel it lands
     in, by the visibility rule of `_write`, into best_zd (H, W, 2) float32 (depth, squared
     distance of the zexel to the pixel center) and best_id (ids base + zexel index), only
     inside `region` = (x0, x1, y0, y1) (and, with `use_stencil`, only on stencil pixels);
     `proj` must come from `project_map` with that region as its grown box (its columns are
-    not checked again), with positions if `offsets` are asked for, else with distances.
-    `clear`: reset the region first (inside the kernel, each band its rows). `offsets`:
-    (ox, oy) (H, W) float32 receiving the kept zexel's offset from the pixel center (for
-    `spread`). One band of rows per task, balanced by zexel count; each band visits every
+    not checked again), with positions if best_zd has room for offsets, else with distances.
+    `clear`: reset the region first (inside the kernel, each band its rows). best_zd (H, W,
+    4) also receives the kept zexel's offset from the pixel center (for `spread`). One band of rows per task, balanced by zexel count; each band visits every
     run but skips the map rows that cannot reach it, so the result does not depend on the
     thread count. `bands`: how many (default: two a thread). `payload` (n, c): a row per
     zexel, copied into `payload_out` (H, W, c) with each zexel that takes a pixel (so a
@@ -358,16 +357,11 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
     if bands is None:
         bands = max(1, numba.get_num_threads()) * 2
     h, w = best_id.shape
-    if offsets is None:
-        ox = oy = np.empty(0, np.float32)
-    else:
-        ox, oy = offsets[0].reshape(-1), offsets[1].reshape(-1)
     pay, pay_out = _payload_args(payload, payload_out)
     _splat_pixels(proj.pix, proj.sx, proj.sy, proj.d, proj.z, runs, mw, proj.row_lo,
-                  proj.row_hi,
-                  proj.count, base, ordered, stencil.reshape(-1), use_stencil,
-                  offsets is not None, x0, x1, y0, y1, w, clear, bands,
-                  best_zd.reshape(-1), best_id.reshape(-1), ox, oy,
+                  proj.row_hi, proj.count, base, ordered, stencil.reshape(-1), use_stencil,
+                  best_zd.shape[2] == 4, x0, x1, y0, y1, w, clear, bands,
+                  best_zd.reshape(-1), best_zd.shape[2], best_id.reshape(-1),
                   payload is not None, pay, pay_out)
 
 
@@ -399,9 +393,10 @@ def _payload_args(payload, payload_out):
 
 @njit(cache=True, parallel=True)
 def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
-                  use_stencil, keep_offsets, x0, x1, y0, y1, width, clear, bands, zd, ids, ox,
-                  oy, with_payload, pay, pay_out):
-    # zd: (depth, squared distance) interleaved per pixel: one cache line for both
+                  use_stencil, keep_offsets, x0, x1, y0, y1, width, clear, bands, zd, rec, ids,
+                  with_payload, pay, pay_out):
+    # zd: a record of `rec` floats per pixel, (depth, squared distance[, offset x, offset y]):
+    # one cache line for all
     # band edges over rows [y0, y1): each map row's zexels counted at its middle row
     hist = np.zeros(y1 - y0 + 1, np.int64)
     total = 0
@@ -433,7 +428,7 @@ def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, o
         if clear:
             for y in range(r0, r1):
                 for p in range(y * width + x0, y * width + x1):
-                    zd[2 * p] = inf  # (the distance is read only where ids holds a zexel)
+                    zd[rec * p] = inf  # (the distance is read only where ids holds a zexel)
                     ids[p] = -1
         p0 = r0 * width
         p1 = r1 * width
@@ -460,28 +455,29 @@ def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, o
                 zk = z[k]
                 ident = base + k
                 current = ids[p]
-                bz = zd[2 * p]
+                bz = zd[rec * p]
                 take = False
                 if current < 0 or zk < bz * (1.0 - SAME_SURFACE) or (
                         ordered and current >= base):
                     take = True
                 elif zk <= bz * (1.0 + SAME_SURFACE) or zk == bz:
-                    bd = zd[2 * p + 1]
+                    bd = zd[rec * p + 1]
                     take = (dk < bd) | ((dk == bd) & (ident < current))
                 if take:
-                    zd[2 * p] = zk
-                    zd[2 * p + 1] = dk
+                    zd[rec * p] = zk
+                    zd[rec * p + 1] = dk
                     ids[p] = ident
                     if keep_offsets:
-                        ox[p] = dx
-                        oy[p] = dy
+                        zd[rec * p + 2] = dx
+                        zd[rec * p + 3] = dy
                     if with_payload:
                         _copy_row(pay, k, pay_out, p)
 
 
-def spread(best_zd, best_id, offsets, radius: int, stencil, box, out_z, out_id,
-           payloads=None, stride: int = 1, payload_out=None) -> None:
-    """A splat of (2 radius + 1)^2 pixels from the one-pixel splat's result: of the zexels
+def spread(records, best_id, radius: int, stencil, box, out_z, out_id, payloads=None,
+           stride: int = 1, payload_out=None) -> None:
+    """A splat of (2 radius + 1)^2 pixels from the one-pixel splat's result (`records` (H,
+    W, 4): depth, distance, offset from the pixel center x, y; best_id): of the zexels
     kept in the square around a stencil pixel of `box` = (x0, x1, y0, y1), the front surface
     is those within SAME_SURFACE of the nearest depth (or equal to it: at infinity). The
     pixel keeps its own zexel if that is on the front surface (where zexels are dense, the
@@ -497,19 +493,20 @@ def spread(best_zd, best_id, offsets, radius: int, stencil, box, out_z, out_id,
     else:
         rows = tuple(np.ascontiguousarray(p) for p in payloads)
         _, pay_out = _payload_args(rows[0], payload_out)
-    _spread(best_zd, best_id, offsets[0], offsets[1], radius, stencil, x0, x1, y0, y1, out_z,
-            out_id, payloads is not None, rows, stride.bit_length() - 1, pay_out)
+    _spread(records, best_id, radius, stencil, x0, x1, y0, y1, out_z, out_id,
+            payloads is not None, rows, stride.bit_length() - 1, pay_out)
 
 
 @njit(cache=True, parallel=True)
-def _spread(zd, ids, ox, oy, r, stencil, x0, x1, y0, y1, out_z, out_id, with_payload, rows,
-            shift, pay_out):
+def _spread(records, ids, r, stencil, x0, x1, y0, y1, out_z, out_id, with_payload, rows, shift,
+            pay_out):
     h, w = ids.shape
     # flat views: one index per pixel, neighbours at fixed offsets from it
-    z = zd.reshape(-1)[::2]
+    flat = records.reshape(-1)
+    z = flat[::4]
+    oxf = flat[2::4]
+    oyf = flat[3::4]
     idf = ids.reshape(-1)
-    oxf = ox.reshape(-1)
-    oyf = oy.reshape(-1)
     for y in prange(y0, y1):
         # the common radii as constants: their loops unroll
         if r == 1:
@@ -619,8 +616,9 @@ class WarpBuffers:
         self.shape = (height, width)
         self.best_zd = np.full((height, width, 2), np.inf, np.float32)
         self.best_id = np.full((height, width), -1, np.int64)
-        self.offsets = (np.zeros((height, width), np.float32),
-                        np.zeros((height, width), np.float32))
+        # the one-pixel splat's (depth, distance, offset x, offset y) per pixel before a
+        # spread; its kernel clears what it uses, nothing else reads it
+        self.records = np.full((height, width, 4), np.inf, np.float32)
         self.out_z = np.full((height, width), np.inf, np.float32)
         self.out_id = np.full((height, width), -1, np.int64)
         self.projections: dict[tuple[int, int], Projection] = {}
@@ -745,17 +743,16 @@ def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bo
             project_map(depth, wm, w, h, near, box, radius, proj, positions=radius > 0)
             if runs is None:
                 runs = buffers.raster_runs(mh, mw)
-            splat_pixels(proj, runs, mw, slot * stride, stencil, buffers.best_zd,
-                         buffers.best_id, ordered, region, slot == 0, use_stencil,
-                         buffers.offsets if radius > 0 else None,
-                         payload=None if payloads is None else payloads[slot],
-                         payload_out=out)
+            splat_pixels(proj, runs, mw, slot * stride, stencil,
+                         buffers.records if radius > 0 else buffers.best_zd, buffers.best_id,
+                         ordered, region, slot == 0, use_stencil,
+                         payload=None if payloads is None else payloads[slot], payload_out=out)
             zexels += int(proj.count.sum())
         if radius == 0:
             return buffers.best_zd[:, :, 0], buffers.best_id, stride, zexels
         buffers.claim_out(box)
-        spread(buffers.best_zd, buffers.best_id, buffers.offsets, radius, stencil, box,
-               buffers.out_z, buffers.out_id, payloads, stride, out)
+        spread(buffers.records, buffers.best_id, radius, stencil, box, buffers.out_z,
+               buffers.out_id, payloads, stride, out)
         return buffers.out_z, buffers.out_id, stride, zexels
     buffers.claim(box)
     best_zd, best_id = buffers.best_zd, buffers.best_id

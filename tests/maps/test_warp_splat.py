@@ -76,15 +76,15 @@ def _pixels(sx, sy, z, mh, mw, shape, stencil, radius, box=None, bands=None):
     proj = projection_of(sx, sy, z, mh, mw, shape)
     payload = np.random.default_rng(3).random((sx.size, 3)).astype(np.float32)
     out = np.full((h, w, 3), -5.0, np.float32)
-    splat_pixels(proj, raster_runs(mh, mw), mw, 0, stencil, buffers.best_zd, buffers.best_id,
-                 False, region, True, radius == 0, buffers.offsets if radius else None,
-                 bands, payload, out)
+    splat_pixels(proj, raster_runs(mh, mw), mw, 0, stencil,
+                 buffers.records if radius else buffers.best_zd, buffers.best_id, False,
+                 region, True, radius == 0, bands, payload, out)
     if radius == 0:
         got_z, got_id = buffers.best_zd[..., 0], buffers.best_id
     else:
         stride = 1 << (sx.size - 1).bit_length()
-        spread(buffers.best_zd, buffers.best_id, buffers.offsets, radius, stencil,
-               (x0, x1, y0, y1), buffers.out_z, buffers.out_id, [payload], stride, out)
+        spread(buffers.records, buffers.best_id, radius, stencil, (x0, x1, y0, y1),
+               buffers.out_z, buffers.out_id, [payload], stride, out)
         got_z, got_id = buffers.out_z, buffers.out_id
     reached = got_id >= 0
     np.testing.assert_array_equal(out[reached], payload[got_id[reached]])
@@ -208,13 +208,13 @@ def test_payload_rows_follow_the_ids_over_several_maps(radius):
         sx, sy, z, mh, mw, _ = _zexels(slot + 30)
         payloads.append(np.random.default_rng(slot).random((sx.size, 4)).astype(np.float32))
         splat_pixels(projection_of(sx, sy, z, mh, mw, shape), raster_runs(mh, mw), mw,
-                     slot * stride, stencil, buffers.best_zd, buffers.best_id, False, region,
-                     slot == 0, radius == 0, buffers.offsets if radius else None, None,
+                     slot * stride, stencil, buffers.records if radius else buffers.best_zd,
+                     buffers.best_id, False, region, slot == 0, radius == 0, None,
                      payloads[slot], out)
     ids = buffers.best_id
     if radius:
-        spread(buffers.best_zd, buffers.best_id, buffers.offsets, radius, stencil, region,
-               buffers.out_z, buffers.out_id, payloads, stride, out)
+        spread(buffers.records, buffers.best_id, radius, stencil, region, buffers.out_z,
+               buffers.out_id, payloads, stride, out)
         ids = buffers.out_id
     reached = ids >= 0
     slots = ids[reached] // stride
