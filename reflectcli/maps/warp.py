@@ -350,9 +350,10 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
     `clear`: reset the region first (inside the kernel, each band its rows). best_zd (H, W,
     4) also receives the kept zexel's offset from the pixel center (for `spread`). One band
     of rows per task, balanced by zexel count; each band visits every run but skips the map
-    rows that cannot reach it, so the result does not depend on the thread count. `bands`: how many (default: two a thread). `payload` (n, c): a row per
-    zexel, copied into `payload_out` (H, W, c) with each zexel that takes a pixel (so a
-    reached pixel ends with its kept zexel's row; other pixels are left alone)."""
+    rows that cannot reach it, so the result does not depend on the thread count. `bands`:
+    how many (default: two a thread). `payload` (n, c): a row per zexel, copied into
+    `payload_out` (H, W, c) with each zexel that takes a pixel (so a reached pixel ends
+    with its kept zexel's row; other pixels are left alone)."""
     x0, x1, y0, y1 = region
     if bands is None:
         bands = max(1, numba.get_num_threads()) * 2
