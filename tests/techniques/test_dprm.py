@@ -308,3 +308,19 @@ def test_lod_warps_fewer_zexels_for_a_small_mirror(tmp_path, scenes_root):
     assert lod.stats["zexels_warped"] < full.stats["zexels_warped"] / 2
     m = ref.mirror_mask & lod.mirror_mask
     assert psnr(lod.rgb[m], ref.rgb[m]) >= psnr(full.rgb[m], ref.rgb[m]) - 1.0
+
+
+@pytest.mark.parametrize("splat", ["1", "3"])
+def test_frames_do_not_depend_on_the_thread_count(splat):
+    """The warp's bands and the spread's rows split work by thread; the frames (colour and
+    holes) must be the same bytes with one thread or two, and from one run to the next."""
+    overrides = ["camera.width=160", "camera.height=120", "technique.maps.resolution=128",
+                 f"technique.fill.splat={splat}"]
+    frames = []
+    for threads in (1, 2, 2):
+        opened = open_scene("teapot-floor", "dprm", overrides, threads=threads)
+        frames.append([opened.render_frame(f) for f in (0, 3)])
+    for other in frames[1:]:
+        for a, b in zip(frames[0], other, strict=True):
+            np.testing.assert_array_equal(a.rgb, b.rgb)
+            np.testing.assert_array_equal(a.extra["holes"], b.extra["holes"])
