@@ -13,8 +13,9 @@ and after reflect's frames, and its two medians are averaged.
 
 Rows (the table of issue 13):
 - warp: the anchor's 512x512 map and camera ("side" motion, whole screen) through reflect's
-  warp (projection + splat, its visibility rule) plus the colour gather (and the fill and
-  blend of the dprm stage), against the anchor's final kernel, splat 1 and 3.
+  warp (projection + splat, its visibility rule) with each pixel's colour (written by the
+  warp, as dprm asks for it; and the fill and blend of the dprm stage), against the anchor's
+  final kernel, splat 1 and 3.
 - raster: the anchor's room + icospheres (202,560 / 1,000,960 triangles) through reflect's
   rasterizer (z + id + barycentrics), back faces culled and not (as the primary pass runs),
   against the anchor's sort-last kernel (culled).
@@ -104,7 +105,7 @@ def add(row: str, anchor: str, mine: str, r, goal: str) -> None:
 
 # ------------------------------------------------------------------------------ warp
 def bench_warp(anchors: Path, reps: int) -> None:
-    from reflectcli.maps.warp import WarpBuffers, fill_blend, gather_colors, warp_depths
+    from reflectcli.maps.warp import WarpBuffers, fill_blend, warp_depths
 
     print("warp: one 512x512 map into 640x480", flush=True)
     aw = load_anchor(anchors, "warp_tuned")
@@ -142,9 +143,9 @@ def bench_warp(anchors: Path, reps: int) -> None:
 
     def stage(splat, fill):
         def run():
-            _, best_id, stride, _ = warp_depths([(depth, w_map, None)], near, stencil, splat,
-                                                False, buffers)
-            gather_colors(best_id, stride, [colors], box, reflected)
+            # the colour comes with the warp (each zexel that takes a pixel writes its own)
+            _, best_id, _, _ = warp_depths([(depth, w_map, None)], near, stencil, splat, False,
+                                           buffers, box, [colors], reflected)
             if fill:
                 fill_blend(stencil, best_id, reflected, False, none3, none2, False, none3,
                            none2, background, reflectance, rgb, holes)

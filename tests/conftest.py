@@ -50,3 +50,27 @@ def render():
 @pytest.fixture
 def scenes_dir() -> Path:
     return SCENES
+
+
+def projection_of(sx, sy, z, mh, mw, shape):
+    """A Projection as project_map fills it, from given screen positions and depths."""
+    h, w = shape
+    from reflectcli.maps.warp import Projection
+
+    proj = Projection.empty(mh, mw)
+    proj.sx[:], proj.sy[:], proj.z[:] = sx, sy, z
+    ok = ~np.isnan(sx)
+    px = np.floor(np.where(ok, sx, 0)).astype(np.int64)
+    py = np.floor(np.where(ok, sy, 0)).astype(np.int64)
+    on = ok & (px >= 0) & (px < w) & (py >= 0) & (py < h)
+    proj.pix[:] = np.where(on, py * w + px, -1)
+    with np.errstate(invalid="ignore"):
+        ex = sx - np.floor(sx) - np.float32(0.5)
+        ey = sy - np.floor(sy) - np.float32(0.5)
+        proj.d[:] = ex * ex + ey * ey
+    rows, okr = py.reshape(mh, mw), ok.reshape(mh, mw)
+    proj.row_lo[:] = np.where(okr, rows, 1 << 40).min(axis=1)
+    hi = np.where(okr, rows, np.iinfo(np.int64).min).max(axis=1)
+    proj.row_hi[:] = np.where(okr.any(axis=1), hi, -1)
+    proj.count[:] = okr.sum(axis=1)
+    return proj

@@ -761,6 +761,52 @@ def splat_zbuffer(sx, sy, z, radii, mw, stencil):
     return best
 
 
+def splat_spread(sx, sy, z, radius, stencil):
+    """Twin of maps.warp's one-pixel splat followed by `spread` (_splat_pixels, _spread,
+    z-buffer mode, one map): first every pixel of the screen keeps, of the zexels landing in
+    it, one of the nearest depth's surface (`splat_zbuffer` with radius 0, no stencil); then
+    each stencil pixel looks at the kept zexels in its (2 radius + 1)^2 square: the front
+    surface is those within SAME_SURFACE of their nearest depth (or equal to it); the pixel
+    keeps its own zexel if that is on it, else takes the front surface's zexel landing
+    nearest its center (float32 squared distance from the zexel's offset in its own pixel;
+    ties to the lower index). Returns (depth, id) with -1 / inf where none."""
+    from reflectcli.maps.warp import SAME_SURFACE
+
+    h, w = stencil.shape
+    kept = splat_zbuffer(sx, sy, z, np.zeros(sx.size, np.int64), None, np.ones((h, w), bool))
+    best_z = np.full((h, w), np.inf, np.float32)
+    best_id = np.full((h, w), -1)
+    for y in range(h):
+        for x in range(w):
+            if not stencil[y, x]:
+                continue
+            square = [(yy, xx) for yy in range(y - radius, y + radius + 1)
+                      for xx in range(x - radius, x + radius + 1)
+                      if 0 <= yy < h and 0 <= xx < w and kept[yy, xx] >= 0]
+            if not square:
+                continue
+            front = min(z[kept[yy, xx]] for yy, xx in square)
+            on_front = [(yy, xx) for yy, xx in square
+                        if z[kept[yy, xx]] <= front * (1 + SAME_SURFACE)
+                        or z[kept[yy, xx]] == front]
+            if (y, x) in on_front:
+                choice = kept[y, x]
+            else:
+                def distance(pixel, y=y, x=x):
+                    yy, xx = pixel
+                    k = kept[yy, xx]
+                    fx, fy = np.float32(sx[k]), np.float32(sy[k])
+                    ox = fx - np.float32(math.floor(fx)) - np.float32(0.5)
+                    oy = fy - np.float32(math.floor(fy)) - np.float32(0.5)
+                    ex = np.float32(ox + np.float32(xx - x))
+                    ey = np.float32(oy + np.float32(yy - y))
+                    return np.float32(ex * ex + ey * ey), k
+                choice = kept[min(on_front, key=distance)]
+            best_id[y, x] = choice
+            best_z[y, x] = z[choice]
+    return best_z, best_id
+
+
 def splat_sequential(maps, stencil, ordered):
     """Twin of maps.warp._splat / _write in both modes: one thread, no bands, no row
     skipping; maps in slot order, each one's zexels in its runs' order, each zexel over the

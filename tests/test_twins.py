@@ -29,6 +29,9 @@ RASTER = [R + "test_matches_reference_on_random_scenes",
 CLIP = [R + "test_near_plane_clipping_matches_ray_casting"]
 SPLAT = [W + "test_splat_matches_the_reference",
          M + "test_splat_both_modes_match_sequential_twin"]
+PIXELS = [W + "test_pixel_splat_matches_the_reference",
+          M + "test_pixel_splat_both_modes_match_sequential_twin"]
+SPREAD = [W + "test_spread_matches_the_reference"]
 ANALYTIC = [E + "test_analytic_matches_closed_forms"]
 SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
                  V + "test_cylinder_virtual_vertices_match_twin"]
@@ -95,6 +98,13 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp.py:_adaptive": ([M + "test_adaptive_radii_match_twin"], "splat_radii"),
     "maps/warp.py:_splat": (SPLAT, "splat"),
     "maps/warp.py:_write": (SPLAT, "_splat"),
+    "maps/warp.py:_splat_pixels": (PIXELS, "splat_pixels"),
+    "maps/warp.py:_spread": (SPREAD, "spread"),
+    "maps/warp.py:_spread_row": (SPREAD, "_spread"),
+    "maps/warp.py:_min_into": (SPREAD, "_spread_row"),
+    "maps/warp.py:_min_shifted": (SPREAD, "_spread_row"),
+    "maps/warp.py:_copy_row": ([W + "test_payload_rows_follow_the_ids_over_several_maps"],
+                               "_splat_pixels"),
     "virtual/direct.py:_circle_law": (SPHERE_METHOD, "_circle_reflection"),
     "virtual/direct.py:_circle_reflection": (SPHERE_METHOD, "_mirror_on_circle"),
     "virtual/direct.py:_mirror_on_circle": (SPHERE_METHOD, "_many"),

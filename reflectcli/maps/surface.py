@@ -27,7 +27,7 @@ def surface_colors(triangle: np.ndarray, camera: Camera, reflection: np.ndarray,
                    triangles: Triangles, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """(rgb (H, W, 3) float32, shaded (H, W) bool) for the pixels whose `triangle` (H, W,
     index into `triangles`, -1: none) their reflected ray meets in front of the mirror
-    (`plane` = (unit normal, d), world)."""
+    (`plane` = (unit normal, d), world); rgb is set only where shaded."""
     h, w = triangle.shape
     b1 = np.zeros((h, w), np.float32)
     b2 = np.zeros((h, w), np.float32)
@@ -41,8 +41,12 @@ def surface_colors(triangle: np.ndarray, camera: Camera, reflection: np.ndarray,
     n, d = plane
     _intersect(triangle, axes, np.asarray(mirrored_eye, np.float64), triangles.corners,
                np.asarray(n, np.float64), float(d), hit, b1, b2, depth)
-    rgb, _ = shade_buffers(RasterBuffers(hit, b1, b2, depth), triangles, scene, mirrored_eye)
-    return rgb, hit >= 0
+    ok = hit >= 0
+    # only the pixels that found their point are shaded (the rest of rgb is left unset)
+    rgb, _ = shade_buffers(RasterBuffers(hit, b1, b2, depth), triangles, scene, mirrored_eye,
+                           stencil=ok, out=(np.empty((h, w, 3), np.float32),
+                                            np.empty((h, w), np.int32)))
+    return rgb, ok
 
 
 @njit(cache=True, parallel=True)

@@ -19,8 +19,18 @@ Keeping simply the nearest depth would pick, on a slanted surface, the zexel on 
 edge of the pixel, a bias that grows as maps get denser; the center rule makes a denser
 map converge on the point sample at the center.
 `ordered` paints each map in McMillan's occlusion-compatible order (later overwrite),
-z-testing only against other maps. Both run one band of screen rows per task over zexels
-skipping map rows that cannot reach it, so results do not depend on the thread count.
+z-testing only against other maps. Both run one band of screen rows per task (balanced by
+zexel count) over zexels skipping map rows that cannot reach it, so results do not depend
+on the thread count (the order within a band is fixed: map rows in run order).
+
+Fixed splats wider than a pixel in z-buffer mode are a `spread` of the one-pixel result:
+over its (2r + 1)^2 square a pixel keeps its own zexel if that is on the square's front
+surface, else takes the front surface's kept zexel landing nearest its center; adaptive
+splats and ordered wide ones splat each zexel over its square (`splat`).
+
+The projection is float32 throughout (one 4x4 from map pixel to homogeneous screen point,
+written with selects so that it vectorizes); the warp writes each reached pixel's payload
+row (colour, triangle) as it goes, so no gather pass follows it.
 """
 
 from __future__ import annotations
@@ -34,7 +44,6 @@ from numba import njit, prange
 
 from ..camera import Camera
 from ..camera import screen_from_ndc as _screen_from_ndc
-from ..raster.rasterize import screen_from_ndc
 
 
 def pixel_to_eye(camera: Camera) -> np.ndarray:
@@ -56,6 +65,17 @@ def warp_matrix(map_camera: Camera, camera: Camera, reflection: np.ndarray) -> n
             @ np.linalg.inv(map_camera.view_matrix()) @ pixel_to_eye(map_camera))
 
 
+def screen_matrix(width: int, height: int) -> np.ndarray:
+    """The 4x4 taking clip coordinates to homogeneous screen ones: (x, y) / w of its result
+    is `camera.screen_from_ndc` of the clip point's (x, y) / w (read off that function)."""
+    ox, oy = _screen_from_ndc(0.0, 0.0, width, height)
+    ax, ay = _screen_from_ndc(1.0, 1.0, width, height)
+    s = np.eye(4)
+    s[0, 0], s[0, 3] = ax - ox, ox
+    s[1, 1], s[1, 3] = ay - oy, oy
+    return s
+
+
 @dataclass
 class Projection:
     """One map's projected zexels (reused from frame to frame for maps of one size)."""
@@ -63,6 +83,8 @@ class Projection:
     sx: np.ndarray  # (n,) float32 screen x, NaN: not warped
     sy: np.ndarray  # (n,) float32 screen y
     z: np.ndarray  # (n,) float32 eye depth in the target camera
+    pix: np.ndarray  # (n,) int32 flat screen pixel y * width + x of the zexel, -1: not warped
+    d: np.ndarray  # (n,) float32 squared distance to its pixel's center (positions=False)
     row_lo: np.ndarray  # (mh,) int64 first screen row a map row reaches
     row_hi: np.ndarray  # (mh,) int64 last screen row a map row reaches
     count: np.ndarray  # (mh,) int64 zexels of the map row that were warped
@@ -71,77 +93,93 @@ class Projection:
     def empty(cls, mh: int, mw: int) -> Projection:
         n = mh * mw
         return cls(np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
-                   np.empty(mh, np.int64), np.empty(mh, np.int64), np.empty(mh, np.int64))
+                   np.empty(n, np.int32), np.empty(n, np.float32), np.empty(mh, np.int64),
+                   np.empty(mh, np.int64), np.empty(mh, np.int64))
 
 
 def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near: float,
                 box: tuple[int, int, int, int] | None = None, margin: int = 3,
-                out: Projection | None = None):
+                out: Projection | None = None, positions: bool = True):
     """Screen positions (float32, pixels) and eye depths of every zexel, and per map row the
     first and last screen row its zexels reach (row_lo > row_hi if none). Zexels behind the
-    eye or outside `box` = (x0, x1, y0, y1) grown by `margin` pixels get sx = NaN.
-    `out`: arrays to write into (kept across frames), returned filled."""
+    eye or outside `box` = (x0, x1, y0, y1) grown by `margin` pixels get sx = NaN; pix is
+    -1 for those and for zexels off the screen. Float32 arithmetic throughout (one 4x4 from
+    map pixel to homogeneous screen point). `out`: arrays to write into (kept across
+    frames), returned filled. `positions=False`: instead of sx and sy (left as they were),
+    only each zexel's squared distance to its pixel's center (out.d), all a one-pixel
+    splat needs."""
     if out is None:
         out = Projection.empty(*depth.shape)
     x0, x1, y0, y1 = box if box is not None else (0, width, 0, height)
-    _project(depth, np.ascontiguousarray(w, np.float64), near, float(x0 - margin),
-             float(x1 + margin), float(y0 - margin), float(y1 + margin), width, height,
-             out.sx, out.sy, out.z, out.row_lo, out.row_hi, out.count)
+    m = np.ascontiguousarray(screen_matrix(width, height) @ w, np.float32)
+    _project(np.ascontiguousarray(depth, np.float32), m, near, x0 - margin, x1 + margin,
+             y0 - margin, y1 + margin, width, height, positions, out.sx, out.sy, out.z, out.pix,
+             out.d, out.row_lo, out.row_hi, out.count)
     return out.sx, out.sy, out.z, out.row_lo, out.row_hi
 
 
 @njit(cache=True, parallel=True)
-def _project(depth, w, near, xmin, xmax, ymin, ymax, width, height, sx, sy, z, row_lo, row_hi,
-             count):
+def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, positions, sx, sy, z, pix,
+             dist, row_lo, row_hi, count):
+    # homogeneous screen point (hx, hy, hw) = M (u, v, 1, delta), scaled by the depth d
+    # (the same point for d > 0, without dividing by d): hw is then the eye depth in the
+    # target camera. Written without branches (selects) so that the row loop vectorizes.
     mh, mw = depth.shape
+    one = np.float32(1.0)
+    zero = np.float32(0.0)
+    inf = np.float32(np.inf)
+    nan = np.float32(np.nan)
+    half = np.float32(0.5)
+    near32 = np.float32(near)
+    fx0, fx1 = np.float32(xmin), np.float32(xmax)
+    fy0, fy1 = np.float32(ymin), np.float32(ymax)
+    wid = np.int32(width)
+    fw, fh = np.float32(width), np.float32(height)
     for v in prange(mh):
-        # per-row terms hoisted: clip = W[:, 0] u + (W[:, 1] v + W[:, 2]) + W[:, 3] delta
-        r0 = w[0, 1] * v + w[0, 2]
-        r1 = w[1, 1] * v + w[1, 2]
-        r3 = w[3, 1] * v + w[3, 2]
-        lo = 1 << 40
-        hi = -1
+        vf = np.float32(v)
+        r0 = m[0, 1] * vf + m[0, 2]
+        r1 = m[1, 1] * vf + m[1, 2]
+        r3 = m[3, 1] * vf + m[3, 2]
+        a0, a1, a3 = m[0, 0], m[1, 0], m[3, 0]
+        t0, t1, t3 = m[0, 3], m[1, 3], m[3, 3]
+        lo = np.int32(1 << 30)
+        hi = np.int32(-(1 << 30))
         warped = 0
+        base = v * mw
         for u in range(mw):
-            k = v * mw + u
+            uf = np.float32(u)
             d = depth[v, u]
-            a0 = w[0, 0] * u + r0
-            a1 = w[1, 0] * u + r1
-            a3 = w[3, 0] * u + r3
-            if d == np.inf:  # delta = 0: a direction
-                cx = a0
-                cy = a1
-                cw = a3
-                zz = np.inf
-                ok = cw > 0.0
-            elif d > 0.0:
-                # d * clip: the same point (d > 0), without dividing by d; its w is then the
-                # eye depth in the target camera
-                cx = a0 * d + w[0, 3]
-                cy = a1 * d + w[1, 3]
-                cw = a3 * d + w[3, 3]
-                zz = cw
-                ok = zz > near
-            else:  # NaN or a non-positive depth: not a zexel
-                ok = False
-                cx = cy = cw = zz = 0.0
-            if not ok:
-                sx[k] = np.nan
-                continue
-            inv = 1.0 / cw
-            x, y = screen_from_ndc(cx * inv, cy * inv, width, height)
-            if not (xmin <= x < xmax and ymin <= y < ymax):
-                sx[k] = np.nan
-                continue
-            sx[k] = x
-            sy[k] = y
-            z[k] = zz
-            py = int(math.floor(sy[k]))  # the float32 row the splat will use
-            lo = min(lo, py)
-            hi = max(hi, py)
-            warped += 1
-        row_lo[v] = lo
-        row_hi[v] = hi
+            finite = d < inf  # False for inf (a direction: delta = 0) and NaN
+            s = d if finite else one
+            t = one if finite else zero
+            hx = (a0 * uf + r0) * s + t0 * t
+            hy = (a1 * uf + r1) * s + t1 * t
+            hw = (a3 * uf + r3) * s + t3 * t
+            inv = one / hw
+            x = hx * inv
+            y = hy * inv
+            ok = ((finite & (d > zero) & (hw > near32)) | ((d == inf) & (hw > zero))) & (
+                x >= fx0) & (x < fx1) & (y >= fy0) & (y < fy1)
+            xs = x if ok else zero
+            ys = y if ok else zero
+            px = np.int32(np.floor(xs))
+            py = np.int32(np.floor(ys))
+            k = base + u
+            if positions:
+                sx[k] = x if ok else nan
+                sy[k] = ys
+            else:
+                ex = xs - np.floor(xs) - half
+                ey = ys - np.floor(ys) - half
+                dist[k] = ex * ex + ey * ey
+            z[k] = hw if finite else inf
+            on_screen = ok & (xs >= zero) & (xs < fw) & (ys >= zero) & (ys < fh)
+            pix[k] = py * wid + px if on_screen else np.int32(-1)
+            lo = min(lo, py if ok else np.int32(1 << 30))
+            hi = max(hi, py if ok else np.int32(-(1 << 30)))
+            warped += 1 if ok else 0
+        row_lo[v] = lo if warped > 0 else 1 << 40
+        row_hi[v] = hi if warped > 0 else -1
         count[v] = warped
 
 
@@ -300,26 +338,312 @@ def _write(y, x, zk, dk, ident, slot, stride, best_zd, best_id, ordered):
         best_id[y, x] = ident if take else current
 
 
+def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, ordered: bool,
+                 region, clear: bool, use_stencil: bool, bands: int | None = None,
+                 payload=None, payload_out=None) -> None:
+    """The one-pixel splat: each zexel of `proj` (visited run by run) at the pixel it lands
+    in, by the visibility rule of `_write`, into best_zd (H, W, 2) float32 (depth, squared
+    distance of the zexel to the pixel center) and best_id (ids base + zexel index), only
+    inside `region` = (x0, x1, y0, y1) (and, with `use_stencil`, only on stencil pixels);
+    `proj` must come from `project_map` with that region as its grown box (its columns are
+    not checked again), with positions if best_zd has room for offsets, else with distances.
+    `clear`: reset the region first (inside the kernel, each band its rows). best_zd (H, W,
+    4) also receives the kept zexel's offset from the pixel center (for `spread`). One band
+    of rows per task, balanced by zexel count; each band visits every run but skips the map
+    rows that cannot reach it, so the result does not depend on the thread count. `bands`:
+    how many (default: two a thread). `payload` (n, c): a row per zexel, copied into
+    `payload_out` (H, W, c) with each zexel that takes a pixel (so a reached pixel ends
+    with its kept zexel's row; other pixels are left alone)."""
+    x0, x1, y0, y1 = region
+    if bands is None:
+        bands = max(1, numba.get_num_threads()) * 2
+    h, w = best_id.shape
+    pay, pay_out = _payload_args(payload, payload_out)
+    _splat_pixels(proj.pix, proj.sx, proj.sy, proj.d, proj.z, runs, mw, proj.row_lo,
+                  proj.row_hi, proj.count, base, ordered, stencil.reshape(-1), use_stencil,
+                  best_zd.shape[2] == 4, x0, x1, y0, y1, w, clear, bands,
+                  best_zd.reshape(-1), best_zd.shape[2], best_id.reshape(-1),
+                  payload is not None, pay, pay_out)
+
+
+@njit(cache=True, inline="always")
+def _copy_row(src, k, dst, p):
+    """dst[p] = src[k], with the common widths (3: colour, 4: colour and triangle) as
+    constant loops."""
+    c = src.shape[1]
+    if c == 3:
+        for j in range(3):
+            dst[p, j] = src[k, j]
+    elif c == 4:
+        for j in range(4):
+            dst[p, j] = src[k, j]
+    else:
+        for j in range(c):
+            dst[p, j] = src[k, j]
+
+
+def _payload_args(payload, payload_out):
+    """(payload (n, c), payload_out flattened to (H * W, c)), or empty stand-ins."""
+    if payload is None:
+        return np.empty((0, 1), np.float32), np.empty((0, 1), np.float32)
+    if not payload_out.flags.c_contiguous:
+        raise ValueError("payload_out must be C-contiguous (its rows are written in place)")
+    c = payload.shape[1]
+    return np.ascontiguousarray(payload), payload_out.reshape(-1, c)
+
+
+@njit(cache=True, parallel=True)
+def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
+                  use_stencil, keep_offsets, x0, x1, y0, y1, width, clear, bands, zd, rec, ids,
+                  with_payload, pay, pay_out):
+    # zd: a record of `rec` floats per pixel, (depth, squared distance[, offset x, offset y]):
+    # one cache line for all
+    # band edges over rows [y0, y1): each map row's zexels counted at its middle row
+    hist = np.zeros(y1 - y0 + 1, np.int64)
+    total = 0
+    for v in range(row_lo.shape[0]):
+        if count[v] > 0:
+            mid = min(max((row_lo[v] + row_hi[v]) // 2, y0), y1) - y0
+            hist[mid] += count[v]
+            total += count[v]
+    edges = np.empty(bands + 1, np.int64)
+    edges[0] = y0
+    edges[bands] = y1
+    acc = 0
+    b = 1
+    for y in range(y1 - y0):
+        acc += hist[y]
+        while b < bands and acc * bands >= total * b:
+            edges[b] = y0 + y + 1
+            b += 1
+    while b < bands:
+        edges[b] = y1
+        b += 1
+    inf = np.float32(np.inf)
+    half = np.float32(0.5)
+    for b in prange(bands):
+        r0 = edges[b]
+        r1 = edges[b + 1]
+        if r1 <= r0:
+            continue
+        if clear:
+            for y in range(r0, r1):
+                for p in range(y * width + x0, y * width + x1):
+                    zd[rec * p] = inf  # (the distance is read only where ids holds a zexel)
+                    ids[p] = -1
+        p0 = r0 * width
+        p1 = r1 * width
+        for run in range(runs.shape[0]):
+            v = runs[run, 0]
+            if row_hi[v] < r0 or row_lo[v] >= r1:
+                continue
+            for u in range(runs[run, 1], runs[run, 2], runs[run, 3]):
+                k = v * mw + u
+                p = pix[k]
+                if p < p0 or p >= p1:  # also p = -1: not warped
+                    continue
+                if use_stencil and not stencil[p]:
+                    continue
+                if keep_offsets:  # positions projected: the offsets for spread
+                    fx = sx[k]
+                    fy = sy[k]
+                    dx = fx - np.floor(fx) - half
+                    dy = fy - np.floor(fy) - half
+                    dk = dx * dx + dy * dy
+                else:  # only the squared distance projected
+                    dx = dy = half
+                    dk = dist[k]
+                zk = z[k]
+                ident = base + k
+                current = ids[p]
+                bz = zd[rec * p]
+                take = False
+                if current < 0 or zk < bz * (1.0 - SAME_SURFACE) or (
+                        ordered and current >= base):
+                    take = True
+                elif zk <= bz * (1.0 + SAME_SURFACE) or zk == bz:
+                    bd = zd[rec * p + 1]
+                    take = (dk < bd) | ((dk == bd) & (ident < current))
+                if take:
+                    zd[rec * p] = zk
+                    zd[rec * p + 1] = dk
+                    ids[p] = ident
+                    if keep_offsets:
+                        zd[rec * p + 2] = dx
+                        zd[rec * p + 3] = dy
+                    if with_payload:
+                        _copy_row(pay, k, pay_out, p)
+
+
+def spread(records, best_id, radius: int, stencil, box, out_z, out_id, payloads=None,
+           stride: int = 1, payload_out=None) -> None:
+    """A splat of (2 radius + 1)^2 pixels from the one-pixel splat's result (`records` (H,
+    W, 4): depth, distance, offset from the pixel center x, y; best_id): of the zexels
+    kept in the square around a stencil pixel of `box` = (x0, x1, y0, y1), the front surface
+    is those within SAME_SURFACE of the nearest depth (or equal to it: at infinity). The
+    pixel keeps its own zexel if that is on the front surface (where zexels are dense, the
+    wide splat is the one-pixel one); else it takes the front surface's zexel landing
+    nearest its center (ties to the lower id). Writes out_z / out_id over the box (inf / -1
+    off the stencil). `payloads`: per map (n, c) rows, ids slot * stride + index (stride a
+    power of two); `payload_out` (H, W, c) already holds each pixel's own zexel's row (the
+    one-pixel splat wrote it), and a pixel that takes another zexel gets that one's row."""
+    x0, x1, y0, y1 = box
+    if payloads is None:
+        rows = (np.empty((0, 1), np.float32),)
+        pay_out = rows[0]
+    else:
+        rows = tuple(np.ascontiguousarray(p) for p in payloads)
+        _, pay_out = _payload_args(rows[0], payload_out)
+    _spread(records, best_id, radius, stencil, x0, x1, y0, y1, out_z, out_id,
+            payloads is not None, rows, stride.bit_length() - 1, pay_out)
+
+
+@njit(cache=True, parallel=True)
+def _spread(records, ids, r, stencil, x0, x1, y0, y1, out_z, out_id, with_payload, rows, shift,
+            pay_out):
+    h, w = ids.shape
+    # flat views: one index per pixel, neighbours at fixed offsets from it
+    flat = records.reshape(-1)
+    z = flat[::4]
+    oxf = flat[2::4]
+    oyf = flat[3::4]
+    idf = ids.reshape(-1)
+    for y in prange(y0, y1):
+        # the common radii as constants: their loops unroll
+        if r == 1:
+            _spread_row(z, idf, oxf, oyf, 1, stencil, x0, x1, y, h, w, out_z, out_id,
+                        with_payload, rows, shift, pay_out)
+        elif r == 2:
+            _spread_row(z, idf, oxf, oyf, 2, stencil, x0, x1, y, h, w, out_z, out_id,
+                        with_payload, rows, shift, pay_out)
+        else:
+            _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id,
+                        with_payload, rows, shift, pay_out)
+
+
+@njit(cache=True, inline="always")
+def _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id, with_payload,
+                rows, shift, pay_out):
+    """Row y of `spread`. Neighbours off the screen are replaced by the nearest pixel on it
+    (clamped coordinates, no branches): a pixel counted twice changes no minimum. Indices
+    are unsigned where it matters (numba then adds no negative-index wraparound, and the
+    loops vectorize)."""
+    inf = np.float32(np.inf)
+    # the square's nearest depth: a column minimum over its rows, then a row minimum
+    xa = max(x0 - r, 0)
+    n_col = min(x1 + r, w) - xa
+    column = np.empty(n_col, np.float32)  # column[i]: screen column xa + i
+    first = min(max(y - r, 0), h - 1) * w + xa
+    column[:] = z[first:first + n_col]
+    for dy in range(-r + 1, r + 1):
+        start = min(max(y + dy, 0), h - 1) * w + xa
+        _min_into(column, z[start:start + n_col])
+    front = np.empty(x1 - x0, np.float32)
+    front[:] = column[x0 - xa:x0 - xa + x1 - x0]
+    for dx in range(-r, r + 1):
+        if dx != 0:
+            _min_shifted(front, column, x0 - xa + dx, n_col)
+    # a pixel whose own zexel is on the front surface keeps it (no branches); the others
+    # (holes of the one-pixel splat, or behind a nearer neighbour) are listed
+    zo = z[y * w + x0:y * w + x1]
+    own = idf[y * w + x0:y * w + x1]
+    on = stencil[y, x0:x1]
+    oz = out_z[y, x0:x1]
+    oi = out_id[y, x0:x1]
+    rest = np.empty(x1 - x0, np.int64)
+    n_rest = 0
+    for i in range(x1 - x0):
+        f = front[i]
+        keep = (own[i] >= 0) & ((zo[i] <= f * (1.0 + SAME_SURFACE)) | (zo[i] == f)) & on[i]
+        oz[i] = zo[i] if keep else inf
+        oi[i] = own[i] if keep else -1
+        rest[n_rest] = x0 + i
+        n_rest += 0 if keep or not on[i] else 1
+    none = np.int64(0x7FFFFFFFFFFFFFFF)
+    for j in range(n_rest):
+        x = rest[j]
+        f = front[x - x0]
+        limit = f * (1.0 + SAME_SURFACE)
+        # (squared distance bits, id): the bits of a non-negative float32 order as it does,
+        # so one integer minimum picks the nearest, ties to the lower id (ids are below
+        # 2^32: warp_depths checks)
+        best = none
+        best_z = inf
+        inside = (r <= y < h - r) and (r <= x < w - r)
+        for dy in range(-r, r + 1):
+            yy = y + dy if inside else min(max(y + dy, 0), h - 1)
+            for dx in range(-r, r + 1):
+                xx = x + dx if inside else min(max(x + dx, 0), w - 1)
+                n = np.uint64(yy * w + xx)
+                q = idf[n]
+                zq = z[n]
+                ex = oxf[n] + np.float32(xx - x)
+                ey = oyf[n] + np.float32(yy - y)
+                key = (np.int64(np.float32(ex * ex + ey * ey).view(np.int32)) << 32) | q
+                take = (q >= 0) & ((zq <= limit) | (zq == f)) & (key < best)
+                best = key if take else best
+                best_z = zq if take else best_z
+        if best != none:
+            oz[x - x0] = best_z
+            oi[x - x0] = best & 0xFFFFFFFF
+            if with_payload:  # another pixel's zexel: its row from its map
+                q = best & 0xFFFFFFFF
+                slot = q >> shift
+                _copy_row(rows[slot], q - (slot << shift), pay_out, y * w + x)
+
+
+@njit(cache=True, inline="always")
+def _min_into(acc, values):
+    for i in range(acc.shape[0]):
+        v = values[i]
+        acc[i] = v if v < acc[i] else acc[i]
+
+
+@njit(cache=True, inline="always")
+def _min_shifted(acc, values, shift, n):
+    """acc[i] = min(acc[i], values[clamp(i + shift, 0, n - 1)])."""
+    for i in range(acc.shape[0]):
+        v = values[np.uint64(min(max(i + shift, 0), n - 1))]
+        acc[i] = v if v < acc[i] else acc[i]
+
+
 class WarpBuffers:
     """The warp's per-frame arrays, kept across frames: page faults on fresh arrays cost more
-    than the warp itself. Everything the warp writes lies in `dirty` = (y0, y1, x0, x1), the
-    box of the last stencil, which the next use resets (outside it the buffers stay clear)."""
+    than the warp itself. Everything the warp writes into best_zd / best_id lies in `dirty`
+    = (x0, x1, y0, y1), into out_z / out_id in `dirty_out`; a later use resets what it will
+    not overwrite itself (outside them the buffers stay clear)."""
 
     def __init__(self, height: int, width: int) -> None:
         self.shape = (height, width)
         self.best_zd = np.full((height, width, 2), np.inf, np.float32)
         self.best_id = np.full((height, width), -1, np.int64)
+        # the one-pixel splat's (depth, distance, offset x, offset y) per pixel before a
+        # spread; its kernel clears what it uses, nothing else reads it
+        self.records = np.full((height, width, 4), np.inf, np.float32)
+        self.out_z = np.full((height, width), np.inf, np.float32)
+        self.out_id = np.full((height, width), -1, np.int64)
         self.projections: dict[tuple[int, int], Projection] = {}
         self.radii: dict[tuple, np.ndarray] = {}
         self.runs: dict[tuple[int, int], np.ndarray] = {}
         self.dirty: tuple[int, int, int, int] | None = None
+        self.dirty_out: tuple[int, int, int, int] | None = None
 
-    def reset(self) -> None:
-        if self.dirty is not None:
-            y0, y1, x0, x1 = self.dirty
+    def claim(self, region, written=None) -> None:
+        """Reset best_zd / best_id where the last use wrote and `written` (the region the
+        caller clears or overwrites itself, or None) does not cover; mark `region` dirty."""
+        if self.dirty is not None and not _covers(written, self.dirty):
+            x0, x1, y0, y1 = self.dirty
             self.best_zd[y0:y1, x0:x1] = np.inf
             self.best_id[y0:y1, x0:x1] = -1
-            self.dirty = None
+        self.dirty = region
+
+    def claim_out(self, box) -> None:
+        """The same for out_z / out_id, which `spread` overwrites over `box`."""
+        if self.dirty_out is not None and not _covers(box, self.dirty_out):
+            x0, x1, y0, y1 = self.dirty_out
+            self.out_z[y0:y1, x0:x1] = np.inf
+            self.out_id[y0:y1, x0:x1] = -1
+        self.dirty_out = box
 
     def projection(self, mh: int, mw: int) -> Projection:
         if (mh, mw) not in self.projections:
@@ -339,6 +663,12 @@ class WarpBuffers:
         return self.runs[mh, mw]
 
 
+def _covers(outer, inner) -> bool:
+    """Box `outer` (x0, x1, y0, y1, or None) contains box `inner`."""
+    return outer is not None and (outer[0] <= inner[0] and inner[1] <= outer[1]
+                                  and outer[2] <= inner[2] and inner[3] <= outer[3])
+
+
 def stencil_box(stencil: np.ndarray):
     """(rows holding a stencil pixel, (x0, x1, y0, y1) box) or (rows, None) if empty."""
     ys = np.flatnonzero(stencil.any(axis=1))
@@ -350,12 +680,13 @@ def stencil_box(stencil: np.ndarray):
 
 def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.ndarray,
               stencil: np.ndarray, splat_mode, ordered: bool,
-              buffers: WarpBuffers | None = None):
+              buffers: WarpBuffers | None = None, box=None, payloads=None, out=None):
     """Warp several zexel maps (ZexelMap) into the pixels of `stencil` seen from `camera`.
 
     Returns (depth (H, W) float32, id (H, W) int64: map index * stride + zexel index, or -1
     where no zexel landed, stride, zexels projected into the stencil's box). With `buffers`
-    the results are views of its arrays, valid until its next use."""
+    the results are views of its arrays, valid until its next use. `box`, `payloads`, `out`:
+    as for warp_depths."""
     items = []
     for zmap in maps:
         wm = warp_matrix(zmap.camera, camera, reflection)
@@ -367,28 +698,68 @@ def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.nda
                 ex, ey = _screen_from_ndc(e[0] / e[3], e[1] / e[3], c.width, c.height)
             runs = ordered_runs(*zmap.depth.shape, ex, ey, e[3] > 0)
         items.append((zmap.depth, wm, runs))
-    return warp_depths(items, camera.near, stencil, splat_mode, ordered, buffers)
+    return warp_depths(items, camera.near, stencil, splat_mode, ordered, buffers, box, payloads,
+                       out)
 
 
 def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bool,
-                buffers: WarpBuffers | None = None):
+                buffers: WarpBuffers | None = None, box=None, payloads=None, out=None):
     """warp_maps on (depth (mh, mw) float32, W (4, 4) map pixel -> clip, runs or None for
-    row-major order) per map: the kernels without the cameras."""
+    row-major order) per map: the kernels without the cameras. `box`: the stencil's box
+    (x0, x1, y0, y1) if the caller has it. Ids are slot * stride + zexel index, stride the
+    power of two at or above the largest map's zexel count.
+
+    Fixed splats in z-buffer mode (and one-pixel ones in ordered mode): each map is splatted
+    one pixel a zexel (`splat_pixels`), then a wider splat is the `spread` of that result.
+    Adaptive splats and ordered wider ones go zexel by zexel over their squares (`splat`).
+
+    `payloads`: per map an (n, c) array, a row per zexel (colours, triangle ids...); each
+    pixel of the box a zexel reached gets its zexel's row in `out` (H, W, c, C-contiguous),
+    written by the splat itself (no gather pass); other pixels of `out` (unreached, or off
+    the stencil) hold anything."""
     h, w = stencil.shape
     if buffers is None:
         buffers = WarpBuffers(h, w)
-    buffers.reset()
-    best_zd, best_id = buffers.best_zd, buffers.best_id
-    best_z = best_zd[:, :, 0]
-    stride = max(depth.size for depth, _, _ in items)
-    ys, box = stencil_box(stencil)
+    stride = 1 << (max(depth.size for depth, _, _ in items) - 1).bit_length()
+    if len(items) * stride > 1 << 32:
+        raise ValueError(f"{len(items)} maps of {stride} zexels: warp ids must stay below 2^32")
     if box is None:
-        return best_z, best_id, stride, 0
+        _, box = stencil_box(stencil)
+    if box is None:
+        buffers.claim(None)
+        return buffers.best_zd[:, :, 0], buffers.best_id, stride, 0
     x0, x1, y0, y1 = box
-    buffers.dirty = (y0, y1, x0, x1)
+    radius = None if splat_mode == "adaptive" else (int(splat_mode) - 1) // 2
+    zexels = 0
+    if radius is not None and (radius == 0 or not ordered):
+        stencil = np.ascontiguousarray(stencil)
+        # a stencil filling its box (a mirror seen whole and unoccluded) needs no test
+        use_stencil = radius == 0 and not stencil[y0:y1, x0:x1].all()
+        region = (max(x0 - radius, 0), min(x1 + radius, w), max(y0 - radius, 0),
+                  min(y1 + radius, h))
+        buffers.claim(region, region)
+        for slot, (depth, wm, runs) in enumerate(items):
+            mh, mw = depth.shape
+            proj = buffers.projection(mh, mw)
+            project_map(depth, wm, w, h, near, box, radius, proj, positions=radius > 0)
+            if runs is None:
+                runs = buffers.raster_runs(mh, mw)
+            splat_pixels(proj, runs, mw, slot * stride, stencil,
+                         buffers.records if radius > 0 else buffers.best_zd, buffers.best_id,
+                         ordered, region, slot == 0, use_stencil,
+                         payload=None if payloads is None else payloads[slot], payload_out=out)
+            zexels += int(proj.count.sum())
+        if radius == 0:
+            return buffers.best_zd[:, :, 0], buffers.best_id, stride, zexels
+        buffers.claim_out(box)
+        spread(buffers.records, buffers.best_id, radius, stencil, box, buffers.out_z,
+               buffers.out_id, payloads, stride, out)
+        return buffers.out_z, buffers.out_id, stride, zexels
+    buffers.claim(box)
+    best_zd, best_id = buffers.best_zd, buffers.best_id
+    ys = np.arange(y0, y1)
     # zexels landing this far outside the stencil's box cannot splat into it
     margin = 8 if splat_mode == "adaptive" else 3
-    zexels = 0
     for slot, (depth, wm, runs) in enumerate(items):
         mh, mw = depth.shape
         proj = buffers.projection(mh, mw)
@@ -401,7 +772,9 @@ def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bo
         splat(sx, sy, z, radii, runs, mw, row_lo, row_hi, slot, stride, stencil, best_zd,
               best_id, ordered, rows=ys)
         zexels += int(proj.count.sum())
-    return best_z, best_id, stride, zexels
+    if payloads is not None:
+        gather_colors(best_id, stride, payloads, box, out)
+    return best_zd[:, :, 0], best_id, stride, zexels
 
 
 def gather_colors(best_id: np.ndarray, stride: int, per_map: list[np.ndarray],
@@ -410,25 +783,32 @@ def gather_colors(best_id: np.ndarray, stride: int, per_map: list[np.ndarray],
     `box` = (x0, x1, y0, y1) that a zexel reached (id = slot * stride + index); other pixels
     of the box are left alone. Up to four maps a pass (one signature for any count)."""
     x0, x1, y0, y1 = box
+    shift = stride.bit_length() - 1 if stride & (stride - 1) == 0 else -1
     for first in range(0, len(per_map), 4):
         group = per_map[first:first + 4]
         group = group + [group[0]] * (4 - len(group))
-        _gather4(best_id, stride, first, len(per_map[first:first + 4]), group[0], group[1],
-                 group[2], group[3], x0, x1, y0, y1, out)
+        _gather4(best_id, stride, shift, first, len(per_map[first:first + 4]), group[0],
+                 group[1], group[2], group[3], x0, x1, y0, y1, out)
 
 
 @njit(cache=True, parallel=True)
-def _gather4(best_id, stride, first, n, c0, c1, c2, c3, x0, x1, y0, y1, out):
+def _gather4(best_id, stride, shift, first, n, c0, c1, c2, c3, x0, x1, y0, y1, out):
+    # shift >= 0: stride = 2^shift, the slot without a division
     channels = out.shape[2]
     for y in prange(y0, y1):
         for x in range(x0, x1):
             ident = best_id[y, x]
             if ident < 0:
                 continue
-            slot = ident // stride - first
+            if shift >= 0:
+                s = ident >> shift
+                k = ident & (stride - 1)
+            else:
+                s = ident // stride
+                k = ident - s * stride
+            slot = s - first
             if slot < 0 or slot >= n:
                 continue
-            k = ident - (slot + first) * stride
             src = c0 if slot == 0 else c1 if slot == 1 else c2 if slot == 2 else c3
             for c in range(channels):
                 out[y, x, c] = src[k, c]

@@ -1,13 +1,21 @@
-"""The warp's splat kernel against a slow, obviously correct reference of its visibility rule,
-and its independence of the thread count."""
+"""The warp's splat kernels against slow, obviously correct references of their visibility
+rules, and their independence of the thread count."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from naive import splat_zbuffer
+from conftest import projection_of
+from naive import splat_spread, splat_zbuffer
 
-from reflectcli.maps.warp import SAME_SURFACE, raster_runs, splat
+from reflectcli.maps.warp import (
+    SAME_SURFACE,
+    WarpBuffers,
+    raster_runs,
+    splat,
+    splat_pixels,
+    spread,
+)
 
 
 def _zexels(seed, mh=24, mw=24, width=20, height=16):
@@ -57,6 +65,80 @@ def test_splat_does_not_depend_on_the_band_split(bands):
                                                bands=bands))
 
 
+def _pixels(sx, sy, z, mh, mw, shape, stencil, radius, box=None, bands=None):
+    """The one-pixel splat (radius 0: over the stencil) and, for radius > 0, its spread;
+    each reached pixel's payload row must be its zexel's (checked here for every caller)."""
+    h, w = shape
+    x0, x1, y0, y1 = box or (0, w, 0, h)
+    region = (max(x0 - radius, 0), min(x1 + radius, w), max(y0 - radius, 0),
+              min(y1 + radius, h))
+    buffers = WarpBuffers(h, w)
+    proj = projection_of(sx, sy, z, mh, mw, shape)
+    payload = np.random.default_rng(3).random((sx.size, 3)).astype(np.float32)
+    out = np.full((h, w, 3), -5.0, np.float32)
+    splat_pixels(proj, raster_runs(mh, mw), mw, 0, stencil,
+                 buffers.records if radius else buffers.best_zd, buffers.best_id, False,
+                 region, True, radius == 0, bands, payload, out)
+    if radius == 0:
+        got_z, got_id = buffers.best_zd[..., 0], buffers.best_id
+    else:
+        stride = 1 << (sx.size - 1).bit_length()
+        spread(buffers.records, buffers.best_id, radius, stencil, (x0, x1, y0, y1),
+               buffers.out_z, buffers.out_id, [payload], stride, out)
+        got_z, got_id = buffers.out_z, buffers.out_id
+    reached = got_id >= 0
+    np.testing.assert_array_equal(out[reached], payload[got_id[reached]])
+    return got_z, got_id
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_pixel_splat_matches_the_reference(seed):
+    sx, sy, z, mh, mw, shape = _zexels(seed)
+    stencil = np.random.default_rng(seed + 10).random(shape) < 0.8
+    _, got = _pixels(sx, sy, z, mh, mw, shape, stencil, 0)
+    np.testing.assert_array_equal(got, splat_zbuffer(sx, sy, z, np.zeros(sx.size), mw,
+                                                     stencil))
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("radius", [1, 2, 3])
+@pytest.mark.parametrize("sub_box", [False, True])
+def test_spread_matches_the_reference(seed, radius, sub_box):
+    """Wide fixed splats: the one-pixel splat spread over squares, with holes (sparse
+    zexels), two surfaces, zexels at infinity, and a stencil box inside the screen (zexels
+    beyond the box's reach are culled by the projection: here by hand, for both)."""
+    rng = np.random.default_rng(seed + 20)
+    sx, sy, z, mh, mw, shape = _zexels(seed, mh=12, mw=14)
+    z[rng.random(z.size) < 0.05] = np.inf
+    stencil = rng.random(shape) < 0.8
+    box = None
+    if sub_box:
+        box = (3, 16, 2, 13)
+        x0, x1, y0, y1 = box
+        inside = np.zeros(shape, bool)
+        inside[y0:y1, x0:x1] = True
+        stencil &= inside
+        with np.errstate(invalid="ignore"):
+            far = ((sx < x0 - radius) | (sx >= x1 + radius) | (sy < y0 - radius)
+                   | (sy >= y1 + radius))
+        sx = np.where(far, np.nan, sx).astype(np.float32)
+    got_z, got_id = _pixels(sx, sy, z, mh, mw, shape, stencil, radius, box)
+    want_z, want_id = splat_spread(sx, sy, z, radius, stencil)
+    np.testing.assert_array_equal(got_id, want_id)
+    np.testing.assert_array_equal(got_z, want_z)
+    assert (got_id >= 0).sum() > (want_id >= 0).size // 4
+
+
+@pytest.mark.parametrize("bands", [2, 3, 7])
+@pytest.mark.parametrize("radius", [0, 1])
+def test_pixel_splat_does_not_depend_on_the_band_split(bands, radius):
+    sx, sy, z, mh, mw, shape = _zexels(7)
+    stencil = np.ones(shape, bool)
+    one = _pixels(sx, sy, z, mh, mw, shape, stencil, radius, bands=1)[1].copy()
+    np.testing.assert_array_equal(one, _pixels(sx, sy, z, mh, mw, shape, stencil, radius,
+                                               bands=bands)[1])
+
+
 def test_projection_drops_nan_and_non_positive_depths():
     from reflectcli.maps.warp import project_map
 
@@ -78,8 +160,8 @@ def test_gather_and_fill_blend_match_twins():
     from reflectcli.maps.warp import fill_blend, gather_colors
 
     rng = np.random.default_rng(5)
-    h, w, stride = 24, 32, 50
-    for n_maps in (1, 3, 6):
+    h, w = 24, 32
+    for stride, n_maps in ((50, 1), (50, 3), (50, 6), (64, 1), (64, 5)):
         per_map = [rng.random((stride, 3)).astype(np.float32) for _ in range(n_maps)]
         best_id = rng.integers(-1, n_maps * stride, size=(h, w)).astype(np.int64)
         best_id[rng.random((h, w)) < 0.3] = -1
@@ -108,3 +190,35 @@ def test_gather_and_fill_blend_match_twins():
         np.testing.assert_array_equal(holes, want[1])
         np.testing.assert_array_equal(save_filled, want[3])
         np.testing.assert_array_equal(save_rgb[want[3]], want[2][want[3]])
+
+
+@pytest.mark.parametrize("radius", [0, 1])
+def test_payload_rows_follow_the_ids_over_several_maps(radius):
+    """Two maps into one buffer (ids slot * stride + index, stride a power of two): every
+    reached pixel's payload row is the row of its id's map and zexel."""
+    shape = (16, 20)
+    h, w = shape
+    buffers = WarpBuffers(h, w)
+    stencil = np.random.default_rng(1).random(shape) < 0.8
+    region = (0, w, 0, h)
+    out = np.full((h, w, 4), -5.0, np.float32)
+    stride = 1 << (24 * 24 - 1).bit_length()
+    payloads = []
+    for slot in range(2):
+        sx, sy, z, mh, mw, _ = _zexels(slot + 30)
+        payloads.append(np.random.default_rng(slot).random((sx.size, 4)).astype(np.float32))
+        splat_pixels(projection_of(sx, sy, z, mh, mw, shape), raster_runs(mh, mw), mw,
+                     slot * stride, stencil, buffers.records if radius else buffers.best_zd,
+                     buffers.best_id, False, region, slot == 0, radius == 0, None,
+                     payloads[slot], out)
+    ids = buffers.best_id
+    if radius:
+        spread(buffers.records, buffers.best_id, radius, stencil, region, buffers.out_z,
+               buffers.out_id, payloads, stride, out)
+        ids = buffers.out_id
+    reached = ids >= 0
+    slots = ids[reached] // stride
+    assert set(slots) == {0, 1}
+    want = np.where((slots == 0)[:, None], payloads[0][ids[reached] % stride],
+                    payloads[1][ids[reached] % stride])
+    np.testing.assert_array_equal(out[reached], want)

@@ -25,6 +25,9 @@ not on the scene's polygons. Maps are captured at frame 0: objects that move lat
 in them (a warning says so), unless `update` recaptures them every N frames or every frame
 (reflectcli/maps/update.py; the cache key holds the capture frame). Pixels no zexel
 reached are `holes` (an EXR channel) and show the background. Curved mirrors show (1 - r) * base.
+Splats of 3 and 5 pixels (z-buffer occlusion) keep each pixel's own zexel where it lies on
+the front surface of the pixel's square, and give the others (empty pixels, pixels a nearer
+surface covers nearby) the front surface's zexel landing nearest their center.
 
 `reconstruct = "surface"` (beyond the paper): maps also keep the triangle each zexel saw,
 and a reached pixel intersects its own reflected ray (from M through the pixel center) with

@@ -16,7 +16,7 @@ from ...geometry import reflection_matrix
 from ...maps.cache import MapCache, cache_key
 from ...maps.surface import surface_colors
 from ...maps.update import map_capture_frame
-from ...maps.warp import WarpBuffers, fill_blend, gather_colors, stencil_box, warp_maps
+from ...maps.warp import WarpBuffers, fill_blend, stencil_box, warp_maps
 from ...maps.zexel import (
     ZexelMap,
     capture_map,
@@ -45,6 +45,8 @@ class DprmRecord(MapRecord):
     viewpoints: np.ndarray  # (count, 3) the maps' viewpoints, world
     pyramids: dict[int, list[ZexelMap]] = field(default_factory=dict)  # map j -> mip levels
     capture_frame: int = 0  # the frame_index whose geometry the maps show
+    # id of a map (or mip level) of this record -> its rows for the warp (see _payload)
+    payloads: dict[int, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass
@@ -65,16 +67,16 @@ class FrameBuffers:
     def __init__(self, height: int, width: int) -> None:
         self.shape = (height, width)
         self.warp = WarpBuffers(height, width)
-        self.reflected = np.zeros((height, width, 3), np.float32)
-        self.dirty: tuple[int, int, int, int] | None = None  # (x0, x1, y0, y1) of reflected
+        # channels -> (H, W, channels) float32 the warp writes each reached pixel's zexel
+        # row into (colour, or colour and triangle); other pixels hold stale rows, which
+        # fill_blend never reads
+        self.payloads: dict[int, np.ndarray] = {}
         self.spare: tuple[np.ndarray, np.ndarray] | None = None  # a free temporal pair
 
-    def clear_reflected(self) -> np.ndarray:
-        if self.dirty is not None:
-            x0, x1, y0, y1 = self.dirty
-            self.reflected[y0:y1, x0:x1] = 0.0
-            self.dirty = None
-        return self.reflected
+    def payload(self, channels: int) -> np.ndarray:
+        if channels not in self.payloads:
+            self.payloads[channels] = np.zeros((*self.shape, channels), np.float32)
+        return self.payloads[channels]
 
 
 class Dprm(MapTechnique):
@@ -129,7 +131,9 @@ class Dprm(MapTechnique):
                      "reflect:projection_matrix": _numbers(cam.projection_matrix()),
                      "reflect:fov_y": repr(cam.fov_y)} for cam in cams])
             else:
-                maps = [ZexelMap(cam, np.stack([c["R"], c["G"], c["B"]], axis=-1), c["Z"],
+                # contiguous: the warp reads them every frame
+                maps = [ZexelMap(cam, np.stack([c["R"], c["G"], c["B"]], axis=-1),
+                                 np.ascontiguousarray(c["Z"], np.float32),
                                  c["T"].astype(np.int32))
                         for cam, (_, c, _) in zip(cams, parts, strict=True)]
                 done += len(maps)
@@ -179,11 +183,12 @@ class Dprm(MapTechnique):
         for record in state.mirrors:
             k = record.index
             stencil = result.surface == scene.n_objects + k
-            if not stencil.any():
+            _, box = stencil_box(stencil)
+            if box is None:
                 continue
             t0 = time.perf_counter()
-            reflected, reached, n_maps, n_zexels = self._warp(
-                record, camera, stencil, scene, state.triangles, state.buffers)
+            reflected, best_id, n_maps, n_zexels = self._warp(
+                record, camera, stencil, scene, state.triangles, state.buffers, box)
             t1 = time.perf_counter()
             prev = state.previous.get(k) if params.fill.temporal else None
             if params.fill.temporal:
@@ -197,7 +202,7 @@ class Dprm(MapTechnique):
             if not params.fill.temporal:
                 save_rgb, save_filled = empty
             prev_rgb, prev_filled = prev if prev is not None else empty
-            fill_blend(stencil, state.buffers.warp.best_id, reflected, prev is not None,
+            fill_blend(stencil, best_id, reflected, prev is not None,
                         prev_rgb, prev_filled, params.fill.temporal, save_rgb, save_filled,
                         scene.background, scene.mirrors.reflectance[k], result.rgb, holes)
             if params.fill.temporal:
@@ -237,8 +242,11 @@ class Dprm(MapTechnique):
         return maps, level
 
     def _warp(self, record: DprmRecord, camera: Camera, stencil: np.ndarray,
-              scene: Scene | None = None, triangles=None, buffers: FrameBuffers | None = None):
-        """Reflected colors over the stencil, and which pixels a zexel reached."""
+              scene: Scene | None = None, triangles=None, buffers: FrameBuffers | None = None,
+              box=None):
+        """Reflected colors over the stencil (unreached pixels hold anything), the warp's id
+        per pixel (-1: no zexel reached it), maps and zexels warped; with `buffers`, views of
+        its arrays. `box`: the stencil's (x0, x1, y0, y1) if the caller has it."""
         params: DprmParams = self.params
         k_maps: list[ZexelMap] = record.maps
         n, d = record.plane
@@ -253,29 +261,48 @@ class Dprm(MapTechnique):
         if params.maps.lod:
             maps, level = self._lod(record, chosen, stencil)
         self.last_lod_level = level
+        h, w = stencil.shape
+        if box is None:
+            _, box = stencil_box(stencil)
+        # what each pixel carries from its zexel: its colour (and, to shade its own point
+        # of the zexel's triangle, the triangle), written by the warp itself
+        surface = params.reconstruct == "surface" and scene is not None
+        payloads = [_payload(record, m, surface) for m in maps]
+        channels = 4 if surface else 3
+        out = (buffers.payload(channels) if buffers is not None
+               else np.zeros((h, w, channels), np.float32))
         _, best_id, stride, zexels = warp_maps(maps, camera, reflect, mirrored_eye, stencil,
                                                params.fill.splat, params.occlusion == "ordered",
-                                               buffers.warp if buffers is not None else None)
-        h, w = stencil.shape
-        _, box = stencil_box(stencil)
-        if buffers is not None:
-            reflected = buffers.clear_reflected()
-            buffers.dirty = box
-        else:
-            reflected = np.zeros((h, w, 3), np.float32)
-        reached = best_id >= 0
-        if box is not None:
-            gather_colors(best_id, stride, [m.color.reshape(-1, 3) for m in maps], box,
-                          reflected)
-        if params.reconstruct == "surface" and scene is not None:
-            tri = np.full((h, w, 1), -1, np.int32)
-            if box is not None:
-                gather_colors(best_id, stride, [m.triangle.reshape(-1, 1) for m in maps], box,
-                              tri)
-            shaded, ok = surface_colors(tri[:, :, 0], camera, reflect, mirrored_eye, (n, d),
-                                        triangles, scene)
-            reflected[ok] = shaded[ok]  # ok: pixels a zexel reached, inside the box
-        return reflected, reached, len(chosen), zexels
+                                               buffers.warp if buffers is not None else None,
+                                               box, payloads, out)
+        reflected = out[:, :, :3]
+        if surface and box is not None:
+            x0, x1, y0, y1 = box
+            tri = np.full((h, w), -1, np.int32)
+            # the reached pixels' triangles (exact in float32), -1 elsewhere
+            np.copyto(tri[y0:y1, x0:x1], out[y0:y1, x0:x1, 3], casting="unsafe",
+                      where=best_id[y0:y1, x0:x1] >= 0)
+            shaded, ok = surface_colors(tri, camera, reflect, mirrored_eye, (n, d), triangles,
+                                        scene)
+            # ok: pixels a zexel reached, inside the box
+            np.copyto(reflected[y0:y1, x0:x1], shaded[y0:y1, x0:x1],
+                      where=ok[y0:y1, x0:x1, None])
+        return reflected, best_id, len(chosen), zexels
+
+
+def _payload(record: DprmRecord, zmap: ZexelMap, surface: bool) -> np.ndarray:
+    """A map's rows for the warp to carry: colour (n, 3), or colour and triangle (n, 4,
+    float32: triangle ids are exact below 2^24, as in the map cache), kept per map."""
+    if not surface:
+        return zmap.color.reshape(-1, 3)
+    key = id(zmap)
+    if key not in record.payloads:
+        n = zmap.depth.size
+        rows = np.empty((n, 4), np.float32)
+        rows[:, :3] = zmap.color.reshape(n, 3)
+        rows[:, 3] = zmap.triangle.reshape(n)
+        record.payloads[key] = rows
+    return record.payloads[key]
 
 
 def _numbers(values) -> str:
