@@ -22,11 +22,13 @@ V = "tests/twins/test_virtual_twins.py::"
 D = "tests/maps/test_distance_search.py::"
 
 RASTER = [R + "test_matches_reference_on_random_scenes",
-          R + "test_fill_row_span_is_bit_identical_to_the_full_box_scan",
+          R + "test_fill_matches_the_exact_pixel_by_pixel_twin",
           R + "test_near_plane_clipping_matches_ray_casting",
           SR + "test_rasterizer_with_mask_and_depth_floor_matches_twin",
           SR + "test_rasterizer_culling_and_skip_match_twin"]
 CLIP = [R + "test_near_plane_clipping_matches_ray_casting"]
+RECOVER = [SR + "test_shade_pass_recovering_barycentrics_matches_twin",
+           R + "test_matches_reference_on_random_scenes"]
 SPLAT = [W + "test_splat_matches_the_reference",
          M + "test_splat_both_modes_match_sequential_twin"]
 ANALYTIC = [E + "test_analytic_matches_closed_forms"]
@@ -53,21 +55,20 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade"),
-    "raster/rasterize.py:_setup": (RASTER, "rasterize"),
-    "raster/rasterize.py:_setup_one": (RASTER, "_setup"),
-    "raster/rasterize.py:_band_range": (RASTER, "_bin_count"),
-    "raster/rasterize.py:_bin_count": (RASTER, "rasterize"),
-    "raster/rasterize.py:_bin_starts": (RASTER, "rasterize"),
-    "raster/rasterize.py:_bin_fill": (RASTER, "rasterize"),
-    "raster/rasterize.py:_band_table": (RASTER, "_bin_count"),
     "raster/rasterize.py:_clear": (RASTER, "rasterize"),
+    "raster/rasterize.py:_draw": (RASTER, "rasterize"),
+    "raster/rasterize.py:_snap": (RASTER, "_draw"),
+    "raster/rasterize.py:_clip_xyzw": (RASTER, "_draw"),
+    "raster/rasterize.py:_outside": (RASTER, "_classify"),
+    "raster/rasterize.py:_classify": (RASTER, "_draw"),
+    "raster/rasterize.py:_fill": (RASTER, "_draw"),
+    "raster/rasterize.py:_draw_clipped": (CLIP, "_draw"),
+    "raster/rasterize.py:_clip_polygon": (CLIP, "_draw_clipped"),
+    "raster/rasterize.py:_resolve": (RASTER, "rasterize"),
+    "raster/rasterize.py:recover_barycentrics": (RECOVER, None),
+    "raster/rasterize.py:_barycentrics": (RECOVER, "RasterBuffers.b1"),
     "maps/warp.py:_gather4": ([W + "test_gather_and_fill_blend_match_twins"], "gather_colors"),
     "maps/warp.py:fill_blend": ([W + "test_gather_and_fill_blend_match_twins"], None),
-    "raster/rasterize.py:_area": (RASTER, "_fill"),
-    "raster/rasterize.py:_clip_polygon": (CLIP, "_draw"),
-    "raster/rasterize.py:_fill": (RASTER, "_draw"),
-    "raster/rasterize.py:_row_span": (RASTER, "_fill"),
-    "raster/rasterize.py:_draw": (RASTER, "rasterize"),
     "trace/embree.py:_intersect": ([E + "test_embree_matches_moller_trumbore",
                                     E + "test_embree_hits_are_common_in_the_property_test",
                                     E + "test_embree_kernel_equals_embreex_bit_for_bit",
