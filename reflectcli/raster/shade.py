@@ -39,12 +39,16 @@ def shade_buffers(
     else:
         dirs, per_pixel = np.ascontiguousarray(incoming, np.float64), True
         assert dirs.shape == (h, w, 3)
-    if buffers.recover:  # barycentrics recovered per shaded pixel, never stored
+    # barycentrics recovered per shaded pixel from the triangles the rasterizer drew (which
+    # may differ from the shaded ones: virtual triangles shaded as their originals)
+    if buffers.recover:
         b1 = b2 = np.zeros((1, 1), np.float32)
         m = np.ascontiguousarray(buffers.clip_from_world, np.float64)
+        drawn = buffers.corners
     else:
-        b1, b2, m = buffers.b1, buffers.b2, np.eye(4)
-    args = (buffers.triangle, b1, b2, buffers.recover, m, tris.corners, tris.uvs, tris.normals,
+        b1, b2, m, drawn = buffers.b1, buffers.b2, np.eye(4), np.zeros((1, 3, 3), np.float32)
+    args = (buffers.triangle, b1, b2, buffers.recover, m, drawn, tris.corners, tris.uvs,
+            tris.normals,
             tris.material, tris.surface, scene.n_objects, np.asarray(eye, np.float64),
             dirs, per_pixel,
             scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
@@ -61,35 +65,36 @@ def shade_buffers(
 
 
 @njit(cache=True, parallel=True)
-def _shade(tri, b1, b2, recover, m, corners, uvs, normals, material, surface, n_objects, eye,
-           dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient, background, refl,
-           base, rgb, surf):
-    """Every pixel shaded. `recover`: barycentrics from the clip-space corners (clip from
-    world `m`) instead of b1, b2."""
+def _shade(tri, b1, b2, recover, m, drawn, corners, uvs, normals, material, surface,
+           n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient,
+           background, refl, base, rgb, surf):
+    """Every pixel shaded. `recover`: barycentrics from the clip-space corners of the
+    triangles drawn (`drawn`, world; clip from world `m`) instead of b1, b2."""
     h, w = tri.shape
     for y in prange(h):
         for x in range(w):
-            _shade_pixel(y, x, tri, b1, b2, recover, m, corners, uvs, normals, material,
-                         surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels,
-                         light_f, shading, ambient, background, refl, base, rgb, surf)
+            _shade_pixel(y, x, tri, b1, b2, recover, m, drawn, corners, uvs, normals,
+                         material, surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
+                         texels, light_f, shading, ambient, background, refl, base, rgb, surf)
 
 
 @njit(cache=True, parallel=True)
-def _shade_stencil(stencil, tri, b1, b2, recover, m, corners, uvs, normals, material, surface,
-                   n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading,
-                   ambient, background, refl, base, rgb, surf):
+def _shade_stencil(stencil, tri, b1, b2, recover, m, drawn, corners, uvs, normals, material,
+                   surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                   shading, ambient, background, refl, base, rgb, surf):
     """_shade of the pixels where `stencil` is set; the others are left as they are."""
     h, w = tri.shape
     for y in prange(h):
         for x in range(w):
             if stencil[y, x]:
-                _shade_pixel(y, x, tri, b1, b2, recover, m, corners, uvs, normals, material,
-                             surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels,
-                             light_f, shading, ambient, background, refl, base, rgb, surf)
+                _shade_pixel(y, x, tri, b1, b2, recover, m, drawn, corners, uvs, normals,
+                             material, surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
+                             texels, light_f, shading, ambient, background, refl, base, rgb,
+                             surf)
 
 
 @njit(cache=True, inline="always")
-def _shade_pixel(y, x, tri, b1, b2, recover, m, corners, uvs, normals, material, surface,
+def _shade_pixel(y, x, tri, b1, b2, recover, m, drawn, corners, uvs, normals, material, surface,
                  n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading,
                  ambient, background, refl, base, rgb, surf):
     t = tri[y, x]
@@ -107,7 +112,7 @@ def _shade_pixel(y, x, tri, b1, b2, recover, m, corners, uvs, normals, material,
         return
     if recover:  # from the triangle's clip-space corners and the pixel center's NDC
         h, w = tri.shape
-        c1, c2 = recover_barycentrics(corners, t, m, (x + 0.5) * (2.0 / w) - 1.0,
+        c1, c2 = recover_barycentrics(drawn, t, m, (x + 0.5) * (2.0 / w) - 1.0,
                                       1.0 - (y + 0.5) * (2.0 / h))
     else:
         c1 = b1[y, x]

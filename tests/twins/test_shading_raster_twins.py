@@ -177,8 +177,8 @@ def test_shade_pass_matches_twin(seed, shading, per_pixel):
     # per pixel incoming rays (a curved mirror's reflected rays), or the eye's
     incoming = rng.normal(size=(h, w, 3)) if per_pixel else None
     dirs = incoming if per_pixel else np.zeros((1, 1, 3))
-    _shade(tri, b1, b2, False, np.eye(4), corners, uvs, normals, material, surface, n_objects,
-           eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, 0.1, background, refl,
+    _shade(tri, b1, b2, False, np.eye(4), corners, corners, uvs, normals, material, surface,
+           n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, 0.1, background, refl,
            base, rgb, surf)
     want_rgb, want_surf = shade(tri, b1, b2, corners, uvs, normals, material, surface,
                                 n_objects, eye, mat_i, mat_f, texels, light_f, shading, 0.1,
@@ -194,7 +194,7 @@ def test_shade_pass_matches_twin(seed, shading, per_pixel):
     head = (tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye)
     tail = (mat_i, mat_f, texels, light_f, shading, 0.1, background, refl, base)
     want_rgb_s, want_surf_s = shade_stencil(stencil, rgb_s, surf_s, *head, *tail, incoming)
-    _shade_stencil(stencil, *head[:3], False, np.eye(4), *head[3:], dirs, per_pixel, *tail,
+    _shade_stencil(stencil, *head[:3], False, np.eye(4), corners, *head[3:], dirs, per_pixel, *tail,
                    rgb_s, surf_s)
     np.testing.assert_array_equal(surf_s, want_surf_s)
     np.testing.assert_allclose(rgb_s, want_rgb_s, rtol=2e-5, atol=1e-6)
@@ -232,7 +232,7 @@ def test_shade_pass_recovering_barycentrics_matches_twin(seed):
     rgb = np.empty((H, W, 3), np.float32)
     surf = np.empty((H, W), np.int32)
     dummy = np.zeros((1, 1), np.float32)
-    _shade(got.triangle, dummy, dummy, True, m, corners, uvs, normals, material, surface,
+    _shade(got.triangle, dummy, dummy, True, m, corners, corners, uvs, normals, material, surface,
            n_objects, eye, np.zeros((1, 1, 3)), False, mat_i, mat_f, texels, light_f, LAMBERT,
            0.1, background, none3, none3, rgb, surf)
     want_rgb, _ = shade(tri_ref, b1_ref, b2_ref, corners, uvs, normals, material, surface,
