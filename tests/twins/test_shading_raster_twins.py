@@ -178,8 +178,8 @@ def test_shade_pass_matches_twin(seed, shading, per_pixel):
     incoming = rng.normal(size=(h, w, 3)) if per_pixel else None
     dirs = incoming if per_pixel else np.zeros((1, 1, 3))
     _shade(tri, b1, b2, False, np.eye(4), corners, corners, uvs, normals, material, surface,
-           n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, 0.1, background, refl,
-           base, rgb, surf)
+           n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, 0.1,
+           background, refl, base, rgb, surf)
     want_rgb, want_surf = shade(tri, b1, b2, corners, uvs, normals, material, surface,
                                 n_objects, eye, mat_i, mat_f, texels, light_f, shading, 0.1,
                                 background, refl, base, incoming)
