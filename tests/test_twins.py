@@ -65,6 +65,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize.py:_draw_clipped": (CLIP, "_draw"),
     "raster/rasterize.py:_clip_polygon": (CLIP, "_draw_clipped"),
     "raster/rasterize.py:_resolve": (RASTER, "rasterize"),
+    "raster/rasterize.py:_box_misses": ([R + "test_skipping_chunks_by_their_boxes_changes_nothing"],
+                                        "_draw"),
     "raster/rasterize.py:recover_barycentrics": (RECOVER, None),
     "raster/rasterize.py:_barycentrics": (RECOVER, "RasterBuffers.b1"),
     "maps/warp.py:_gather4": ([W + "test_gather_and_fill_blend_match_twins"], "gather_colors"),

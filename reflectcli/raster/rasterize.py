@@ -129,6 +129,28 @@ class RasterWorkspace:
             self._arrays[name] = a
         return a[:size].reshape(shape)
 
+    def chunk_bounds(self, corners: np.ndarray) -> np.ndarray:
+        """(chunks, 6) world-space boxes (min xyz, max xyz) of `corners` (T, 3, 3) in runs
+        of _CHUNK triangles, kept while the same array comes back (a scene's geometry is
+        built once; its arrays are not written after)."""
+        kept = self._arrays.get("bounds_of")
+        if kept is not None and kept[0] is corners:
+            return kept[1]
+        n = corners.shape[0]
+        full = n // _CHUNK
+        chunks = (n + _CHUNK - 1) // _CHUNK
+        bounds = np.empty((chunks, 6))
+        if full:
+            runs = corners[:full * _CHUNK].reshape(full, _CHUNK * 3, 3)
+            bounds[:full, :3] = runs.min(axis=1)
+            bounds[:full, 3:] = runs.max(axis=1)
+        if chunks > full:
+            rest = corners[full * _CHUNK:].reshape(-1, 3)
+            bounds[full, :3] = rest.min(axis=0)
+            bounds[full, 3:] = rest.max(axis=0)
+        self._arrays["bounds_of"] = (corners, bounds)
+        return bounds
+
     def constant(self, name: str, shape: tuple[int, int], dtype, value) -> np.ndarray:
         """A (H, W) array holding `value` (filled once; callers must not write it)."""
         key = f"{name}:{value}"
@@ -209,11 +231,14 @@ def rasterize(
     if box[0] > 0 and corners.shape[0] > 0:
         _clear(own_tri, own_key)
         chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
+        # with a workspace, chunks whose box cannot reach the stencil's box are skipped
+        bounds = (ws.chunk_bounds(corners) if workspace is not None
+                  else np.empty((0, 6)))
         # chunks handed out one at a time to whichever thread is free (their work differs,
         # and on a busy machine a thread may lose its core)
         with numba.parallel_chunksize(1):
             _draw(corners, flags, m, all_planes, planes.shape[0], width, height, bits, cull,
-                  chunks, stencil, mask is not None, floor, depth_floor is not None,
+                  chunks, bounds, stencil, mask is not None, floor, depth_floor is not None,
                   x0, x1, y0, y1, own_tri, own_key)
     else:
         own_tri = ws.get("own_tri", (0, *box), np.int32)
@@ -222,7 +247,7 @@ def rasterize(
     return RasterBuffers(tri, None, None, depth, corners, m, out)
 
 
-_CHUNK = 2048  # triangles per parallel task
+_CHUNK = 1024  # triangles per parallel task (and per box of chunk_bounds)
 
 
 @njit(cache=True, parallel=True)
@@ -399,13 +424,52 @@ def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bot
             e2 += step2
 
 
+@njit(cache=True, error_model="numpy")
+def _box_misses(bounds, chunk, m, planes, n_cut, width, height, col0, col1, top, bottom):
+    """True if no triangle inside the world box bounds[chunk] can cover a pixel center of
+    [top, bottom) x [col0, col1): its 8 corners all outside one side of the frustum or one
+    of the first n_cut planes (a half-space is convex), or all in front of the eye (w > 0)
+    and projecting, with a pixel to spare, beside the box (the projection of a convex set
+    in front of the eye lies in the hull of its corners' projections)."""
+    out = np.zeros(4 + n_cut, np.int64)
+    in_front = True
+    lo_x = lo_y = np.inf
+    hi_x = hi_y = -np.inf
+    for k in range(8):
+        x = bounds[chunk, 3 if k & 1 else 0]
+        y = bounds[chunk, 4 if k & 2 else 1]
+        z = bounds[chunk, 5 if k & 4 else 2]
+        cx, cy, cz, cw = _clip_xyzw(m, x, y, z)
+        out[0] += cx < -cw
+        out[1] += cx > cw
+        out[2] += cy < -cw
+        out[3] += cy > cw
+        for p in range(n_cut):
+            out[4 + p] += _outside(planes, p, cx, cy, cz, cw)
+        if cw > 0.0:
+            sx, sy = screen_from_ndc(cx / cw, cy / cw, width, height)
+            lo_x, hi_x = min(lo_x, sx), max(hi_x, sx)
+            lo_y, hi_y = min(lo_y, sy), max(hi_y, sy)
+        else:
+            in_front = False
+    for q in range(4 + n_cut):
+        if out[q] == 8:
+            return True
+    return in_front and (hi_x < col0 - 1.0 or lo_x > col1 + 1.0 or hi_y < top - 1.0
+                         or lo_y > bottom + 1.0)
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
-def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, stencil,
+def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, bounds, stencil,
           use_stencil, floor, use_floor, col0, col1, top, bottom, own_tri, own_key):
-    """Every triangle, in chunks of _CHUNK, into the buffers of the thread drawing it."""
+    """Every triangle, in chunks of _CHUNK, into the buffers of the thread drawing it;
+    chunks whose world box (`bounds`, if given) misses the view or the box are skipped."""
     n = corners.shape[0]
     scale = float(1 << bits)
     for chunk in prange(chunks):
+        if bounds.shape[0] > 0 and _box_misses(bounds, chunk, m, planes, n_cut, width,
+                                                height, col0, col1, top, bottom):
+            continue
         me = numba.get_thread_id()
         tri = own_tri[me]
         key = own_key[me]

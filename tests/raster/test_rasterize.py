@@ -266,3 +266,41 @@ def test_shared_edges_are_covered_once():
     inside = np.all(np.array(cross) > 0, axis=0) | np.all(np.array(cross) < 0, axis=0)
     assert inside.sum() > 400
     assert np.all(count[inside] == 1)
+
+
+@pytest.mark.parametrize("masked", [False, True])
+def test_skipping_chunks_by_their_boxes_changes_nothing(masked):
+    """With a workspace, runs of triangles whose world box misses the view (or the mask's
+    box, or an extra plane's side) are skipped: the buffers are byte-identical to drawing
+    every triangle, and some runs were in fact skipped."""
+    from reflectcli.camera import standard_planes
+    from reflectcli.raster.rasterize import _CHUNK, RasterWorkspace, _box_misses
+
+    rng = np.random.default_rng(3)
+    cam = camera(w=80, h=60)
+    corners = random_triangles(cam, 8 * _CHUNK, rng, spread=3.0, size=(0.05, 0.3))
+    # sorted along the screen's x so that runs of triangles are compact
+    corners = corners[np.argsort(corners.mean(axis=1) @ cam.basis()[0])]
+    m = world_to_clip(cam)
+    right, _, back = cam.basis()
+    extra = np.append(right, -right @ (cam.eye - 3 * back))  # keep world x-right of a point
+    planes = np.vstack([standard_planes(), np.linalg.inv(m).T @ extra])  # clip space
+    planes[2] /= np.abs(planes[2]).max()
+    mask = np.zeros((60, 80), bool)
+    if masked:
+        mask[10:40, 45:70] = True
+    else:
+        mask[:] = True
+    flags = np.zeros(len(corners), np.uint8)
+    plain = rasterize(corners, flags, m, 80, 60, planes, mask=mask)
+    ws = RasterWorkspace()
+    fast = rasterize(corners, flags, m, 80, 60, planes, mask=mask, workspace=ws)
+    for name in ("triangle", "depth", "b1", "b2"):
+        assert getattr(plain, name).tobytes() == getattr(fast, name).tobytes(), name
+    assert (plain.triangle >= 0).sum() > 200
+    bounds = ws.chunk_bounds(corners)
+    all_planes = np.vstack([planes, np.ones((4, 4))])
+    ys, xs = np.nonzero(mask)
+    skipped = [_box_misses(bounds, c, m, all_planes, 3, 80, 60, xs.min(), xs.max() + 1,
+                           ys.min(), ys.max() + 1) for c in range(len(bounds))]
+    assert 0 < sum(skipped) < len(bounds)
