@@ -100,5 +100,7 @@ class Rerender(Technique):
             rows = np.flatnonzero(stencil.any(axis=1))
             cols = np.flatnonzero(stencil.any(axis=0))
             box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
-            np.add(rgb[box], mirrors.reflectance[k] * reflected[box], out=rgb[box],
-                   where=stencil[box][..., None])
+            inside = stencil[box][..., None]  # the rest of `reflected` was never written
+            part = np.multiply(mirrors.reflectance[k], reflected[box], where=inside,
+                               out=np.zeros(reflected[box].shape, np.float32))
+            np.add(rgb[box], part, out=rgb[box], where=inside)
