@@ -105,8 +105,8 @@ TIE_REL = 1e-6
 
 def rasterize(corners, flags, m, w, h, mask=None, depth_floor=None, cull=0):
     """Twin of raster.rasterize (its kernels _draw, _classify, _fill, _resolve, and the
-    barycentrics of raster.rasterize.recover_barycentrics): a slow float64 z-buffer of
-    triangles wholly inside near..far.
+    barycentrics of raster.rasterize.recover_barycentrics, clip_corners and
+    barycentrics_at): a slow float64 z-buffer of triangles wholly inside near..far.
 
     Every pixel center against every triangle: clip-space transform, screen positions,
     inside test by screen-space edge functions (edges inclusive), perspective-correct

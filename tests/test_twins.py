@@ -68,6 +68,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize.py:_box_misses": ([R + "test_skipping_chunks_by_their_boxes_changes_nothing"],
                                         "_draw"),
     "raster/rasterize.py:recover_barycentrics": (RECOVER, None),
+    "raster/rasterize.py:clip_corners": (RECOVER, "recover_barycentrics"),
+    "raster/rasterize.py:barycentrics_at": (RECOVER, "recover_barycentrics"),
     "raster/rasterize.py:_barycentrics": (RECOVER, "RasterBuffers.b1"),
     "maps/warp.py:_gather4": ([W + "test_gather_and_fill_blend_match_twins"], "gather_colors"),
     "maps/warp.py:fill_blend": ([W + "test_gather_and_fill_blend_match_twins"], None),

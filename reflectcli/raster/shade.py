@@ -8,7 +8,7 @@ from numba import njit, prange
 
 from ..scene.types import Scene, Triangles
 from ..shading import surface_color
-from .rasterize import RasterBuffers, recover_barycentrics
+from .rasterize import RasterBuffers, barycentrics_at, clip_corners
 
 
 def shade_buffers(
@@ -72,8 +72,14 @@ def _shade(tri, b1, b2, recover, m, drawn, corners, uvs, normals, material, surf
     triangles drawn (`drawn`, world; clip from world `m`) instead of b1, b2."""
     h, w = tri.shape
     for y in prange(h):
+        last = -1  # the triangle whose clip-space corners `clip` holds (kept along the row)
+        clip = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         for x in range(w):
-            _shade_pixel(y, x, tri, b1, b2, recover, m, drawn, corners, uvs, normals,
+            t = tri[y, x]
+            if recover and t >= 0 and t != last:
+                last = t
+                clip = clip_corners(drawn, t, m)
+            _shade_pixel(y, x, tri, b1, b2, recover, clip, corners, uvs, normals,
                          material, surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
                          texels, light_f, shading, ambient, background, refl, base, rgb, surf)
 
@@ -85,16 +91,22 @@ def _shade_stencil(stencil, tri, b1, b2, recover, m, drawn, corners, uvs, normal
     """_shade of the pixels where `stencil` is set; the others are left as they are."""
     h, w = tri.shape
     for y in prange(h):
+        last = -1
+        clip = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         for x in range(w):
             if stencil[y, x]:
-                _shade_pixel(y, x, tri, b1, b2, recover, m, drawn, corners, uvs, normals,
+                t = tri[y, x]
+                if recover and t >= 0 and t != last:
+                    last = t
+                    clip = clip_corners(drawn, t, m)
+                _shade_pixel(y, x, tri, b1, b2, recover, clip, corners, uvs, normals,
                              material, surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
                              texels, light_f, shading, ambient, background, refl, base, rgb,
                              surf)
 
 
 @njit(cache=True, inline="always")
-def _shade_pixel(y, x, tri, b1, b2, recover, m, drawn, corners, uvs, normals, material, surface,
+def _shade_pixel(y, x, tri, b1, b2, recover, clip, corners, uvs, normals, material, surface,
                  n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading,
                  ambient, background, refl, base, rgb, surf):
     t = tri[y, x]
@@ -112,8 +124,8 @@ def _shade_pixel(y, x, tri, b1, b2, recover, m, drawn, corners, uvs, normals, ma
         return
     if recover:  # from the triangle's clip-space corners and the pixel center's NDC
         h, w = tri.shape
-        c1, c2 = recover_barycentrics(drawn, t, m, (x + 0.5) * (2.0 / w) - 1.0,
-                                      1.0 - (y + 0.5) * (2.0 / h))
+        c1, c2 = barycentrics_at(clip, (x + 0.5) * (2.0 / w) - 1.0,
+                                 1.0 - (y + 0.5) * (2.0 / h))
     else:
         c1 = b1[y, x]
         c2 = b2[y, x]
