@@ -55,7 +55,6 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade"),
-    "raster/rasterize.py:_clear": (RASTER, "rasterize"),
     "raster/rasterize.py:_draw": (RASTER, "rasterize"),
     "raster/rasterize.py:_snap": (RASTER, "_draw"),
     "raster/rasterize.py:_clip_xyzw": (RASTER, "_draw"),

@@ -228,8 +228,8 @@ def rasterize(
     box = (max(y1 - y0, 0), max(x1 - x0, 0))
     own_tri = ws.get("own_tri", (threads, *box), np.int32)
     own_key = ws.get("own_key", (threads, *box), np.float32)
+    drew = np.zeros(threads, np.bool_)  # which threads' buffers hold this call's drawing
     if box[0] > 0 and corners.shape[0] > 0:
-        _clear(own_tri, own_key)
         chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
         # with a workspace, chunks whose box cannot reach the stencil's box are skipped
         bounds = (ws.chunk_bounds(corners) if workspace is not None
@@ -239,24 +239,15 @@ def rasterize(
         with numba.parallel_chunksize(1):
             _draw(corners, flags, m, all_planes, planes.shape[0], width, height, bits, cull,
                   chunks, bounds, stencil, mask is not None, floor, depth_floor is not None,
-                  x0, x1, y0, y1, own_tri, own_key)
+                  x0, x1, y0, y1, own_tri, own_key, drew)
     else:
         own_tri = ws.get("own_tri", (0, *box), np.int32)
         own_key = ws.get("own_key", (0, *box), np.float32)
-    _resolve(flags, x0, x1, y0, y1, own_tri, own_key, tri, depth)
+    _resolve(flags, x0, x1, y0, y1, own_tri, own_key, drew, tri, depth)
     return RasterBuffers(tri, None, None, depth, corners, m, out)
 
 
 _CHUNK = 1024  # triangles per parallel task (and per box of chunk_bounds)
-
-
-@njit(cache=True, parallel=True)
-def _clear(own_tri, own_key):
-    for r in prange(own_tri.shape[0] * own_tri.shape[1]):
-        k, y = r // own_tri.shape[1], r % own_tri.shape[1]
-        for x in range(own_tri.shape[2]):
-            own_tri[k, y, x] = -1
-            own_key[k, y, x] = 0.0
 
 
 @njit(cache=True, inline="always")
@@ -461,9 +452,11 @@ def _box_misses(bounds, chunk, m, planes, n_cut, width, height, col0, col1, top,
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, bounds, stencil,
-          use_stencil, floor, use_floor, col0, col1, top, bottom, own_tri, own_key):
+          use_stencil, floor, use_floor, col0, col1, top, bottom, own_tri, own_key, drew):
     """Every triangle, in chunks of _CHUNK, into the buffers of the thread drawing it;
-    chunks whose world box (`bounds`, if given) misses the view or the box are skipped."""
+    chunks whose world box (`bounds`, if given) misses the view or the box are skipped. A
+    thread clears its buffers before its first chunk and marks them in `drew` (one parallel
+    region less: on a busy machine each costs a wake-up of the other threads)."""
     n = corners.shape[0]
     scale = float(1 << bits)
     for chunk in prange(chunks):
@@ -473,6 +466,12 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
         me = numba.get_thread_id()
         tri = own_tri[me]
         key = own_key[me]
+        if not drew[me]:
+            drew[me] = True
+            for r in range(tri.shape[0]):
+                for c in range(tri.shape[1]):
+                    tri[r, c] = -1
+                    key[r, c] = 0.0
         xyw = np.empty((_MAX_POLY, 3))
         for t in range(chunk * _CHUNK, min(n, (chunk + 1) * _CHUNK)):
             if flags[t] & FLAG_SKIP:
@@ -523,23 +522,25 @@ def _draw_clipped(corners, t, key_scale, m, planes, width, height, bits, cull, s
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _resolve(flags, col0, col1, top, bottom, own_tri, own_key, tri, depth):
+def _resolve(flags, col0, col1, top, bottom, own_tri, own_key, drew, tri, depth):
     """Merge the threads' buffers (greatest key, then lowest triangle index) into `tri`, and
-    eye depth w = 1 / (1/w) from the key (a mirror's divided by MIRROR_TIE). Pixels outside
-    the box [top, bottom) x [col0, col1) get no triangle."""
+    eye depth w = 1 / (1/w) from the key (a mirror's divided by MIRROR_TIE); buffers of
+    threads that drew nothing (`drew`) are left out. Pixels outside the box [top, bottom)
+    x [col0, col1) get no triangle."""
     h, w = tri.shape
-    owners = own_tri.shape[0]
+    owners = np.flatnonzero(drew)
     for py in prange(h):
-        inside = top <= py < bottom and owners > 0
+        inside = top <= py < bottom and owners.size > 0
         r = py - top
         for px in range(w):
             t = np.int32(-1)
             best = np.float32(0.0)
             if inside and col0 <= px < col1:
                 c = px - col0
-                t = own_tri[0, r, c]
-                best = own_key[0, r, c]
-                for k in range(1, owners):
+                t = own_tri[owners[0], r, c]
+                best = own_key[owners[0], r, c]
+                for j in range(1, owners.size):
+                    k = owners[j]
                     tk = own_tri[k, r, c]
                     zk = own_key[k, r, c]
                     if zk > best or (zk == best and tk >= 0 and (t < 0 or tk < t)):
