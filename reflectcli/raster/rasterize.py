@@ -1,28 +1,30 @@
-"""Z-buffer rasterization of triangles into triangle-id, barycentric and depth buffers.
+"""Z-buffer rasterization of triangles into triangle-id, depth and barycentric buffers.
 
 Pipeline per triangle: world -> clip (one 4x4), clipping in homogeneous clip space against
 the near and far planes, any extra planes and a guard band around the screen
 (Sutherland-Hodgman), perspective divide to NDC, viewport to screen (x right, y down, pixel
 centers at +0.5), then snapped to a fixed-point grid of 2^-S pixel (S = `_subpixel_bits`:
-16 to 22 bits, finer on smaller screens).
+15 bits at 8192 pixels, 18 at 640x480, more on smaller screens).
 
 Coverage is exact: the three edge functions of the snapped corners are int64 (no rounding),
 stepped along each row, and a pixel center on an edge belongs to exactly one of the two
 triangles sharing it (the top-left rule: an edge owns its points when its inward normal
 points right, or straight down the screen). Shared edges leave neither cracks nor double
-hits. The z-buffer holds 1/w (affine in screen space: a plane per triangle evaluated at each
-pixel from the triangle's bounding-box corner, in float64, stored as float32; nearer wins
-with a strict greater-than in triangle order). Barycentrics and eye depth are not written
-per fragment: once the visible triangle of each pixel is known, they are recovered from its
-clip-space corners and the pixel center's NDC (perspective-correct by construction, the same
-for clipped triangles).
+hits. The z-buffer holds the key 1/w (affine in screen space: a plane per triangle from its
+bounding-box corner, float64, stored as float32; a mirror's divided by MIRROR_TIE, so mirrors
+win ties); nearer is a greater key, and an equal key goes to the lower triangle index.
+Barycentrics are not written per fragment: they are recovered from the visible triangle's
+clip-space corners and the pixel center's NDC (`recover_barycentrics`: perspective-correct by
+construction, the same for clipped triangles), by the shading kernels as they shade, or for
+the whole buffer on first use of `RasterBuffers.b1` / `b2`. Eye depth is 1 / key.
 
-Determinism: one horizontal band of the screen per task, each band visiting the triangles in
-index order, and every value a pixel sees depends only on the triangle, the pixel and the
-stencil's box (never on the band), so the result is independent of the thread count. A
-mirror's 1/w is divided by MIRROR_TIE before the test (mirrors win ties).
+Sort-last: triangles go in runs of _CHUNK to whichever thread is free, each thread drawing
+into its own buffers (the stencil's box), merged per pixel at the end. The depth test and
+the merge both pick the greatest key, then the lowest index, and every key depends only on
+the triangle and the pixel, so the bytes are the same for any thread count and any order
+the runs are drawn in. With a workspace, a run whose world box misses the view, an extra
+plane or the stencil's box is skipped whole (`_box_misses`).
 """
-
 from __future__ import annotations
 
 import numba
