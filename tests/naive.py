@@ -104,8 +104,9 @@ TIE_REL = 1e-6
 
 
 def rasterize(corners, flags, m, w, h, mask=None, depth_floor=None, cull=0):
-    """Twin of raster.rasterize (its kernels _setup, _setup_one, _bin, _band_range, _area,
-    _fill, _draw): a slow float64 z-buffer of triangles wholly inside near..far.
+    """Twin of raster.rasterize (its kernels _draw, _classify, _fill, _resolve, and the
+    barycentrics of raster.rasterize.recover_barycentrics, clip_corners and
+    barycentrics_at): a slow float64 z-buffer of triangles wholly inside near..far.
 
     Every pixel center against every triangle: clip-space transform, screen positions,
     inside test by screen-space edge functions (edges inclusive), perspective-correct
@@ -235,40 +236,44 @@ def shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
     return rgb, surf
 
 
-def fill_triangle_scan(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0,
-                       row1, col0, col1, stencil, floor, tri, b1, b2, depth):
-    """Twin of raster.rasterize._fill: every pixel of the triangle's bounding box (clamped
-    to rows [row0, row1) and columns [col0, col1)) tested, in Python floats (float64, the
-    kernel's operations in the kernel's order), no span. Writes into tri, b1, b2, depth."""
-    def area(ax, ay, bx, by, cx, cy):
-        return (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
-
-    a = area(x0, y0, x1, y1, x2, y2)
-    if a == 0.0:
+def fill_fixed(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bottom,
+               col0, col1, stencil, use_stencil, floor, use_floor, tri, key):
+    """Twin of raster.rasterize._fill: every pixel of the box [top, bottom) x [col0, col1)
+    (not the triangle's bounding box), Python integers for the edge functions (exact, no
+    stepping), the top-left rule written as "a center on an edge belongs to the triangle
+    on the side its inward normal points to: right, or down for a horizontal edge", and
+    1/w from barycentric weights (not a plane). `tri`/`key` hold the box."""
+    x0, y0, x1, y1, x2, y2 = (int(v) for v in (x0, y0, x1, y1, x2, y2))
+    area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    if area == 0 or (cull == 1 and area > 0) or (cull == 2 and area < 0):
         return
-    inv = 1.0 / a
-    xmin = max(int(np.floor(min(x0, x1, x2) - 0.5)), col0)
-    xmax = min(int(np.ceil(max(x0, x1, x2) - 0.5)), col1 - 1)
-    ymin = max(int(np.floor(min(y0, y1, y2) - 0.5)), row0)
-    ymax = min(int(np.ceil(max(y0, y1, y2) - 0.5)), row1 - 1)
-    for py in range(ymin, ymax + 1):
-        for px in range(xmin, xmax + 1):
-            if not stencil[py, px]:
+    corners = [(x0, y0, w0), (x1, y1, w1), (x2, y2, w2)]
+    if area < 0:
+        corners = [corners[0], corners[2], corners[1]]
+        area = -area
+    edges = []
+    for k in range(3):
+        (xa, ya, _), (xb, yb, _) = corners[(k + 1) % 3], corners[(k + 2) % 3]
+        nx, ny = ya - yb, xb - xa  # inward normal (screen y down, counter-clockwise here)
+        edges.append((xa, ya, nx, ny, nx > 0 or (nx == 0 and ny > 0)))
+    one = 1 << bits
+    for py in range(top, bottom):
+        for px in range(col0, col1):
+            cx, cy = px * one + one // 2, py * one + one // 2
+            e = [nx * (cx - xa) + ny * (cy - ya) for xa, ya, nx, ny, _ in edges]
+            if not all(v > 0 or (v == 0 and owns) for v, (*_, owns) in zip(e, edges,
+                                                                            strict=True)):
                 continue
-            sx, sy = px + 0.5, py + 0.5
-            l0 = area(x1, y1, x2, y2, sx, sy) * inv
-            l1 = area(x2, y2, x0, y0, sx, sy) * inv
-            l2 = 1.0 - l0 - l1
-            if l0 < 0.0 or l1 < 0.0 or l2 < 0.0:
+            inv_w = sum(v * c[2] for v, c in zip(e, corners, strict=True)) / area
+            z = np.float32(inv_w * key_scale)
+            if use_stencil and not stencil[py, px]:
                 continue
-            q0, q1, q2 = l0 * w0, l1 * w1, l2 * w2
-            w = 1.0 / (q0 + q1 + q2)
-            key = w * key_scale
-            if key < depth[py, px] and w > floor[py, px]:
-                depth[py, px] = key
-                tri[py, px] = t
-                b1[py, px] = (q0 * ba[1] + q1 * bb[1] + q2 * bc[1]) * w
-                b2[py, px] = (q0 * ba[2] + q1 * bb[2] + q2 * bc[2]) * w
+            if use_floor and not 1.0 / inv_w > floor[py, px]:
+                continue
+            r, c = py - top, px - col0
+            if z > key[r, c] or (z == key[r, c] and t < tri[r, c]):
+                key[r, c] = z
+                tri[r, c] = t
 
 
 def shade_stencil(stencil, rgb, surf, *args):

@@ -28,7 +28,7 @@ def render_primary(scene: Scene, frame_index: int, camera: Camera,
     frame keeps the depth buffer)."""
     t0 = time.perf_counter()
     tris = scene.geometry(frame_index).all_triangles()
-    flags = np.where(tris.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
+    flags = (tris.surface >= scene.n_objects).astype(np.uint8) * np.uint8(FLAG_MIRROR)
     world_to_clip = camera.clip_from_world()
     buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height,
                         workspace=workspace)

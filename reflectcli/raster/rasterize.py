@@ -1,19 +1,31 @@
-"""Z-buffer rasterization of triangles into triangle-id, barycentric and depth buffers.
+"""Z-buffer rasterization of triangles into triangle-id, depth and barycentric buffers.
 
 Pipeline per triangle: world -> clip (one 4x4), clipping in homogeneous clip space against
-the near and far planes and any extra planes (Sutherland-Hodgman, each clipped vertex carrying
-its barycentrics in the original triangle), perspective divide to NDC, viewport to screen
-(x right, y down, pixel centers at +0.5). Per pixel, screen-linear weights become
-perspective-correct barycentrics through 1/w; the depth buffer holds eye-space depth w.
+the near and far planes, any extra planes and a guard band around the screen
+(Sutherland-Hodgman), perspective divide to NDC, viewport to screen (x right, y down, pixel
+centers at +0.5), then snapped to a fixed-point grid of 2^-S pixel (S = `_subpixel_bits`:
+15 bits at 8192 pixels, 18 at 640x480, more on smaller screens).
 
-Determinism: one horizontal band of the screen per task, each band visiting the triangles in
-index order with a strict less-than depth test, so the result is independent of the thread
-count. A mirror's depth is scaled by MIRROR_TIE before the test (mirrors win ties).
+Coverage is exact: the three edge functions of the snapped corners are int64 (no rounding),
+stepped along each row, and a pixel center on an edge belongs to exactly one of the two
+triangles sharing it (the top-left rule: an edge owns its points when its inward normal
+points right, or straight down the screen). Shared edges leave neither cracks nor double
+hits. The z-buffer holds the key 1/w (affine in screen space: a plane per triangle from its
+bounding-box corner, float64, stored as float32; a mirror's divided by MIRROR_TIE, so mirrors
+win ties); nearer is a greater key, and an equal key goes to the lower triangle index.
+Barycentrics are not written per fragment: they are recovered from the visible triangle's
+clip-space corners and the pixel center's NDC (`recover_barycentrics`: perspective-correct by
+construction, the same for clipped triangles), by the shading kernels as they shade, or for
+the whole buffer on first use of `RasterBuffers.b1` / `b2`. Eye depth is 1 / key.
+
+Sort-last: triangles go in runs of _CHUNK to whichever thread is free, each thread drawing
+into its own buffers (the stencil's box), merged per pixel at the end. The depth test and
+the merge both pick the greatest key, then the lowest index, and every key depends only on
+the triangle and the pixel, so the bytes are the same for any thread count and any order
+the runs are drawn in. With a workspace, a run whose world box misses the view, an extra
+plane or the stencil's box is skipped whole (`_box_misses`).
 """
-
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -24,7 +36,8 @@ from ..camera import standard_planes
 from ..scene.types import MIRROR_TIE
 
 _MAX_PLANES = 8
-_MAX_POLY = 3 + _MAX_PLANES
+_GUARD_PLANES = 4
+_MAX_POLY = 3 + _MAX_PLANES + _GUARD_PLANES
 
 # culling modes
 CULL_NONE, CULL_BACK, CULL_FRONT = 0, 1, 2
@@ -35,15 +48,69 @@ FLAG_MIRROR, FLAG_SKIP = 1, 2
 # triangle status after setup
 _CULLED, _SIMPLE, _CLIPPED = 0, 1, 2
 
+# fixed-point corners stay within +-2^_FIXED_BITS: edge functions (products of two corner
+# differences, summed) then stay below 2^62 in int64
+_FIXED_BITS = 29
+
 screen_from_ndc = njit(cache=True, inline="always")(_screen_from_ndc)
 
 
-@dataclass
+def _subpixel_bits(width: int, height: int) -> tuple[int, float]:
+    """(S, guard): corners are snapped to 2^-S pixel and kept (by clipping) within `guard`
+    pixels beyond each side of the screen, so every snapped coordinate is below
+    2^_FIXED_BITS in magnitude."""
+    span = 1 << int(np.ceil(np.log2(2 * max(width, height, 2))))  # >= 2 * the screen
+    bits = _FIXED_BITS - int(np.log2(span))
+    return bits, 0.45 * span
+
+
 class RasterBuffers:
-    triangle: np.ndarray  # (H, W) int32, -1 where nothing was drawn
-    b1: np.ndarray  # (H, W) float32, barycentric weight of corner 1
-    b2: np.ndarray  # (H, W) float32, barycentric weight of corner 2
-    depth: np.ndarray  # (H, W) float32, eye-space depth, +inf where nothing was drawn
+    """What a pass left visible: per pixel the triangle id (int32, -1 where nothing was
+    drawn), its barycentric weights of corners 1 and 2 (float32) and its eye-space depth
+    (float32, +inf where nothing was drawn), all (H, W).
+
+    The rasterizer gives ids and depths; `b1` and `b2` are recovered from the triangles'
+    clip-space corners on first use (`recover`), so a pass whose consumer recovers them
+    itself (the shading kernels) never writes them."""
+
+    def __init__(self, triangle: np.ndarray, b1: np.ndarray | None, b2: np.ndarray | None,
+                 depth: np.ndarray, corners: np.ndarray | None = None,
+                 clip_from_world: np.ndarray | None = None,
+                 out: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        assert (b1 is None) == (b2 is None)
+        assert b1 is not None or (corners is not None and clip_from_world is not None)
+        self.triangle = triangle
+        self.depth = depth
+        self._b1, self._b2 = b1, b2
+        self.corners = corners  # (T, 3, 3) world, float32: what `recover` reads
+        self.clip_from_world = clip_from_world  # (4, 4) float64
+        self._out = out
+
+    @property
+    def recover(self) -> bool:
+        """True while b1 and b2 have not been made: a consumer may recover them itself."""
+        return self._b1 is None
+
+    def _barycentrics(self) -> None:
+        h, w = self.triangle.shape
+        if self._out is not None:
+            b1, b2 = self._out
+        else:
+            b1, b2 = np.empty((h, w), np.float32), np.empty((h, w), np.float32)
+        _barycentrics(self.triangle, self.corners, self.clip_from_world, b1, b2)
+        self._b1, self._b2 = b1, b2
+
+    @property
+    def b1(self) -> np.ndarray:
+        if self._b1 is None:
+            self._barycentrics()
+        return self._b1
+
+    @property
+    def b2(self) -> np.ndarray:
+        if self._b2 is None:
+            self._barycentrics()
+        return self._b2
 
 
 class RasterWorkspace:
@@ -63,6 +130,28 @@ class RasterWorkspace:
             a = np.empty(max(size, 1), dtype)
             self._arrays[name] = a
         return a[:size].reshape(shape)
+
+    def chunk_bounds(self, corners: np.ndarray) -> np.ndarray:
+        """(chunks, 6) world-space boxes (min xyz, max xyz) of `corners` (T, 3, 3) in runs
+        of _CHUNK triangles, kept while the same array comes back (a scene's geometry is
+        built once; its arrays are not written after)."""
+        kept = self._arrays.get("bounds_of")
+        if kept is not None and kept[0] is corners:
+            return kept[1]
+        n = corners.shape[0]
+        full = n // _CHUNK
+        chunks = (n + _CHUNK - 1) // _CHUNK
+        bounds = np.empty((chunks, 6))
+        if full:
+            runs = corners[:full * _CHUNK].reshape(full, _CHUNK * 3, 3)
+            bounds[:full, :3] = runs.min(axis=1)
+            bounds[:full, 3:] = runs.max(axis=1)
+        if chunks > full:
+            rest = corners[full * _CHUNK:].reshape(-1, 3)
+            bounds[full, :3] = rest.min(axis=0)
+            bounds[full, 3:] = rest.max(axis=0)
+        self._arrays["bounds_of"] = (corners, bounds)
+        return bounds
 
     def constant(self, name: str, shape: tuple[int, int], dtype, value) -> np.ndarray:
         """A (H, W) array holding `value` (filled once; callers must not write it)."""
@@ -101,220 +190,124 @@ def rasterize(
     ws = workspace if workspace is not None else RasterWorkspace()
     if planes is None:
         planes = standard_planes()
-    planes = np.ascontiguousarray(planes, dtype=np.float64)
+    planes = np.asarray(planes, dtype=np.float64)
     assert planes.shape[0] <= _MAX_PLANES
+    bits, guard = _subpixel_bits(width, height)
+    gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
+    # the guard band: x_ndc in [-gx, gx], y_ndc in [-gy, gy] (clip x + gx w >= 0, ...)
+    guard_planes = np.array([[1.0, 0, 0, gx], [-1.0, 0, 0, gx], [0, 1.0, 0, gy],
+                             [0, -1.0, 0, gy]])
+    all_planes = np.ascontiguousarray(np.vstack([planes, guard_planes]))
     corners = np.ascontiguousarray(corners, dtype=np.float32)
     flags = np.ascontiguousarray(flags, dtype=np.uint8)
     m = np.ascontiguousarray(world_to_clip, dtype=np.float64)
-    t = corners.shape[0]
-    screen = ws.get("screen", (t, 9), np.float64)
-    status = ws.get("status", (t,), np.uint8)
-    rows = ws.get("rows", (t, 2), np.int64)
-    _setup(corners, m, planes, width, height, cull, screen, status, rows)
     if ws.outputs:
         tri = ws.get("tri", (height, width), np.int32)
-        b1 = ws.get("b1", (height, width), np.float32)
-        b2 = ws.get("b2", (height, width), np.float32)
         depth = ws.get("depth", (height, width), np.float32)
-        _clear(tri, b1, b2, depth)
+        out = (ws.get("b1", (height, width), np.float32),
+               ws.get("b2", (height, width), np.float32))
     else:
-        tri = np.full((height, width), -1, np.int32)
-        b1 = np.zeros((height, width), np.float32)
-        b2 = np.zeros((height, width), np.float32)
-        depth = np.full((height, width), np.inf, np.float32)
+        tri = np.empty((height, width), np.int32)
+        depth = np.empty((height, width), np.float32)
+        out = None
     if mask is None:
-        stencil = ws.constant("stencil", (height, width), np.uint8, 1)
+        stencil = ws.constant("stencil", (1, 1), np.uint8, 1)
         x0, x1, y0, y1 = 0, width, 0, height
     else:
         stencil = np.ascontiguousarray(mask, dtype=np.uint8)
         ys = np.flatnonzero(stencil.any(axis=1))
         xs = np.flatnonzero(stencil.any(axis=0))
         if ys.size == 0:
-            return RasterBuffers(tri, b1, b2, depth)
-        x0, x1, y0, y1 = int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1
-    floor = (ws.constant("floor", (height, width), np.float32, 0.0) if depth_floor is None
+            x0 = x1 = y0 = y1 = 0
+        else:
+            x0, x1, y0, y1 = int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1
+    floor = (ws.constant("floor", (1, 1), np.float32, 0.0) if depth_floor is None
              else np.ascontiguousarray(depth_floor, dtype=np.float32))
-    bands = min(y1 - y0, max(1, numba.get_num_threads()) * 8)
-    chunks = max(1, numba.get_num_threads()) * 4
-    counts = ws.get("counts", (chunks, bands), np.int64)
-    _bin_count(status, flags, rows, y0, y1, bands, counts)
-    offsets = ws.get("offsets", (bands + 1,), np.int64)
-    starts = ws.get("starts", (chunks, bands), np.int64)
-    total = _bin_starts(counts, offsets, starts)
-    items = ws.get("items", (total,), np.int32)
-    _bin_fill(status, flags, rows, y0, y1, bands, starts, items)
-    # bands handed out one at a time to whichever thread is free (their work differs, and on
-    # a busy machine a thread may lose its core); each band owns its rows: same result
-    with numba.parallel_chunksize(1):
-        _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets,
-              items, stencil, floor, x0, x1, y0, y1, tri, b1, b2, depth)
-    return RasterBuffers(tri, b1, b2, depth)
+    # sort-last: each thread draws whole triangles into its own buffers (the stencil's box),
+    # merged per pixel at the end; the depth test prefers the lower triangle index on equal
+    # keys, so the order triangles reach a buffer, and which buffer, never matter
+    threads = max(1, numba.get_num_threads())
+    box = (max(y1 - y0, 0), max(x1 - x0, 0))
+    own_tri = ws.get("own_tri", (threads, *box), np.int32)
+    own_key = ws.get("own_key", (threads, *box), np.float32)
+    drew = np.zeros(threads, np.bool_)  # which threads' buffers hold this call's drawing
+    if box[0] > 0 and corners.shape[0] > 0:
+        chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
+        # with a workspace, chunks whose box cannot reach the stencil's box are skipped
+        bounds = (ws.chunk_bounds(corners) if workspace is not None
+                  else np.empty((0, 6)))
+        # chunks handed out one at a time to whichever thread is free (their work differs,
+        # and on a busy machine a thread may lose its core)
+        with numba.parallel_chunksize(1):
+            _draw(corners, flags, m, all_planes, planes.shape[0], width, height, bits, cull,
+                  chunks, bounds, stencil, mask is not None, floor, depth_floor is not None,
+                  x0, x1, y0, y1, own_tri, own_key, drew)
+    else:
+        own_tri = ws.get("own_tri", (0, *box), np.int32)
+        own_key = ws.get("own_key", (0, *box), np.float32)
+    _resolve(flags, x0, x1, y0, y1, own_tri, own_key, drew, tri, depth)
+    return RasterBuffers(tri, None, None, depth, corners, m, out)
 
 
-_CHUNK = 1024  # triangles per parallel task in setup (one scratch allocation per task)
-
-
-@njit(cache=True, parallel=True)
-def _setup(corners, m, planes, width, height, cull, screen, status, rows):
-    """Per triangle: clip-space transform, trivial reject, and screen positions if unclipped.
-
-    screen[t] = (x0, y0, 1/w0, x1, y1, 1/w1, x2, y2, 1/w2) in screen space; rows[t] = the
-    first and last pixel rows it may cover (all rows for triangles that need clipping).
-    """
-    n = corners.shape[0]
-    for chunk in prange((n + _CHUNK - 1) // _CHUNK):
-        c = np.empty((3, 4))
-        for t in range(chunk * _CHUNK, min(n, (chunk + 1) * _CHUNK)):
-            _setup_one(corners, t, m, planes, width, height, cull, screen, status, rows, c)
+_CHUNK = 1024  # triangles per parallel task (and per box of chunk_bounds)
 
 
 @njit(cache=True, inline="always")
-def _setup_one(corners, t, m, planes, width, height, cull, screen, status, rows, c):
-    for k in range(3):
-        x, y, z = corners[t, k, 0], corners[t, k, 1], corners[t, k, 2]
-        for r in range(4):
-            c[k, r] = m[r, 0] * x + m[r, 1] * y + m[r, 2] * z + m[r, 3]
-    status[t] = _SIMPLE
-    rows[t, 0] = 0
-    rows[t, 1] = height - 1
-    # frustum side planes: reject only (no clipping needed against them)
-    if (c[0, 0] < -c[0, 3] and c[1, 0] < -c[1, 3] and c[2, 0] < -c[2, 3]) or (
-        c[0, 0] > c[0, 3] and c[1, 0] > c[1, 3] and c[2, 0] > c[2, 3]) or (
-        c[0, 1] < -c[0, 3] and c[1, 1] < -c[1, 3] and c[2, 1] < -c[2, 3]) or (
-        c[0, 1] > c[0, 3] and c[1, 1] > c[1, 3] and c[2, 1] > c[2, 3]
-    ):
-        status[t] = _CULLED
-        return
-    for p in range(planes.shape[0]):
-        outside = 0
-        for k in range(3):
-            s = (planes[p, 0] * c[k, 0] + planes[p, 1] * c[k, 1]
-                 + planes[p, 2] * c[k, 2] + planes[p, 3] * c[k, 3])
-            if s < 0.0:
-                outside += 1
-        if outside == 3:
-            status[t] = _CULLED
-            return
-        if outside > 0:
-            status[t] = _CLIPPED
-    if status[t] != _SIMPLE:
-        return
-    for k in range(3):
-        iw = 1.0 / c[k, 3]
-        screen[t, 3 * k], screen[t, 3 * k + 1] = screen_from_ndc(c[k, 0] * iw, c[k, 1] * iw,
-                                                                  width, height)
-        screen[t, 3 * k + 2] = iw
-    ylo = min(screen[t, 1], screen[t, 4], screen[t, 7])
-    yhi = max(screen[t, 1], screen[t, 4], screen[t, 7])
-    # pixel row py is covered only if its center py + 0.5 lies in [ylo, yhi]
-    rows[t, 0] = max(int(np.ceil(ylo - 0.5)), 0)
-    rows[t, 1] = min(int(np.floor(yhi - 0.5)), height - 1)
-    if rows[t, 0] > rows[t, 1]:
-        status[t] = _CULLED
-        return
-    if cull != CULL_NONE:
-        area = _area(screen[t, 0], screen[t, 1], screen[t, 3], screen[t, 4],
-                     screen[t, 6], screen[t, 7])
-        # screen y points down: a counter-clockwise (front) triangle has negative area here
-        if (cull == CULL_BACK and area > 0.0) or (cull == CULL_FRONT and area < 0.0):
-            status[t] = _CULLED
+def _snap(v, scale):
+    """A screen coordinate in units of 1/scale pixel, rounded to nearest (halves up)."""
+    return np.int64(np.floor(v * scale + 0.5))
 
 
 @njit(cache=True, inline="always")
-def _band_range(t, status, flags, rows, top, bottom, band_of):
-    """First and last band triangle t reaches (last < first if it is drawn in none)."""
-    if status[t] == _CULLED or flags[t] & FLAG_SKIP:
-        return 0, -1
-    lo = max(rows[t, 0], top)
-    hi = min(rows[t, 1], bottom - 1)
-    if lo > hi:
-        return 0, -1
-    return band_of[lo - top], band_of[hi - top]
-
-
-@njit(cache=True, parallel=True)
-def _clear(tri, b1, b2, depth):
-    for y in prange(tri.shape[0]):
-        for x in range(tri.shape[1]):
-            tri[y, x] = -1
-            b1[y, x] = 0.0
-            b2[y, x] = 0.0
-            depth[y, x] = np.inf
+def _clip_xyzw(m, x, y, z):
+    x, y, z = np.float64(x), np.float64(y), np.float64(z)
+    return (m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3],
+            m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3],
+            m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3],
+            m[3, 0] * x + m[3, 1] * y + m[3, 2] * z + m[3, 3])
 
 
 @njit(cache=True, inline="always")
-def _band_table(top, bottom, bands):
-    span = bottom - top
-    band_of = np.empty(span, np.int64)
-    for b in range(bands):
-        for y in range(top + b * span // bands, top + (b + 1) * span // bands):
-            band_of[y - top] = b
-    return band_of
+def _outside(planes, p, x, y, z, w):
+    return planes[p, 0] * x + planes[p, 1] * y + planes[p, 2] * z + planes[p, 3] * w < 0.0
 
 
-@njit(cache=True, parallel=True)
-def _bin_count(status, flags, rows, top, bottom, bands, counts):
-    """counts[c, b]: triangles of chunk c (a contiguous range) that reach band b."""
-    band_of = _band_table(top, bottom, bands)
-    chunks = counts.shape[0]
-    n = status.shape[0]
-    for c in prange(chunks):
-        for b in range(bands):
-            counts[c, b] = 0
-        for t in range(c * n // chunks, (c + 1) * n // chunks):
-            first, last = _band_range(t, status, flags, rows, top, bottom, band_of)
-            for b in range(first, last + 1):
-                counts[c, b] += 1
+@njit(cache=True, inline="always")
+def _classify(x0, y0, z0, w0, x1, y1, z1, w1, x2, y2, z2, w2, planes, n_cut):
+    """_CULLED (wholly outside the frustum's sides or one of the first `n_cut` planes),
+    _CLIPPED (some plane cuts it, or it leaves the guard band: planes after n_cut, whose
+    4th coefficients are the band's half-widths in NDC) or _SIMPLE."""
+    if (((x0 < -w0) & (x1 < -w1) & (x2 < -w2)) | ((x0 > w0) & (x1 > w1) & (x2 > w2))
+            | ((y0 < -w0) & (y1 < -w1) & (y2 < -w2)) | ((y0 > w0) & (y1 > w1) & (y2 > w2))):
+        return _CULLED
+    cut = False
+    for p in range(n_cut):
+        o0 = _outside(planes, p, x0, y0, z0, w0)
+        o1 = _outside(planes, p, x1, y1, z1, w1)
+        o2 = _outside(planes, p, x2, y2, z2, w2)
+        if o0 & o1 & o2:
+            return _CULLED
+        cut |= o0 | o1 | o2
+    # beyond the guard band, screen coordinates could overflow the fixed-point range
+    gx = planes[n_cut, 3]
+    gy = planes[n_cut + 2, 3]
+    cut |= (abs(x0) > gx * w0) | (abs(x1) > gx * w1) | (abs(x2) > gx * w2)
+    cut |= (abs(y0) > gy * w0) | (abs(y1) > gy * w1) | (abs(y2) > gy * w2)
+    return _CLIPPED if cut else _SIMPLE
 
 
 @njit(cache=True)
-def _bin_starts(counts, offsets, starts):
-    """Band b's list is offsets[b]..offsets[b+1], chunk by chunk (so in triangle order);
-    starts[c, b]: where chunk c writes its part. Returns the item count."""
-    chunks, bands = counts.shape
-    total = 0
-    for b in range(bands):
-        offsets[b] = total
-        for c in range(chunks):
-            starts[c, b] = total
-            total += counts[c, b]
-    offsets[bands] = total
-    return total
-
-
-@njit(cache=True, parallel=True)
-def _bin_fill(status, flags, rows, top, bottom, bands, starts, items):
-    band_of = _band_table(top, bottom, bands)
-    chunks = starts.shape[0]
-    n = status.shape[0]
-    for c in prange(chunks):
-        fill = starts[c].copy()
-        for t in range(c * n // chunks, (c + 1) * n // chunks):
-            first, last = _band_range(t, status, flags, rows, top, bottom, band_of)
-            for b in range(first, last + 1):
-                items[fill[b]] = t
-                fill[b] += 1
-
-
-@njit(cache=True, inline="always")
-def _area(x0, y0, x1, y1, x2, y2):
-    return (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
-
-
-@njit(cache=True)
-def _clip_polygon(corners, t, m, planes, width, height, out_xyw, out_bary):
-    """Clip triangle t against all planes; write screen (x, y, 1/w) and barycentrics.
+def _clip_polygon(corners, t, m, planes, width, height, out_xyw):
+    """Clip triangle t against all planes; write its screen (x, y, 1/w) corners.
 
     Returns the vertex count of the clipped convex polygon (0 if nothing is left).
     """
-    poly = np.empty((_MAX_POLY, 7))  # clip x, y, z, w, then barycentrics b0, b1, b2
-    nxt = np.empty((_MAX_POLY, 7))
+    poly = np.empty((_MAX_POLY, 4))  # clip x, y, z, w
+    nxt = np.empty((_MAX_POLY, 4))
     for k in range(3):
         x, y, z = corners[t, k, 0], corners[t, k, 1], corners[t, k, 2]
         for r in range(4):
             poly[k, r] = m[r, 0] * x + m[r, 1] * y + m[r, 2] * z + m[r, 3]
-        for b in range(3):
-            poly[k, 4 + b] = 1.0 if b == k else 0.0
     n = 3
     for p in range(planes.shape[0]):
         count = 0
@@ -325,17 +318,17 @@ def _clip_polygon(corners, t, m, planes, width, height, out_xyw, out_bary):
             sj = (planes[p, 0] * poly[j, 0] + planes[p, 1] * poly[j, 1]
                   + planes[p, 2] * poly[j, 2] + planes[p, 3] * poly[j, 3])
             if si >= 0.0:
-                for q in range(7):
+                for q in range(4):
                     nxt[count, q] = poly[i, q]
                 count += 1
             if (si >= 0.0) != (sj >= 0.0):
                 a = si / (si - sj)
-                for q in range(7):
+                for q in range(4):
                     nxt[count, q] = poly[i, q] + a * (poly[j, q] - poly[i, q])
                 count += 1
         n = count
         for i in range(n):
-            for q in range(7):
+            for q in range(4):
                 poly[i, q] = nxt[i, q]
         if n < 3:
             return 0
@@ -344,128 +337,277 @@ def _clip_polygon(corners, t, m, planes, width, height, out_xyw, out_bary):
         out_xyw[i, 0], out_xyw[i, 1] = screen_from_ndc(poly[i, 0] * iw, poly[i, 1] * iw, width,
                                                        height)
         out_xyw[i, 2] = iw
-        for b in range(3):
-            out_bary[i, b] = poly[i, 4 + b]
     return n
 
 
-_SPAN_MIN = 6  # bounding boxes at least this many pixels wide get a span per row
+@njit(cache=True, error_model="numpy")
+def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bottom, col0,
+          col1, stencil, use_stencil, floor, use_floor, tri, key):
+    """Draw one snapped screen triangle into the box [top, bottom) x [col0, col1) (`tri`
+    and `key` hold the box: pixel (py, px) at [py - top, px - col0]).
+
+    (x, y): corners in units of 2^-bits pixel (int64); w0..w2 their 1/w. A pixel is drawn
+    where its center is inside (top-left rule), its stencil is set (`use_stencil`), its
+    depth w is beyond floor's (`use_floor`), and its key 1/w * key_scale is greater than
+    the stored one, or equal to it with a lower triangle index. `cull` as in rasterize."""
+    area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    # screen y points down: a counter-clockwise (front) triangle has negative area here
+    if area == 0 or (cull == CULL_BACK and area > 0) or (cull == CULL_FRONT and area < 0):
+        return
+    if area < 0:  # wind every triangle one way: inside is then where all edges are >= 0
+        x1, y1, w1, x2, y2, w2 = x2, y2, w2, x1, y1, w1
+        area = -area
+    one = np.int64(1)
+    half = one << (bits - 1)
+    first_x = -((half - min(x0, x1, x2)) >> bits)  # pixel centers inside the corners' box
+    last_x = (max(x0, x1, x2) - half) >> bits
+    first_y = -((half - min(y0, y1, y2)) >> bits)
+    last_y = (max(y0, y1, y2) - half) >> bits
+    xs = max(first_x, col0)
+    xe = min(last_x, col1 - 1)
+    ys = max(first_y, top)
+    ye = min(last_y, bottom - 1)
+    if xs > xe or ys > ye:
+        return
+    # edge k is opposite corner k: e_k(P) = a_k (Px - xa) + b_k (Py - ya) over edge a -> b
+    a0, b0 = y1 - y2, x2 - x1
+    a1, b1 = y2 - y0, x0 - x2
+    a2, b2 = y0 - y1, x1 - x0
+    # top-left rule: an edge owns the centers on it when its inward normal (a, b) points
+    # right, or straight down; elsewhere a center must be strictly inside (e >= 1)
+    bias0 = 0 if a0 > 0 or (a0 == 0 and b0 > 0) else -1
+    bias1 = 0 if a1 > 0 or (a1 == 0 and b1 > 0) else -1
+    bias2 = 0 if a2 > 0 or (a2 == 0 and b2 > 0) else -1
+    # 1/w is affine in screen space: the plane through the corners, stepped from the
+    # (unclamped) box corner, so a pixel's key depends on the triangle and pixel only
+    inv_area = key_scale / float(area)
+    sx = float(one << bits)
+    dzdx = (a0 * w0 + a1 * w1 + a2 * w2) * sx * inv_area
+    dzdy = (b0 * w0 + b1 * w1 + b2 * w2) * sx * inv_area
+    cx = (first_x << bits) + half
+    cy = (first_y << bits) + half
+    z_ref = ((a0 * (cx - x1) + b0 * (cy - y1)) * w0 + (a1 * (cx - x2) + b1 * (cy - y2)) * w1
+             + (a2 * (cx - x0) + b2 * (cy - y0)) * w2) * inv_area
+    tie = 1.0 / key_scale
+    step0, step1, step2 = a0 << bits, a1 << bits, a2 << bits
+    px0 = (xs << bits) + half
+    n = xe - xs + 1
+    t32 = np.int32(t)
+    plain = not use_stencil and not use_floor
+    for py in range(ys, ye + 1):
+        cy = (py << bits) + half
+        e0 = a0 * (px0 - x1) + b0 * (cy - y1) + bias0
+        e1 = a1 * (px0 - x2) + b1 * (cy - y2) + bias1
+        e2 = a2 * (px0 - x0) + b2 * (cy - y0) + bias2
+        z_row = z_ref + dzdy * (py - first_y) + dzdx * (xs - first_x)
+        r = py - top
+        c = xs - col0
+        for k in range(n):
+            if (e0 | e1 | e2) >= 0:
+                zf = z_row + dzdx * k
+                z = np.float32(zf)
+                old = key[r, c + k]
+                if (z > old or (z == old and t32 < tri[r, c + k])) and (
+                        plain or ((not use_stencil or stencil[py, xs + k] != 0)
+                                  and (not use_floor or zf * tie * floor[py, xs + k] < 1.0))):
+                    key[r, c + k] = z
+                    tri[r, c + k] = t32
+            e0 += step0
+            e1 += step1
+            e2 += step2
+
+
+@njit(cache=True, error_model="numpy")
+def _box_misses(bounds, chunk, m, planes, n_cut, width, height, col0, col1, top, bottom):
+    """True if no triangle inside the world box bounds[chunk] can cover a pixel center of
+    [top, bottom) x [col0, col1): its 8 corners all outside one side of the frustum or one
+    of the first n_cut planes (a half-space is convex), or all in front of the eye (w > 0)
+    and projecting, with a pixel to spare, beside the box (the projection of a convex set
+    in front of the eye lies in the hull of its corners' projections)."""
+    out = np.zeros(4 + n_cut, np.int64)
+    in_front = True
+    lo_x = lo_y = np.inf
+    hi_x = hi_y = -np.inf
+    for k in range(8):
+        x = bounds[chunk, 3 if k & 1 else 0]
+        y = bounds[chunk, 4 if k & 2 else 1]
+        z = bounds[chunk, 5 if k & 4 else 2]
+        cx, cy, cz, cw = _clip_xyzw(m, x, y, z)
+        out[0] += cx < -cw
+        out[1] += cx > cw
+        out[2] += cy < -cw
+        out[3] += cy > cw
+        for p in range(n_cut):
+            out[4 + p] += _outside(planes, p, cx, cy, cz, cw)
+        if cw > 0.0:
+            sx, sy = screen_from_ndc(cx / cw, cy / cw, width, height)
+            lo_x, hi_x = min(lo_x, sx), max(hi_x, sx)
+            lo_y, hi_y = min(lo_y, sy), max(hi_y, sy)
+        else:
+            in_front = False
+    for q in range(4 + n_cut):
+        if out[q] == 8:
+            return True
+    return in_front and (hi_x < col0 - 1.0 or lo_x > col1 + 1.0 or hi_y < top - 1.0
+                         or lo_y > bottom + 1.0)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, bounds, stencil,
+          use_stencil, floor, use_floor, col0, col1, top, bottom, own_tri, own_key, drew):
+    """Every triangle, in chunks of _CHUNK, into the buffers of the thread drawing it;
+    chunks whose world box (`bounds`, if given) misses the view or the box are skipped. A
+    thread clears its buffers before its first chunk and marks them in `drew` (one parallel
+    region less: on a busy machine each costs a wake-up of the other threads)."""
+    n = corners.shape[0]
+    scale = float(1 << bits)
+    for chunk in prange(chunks):
+        if bounds.shape[0] > 0 and _box_misses(bounds, chunk, m, planes, n_cut, width,
+                                                height, col0, col1, top, bottom):
+            continue
+        me = numba.get_thread_id()
+        tri = own_tri[me]
+        key = own_key[me]
+        if not drew[me]:
+            drew[me] = True
+            for r in range(tri.shape[0]):
+                for c in range(tri.shape[1]):
+                    tri[r, c] = -1
+                    key[r, c] = 0.0
+        xyw = np.empty((_MAX_POLY, 3))
+        for t in range(chunk * _CHUNK, min(n, (chunk + 1) * _CHUNK)):
+            if flags[t] & FLAG_SKIP:
+                continue
+            x0, y0, z0, w0 = _clip_xyzw(m, corners[t, 0, 0], corners[t, 0, 1], corners[t, 0, 2])
+            x1, y1, z1, w1 = _clip_xyzw(m, corners[t, 1, 0], corners[t, 1, 1], corners[t, 1, 2])
+            x2, y2, z2, w2 = _clip_xyzw(m, corners[t, 2, 0], corners[t, 2, 1], corners[t, 2, 2])
+            status = _classify(x0, y0, z0, w0, x1, y1, z1, w1, x2, y2, z2, w2, planes, n_cut)
+            if status == _CULLED:
+                continue
+            key_scale = 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0
+            if status == _CLIPPED:
+                _draw_clipped(corners, t, key_scale, m, planes, width, height, bits, cull,
+                              scale, xyw, top, bottom, col0, col1, stencil, use_stencil, floor,
+                              use_floor, tri, key)
+                continue
+            iw0, iw1, iw2 = 1.0 / w0, 1.0 / w1, 1.0 / w2
+            sx0, sy0 = screen_from_ndc(x0 * iw0, y0 * iw0, width, height)
+            sx1, sy1 = screen_from_ndc(x1 * iw1, y1 * iw1, width, height)
+            sx2, sy2 = screen_from_ndc(x2 * iw2, y2 * iw2, width, height)
+            _fill(t, key_scale, cull, _snap(sx0, scale), _snap(sy0, scale), iw0,
+                  _snap(sx1, scale), _snap(sy1, scale), iw1, _snap(sx2, scale),
+                  _snap(sy2, scale), iw2, bits, top, bottom, col0, col1, stencil, use_stencil,
+                  floor, use_floor, tri, key)
+
+
+@njit(cache=True, error_model="numpy")
+def _draw_clipped(corners, t, key_scale, m, planes, width, height, bits, cull, scale, xyw,
+                  row0, row1, col0, col1, stencil, use_stencil, floor, use_floor, tri, zbuf):
+    """A triangle some plane cuts: its clipped polygon, culled by its winding, drawn as a
+    fan of snapped triangles (sharing snapped corners: no cracks between them)."""
+    n = _clip_polygon(corners, t, m, planes, width, height, xyw)
+    if n < 3:
+        return
+    if cull != CULL_NONE:
+        a = 0.0
+        for i in range(1, n - 1):
+            a += ((xyw[i, 0] - xyw[0, 0]) * (xyw[i + 1, 1] - xyw[0, 1])
+                  - (xyw[i + 1, 0] - xyw[0, 0]) * (xyw[i, 1] - xyw[0, 1]))
+        if (cull == CULL_BACK and a > 0.0) or (cull == CULL_FRONT and a < 0.0):
+            return
+    for i in range(1, n - 1):
+        _fill(t, key_scale, CULL_NONE, _snap(xyw[0, 0], scale), _snap(xyw[0, 1], scale),
+              xyw[0, 2], _snap(xyw[i, 0], scale), _snap(xyw[i, 1], scale), xyw[i, 2],
+              _snap(xyw[i + 1, 0], scale), _snap(xyw[i + 1, 1], scale), xyw[i + 1, 2],
+              bits, row0, row1, col0, col1, stencil, use_stencil, floor, use_floor,
+              tri, zbuf)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _resolve(flags, col0, col1, top, bottom, own_tri, own_key, drew, tri, depth):
+    """Merge the threads' buffers (greatest key, then lowest triangle index) into `tri`, and
+    eye depth w = 1 / (1/w) from the key (a mirror's divided by MIRROR_TIE); buffers of
+    threads that drew nothing (`drew`) are left out. Pixels outside the box [top, bottom)
+    x [col0, col1) get no triangle."""
+    h, w = tri.shape
+    owners = np.flatnonzero(drew)
+    for py in prange(h):
+        inside = top <= py < bottom and owners.size > 0
+        r = py - top
+        for px in range(w):
+            t = np.int32(-1)
+            best = np.float32(0.0)
+            if inside and col0 <= px < col1:
+                c = px - col0
+                t = own_tri[owners[0], r, c]
+                best = own_key[owners[0], r, c]
+                for j in range(1, owners.size):
+                    k = owners[j]
+                    tk = own_tri[k, r, c]
+                    zk = own_key[k, r, c]
+                    if zk > best or (zk == best and tk >= 0 and (t < 0 or tk < t)):
+                        t = tk
+                        best = zk
+            tri[py, px] = t
+            if t < 0:
+                depth[py, px] = np.inf
+            else:
+                iw = np.float64(best) * (MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0)
+                depth[py, px] = 1.0 / iw
 
 
 @njit(cache=True, inline="always")
-def _row_span(xa, ya, xb, yb, sy, sgn, lo, hi):
-    """Narrow the pixel columns [lo, hi] of row centre `sy` to those that can lie on the
-    inner side of edge a -> b (sgn: the sign of the triangle's area), by a margin.
-
-    The edge function _area(xa, ya, xb, yb, sx, sy) = c - (sx - xa) * d changes sign at
-    sx = xa + c / d. The bound is widened by a pixel plus far more than the float64 rounding
-    of the per-pixel test can move that crossing (a few ulps of the terms, over |d|), so the
-    set of pixels the exact test accepts never changes; nearly horizontal edges (whose
-    crossing is ill-conditioned) narrow nothing."""
-    d = yb - ya
-    c = (xb - xa) * (sy - ya)
-    if abs(d) < 1e-6:
-        return lo, hi
-    root = xa + c / d  # the column where the edge function is zero
-    slack = 1.0 + 1e-9 * (abs(c / d) + abs(xa) + abs(xb) + 1.0)
-    if sgn * d > 0.0:  # inside: sx <= root
-        edge = root - 0.5 + slack
-        if edge < hi:
-            hi = int(np.floor(edge)) if edge > lo - 1 else lo - 1
-    else:  # inside: sx >= root
-        edge = root - 0.5 - slack
-        if edge > lo:
-            lo = int(np.ceil(edge)) if edge < hi + 1 else hi + 1
-    return lo, hi
+def clip_corners(corners, t, m):
+    """Clip-space x, y and w of triangle t's corners (world `corners`, clip from world `m`):
+    (x0, x1, x2, y0, y1, y2, w0, w1, w2), what barycentrics_at needs."""
+    x0, y0, z0 = corners[t, 0, 0], corners[t, 0, 1], corners[t, 0, 2]  # float32 -> float64
+    x1, y1, z1 = corners[t, 1, 0], corners[t, 1, 1], corners[t, 1, 2]
+    x2, y2, z2 = corners[t, 2, 0], corners[t, 2, 1], corners[t, 2, 2]
+    out = (m[0, 0] * x0 + m[0, 1] * y0 + m[0, 2] * z0 + m[0, 3],
+           m[0, 0] * x1 + m[0, 1] * y1 + m[0, 2] * z1 + m[0, 3],
+           m[0, 0] * x2 + m[0, 1] * y2 + m[0, 2] * z2 + m[0, 3],
+           m[1, 0] * x0 + m[1, 1] * y0 + m[1, 2] * z0 + m[1, 3],
+           m[1, 0] * x1 + m[1, 1] * y1 + m[1, 2] * z1 + m[1, 3],
+           m[1, 0] * x2 + m[1, 1] * y2 + m[1, 2] * z2 + m[1, 3],
+           m[3, 0] * x0 + m[3, 1] * y0 + m[3, 2] * z0 + m[3, 3],
+           m[3, 0] * x1 + m[3, 1] * y1 + m[3, 2] * z1 + m[3, 3],
+           m[3, 0] * x2 + m[3, 1] * y2 + m[3, 2] * z2 + m[3, 3])
+    return out
 
 
-@njit(cache=True)
-def _fill(t, key_scale, x0, y0, w0, x1, y1, w1, x2, y2, w2, ba, bb, bc, row0, row1, col0, col1,
-          stencil, floor, tri, b1, b2, depth):
-    """Scan one screen triangle over rows [row0, row1) and columns [col0, col1), stencil on.
+@njit(cache=True, inline="always")
+def barycentrics_at(c, nx, ny):
+    """(b1, b2): weights of corners 1 and 2 at the point of the triangle's plane seen through
+    NDC (nx, ny), from its clip_corners `c`: the weights are proportional to the 2D cross
+    products of the other two corners' (x - nx w, y - ny w). Perspective-correct, and right
+    for triangles the rasterizer clipped."""
+    u0, u1, u2 = c[0] - nx * c[6], c[1] - nx * c[7], c[2] - nx * c[8]
+    v0, v1, v2 = c[3] - ny * c[6], c[4] - ny * c[7], c[5] - ny * c[8]
+    d0 = u1 * v2 - u2 * v1
+    d1 = u2 * v0 - u0 * v2
+    d2 = u0 * v1 - u1 * v0
+    inv = 1.0 / (d0 + d1 + d2)
+    return d1 * inv, d2 * inv
 
-    ba/bb/bc: the corners' barycentrics in the original triangle (3,)."""
-    area = _area(x0, y0, x1, y1, x2, y2)
-    if area == 0.0:
-        return
-    inv_area = 1.0 / area
-    xmin = max(int(np.floor(min(x0, x1, x2) - 0.5)), col0)
-    xmax = min(int(np.ceil(max(x0, x1, x2) - 0.5)), col1 - 1)
-    ymin = max(int(np.floor(min(y0, y1, y2) - 0.5)), row0)
-    ymax = min(int(np.ceil(max(y0, y1, y2) - 0.5)), row1 - 1)
-    sgn = 1.0 if area > 0.0 else -1.0
-    wide = xmax - xmin >= _SPAN_MIN
-    for py in range(ymin, ymax + 1):
-        sy = py + 0.5
-        lo, hi = xmin, xmax
-        if wide:  # the row's span, widened: the exact test below still decides every pixel
-            lo, hi = _row_span(x1, y1, x2, y2, sy, sgn, lo, hi)
-            lo, hi = _row_span(x2, y2, x0, y0, sy, sgn, lo, hi)
-            lo, hi = _row_span(x0, y0, x1, y1, sy, sgn, lo, hi)
-        for px in range(lo, hi + 1):
-            if stencil[py, px] == 0:
+
+@njit(cache=True, inline="always")
+def recover_barycentrics(corners, t, m, nx, ny):
+    """(b1, b2) of triangle t at NDC (nx, ny): barycentrics_at of its clip_corners."""
+    return barycentrics_at(clip_corners(corners, t, m), nx, ny)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _barycentrics(tri, corners, m, b1, b2):
+    """b1, b2 of every pixel's triangle (0 where none), by recover_barycentrics."""
+    h, w = tri.shape
+    for py in prange(h):
+        ny = 1.0 - (py + 0.5) * (2.0 / h)
+        for px in range(w):
+            t = tri[py, px]
+            if t < 0:
+                b1[py, px] = 0.0
+                b2[py, px] = 0.0
                 continue
-            sx = px + 0.5
-            l0 = _area(x1, y1, x2, y2, sx, sy) * inv_area
-            l1 = _area(x2, y2, x0, y0, sx, sy) * inv_area
-            l2 = 1.0 - l0 - l1
-            if l0 < 0.0 or l1 < 0.0 or l2 < 0.0:
-                continue
-            q0 = l0 * w0
-            q1 = l1 * w1
-            q2 = l2 * w2
-            iw = q0 + q1 + q2
-            w = 1.0 / iw
-            key = w * key_scale
-            if key < depth[py, px] and w > floor[py, px]:
-                depth[py, px] = key
-                tri[py, px] = t
-                b1[py, px] = (q0 * ba[1] + q1 * bb[1] + q2 * bc[1]) * w
-                b2[py, px] = (q0 * ba[2] + q1 * bb[2] + q2 * bc[2]) * w
-
-
-@njit(cache=True, parallel=True)
-def _draw(corners, flags, m, planes, width, height, cull, screen, status, bands, offsets, items,
-          stencil, floor, col0, col1, top, bottom, tri, b1, b2, depth):
-    e0 = np.array([1.0, 0.0, 0.0])
-    e1 = np.array([0.0, 1.0, 0.0])
-    e2 = np.array([0.0, 0.0, 1.0])
-    rows = bottom - top
-    for band in prange(bands):
-        row0 = top + band * rows // bands
-        row1 = top + (band + 1) * rows // bands
-        xyw = np.empty((_MAX_POLY, 3))
-        bary = np.empty((_MAX_POLY, 3))
-        for item in range(offsets[band], offsets[band + 1]):
-            t = items[item]
-            st = status[t]
-            key_scale = MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0
-            if st == _SIMPLE:
-                s = screen[t]
-                _fill(t, key_scale, s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8],
-                      e0, e1, e2, row0, row1, col0, col1, stencil, floor, tri, b1, b2, depth)
-                continue
-            n = _clip_polygon(corners, t, m, planes, width, height, xyw, bary)
-            if n < 3:
-                continue
-            if cull != CULL_NONE:
-                a = 0.0
-                for i in range(1, n - 1):
-                    a += _area(xyw[0, 0], xyw[0, 1], xyw[i, 0], xyw[i, 1],
-                               xyw[i + 1, 0], xyw[i + 1, 1])
-                if (cull == CULL_BACK and a > 0.0) or (cull == CULL_FRONT and a < 0.0):
-                    continue
-            for i in range(1, n - 1):
-                _fill(t, key_scale, xyw[0, 0], xyw[0, 1], xyw[0, 2],
-                      xyw[i, 0], xyw[i, 1], xyw[i, 2], xyw[i + 1, 0], xyw[i + 1, 1],
-                      xyw[i + 1, 2], bary[0], bary[i], bary[i + 1], row0, row1, col0, col1,
-                      stencil, floor, tri, b1, b2, depth)
-    # depth keys of mirrors were scaled: undo so the buffer holds true eye-space depth
-    for band in prange(bands):
-        row0 = top + band * rows // bands
-        row1 = top + (band + 1) * rows // bands
-        for py in range(row0, row1):
-            for px in range(col0, col1):
-                t = tri[py, px]
-                if t >= 0 and flags[t] & FLAG_MIRROR:
-                    depth[py, px] = depth[py, px] / MIRROR_TIE
+            c1, c2 = recover_barycentrics(corners, t, m, (px + 0.5) * (2.0 / w) - 1.0, ny)
+            b1[py, px] = c1
+            b2[py, px] = c2

@@ -8,7 +8,7 @@ from numba import njit, prange
 
 from ..scene.types import Scene, Triangles
 from ..shading import surface_color
-from .rasterize import RasterBuffers
+from .rasterize import RasterBuffers, barycentrics_at, clip_corners
 
 
 def shade_buffers(
@@ -39,7 +39,16 @@ def shade_buffers(
     else:
         dirs, per_pixel = np.ascontiguousarray(incoming, np.float64), True
         assert dirs.shape == (h, w, 3)
-    args = (buffers.triangle, buffers.b1, buffers.b2, tris.corners, tris.uvs, tris.normals,
+    # barycentrics recovered per shaded pixel from the triangles the rasterizer drew (which
+    # may differ from the shaded ones: virtual triangles shaded as their originals)
+    if buffers.recover:
+        b1 = b2 = np.zeros((1, 1), np.float32)
+        m = np.ascontiguousarray(buffers.clip_from_world, np.float64)
+        drawn = buffers.corners
+    else:
+        b1, b2, m, drawn = buffers.b1, buffers.b2, np.eye(4), np.zeros((1, 3, 3), np.float32)
+    args = (buffers.triangle, b1, b2, buffers.recover, m, drawn, tris.corners, tris.uvs,
+            tris.normals,
             tris.material, tris.surface, scene.n_objects, np.asarray(eye, np.float64),
             dirs, per_pixel,
             scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
@@ -56,35 +65,50 @@ def shade_buffers(
 
 
 @njit(cache=True, parallel=True)
-def _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
-           dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient, background, refl,
-           base, rgb, surf):
+def _shade(tri, b1, b2, recover, m, drawn, corners, uvs, normals, material, surface,
+           n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient,
+           background, refl, base, rgb, surf):
+    """Every pixel shaded. `recover`: barycentrics from the clip-space corners of the
+    triangles drawn (`drawn`, world; clip from world `m`) instead of b1, b2."""
     h, w = tri.shape
     for y in prange(h):
+        last = -1  # the triangle whose clip-space corners `clip` holds (kept along the row)
+        clip = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         for x in range(w):
-            _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
-                         n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
-                         shading, ambient, background, refl, base, rgb, surf)
+            t = tri[y, x]
+            if recover and t >= 0 and t != last:
+                last = t
+                clip = clip_corners(drawn, t, m)
+            _shade_pixel(y, x, tri, b1, b2, recover, clip, corners, uvs, normals,
+                         material, surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
+                         texels, light_f, shading, ambient, background, refl, base, rgb, surf)
 
 
 @njit(cache=True, parallel=True)
-def _shade_stencil(stencil, tri, b1, b2, corners, uvs, normals, material, surface, n_objects,
-                   eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient,
-                   background, refl, base, rgb, surf):
+def _shade_stencil(stencil, tri, b1, b2, recover, m, drawn, corners, uvs, normals, material,
+                   surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                   shading, ambient, background, refl, base, rgb, surf):
     """_shade of the pixels where `stencil` is set; the others are left as they are."""
     h, w = tri.shape
     for y in prange(h):
+        last = -1
+        clip = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         for x in range(w):
             if stencil[y, x]:
-                _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
-                             n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
-                             shading, ambient, background, refl, base, rgb, surf)
+                t = tri[y, x]
+                if recover and t >= 0 and t != last:
+                    last = t
+                    clip = clip_corners(drawn, t, m)
+                _shade_pixel(y, x, tri, b1, b2, recover, clip, corners, uvs, normals,
+                             material, surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
+                             texels, light_f, shading, ambient, background, refl, base, rgb,
+                             surf)
 
 
 @njit(cache=True, inline="always")
-def _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
-                 dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient, background,
-                 refl, base, rgb, surf):
+def _shade_pixel(y, x, tri, b1, b2, recover, clip, corners, uvs, normals, material, surface,
+                 n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading,
+                 ambient, background, refl, base, rgb, surf):
     t = tri[y, x]
     if t < 0:
         surf[y, x] = -1
@@ -98,8 +122,13 @@ def _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface, n_
         for c in range(3):
             rgb[y, x, c] = (1.0 - refl[k, c]) * base[k, c]
         return
-    c1 = b1[y, x]
-    c2 = b2[y, x]
+    if recover:  # from the triangle's clip-space corners and the pixel center's NDC
+        h, w = tri.shape
+        c1, c2 = barycentrics_at(clip, (x + 0.5) * (2.0 / w) - 1.0,
+                                 1.0 - (y + 0.5) * (2.0 / h))
+    else:
+        c1 = b1[y, x]
+        c2 = b2[y, x]
     c0 = 1.0 - c1 - c2
     u = c0 * uvs[t, 0, 0] + c1 * uvs[t, 1, 0] + c2 * uvs[t, 2, 0]
     v = c0 * uvs[t, 0, 1] + c1 * uvs[t, 1, 1] + c2 * uvs[t, 2, 1]

@@ -76,7 +76,11 @@ BOUNDS: dict[tuple[str, str, str], float] = {
     ("virtual", "l-room", "lit"): 22.0,  # 22.52
     ("envmap", "l-room", "unlit"): 16.7,  # 17.20
     ("envmap", "l-room", "lit"): 21.3,  # 21.88
-    ("distmap", "l-room", "unlit"): 23.2,  # 23.71
+    # 23.03 since the fixed-point rasterizer (23.71 before): one of the 692 mirror pixels
+    # flips. The cube-map texels that changed (2178 of 1.5M) are ties, at equal depth to
+    # 1e-7, between surfaces that touch (the rasterizer's rule for a center exactly on a
+    # shared edge changed, and either surface is right there)
+    ("distmap", "l-room", "unlit"): 22.5,
     ("distmap", "l-room", "lit"): 25.1,  # 25.60
     ("raster", "mask", "unlit"): 3.1,  # 3.69
     ("raster", "mask", "lit"): 8.1,  # 8.63

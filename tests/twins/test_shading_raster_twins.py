@@ -179,9 +179,9 @@ def test_shade_pass_matches_twin(seed, shading, per_pixel):
     # per pixel incoming rays (a curved mirror's reflected rays), or the eye's
     incoming = rng.normal(size=(h, w, 3)) if per_pixel else None
     dirs = incoming if per_pixel else np.zeros((1, 1, 3))
-    _shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye, dirs,
-           per_pixel, mat_i, mat_f, texels, light_f, shading, 0.1, background, refl, base, rgb,
-           surf)
+    _shade(tri, b1, b2, False, np.eye(4), corners, corners, uvs, normals, material, surface,
+           n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, 0.1,
+           background, refl, base, rgb, surf)
     want_rgb, want_surf = shade(tri, b1, b2, corners, uvs, normals, material, surface,
                                 n_objects, eye, mat_i, mat_f, texels, light_f, shading, 0.1,
                                 background, refl, base, incoming)
@@ -196,12 +196,57 @@ def test_shade_pass_matches_twin(seed, shading, per_pixel):
     head = (tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye)
     tail = (mat_i, mat_f, texels, light_f, shading, 0.1, background, refl, base)
     want_rgb_s, want_surf_s = shade_stencil(stencil, rgb_s, surf_s, *head, *tail, incoming)
-    _shade_stencil(stencil, *head, dirs, per_pixel, *tail, rgb_s, surf_s)
+    _shade_stencil(stencil, *head[:3], False, np.eye(4), corners, *head[3:], dirs, per_pixel, *tail,
+                   rgb_s, surf_s)
     np.testing.assert_array_equal(surf_s, want_surf_s)
     np.testing.assert_allclose(rgb_s, want_rgb_s, rtol=2e-5, atol=1e-6)
     assert (rgb_s[~stencil] == -7.0).all() and (surf_s[~stencil] == -9).all()
     # and bit for bit the full kernel's values where it shades
     np.testing.assert_array_equal(rgb_s[stencil], rgb[stencil])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_shade_pass_recovering_barycentrics_matches_twin(seed):
+    """_shade with recover=True (barycentrics from the clip-space corners, as after
+    rasterize) against the twin shading the reference rasterizer's float64 barycentrics,
+    on the pixels where both rasterizers see the same triangle (smooth materials: a
+    checker's or texel's edge would turn a 1e-7 difference into a colour jump)."""
+    rng = np.random.default_rng(seed)
+    cam = camera()
+    m = cam.projection_matrix() @ cam.view_matrix()
+    corners = random_triangles(cam, 16, rng)
+    n_tri, n_objects = 16, 3
+    _, uvs, normals, _ = random_scene_arrays(rng, n_tri, n_objects, 0)
+    surface = rng.integers(0, n_objects, n_tri).astype(np.int32)
+    material = np.zeros(n_tri, np.int32)
+    mat_i = np.zeros((1, 5), np.int32)
+    mat_i[0, 0] = SOLID
+    mat_f = np.array([[0.7, 0.4, 0.2, 0, 0, 0, 1, 1]], np.float64)
+    texels = np.zeros((1, 3), np.float32)
+    light_f = lights(rng)
+    flags = np.zeros(n_tri, np.uint8)
+    got = fast_rasterize(corners, flags, m, W, H)
+    assert got.recover
+    tri_ref, b1_ref, b2_ref, _, ambiguous = rasterize(corners, flags, m, W, H)
+    eye = cam.eye.astype(np.float64)
+    background = np.zeros(3, np.float32)
+    none3 = np.zeros((0, 3), np.float32)
+    rgb = np.empty((H, W, 3), np.float32)
+    surf = np.empty((H, W), np.int32)
+    dummy = np.zeros((1, 1), np.float32)
+    _shade(got.triangle, dummy, dummy, True, m, corners, corners, uvs, normals, material, surface,
+           n_objects, eye, np.zeros((1, 1, 3)), False, mat_i, mat_f, texels, light_f, LAMBERT,
+           0.1, background, none3, none3, rgb, surf)
+    want_rgb, _ = shade(tri_ref, b1_ref, b2_ref, corners, uvs, normals, material, surface,
+                        n_objects, eye, mat_i, mat_f, texels, light_f, LAMBERT, 0.1,
+                        background, none3, none3, None)
+    same = (got.triangle == tri_ref) & ~ambiguous
+    assert same.mean() > 0.95 and (tri_ref[same] >= 0).mean() > 0.3
+    np.testing.assert_allclose(rgb[same], want_rgb[same], rtol=1e-5, atol=1e-6)
+    # and the stored barycentrics (made on first use) are the recovered ones, to float32
+    covered = same & (tri_ref >= 0)
+    np.testing.assert_allclose(got.b1[covered], b1_ref[covered], atol=1e-5)
+    np.testing.assert_allclose(got.b2[covered], b2_ref[covered], atol=1e-5)
 
 
 W, H = 32, 24

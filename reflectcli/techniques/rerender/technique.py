@@ -82,7 +82,8 @@ class Rerender(Technique):
             offset = 1e-4 * (1.0 + abs(d) + float(np.abs(eye).max()))
             world_to_clip, planes = reflection_pass_matrices(
                 camera, new_chain, np.append(n, d - offset), self.params.clip)
-            pass_flags = flags | np.where(tris.surface == sid, FLAG_SKIP, 0).astype(np.uint8)
+            pass_flags = flags.copy()
+            pass_flags[tris.surface == sid] |= FLAG_SKIP
             buffers = rasterize(tris.corners, pass_flags, world_to_clip, camera.width,
                                 camera.height, planes, mask=stencil, workspace=self._pass_ws)
             # only the stencil's pixels are shaded (and read below): the rest of the pass's
@@ -95,4 +96,11 @@ class Rerender(Technique):
             stats["pass_seconds"].append(time.perf_counter() - start)
             self._reflect(scene, tris, flags, camera, level + 1, new_chain, new_eye,
                           reflected_surface, stencil, reflected, stats)
-            rgb[stencil] += mirrors.reflectance[k] * reflected[stencil]
+            # over the stencil's box (boolean indexing of (H, W, 3) arrays costs milliseconds)
+            rows = np.flatnonzero(stencil.any(axis=1))
+            cols = np.flatnonzero(stencil.any(axis=0))
+            box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+            inside = stencil[box][..., None]  # the rest of `reflected` was never written
+            part = np.multiply(mirrors.reflectance[k], reflected[box], where=inside,
+                               out=np.zeros(reflected[box].shape, np.float32))
+            np.add(rgb[box], part, out=rgb[box], where=inside)
