@@ -314,7 +314,8 @@ def main() -> None:
     print(f"{args.scene}, {w}x{h}, 1 spp, max_depth {r['max_depth']}, {r['rays']:,} rays a "
           f"reflect frame; Mitsuba {r['version']['ready']} {r['version']['variant']}, "
           f"{args.threads} threads")
-    print(f"  Mitsuba first frame (kernel compile or cache load): {1e3 * r['mitsuba_first']:.1f} ms")
+    print(f"  Mitsuba first frame (kernel compile or cache load): "
+          f"{1e3 * r['mitsuba_first']:.1f} ms")
     print(f"  reflect raytrace: {ms(r['reflect'])}")
     print(f"  Mitsuba:          {ms(r['mitsuba'])}")
     print(f"  reflect / Mitsuba: {np.median(r['reflect']) / np.median(r['mitsuba']):.2f}x "

@@ -32,12 +32,18 @@ from ..scene.types import (
 
 def intersect_analytic(
     origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray, kind: np.ndarray,
-    params: np.ndarray, tmin: float
+    params: np.ndarray, tmin: float, out: tuple[np.ndarray, np.ndarray] | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest analytic-mirror hit per ray in (tmin, tfar): (t or inf, mirror index or -1)."""
+    """Nearest analytic-mirror hit per ray in (tmin, tfar): (t or inf, mirror index or -1).
+    `out`: (n,) float32 and int32 arrays to fill instead of new ones."""
     n = origins.shape[0]
-    t = np.full(n, np.inf, np.float32)
-    idx = np.full(n, -1, np.int32)
+    if out is None:
+        t = np.full(n, np.inf, np.float32)
+        idx = np.full(n, -1, np.int32)
+    else:
+        t, idx = out
+        t.fill(np.inf)
+        idx.fill(-1)
     if np.any((kind == SPHERE) | (kind == CYLINDER) | (kind == PLANAR)):
         params = np.ascontiguousarray(params, dtype=np.float64)
         _intersect(origins, directions, tfar, kind, params, tmin, t, idx)

@@ -10,13 +10,18 @@ from numba import njit, prange
 from ..camera import Camera
 
 
-def primary_rays(camera: Camera, samples: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def primary_rays(camera: Camera, samples: int = 1, out: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """float32 (origins, directions), (H * W * s * s, 3): the rays of `pixel_directions`
-    (same order, eye-space z = -1 per direction), starting on the near plane."""
+    (same order, eye-space z = -1 per direction), starting on the near plane. `out`: two
+    (n, 3) float32 arrays to fill (kept across frames by the tracer) instead of new ones."""
     right, up, back = camera.basis()
     n = camera.height * camera.width * samples * samples
-    origins = np.empty((n, 3), np.float32)
-    dirs = np.empty((n, 3), np.float32)
+    if out is None:
+        origins = np.empty((n, 3), np.float32)
+        dirs = np.empty((n, 3), np.float32)
+    else:
+        origins, dirs = out
     _primary_rays(np.asarray(camera.eye, np.float64), right, up, back,
                   math.tan(math.radians(camera.fov_y) / 2.0), camera.width, camera.height,
                   samples, camera.near, origins, dirs)
