@@ -113,6 +113,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                         None),
     "virtual/explosion.py:_vertex_coords": (
         [V + "test_map_coords_and_vertex_coords_match_twin"], "build_explosion_maps"),
+    "virtual/explosion.py:_span": (FILL, "_fill_triangle"),
     "virtual/explosion.py:_fill_triangle": (FILL, None),
     "virtual/explosion.py:_fill_faces": (FILL, None),
     "virtual/explosion.py:_extend": (FILL, "_fill_extensions"),

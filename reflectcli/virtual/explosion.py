@@ -205,8 +205,24 @@ def _vertex_coords(v, n, used, eye, center, radius, frame, res, s, coords):
                                                 oz + t * rz)
 
 
+@njit(cache=True, inline="always")
+def _span(lo, hi, slope, const):
+    """[lo, hi] narrowed to the texels x whose center px = x + 0.5 may have
+    slope * px + const >= 0, with 2 texels to spare for rounding; unchanged where the
+    slope is too flat to place the crossing (|slope| < 1e-6 texel units)."""
+    if slope >= 1e-6:
+        lo = max(lo, -const / slope - 2.5)
+    elif slope <= -1e-6:
+        hi = min(hi, -const / slope + 1.5)
+    return lo, hi
+
+
 @njit(cache=True)
 def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty):
+    """Texels whose centers the triangle holds (barycentrics >= 0, either winding) get
+    `value` (with `only_empty`, only texels still < 0). Each row visits only the span the
+    three edge functions allow (widened by 2 texels) of the bounding box, then tests each
+    texel exactly as before: the same texels as testing the whole box."""
     res = ids.shape[0]
     area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
     if area == 0.0 or math.isnan(area):
@@ -215,9 +231,20 @@ def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty):
     x1 = min(int(math.ceil(max(ax, bx, cx))), res - 1)
     y0 = max(int(math.floor(min(ay, by, cy))), 0)
     y1 = min(int(math.ceil(max(ay, by, cy))), res - 1)
+    sign = 1.0 if area > 0.0 else -1.0
     for y in range(y0, y1 + 1):
         py = y + 0.5
-        for x in range(x0, x1 + 1):
+        # area * w_i as functions of px (w0 = e0 / area, ...), signed to be >= 0 inside
+        s0 = sign * (by - cy)
+        k0 = sign * (bx * (cy - py) - cx * (by - py))
+        s1 = sign * (cy - ay)
+        k1 = sign * (cx * (ay - py) - ax * (cy - py))
+        lo, hi = _span(float(x0), float(x1), s0, k0)
+        lo, hi = _span(lo, hi, s1, k1)
+        lo, hi = _span(lo, hi, -s0 - s1, sign * area - k0 - k1)
+        if not lo <= hi:
+            continue
+        for x in range(int(math.ceil(lo)), int(math.floor(hi)) + 1):
             px = x + 0.5
             w0 = ((bx - px) * (cy - py) - (cx - px) * (by - py)) / area
             w1 = ((cx - px) * (ay - py) - (ax - px) * (cy - py)) / area
