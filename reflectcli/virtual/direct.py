@@ -36,15 +36,23 @@ from numba import njit, prange
 
 
 @njit(cache=True, inline="always")
-def _circle_law(theta, ex, ey, qx, qy, r):
-    """f(theta) = n x u_E + n x u_Q: positive before the reflection point, negative after."""
-    nx, ny = math.cos(theta), math.sin(theta)
+def _circle_law(nx, ny, ex, ey, qx, qy, r):
+    """(f(theta), f'(theta)) at the unit normal n = (cos theta, sin theta), with
+    f = n x u_E + n x u_Q: positive before the reflection point, negative after. For a unit
+    u_P from J = r n to P at distance L_P, with n x u and n . u the 2-D cross and dot
+    products: d/dtheta (n x u_P) = -(n . u_P) - (r / L_P) (1 - (n x u_P)^2)."""
     jx, jy = r * nx, r * ny
     ux, uy = ex - jx, ey - jy
-    inv = 1.0 / math.sqrt(ux * ux + uy * uy)
+    length_e = math.sqrt(ux * ux + uy * uy)
+    inv = 1.0 / length_e
     vx, vy = qx - jx, qy - jy
-    inv2 = 1.0 / max(math.sqrt(vx * vx + vy * vy), 1e-300)
-    return (nx * uy - ny * ux) * inv + (nx * vy - ny * vx) * inv2
+    length_q = max(math.sqrt(vx * vx + vy * vy), 1e-300)
+    inv2 = 1.0 / length_q
+    cross_e = (nx * uy - ny * ux) * inv
+    cross_q = (nx * vy - ny * vx) * inv2
+    slope = (-(nx * ux + ny * uy) * inv - r * inv * (1.0 - cross_e * cross_e)
+             - (nx * vx + ny * vy) * inv2 - r * inv2 * (1.0 - cross_q * cross_q))
+    return cross_e + cross_q, slope
 
 
 @njit(cache=True)
@@ -52,33 +60,42 @@ def _circle_reflection(ex, ey, qx, qy, r):
     """Angle theta (from +x) of the reflection point on a circle of radius r at the origin
     for E = (ex, ey) on the +x axis (ey = 0) and Q = (qx, qy) with qy >= 0.
 
-    The root of f on [0, phi_Q] is bracketed; the Illinois variant of regula falsi keeps the
-    bracket (as bisection would) and converges superlinearly: ~10 evaluations instead of ~44
-    halvings for the same 1e-13 rad."""
+    The root of f on [0, phi_Q] is bracketed. Newton's method from the split of phi_Q in
+    the ratio of the two points' heights above the circle (exact when they are equal, and at
+    either end as one of them reaches the circle), kept inside the shrinking bracket
+    (bisection whenever a step would leave it): about 4 evaluations of f where regula falsi
+    took about 10, for the same 1e-13 rad."""
     lo, hi = 0.0, math.atan2(qy, qx)
-    f_lo = _circle_law(lo, ex, ey, qx, qy, r)
-    f_hi = _circle_law(hi, ex, ey, qx, qy, r)
+    lq = math.sqrt(qx * qx + qy * qy)
+    f_lo = _circle_law(1.0, 0.0, ex, ey, qx, qy, r)[0]  # the ends' normals need no trig
+    f_hi = _circle_law(qx / lq, qy / lq, ex, ey, qx, qy, r)[0]
     if f_lo <= 0.0:
         return lo
     if f_hi >= 0.0:
         return hi
-    side = 0
-    for _ in range(60):
-        mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-        f_mid = _circle_law(mid, ex, ey, qx, qy, r)
-        if f_mid > 0.0:
-            lo, f_lo = mid, f_mid
-            if side == 1:
-                f_hi *= 0.5
-            side = 1
+    height_e = max(math.sqrt(ex * ex + ey * ey) - r, 0.0)
+    height_q = max(lq - r, 0.0)
+    theta = 0.5 * hi
+    if height_e + height_q > 0.0:
+        theta = hi * height_e / (height_e + height_q)
+    if not lo < theta < hi:
+        theta = 0.5 * (lo + hi)
+    for _ in range(100):
+        f, slope = _circle_law(math.cos(theta), math.sin(theta), ex, ey, qx, qy, r)
+        if f == 0.0:
+            return theta
+        if f > 0.0:
+            lo = theta
         else:
-            hi, f_hi = mid, f_mid
-            if side == -1:
-                f_lo *= 0.5
-            side = -1
-        if hi - lo < 1e-13 or f_mid == 0.0:
-            break
-    return 0.5 * (lo + hi) if hi - lo < 1e-13 else mid
+            hi = theta
+        step = f / slope if slope != 0.0 else np.inf
+        nxt = theta - step
+        if not lo < nxt < hi:
+            nxt = 0.5 * (lo + hi)
+        if abs(nxt - theta) < 1e-13 or hi - lo < 1e-13:
+            return nxt
+        theta = nxt
+    return theta
 
 
 @njit(cache=True)
