@@ -1059,7 +1059,8 @@ def fill_faces(ids, coords, faces, drawn):
 def fill_extensions(ids, coords, extensions, n_faces, center, reach):
     """Twin of virtual.explosion._fill_extensions / _extend: each extension's quad, from its
     edge (i, j) out to `reach` from the map center along the directions of its ends, filled
-    where empty with n_faces + its index (both windings)."""
+    where empty with n_faces + its index (as two triangles; fill_triangle takes either
+    winding)."""
     def out(p):
         d = np.asarray(p, np.float64) - center
         length = np.linalg.norm(d)
@@ -1068,7 +1069,7 @@ def fill_extensions(ids, coords, extensions, n_faces, center, reach):
     for e, (_, i, j) in enumerate(extensions):
         a, b = coords[i], coords[j]
         c, d = out(b), out(a)
-        for tri in ((a, b, c), (a, c, d), (a, c, b), (a, d, c)):
+        for tri in ((a, b, c), (a, c, d)):
             fill_triangle(ids, *tri, n_faces + e, True)
 
 

@@ -281,11 +281,9 @@ def _fill_extensions(ids, coords, extensions, n_faces, center, reach):
         cx, cy = _extend(center, center, bx, by, reach)
         dx, dy = _extend(center, center, ax, ay, reach)
         value = n_faces + e
+        # either winding: _fill_triangle's barycentrics are divided by the signed area
         _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, True)
         _fill_triangle(ids, ax, ay, cx, cy, dx, dy, value, True)
-        # the quad may be wound either way: fill its mirror too
-        _fill_triangle(ids, ax, ay, cx, cy, bx, by, value, True)
-        _fill_triangle(ids, ax, ay, dx, dy, cx, cy, value, True)
 
 
 def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.ndarray,
