@@ -1050,6 +1050,16 @@ def fill_triangle(ids, a, b, c, value, only_empty):
     ids[inside] = value
 
 
+def nearest_filled_distance(empty):
+    """Twin of virtual.explosion._nearest_filled, by brute force: per texel, the Euclidean
+    distance (texel centers) to the nearest texel that is not empty."""
+    h, w = empty.shape
+    fy, fx = np.nonzero(~empty)
+    yy, xx = np.mgrid[0:h, 0:w]
+    d2 = (yy[..., None] - fy) ** 2 + (xx[..., None] - fx) ** 2
+    return np.sqrt(d2.min(axis=-1))
+
+
 def fill_faces(ids, coords, faces, drawn):
     """Twin of virtual.explosion._fill_faces: the drawn faces in order, filled with their id."""
     for fi in drawn:

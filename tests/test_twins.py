@@ -114,6 +114,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/explosion.py:_vertex_coords": (
         [V + "test_map_coords_and_vertex_coords_match_twin"], "build_explosion_maps"),
     "virtual/explosion.py:_span": (FILL, "_fill_triangle"),
+    "virtual/explosion.py:_nearest_filled": ([V + "test_nearest_filled_matches_twin"],
+                                             "_fill_nearest"),
     "virtual/explosion.py:_fill_triangle": (FILL, None),
     "virtual/explosion.py:_fill_faces": (FILL, None),
     "virtual/explosion.py:_extend": (FILL, "_fill_extensions"),

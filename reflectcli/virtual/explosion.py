@@ -176,14 +176,76 @@ def boundary_edges(faces: np.ndarray) -> np.ndarray:
 
 
 def _fill_nearest(ids: np.ndarray) -> None:
-    """Give every empty texel the id of the nearest filled one (in place)."""
+    """Give every empty texel the id of the nearest filled one (Euclidean distance between
+    texel centers; among equally near ones, the one _nearest_filled meets first), in place."""
     empty = ids < 0
     if not empty.any() or empty.all():
         return
-    from scipy.ndimage import distance_transform_edt
+    h, w = ids.shape
+    rows = np.empty((h, w), np.int32)
+    cols = np.empty((h, w), np.int32)
+    _nearest_filled(empty, rows, cols)
+    ids[empty] = ids[rows[empty], cols[empty]]
 
-    _, (iy, ix) = distance_transform_edt(empty, return_indices=True)
-    ids[empty] = ids[iy[empty], ix[empty]]
+
+_FAR = 1e20  # squared distance standing for "no filled texel in this column"
+
+
+@njit(cache=True)
+def _nearest_filled(empty, rows, cols):
+    """Exact Euclidean feature transform (Felzenszwalb & Huttenlocher's two passes of 1-D
+    squared distance transforms, in O(texels)): rows[y, x], cols[y, x] is a filled (not
+    empty) texel nearest to (y, x). Pass 1: per column, the nearest filled row (ties: the
+    one above). Pass 2: per row, the lower envelope of the parabolas (x - x')^2 + g(x')^2
+    (ties: the leftmost parabola of the envelope)."""
+    h, w = empty.shape
+    near_row = np.empty((h, w), np.int32)
+    g = np.empty((h, w))
+    for x in range(w):
+        last = -1
+        for y in range(h):  # nearest filled at or above
+            if not empty[y, x]:
+                last = y
+            near_row[y, x] = last
+        last = -1
+        for y in range(h - 1, -1, -1):  # nearest filled at or below, if nearer
+            if not empty[y, x]:
+                last = y
+            above = near_row[y, x]
+            if last >= 0 and (above < 0 or last - y < y - above):
+                near_row[y, x] = last
+            r = near_row[y, x]
+            g[y, x] = _FAR if r < 0 else float((y - r) * (y - r))
+    v = np.empty(w, np.int64)  # parabolas of the lower envelope
+    z = np.empty(w + 1)  # their ranges
+    for y in range(h):
+        k = 0
+        v[0] = 0
+        z[0] = -np.inf
+        z[1] = np.inf
+        for q in range(1, w):
+            while True:
+                p = v[k]
+                s = ((g[y, q] + q * q) - (g[y, p] + p * p)) / (2.0 * (q - p))
+                if s <= z[k] and k > 0:
+                    k -= 1
+                    continue
+                break
+            if s <= z[k]:  # k == 0: q replaces the first parabola
+                v[0] = q
+                z[1] = np.inf
+                continue
+            k += 1
+            v[k] = q
+            z[k] = s
+            z[k + 1] = np.inf
+        k = 0
+        for x in range(w):
+            while z[k + 1] < x:
+                k += 1
+            q = v[k]
+            cols[y, x] = q
+            rows[y, x] = near_row[y, q]
 
 
 @njit(cache=True)

@@ -13,6 +13,7 @@ from naive import (
     grid_sample,
     map_coords,
     mirror_on_circle,
+    nearest_filled_distance,
     plane_from_map,
     profile_one,
     refine_point,
@@ -268,3 +269,24 @@ def test_explosion_lookup_matches_twin(sphere_maps, flip):
     np.testing.assert_allclose(got, want, atol=1e-8, rtol=1e-9)
     np.testing.assert_array_equal(flags, (hidden_face >= 0) | unreflected)
     assert not unreflected.all() and (unreflected.any() or flip)
+
+
+def test_nearest_filled_matches_twin():
+    """The feature transform behind _fill_nearest names, for every texel, a filled texel at
+    the least distance (ties may go either way), on sparse, dense, one-row and one-column
+    maps and a map with one filled texel."""
+    rng = np.random.default_rng(8)
+    cases = [rng.random(tuple(rng.integers(1, 30, 2))) < p for p in (0.3, 0.8, 0.97)
+             for _ in range(10)]
+    cases += [rng.random((1, 25)) < 0.7, rng.random((25, 1)) < 0.7,
+              np.arange(400).reshape(20, 20) != 137]
+    for empty in cases:
+        if empty.all():
+            continue
+        h, w = empty.shape
+        rows = np.empty((h, w), np.int32)
+        cols = np.empty((h, w), np.int32)
+        explosion._nearest_filled(empty, rows, cols)
+        assert not empty[rows, cols].any()
+        got = np.hypot(rows - np.arange(h)[:, None], cols - np.arange(w)[None, :])
+        np.testing.assert_allclose(got, nearest_filled_distance(empty), rtol=0, atol=1e-12)
