@@ -390,7 +390,7 @@ def cylinder_closed_form(o, d, origin, axis, r, h, tmin):
 
 
 def quad_closed_form(o, d, n, c00, e1, e2, tmin):
-    """Twin of trace.analytic._quad (and _in_triangle): ray-plane t, then the hit's
+    """Twin of trace.analytic._quad (and _inner, quad_edges): ray-plane t, then the hit's
     coordinates along the rectangle's two edges. Returns (t, marginal)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         t = -((o - c00) @ n) / (d @ n)

@@ -75,7 +75,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                    "TriangleScene.intersect"),
     "trace/analytic.py:_sphere": (ANALYTIC, "_intersect"),
     "trace/analytic.py:_cylinder": (ANALYTIC, "_intersect"),
-    "trace/analytic.py:_in_triangle": (ANALYTIC, "_quad"),
+    "trace/analytic.py:_inner": (ANALYTIC, "_quad"),
     "trace/analytic.py:_quad": (ANALYTIC, "_intersect"),
     "trace/analytic.py:_intersect": (
         ANALYTIC + [E + "test_analytic_property_cases_are_mostly_clear"], "intersect_analytic"),
