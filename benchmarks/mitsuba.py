@@ -20,9 +20,10 @@ bounces, no light or shadow rays. Only unlit scenes with planar (triangle) mirro
 
 Mitsuba runs in a subprocess (this file with `--worker`, under the Mitsuba python) that renders
 one frame per request; the frames alternate with reflect's (one of each per round, medians
-after warm-up), so a busy machine slows both alike. A Mitsuba frame is `mi.render` of the
-scene (its JIT traces the integrator, finds the compiled kernel in its cache, launches it)
-plus waiting for the image; its first frame, which compiles the kernel, is reported apart.
+after warm-up, `--gap` seconds of idle before each), so a busy machine slows both alike.
+A Mitsuba frame is `mi.render` of the scene (its JIT traces the integrator, finds the
+compiled kernel in its cache, launches it) plus waiting for the image; its first frame, which
+compiles the kernel (or loads it from Dr.Jit's disk cache), is reported apart.
 """
 
 from __future__ import annotations
@@ -240,9 +241,12 @@ class Worker:
 
 
 def compare(scene: str, python: str, reps: int, threads: int, variant: str,
-            max_depth: int | None = None) -> dict | None:
+            max_depth: int | None = None, gap: float = 0.1) -> dict | None:
     """Alternating frames of reflect's raytrace and Mitsuba's; None when Mitsuba is missing.
-    Returns seconds per frame (arrays), the Mitsuba first frame, rays, and an image check."""
+    Returns seconds per frame (arrays), the Mitsuba first frame, rays, and an image check.
+    `gap` seconds pass before each frame: the other renderer's worker threads keep spinning
+    for a while after its frame (measured: reflect's frame 62 ms right after a Mitsuba
+    frame, 32 ms 50 ms later, 2 threads), which would bill one for the other's idle threads."""
     if not python or not Path(python).exists():
         return None
     from reflectcli import api
@@ -262,9 +266,11 @@ def compare(scene: str, python: str, reps: int, threads: int, variant: str,
             theirs = np.load(folder / "image.npy")[..., :3]
             times = {"reflect": [], "mitsuba": []}
             for rep in range(reps + 2):  # two warm-up rounds
+                time.sleep(gap)
                 t = time.perf_counter()
                 opened.render_frame(0)
                 t_reflect = time.perf_counter() - t
+                time.sleep(gap)
                 t_mitsuba = worker.frame()
                 if rep >= 2:
                     times["reflect"].append(t_reflect)
@@ -296,6 +302,8 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=15)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--gap", type=float, default=0.1,
+                    help="seconds of idle before each frame (see compare)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
@@ -309,7 +317,7 @@ def main() -> None:
 
     numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     r = compare(args.scene, args.mitsuba_python, args.reps, args.threads, args.variant,
-                args.max_depth)
+                args.max_depth, args.gap)
     h, w = r["size"]
     print(f"{args.scene}, {w}x{h}, 1 spp, max_depth {r['max_depth']}, {r['rays']:,} rays a "
           f"reflect frame; Mitsuba {r['version']['ready']} {r['version']['variant']}, "
