@@ -132,8 +132,7 @@ def _trace_frame(
     weight = buffers.get("weight", n, np.float32, 3)
     weight.fill(1.0)
     color = np.zeros((n, 3), np.float32)  # the frame's rgb: new every frame
-    depth = np.full(n, np.inf, np.float32)
-    surface = np.full(n, -1, np.int32)
+    depth = surface = None  # the primary wave's (bounce 0 always runs)
     reflected_hit = np.zeros(n, np.float32)  # first reflected ray hit geometry
     timings["primary_rays"] = time.perf_counter() - start
     rays = 0
@@ -170,6 +169,8 @@ def _trace_frame(
                                                         np.int64))
         tfar = buffers.get("tfar_bounce", m, np.float32)
         tfar.fill(_FAR_AWAY)
+    if depth is None:  # no rays at all
+        depth, surface = np.full(n, np.inf, np.float32), np.full(n, -1, np.int32)
     if spp == 1:  # the mean of one sample is the sample (bit for bit): no float64 pass
         rgb = color.reshape(h, w, 3)
         reflected_hit = reflected_hit.reshape(h, w)
