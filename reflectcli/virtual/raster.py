@@ -47,8 +47,9 @@ def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world
         planes = np.vstack([planes, box_planes(pts, camera.eye, clip_from_world)])
     flags = np.where(reflected.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
     flags[dropped] |= FLAG_SKIP
-    buffers = rasterize(virtual.astype(np.float32), flags, clip_from_world, camera.width,
-                        camera.height, planes, mask=stencil, depth_floor=floor, workspace=ws)
+    buffers = rasterize(np.ascontiguousarray(virtual, np.float32), flags, clip_from_world,
+                        camera.width, camera.height, planes, mask=stencil, depth_floor=floor,
+                        workspace=ws)
     # shaded where the stencil is: fragments (and the pixels fill_cracks reads) lie there
     colors, _ = shade_buffers(buffers, reflected, scene, camera.eye, incoming, stencil=stencil,
                               out=(ws.get("virtual_rgb", (h, w, 3), np.float32),
