@@ -167,6 +167,25 @@ def test_tile_scan_matches_twin():
     np.testing.assert_array_equal(reach, want_reach)
     np.testing.assert_array_equal(seeds, want_seeds)
     assert reach.any() and not reach.all()
+    # a small patch of the sphere (a part whose rays leave in a narrow cone): its own ball and
+    # cone hold every point a tile reaches, and the culled scan (with polygons) answers alike
+    # wherever the part needs a seed
+    ys, xs = np.nonzero(inside)
+    patch = np.zeros_like(inside)
+    y0, x0 = ys[len(ys) // 2], xs[len(xs) // 2]
+    patch[y0:y0 + 12, x0:x0 + 12] = inside[y0:y0 + 12, x0:x0 + 12]
+    small = PartTiles(patch, q, r, size=4)
+    far = np.concatenate([pts, rng.normal(size=(600, 3)) * 20.0])
+    polygons = rng.integers(0, len(far), (300, 3))
+    full_reach, full_seeds = small.scan(far, q, r)
+    assert full_reach.any()
+    assert small.candidates(far)[full_reach].all()
+    assert not small.candidates(far).all()  # the cull does cull
+    culled_reach, culled_seeds = small.scan(far, q, r, polygons)
+    np.testing.assert_array_equal(culled_reach, full_reach)
+    todo = full_reach.copy()
+    todo[polygons[full_reach[polygons].any(axis=1)].ravel()] = True
+    np.testing.assert_array_equal(culled_seeds[todo], full_seeds[todo])
 
 
 @pytest.fixture(scope="module")
