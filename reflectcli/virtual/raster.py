@@ -107,8 +107,7 @@ def reflected_rays(primary: Primary, eye: np.ndarray,
     mirrors[~primary.frame.mirror_mask] = -1
     _, r = reflector_grid(mirrors, primary.buffers.b1, primary.buffers.b2,
                           primary.triangles.corners, primary.triangles.normals, eye,
-                          out=(ws.get("incoming_q", (h, w, 3), np.float64),
-                               ws.get("incoming_r", (h, w, 3), np.float64)))
+                          out=(None, ws.get("incoming_r", (h, w, 3), np.float64)))
     return r
 
 

@@ -26,21 +26,26 @@ from numba import njit, prange
 
 def reflector_grid(triangle: np.ndarray, b1: np.ndarray, b2: np.ndarray, corners: np.ndarray,
                    normals: np.ndarray, eye: np.ndarray,
-                   out: tuple[np.ndarray, np.ndarray] | None = None):
+                   out: tuple[np.ndarray | None, np.ndarray] | None = None):
     """Per pixel of a reflector-only item buffer: Q (H, W, 3) world point, R (H, W, 3) unit
     reflected direction of the eye ray (interpolated normal, two-sided); pixels the reflector
-    does not cover hold NaN. `out`: two (H, W, 3) float64 arrays to fill instead of new ones."""
+    does not cover hold NaN. `out`: (Q, R) (H, W, 3) float64 arrays to fill instead of new
+    ones; Q None: R only (Q is returned as None)."""
     h, w = triangle.shape
     if out is None:
         q = np.full((h, w, 3), np.nan)
         r = np.full((h, w, 3), np.nan)
     else:
         q, r = out
-        q.fill(np.nan)
+        if q is not None:
+            q.fill(np.nan)
         r.fill(np.nan)
+    want_q = q is not None
+    if not want_q:
+        q = np.empty((0, 0, 3))
     _grid(triangle, b1, b2, corners.astype(np.float64), normals.astype(np.float64),
           np.asarray(eye, np.float64), q, r)
-    return q, r
+    return (q if want_q else None), r
 
 
 @njit(cache=True, parallel=True)
@@ -61,8 +66,10 @@ def _grid(triangle, b1, b2, corners, normals, eye, q, r):
             d = d / math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
             dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2]
             for i in range(3):
-                q[y, x, i] = p[i]
                 r[y, x, i] = d[i] - 2.0 * dn * n[i]
+            if q.shape[0]:  # (0, 0, 3): R only
+                for i in range(3):
+                    q[y, x, i] = p[i]
 
 
 NONE, EXACT, BOUNDARY = 0, 1, 2

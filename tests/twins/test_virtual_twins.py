@@ -120,6 +120,12 @@ def test_reflector_grid_matches_twin():
     for g, x in zip(got, want, strict=True):
         np.testing.assert_array_equal(np.isnan(g), np.isnan(x))
         np.testing.assert_allclose(g[~np.isnan(x)], x[~np.isnan(x)], rtol=1e-12, atol=1e-12)
+    # R alone, into kept arrays holding an earlier call's values
+    r_only = np.zeros((h, w, 3))
+    q_none, r = refine.reflector_grid(tri, b[..., 1].copy(), b[..., 2].copy(), corners,
+                                      normals, eye, out=(None, r_only))
+    assert q_none is None and r is r_only
+    np.testing.assert_array_equal(r, got[1])
 
 
 def test_grid_sample_matches_twin():
