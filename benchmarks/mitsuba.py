@@ -244,9 +244,11 @@ def compare(scene: str, python: str, reps: int, threads: int, variant: str,
             max_depth: int | None = None, gap: float = 0.1) -> dict | None:
     """Alternating frames of reflect's raytrace and Mitsuba's; None when Mitsuba is missing.
     Returns seconds per frame (arrays), the Mitsuba first frame, rays, and an image check.
-    `gap` seconds pass before each frame: the other renderer's worker threads keep spinning
-    for a while after its frame (measured: reflect's frame 62 ms right after a Mitsuba
-    frame, 32 ms 50 ms later, 2 threads), which would bill one for the other's idle threads."""
+    `gap` seconds pass before each frame, so that neither frame starts while the other
+    renderer's worker threads may still be spinning after its own. On a machine shared with
+    other work, 2-thread figures mostly say whether the second core was free: reflect runs
+    several parallel loops a frame, each waiting at its end for a thread that lost its core,
+    where Mitsuba launches one kernel; 1 thread (`--threads 1`) is the steadier comparison."""
     if not python or not Path(python).exists():
         return None
     from reflectcli import api
