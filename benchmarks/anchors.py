@@ -1,7 +1,8 @@
 """reflect's hot paths against the speed anchors, as ratios measured in one run.
 
-    .venv/bin/python benchmarks/anchors.py [--reps 15] [--rows warp,raster,rerender,raytrace]
-        [--anchors ../shared/anchors] [--gl-python /path/to/python-with-moderngl]
+    .venv/bin/python benchmarks/anchors.py [--reps 15]
+        [--rows warp,raster,rerender,raytrace,mitsuba] [--anchors ../shared/anchors]
+        [--gl-python /path/to/python-with-moderngl] [--mitsuba-python /path/to/python]
 
 The anchors (tuned warp, tuned rasterizer, OpenGL llvmpipe stencil mirror; see their README)
 are read from `../shared/anchors/` beside the repository when present; without them each row
@@ -23,6 +24,9 @@ Rows (the table of issue 13):
   stencil mirror at 200k triangles (frame + readback).
 - raytrace: frames of teapot-box / music-room at 1 spp (rays per second) against raw Embree
   primary rays on the same triangles through embreex, two threads.
+- mitsuba: a teapot-box frame (640x480, 1 spp, max_depth 4) against Mitsuba 3's LLVM variant
+  on the same triangles and camera (benchmarks/mitsuba.py; Mitsuba in its own venv:
+  `--mitsuba-python`, else the row says it skipped).
 """
 
 from __future__ import annotations
@@ -291,10 +295,29 @@ def raytrace_case(name: str, pool: ThreadPoolExecutor, reps: int) -> None:
         f"{mine:.2f} Mrays/s ({ms(t['frame'])})", mine / peer, ">= 0.5")
 
 
+# ------------------------------------------------------------------------------ mitsuba
+def bench_mitsuba(reps: int, python: str | None, threads: int) -> None:
+    print("mitsuba: teapot-box, 640x480, 1 spp, max_depth 4, against Mitsuba 3 llvm_ad_rgb",
+          flush=True)
+    spec = importlib.util.spec_from_file_location("reflect_bench_mitsuba",
+                                                  ROOT / "benchmarks" / "mitsuba.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    r = module.compare("teapot-box", python, reps, threads, "llvm_ad_rgb")
+    if r is None:
+        add("raytrace frame vs Mitsuba 3 (teapot-box)", "(skipped: no --mitsuba-python)", "-",
+            None, "<= 1")
+        return
+    add(f"raytrace frame vs Mitsuba 3 (teapot-box, {r['rays']:,} rays)",
+        f"{ms(r['mitsuba'])} ({r['version']['variant']}; first frame "
+        f"{1e3 * r['mitsuba_first']:.0f} ms)", ms(r["reflect"]),
+        ratio(r["reflect"], r["mitsuba"]), "<= 1")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--reps", type=int, default=15)
-    ap.add_argument("--rows", default="warp,raster,rerender,raytrace")
+    ap.add_argument("--rows", default="warp,raster,rerender,raytrace,mitsuba")
     ap.add_argument("--threads", type=int, default=2,
                     help="numba threads for reflect and the numba anchors (1 shows the work "
                          "without waits on a busy machine)")
@@ -302,6 +325,9 @@ def main() -> None:
     ap.add_argument("--gl-python", default=os.environ.get("REFLECT_GL_PYTHON"),
                     help="a python with moderngl for the OpenGL peer (default: "
                          "$REFLECT_GL_PYTHON, else this python if it has moderngl)")
+    ap.add_argument("--mitsuba-python", default=os.environ.get("REFLECT_MITSUBA_PYTHON"),
+                    help="a python with mitsuba for the Mitsuba row (default: "
+                         "$REFLECT_MITSUBA_PYTHON; benchmarks/mitsuba.py)")
     args = ap.parse_args()
     if args.gl_python is None and importlib.util.find_spec("moderngl") is not None:
         args.gl_python = sys.executable
@@ -317,6 +343,8 @@ def main() -> None:
         bench_rerender(args.anchors, args.reps, args.gl_python)
     if "raytrace" in rows:
         bench_raytrace(args.reps)
+    if "mitsuba" in rows:
+        bench_mitsuba(args.reps, args.mitsuba_python, numba.get_num_threads())
     print("\n| what | anchor | reflect | reflect / anchor (median; minima) |\n|---|---|---|---|")
     for row in TABLE:
         print("| " + " | ".join(row) + " |")

@@ -395,7 +395,7 @@ def cylinder_closed_form(o, d, origin, axis, r, h, tmin):
 
 
 def quad_closed_form(o, d, n, c00, e1, e2, tmin):
-    """Twin of trace.analytic._quad (and _in_triangle): ray-plane t, then the hit's
+    """Twin of trace.analytic._quad (and _inner, quad_edges): ray-plane t, then the hit's
     coordinates along the rectangle's two edges. Returns (t, marginal)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         t = -((o - c00) @ n) / (d @ n)
@@ -1101,6 +1101,16 @@ def fill_triangle(ids, a, b, c, value, only_empty):
     ids[inside] = value
 
 
+def nearest_filled_distance(empty):
+    """Twin of virtual.explosion._nearest_filled, by brute force: per texel, the Euclidean
+    distance (texel centers) to the nearest texel that is not empty."""
+    h, w = empty.shape
+    fy, fx = np.nonzero(~empty)
+    yy, xx = np.mgrid[0:h, 0:w]
+    d2 = (yy[..., None] - fy) ** 2 + (xx[..., None] - fx) ** 2
+    return np.sqrt(d2.min(axis=-1))
+
+
 def fill_faces(ids, coords, faces, drawn):
     """Twin of virtual.explosion._fill_faces: the drawn faces in order, filled with their id."""
     for fi in drawn:
@@ -1110,7 +1120,8 @@ def fill_faces(ids, coords, faces, drawn):
 def fill_extensions(ids, coords, extensions, n_faces, center, reach):
     """Twin of virtual.explosion._fill_extensions / _extend: each extension's quad, from its
     edge (i, j) out to `reach` from the map center along the directions of its ends, filled
-    where empty with n_faces + its index (both windings)."""
+    where empty with n_faces + its index (as two triangles; fill_triangle takes either
+    winding)."""
     def out(p):
         d = np.asarray(p, np.float64) - center
         length = np.linalg.norm(d)
@@ -1119,7 +1130,7 @@ def fill_extensions(ids, coords, extensions, n_faces, center, reach):
     for e, (_, i, j) in enumerate(extensions):
         a, b = coords[i], coords[j]
         c, d = out(b), out(a)
-        for tri in ((a, b, c), (a, c, d), (a, c, b), (a, d, c)):
+        for tri in ((a, b, c), (a, c, d)):
             fill_triangle(ids, *tri, n_faces + e, True)
 
 

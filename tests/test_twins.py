@@ -82,7 +82,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                    "TriangleScene.intersect"),
     "trace/analytic.py:_sphere": (ANALYTIC, "_intersect"),
     "trace/analytic.py:_cylinder": (ANALYTIC, "_intersect"),
-    "trace/analytic.py:_in_triangle": (ANALYTIC, "_quad"),
+    "trace/analytic.py:_inner": (ANALYTIC, "_quad"),
     "trace/analytic.py:_quad": (ANALYTIC, "_intersect"),
     "trace/analytic.py:_intersect": (
         ANALYTIC + [E + "test_analytic_property_cases_are_mostly_clear"], "intersect_analytic"),
@@ -127,6 +127,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                         None),
     "virtual/explosion.py:_vertex_coords": (
         [V + "test_map_coords_and_vertex_coords_match_twin"], "build_explosion_maps"),
+    "virtual/explosion.py:_span": (FILL, "_fill_triangle"),
+    "virtual/explosion.py:_nearest_filled": ([V + "test_nearest_filled_matches_twin"],
+                                             "_fill_nearest"),
     "virtual/explosion.py:_fill_triangle": (FILL, None),
     "virtual/explosion.py:_fill_faces": (FILL, None),
     "virtual/explosion.py:_extend": (FILL, "_fill_extensions"),

@@ -32,16 +32,46 @@ from ..scene.types import (
 
 def intersect_analytic(
     origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray, kind: np.ndarray,
-    params: np.ndarray, tmin: float
+    params: np.ndarray, tmin: float, out: tuple[np.ndarray, np.ndarray] | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest analytic-mirror hit per ray in (tmin, tfar): (t or inf, mirror index or -1)."""
+    """Nearest analytic-mirror hit per ray in (tmin, tfar): (t or inf, mirror index or -1).
+    `out`: (n,) float32 and int32 arrays to fill instead of new ones."""
     n = origins.shape[0]
-    t = np.full(n, np.inf, np.float32)
-    idx = np.full(n, -1, np.int32)
+    if out is None:
+        t = np.full(n, np.inf, np.float32)
+        idx = np.full(n, -1, np.int32)
+    else:
+        t, idx = out
+        t.fill(np.inf)
+        idx.fill(-1)
     if np.any((kind == SPHERE) | (kind == CYLINDER) | (kind == PLANAR)):
         params = np.ascontiguousarray(params, dtype=np.float64)
-        _intersect(origins, directions, tfar, kind, params, tmin, t, idx)
+        _intersect(origins, directions, tfar, kind, params, quad_edges(kind, params), tmin,
+                   t, idx)
     return t, idx
+
+
+QUAD_TRIANGLES = ((PLANE_P00, PLANE_P10, PLANE_P11), (PLANE_P00, PLANE_P11, PLANE_P01))
+
+
+def quad_edges(kind: np.ndarray, params: np.ndarray) -> np.ndarray:
+    """(M, 6, 4) float64: per planar mirror, the edges of its two triangles (p00 p10 p11,
+    p00 p11 p01) as planes through the edge along the mirror normal: m = n x (c_j - c_i)
+    and m . c_i, so that a point p of the mirror's plane lies on the inner side of edge
+    i -> j where m . p - m . c_i >= 0 (n . ((c_j - c_i) x (p - c_i)), worked out once per
+    mirror instead of per ray). Rows of other mirrors are zero."""
+    edges = np.zeros((kind.shape[0], 6, 4))
+    for k in np.flatnonzero(kind == PLANAR):
+        p = params[k]
+        n = p[PLANE_NORMAL:PLANE_NORMAL + 3]
+        for t, tri in enumerate(QUAD_TRIANGLES):
+            for e in range(3):
+                ci = p[tri[e]:tri[e] + 3]
+                cj = p[tri[(e + 1) % 3]:tri[(e + 1) % 3] + 3]
+                m = np.cross(n, cj - ci)
+                edges[k, 3 * t + e, :3] = m
+                edges[k, 3 * t + e, 3] = m @ ci
+    return edges
 
 
 @njit(cache=True, inline="always")
@@ -100,26 +130,9 @@ def _cylinder(ox, oy, oz, dx, dy, dz, p, tmin):
 
 
 @njit(cache=True, inline="always")
-def _in_triangle(px, py, pz, p, a, b, c):
-    """Is the point (on the plane of planar mirror row p) inside corner triangle (a, b, c)?
-    Corners are column offsets into p (PLANE_P00, ...); edges inclusive."""
-    nx, ny, nz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
-    for e in range(3):
-        i = (a, b, c)[e]
-        j = (a, b, c)[(e + 1) % 3]
-        ex, ey, ez = p[j] - p[i], p[j + 1] - p[i + 1], p[j + 2] - p[i + 2]
-        qx, qy, qz = px - p[i], py - p[i + 1], pz - p[i + 2]
-        cx = ey * qz - ez * qy
-        cy = ez * qx - ex * qz
-        cz = ex * qy - ey * qx
-        if nx * cx + ny * cy + nz * cz < 0.0:
-            return False
-    return True
-
-
-@njit(cache=True, inline="always")
-def _quad(ox, oy, oz, dx, dy, dz, p, tmin):
-    """t > tmin where the ray meets the planar quad (triangles p00 p10 p11 and p00 p11 p01)."""
+def _quad(ox, oy, oz, dx, dy, dz, p, edges, tmin):
+    """t > tmin where the ray meets the planar quad (triangles p00 p10 p11 and p00 p11 p01,
+    edges inclusive; `edges`: the mirror's rows of quad_edges)."""
     nx, ny, nz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
     denom = nx * dx + ny * dy + nz * dz
     if denom == 0.0:
@@ -128,14 +141,23 @@ def _quad(ox, oy, oz, dx, dy, dz, p, tmin):
     if not t > tmin:
         return np.inf
     px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
-    if (_in_triangle(px, py, pz, p, PLANE_P00, PLANE_P10, PLANE_P11)
-            or _in_triangle(px, py, pz, p, PLANE_P00, PLANE_P11, PLANE_P01)):
+    if (_inner(edges, 0, px, py, pz) and _inner(edges, 1, px, py, pz)
+            and _inner(edges, 2, px, py, pz)):
+        return t
+    if (_inner(edges, 3, px, py, pz) and _inner(edges, 4, px, py, pz)
+            and _inner(edges, 5, px, py, pz)):
         return t
     return np.inf
 
 
+@njit(cache=True, inline="always")
+def _inner(edges, e, px, py, pz):
+    """Is the point on the inner side of (or on) edge e of quad_edges (NaN counts in)?"""
+    return not edges[e, 0] * px + edges[e, 1] * py + edges[e, 2] * pz - edges[e, 3] < 0.0
+
+
 @njit(cache=True, parallel=True)
-def _intersect(origins, directions, tfar, kind, params, tmin, t_out, idx_out):
+def _intersect(origins, directions, tfar, kind, params, edges, tmin, t_out, idx_out):
     for i in prange(origins.shape[0]):
         # np.float64, not float(): numba's float() keeps a float32 a float32
         f64 = np.float64
@@ -151,7 +173,7 @@ def _intersect(origins, directions, tfar, kind, params, tmin, t_out, idx_out):
             elif kind[k] == CYLINDER:
                 t = _cylinder(ox, oy, oz, dx, dy, dz, p, tmin)
             elif kind[k] == PLANAR:
-                t = _quad(ox, oy, oz, dx, dy, dz, p, tmin)
+                t = _quad(ox, oy, oz, dx, dy, dz, p, edges[k], tmin)
             else:
                 continue
             if t < best:

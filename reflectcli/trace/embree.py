@@ -190,12 +190,15 @@ class TriangleScene:
             self._handle = 0
 
     def intersect(
-        self, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray, threads: int = 1
+        self, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray, threads: int = 1,
+        out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Nearest hit per ray: (t, primitive id (-1 on a miss), u, v), t = inf on a miss.
 
         u and v are the barycentric weights of corners 1 and 2. t is in units of the
         direction's length; rays start at their origin (tnear = 0) and stop at tfar.
+        `out`: (n,) float32, int32, float32, float32 arrays the kernel fills instead of new
+        ones (the tracer keeps them across frames; an empty scene returns its own misses).
         """
         n = origins.shape[0]
         if self.count == 0 or n == 0:
@@ -204,10 +207,13 @@ class TriangleScene:
         directions = np.ascontiguousarray(directions, dtype=np.float32)
         tfar = np.ascontiguousarray(tfar, dtype=np.float32)
         if self._handle:
-            t = np.empty(n, np.float32)
-            prim = np.empty(n, np.int32)
-            u = np.empty(n, np.float32)
-            v = np.empty(n, np.float32)
+            if out is None:
+                t = np.empty(n, np.float32)
+                prim = np.empty(n, np.int32)
+                u = np.empty(n, np.float32)
+                v = np.empty(n, np.float32)
+            else:
+                t, prim, u, v = out
             # runs of 64 packets handed out one at a time to whichever thread is free: on a
             # busy machine a thread that loses its core does not hold the others up
             chunks = max(1, n // (64 * _LANES))

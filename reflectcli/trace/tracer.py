@@ -9,7 +9,7 @@ reflection is not followed), so max_depth = 0 draws mirrors as their base color.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -36,6 +36,24 @@ from .rays import primary_rays
 _FAR_AWAY = np.float32(1e30)
 
 
+class TraceBuffers:
+    """Work arrays of the tracer kept across frames, by name: a frame's fresh arrays cost more
+    in first-touch page faults than the tracing they hold (a 640x480 frame: about 16 of
+    48 ms, 1 thread). Only the frame's own outputs (rgb, depth, ids) are new every frame."""
+
+    def __init__(self) -> None:
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def get(self, name: str, n: int, dtype, width: int = 0) -> np.ndarray:
+        """The first n rows of buffer `name` ((n,) or (n, width)), grown when too small;
+        contents are whatever the last frame left."""
+        a = self._arrays.get(name)
+        shape = (n, width) if width else (n,)
+        if a is None or a.shape[0] < n or a.shape[1:] != shape[1:] or a.dtype != dtype:
+            a = self._arrays[name] = np.empty(shape, dtype)
+        return a[:n]
+
+
 @dataclass
 class Accelerators:
     """Embree scenes for one geometry state: objects, and mesh mirrors' triangles."""
@@ -46,6 +64,7 @@ class Accelerators:
     mirror_corners: np.ndarray  # (Tm, 3, 3) mesh mirror triangles, in Embree's order
     mirror_normals: np.ndarray
     mirror_surface: np.ndarray
+    buffers: TraceBuffers = field(default_factory=TraceBuffers)
 
     @property
     def build_seconds(self) -> float:
@@ -99,17 +118,21 @@ def _trace_frame(
 ) -> Frame:
     timings: dict[str, float] = {"intersect": 0.0, "shade": 0.0}
     start = time.perf_counter()
+    buffers = accel.buffers
     h, w = camera.height, camera.width
     spp = samples * samples
+    n = h * w * spp
     # eye-space primary rays: start on the near plane, stop at the far plane (t = depth - near)
-    origins, directions = primary_rays(camera, samples)
-    n = directions.shape[0]
-    tfar = np.full(n, camera.far - camera.near, np.float32)
-    slot = np.arange(n, dtype=np.int64)
-    weight = np.ones((n, 3), np.float32)
-    color = np.zeros((n, 3), np.float32)
-    depth = np.full(n, np.inf, np.float32)
-    surface = np.full(n, -1, np.int32)
+    origins, directions = primary_rays(camera, samples, out=(
+        buffers.get("primary_o", n, np.float32, 3), buffers.get("primary_d", n, np.float32, 3)))
+    tfar = buffers.get("tfar", n, np.float32)
+    tfar.fill(camera.far - camera.near)
+    slot = buffers.get("slot", n, np.int64)
+    slot[:] = np.arange(n, dtype=np.int64)
+    weight = buffers.get("weight", n, np.float32, 3)
+    weight.fill(1.0)
+    color = np.zeros((n, 3), np.float32)  # the frame's rgb: new every frame
+    depth = surface = None  # the primary wave's (bounce 0 always runs)
     reflected_hit = np.zeros(n, np.float32)  # first reflected ray hit geometry
     timings["primary_rays"] = time.perf_counter() - start
     rays = 0
@@ -133,16 +156,27 @@ def _trace_frame(
         )
         if bounce == 0:
             depth = np.where(hit_surface >= 0, hit_t + np.float32(camera.near), np.inf)
-            surface = hit_surface
+            surface = hit_surface.copy()  # a buffer of the next frame's: the frame's own copy
         elif bounce == 1:
             reflected_hit[slot[hit_surface >= 0]] = 1.0
-        origins, directions, weight, slot = next_o[alive], next_d[alive], next_w[alive], slot[alive]
-        tfar = np.full(origins.shape[0], _FAR_AWAY, np.float32)
+        # the rays that go on, in order, into the buffers of the next bounce's rays
+        m = int(np.count_nonzero(alive))
+        origins = np.compress(alive, next_o, axis=0, out=buffers.get("ray_o", m, np.float32, 3))
+        directions = np.compress(alive, next_d, axis=0,
+                                 out=buffers.get("ray_d", m, np.float32, 3))
+        weight = np.compress(alive, next_w, axis=0, out=buffers.get("ray_w", m, np.float32, 3))
+        slot = np.compress(alive, slot, out=buffers.get("ray_slot_" + "ab"[bounce % 2], m,
+                                                        np.int64))
+        tfar = buffers.get("tfar_bounce", m, np.float32)
+        tfar.fill(_FAR_AWAY)
+    if depth is None:  # no rays at all
+        depth, surface = np.full(n, np.inf, np.float32), np.full(n, -1, np.int32)
     if spp == 1:  # the mean of one sample is the sample (bit for bit): no float64 pass
         rgb = color.reshape(h, w, 3)
+        reflected_hit = reflected_hit.reshape(h, w)
     else:
         rgb = color.reshape(h, w, spp, 3).mean(axis=2, dtype=np.float64).astype(np.float32)
-    reflected_hit = reflected_hit.reshape(h, w, spp).mean(axis=2).astype(np.float32)
+        reflected_hit = reflected_hit.reshape(h, w, spp).mean(axis=2).astype(np.float32)
     if spp > 1:  # Z, A and ids come from the pixel-center ray, traced once more
         o, d = primary_rays(camera, 1)
         m = d.shape[0]
@@ -160,6 +194,7 @@ def _trace_frame(
             threads,
             timings,
         )
+        surface = surface.copy()  # a buffer: the frame's own copy
         depth = np.where(surface >= 0, hit_t + np.float32(camera.near), np.inf)
         rays += m
     depth, surface = depth.reshape(h, w), surface.reshape(h, w)
@@ -183,19 +218,29 @@ def _wave(
 ):
     """Intersect one batch of rays, shade their hits into color, emit reflected rays."""
     t0 = time.perf_counter()
-    t_o, p_o, u_o, v_o = accel.objects.intersect(origins, directions, tfar, threads)
-    t_m, p_m, u_m, v_m = accel.mirrors.intersect(origins, directions, tfar, threads)
+    count = origins.shape[0]
+    b = accel.buffers
+
+    def hits(name):
+        return (b.get(name + "_t", count, np.float32), b.get(name + "_prim", count, np.int32),
+                b.get(name + "_u", count, np.float32), b.get(name + "_v", count, np.float32))
+
+    t_o, p_o, u_o, v_o = accel.objects.intersect(origins, directions, tfar, threads,
+                                                 out=hits("objects"))
+    t_m, p_m, u_m, v_m = accel.mirrors.intersect(origins, directions, tfar, threads,
+                                                 out=hits("mirrors"))
     t_a, k_a = intersect_analytic(
-        origins, directions, tfar, scene.mirrors.kind, scene.mirrors.params, 0.0
+        origins, directions, tfar, scene.mirrors.kind, scene.mirrors.params, 0.0,
+        out=(b.get("analytic_t", count, np.float32), b.get("analytic_k", count, np.int32)),
     )
     t1 = time.perf_counter()
-    count = origins.shape[0]
-    hit_t = np.empty(count, np.float32)
-    hit_surface = np.empty(count, np.int32)
-    alive = np.zeros(count, np.bool_)
-    next_o = np.empty((count, 3), np.float32)
-    next_d = np.empty((count, 3), np.float32)
-    next_w = np.empty((count, 3), np.float32)
+    hit_t = b.get("hit_t", count, np.float32)
+    hit_surface = b.get("hit_surface", count, np.int32)
+    alive = b.get("alive", count, np.bool_)
+    alive.fill(False)
+    next_o = b.get("next_o", count, np.float32, 3)
+    next_d = b.get("next_d", count, np.float32, 3)
+    next_w = b.get("next_w", count, np.float32, 3)
     o, m = geometry.objects, scene.mirrors
     _resolve(
         origins,

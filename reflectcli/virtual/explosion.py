@@ -176,14 +176,76 @@ def boundary_edges(faces: np.ndarray) -> np.ndarray:
 
 
 def _fill_nearest(ids: np.ndarray) -> None:
-    """Give every empty texel the id of the nearest filled one (in place)."""
+    """Give every empty texel the id of the nearest filled one (Euclidean distance between
+    texel centers; among equally near ones, the one _nearest_filled meets first), in place."""
     empty = ids < 0
     if not empty.any() or empty.all():
         return
-    from scipy.ndimage import distance_transform_edt
+    h, w = ids.shape
+    rows = np.empty((h, w), np.int32)
+    cols = np.empty((h, w), np.int32)
+    _nearest_filled(empty, rows, cols)
+    ids[empty] = ids[rows[empty], cols[empty]]
 
-    _, (iy, ix) = distance_transform_edt(empty, return_indices=True)
-    ids[empty] = ids[iy[empty], ix[empty]]
+
+_FAR = 1e20  # squared distance standing for "no filled texel in this column"
+
+
+@njit(cache=True)
+def _nearest_filled(empty, rows, cols):
+    """Exact Euclidean feature transform (Felzenszwalb & Huttenlocher's two passes of 1-D
+    squared distance transforms, in O(texels)): rows[y, x], cols[y, x] is a filled (not
+    empty) texel nearest to (y, x). Pass 1: per column, the nearest filled row (ties: the
+    one above). Pass 2: per row, the lower envelope of the parabolas (x - x')^2 + g(x')^2
+    (ties: the leftmost parabola of the envelope)."""
+    h, w = empty.shape
+    near_row = np.empty((h, w), np.int32)
+    g = np.empty((h, w))
+    for x in range(w):
+        last = -1
+        for y in range(h):  # nearest filled at or above
+            if not empty[y, x]:
+                last = y
+            near_row[y, x] = last
+        last = -1
+        for y in range(h - 1, -1, -1):  # nearest filled at or below, if nearer
+            if not empty[y, x]:
+                last = y
+            above = near_row[y, x]
+            if last >= 0 and (above < 0 or last - y < y - above):
+                near_row[y, x] = last
+            r = near_row[y, x]
+            g[y, x] = _FAR if r < 0 else float((y - r) * (y - r))
+    v = np.empty(w, np.int64)  # parabolas of the lower envelope
+    z = np.empty(w + 1)  # their ranges
+    for y in range(h):
+        k = 0
+        v[0] = 0
+        z[0] = -np.inf
+        z[1] = np.inf
+        for q in range(1, w):
+            while True:
+                p = v[k]
+                s = ((g[y, q] + q * q) - (g[y, p] + p * p)) / (2.0 * (q - p))
+                if s <= z[k] and k > 0:
+                    k -= 1
+                    continue
+                break
+            if s <= z[k]:  # k == 0: q replaces the first parabola
+                v[0] = q
+                z[1] = np.inf
+                continue
+            k += 1
+            v[k] = q
+            z[k] = s
+            z[k + 1] = np.inf
+        k = 0
+        for x in range(w):
+            while z[k + 1] < x:
+                k += 1
+            q = v[k]
+            cols[y, x] = q
+            rows[y, x] = near_row[y, q]
 
 
 @njit(cache=True)
@@ -205,8 +267,24 @@ def _vertex_coords(v, n, used, eye, center, radius, frame, res, s, coords):
                                                 oz + t * rz)
 
 
+@njit(cache=True, inline="always")
+def _span(lo, hi, slope, const):
+    """[lo, hi] narrowed to the texels x whose center px = x + 0.5 may have
+    slope * px + const >= 0, with 2 texels to spare for rounding; unchanged where the
+    slope is too flat to place the crossing (|slope| < 1e-6 texel units)."""
+    if slope >= 1e-6:
+        lo = max(lo, -const / slope - 2.5)
+    elif slope <= -1e-6:
+        hi = min(hi, -const / slope + 1.5)
+    return lo, hi
+
+
 @njit(cache=True)
 def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty):
+    """Texels whose centers the triangle holds (barycentrics >= 0, either winding) get
+    `value` (with `only_empty`, only texels still < 0). Each row visits only the span the
+    three edge functions allow (widened by 2 texels) of the bounding box, then tests each
+    texel exactly as before: the same texels as testing the whole box."""
     res = ids.shape[0]
     area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
     if area == 0.0 or math.isnan(area):
@@ -215,9 +293,20 @@ def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty):
     x1 = min(int(math.ceil(max(ax, bx, cx))), res - 1)
     y0 = max(int(math.floor(min(ay, by, cy))), 0)
     y1 = min(int(math.ceil(max(ay, by, cy))), res - 1)
+    sign = 1.0 if area > 0.0 else -1.0
     for y in range(y0, y1 + 1):
         py = y + 0.5
-        for x in range(x0, x1 + 1):
+        # area * w_i as functions of px (w0 = e0 / area, ...), signed to be >= 0 inside
+        s0 = sign * (by - cy)
+        k0 = sign * (bx * (cy - py) - cx * (by - py))
+        s1 = sign * (cy - ay)
+        k1 = sign * (cx * (ay - py) - ax * (cy - py))
+        lo, hi = _span(float(x0), float(x1), s0, k0)
+        lo, hi = _span(lo, hi, s1, k1)
+        lo, hi = _span(lo, hi, -s0 - s1, sign * area - k0 - k1)
+        if not lo <= hi:
+            continue
+        for x in range(int(math.ceil(lo)), int(math.floor(hi)) + 1):
             px = x + 0.5
             w0 = ((bx - px) * (cy - py) - (cx - px) * (by - py)) / area
             w1 = ((cx - px) * (ay - py) - (ax - px) * (cy - py)) / area
@@ -254,11 +343,9 @@ def _fill_extensions(ids, coords, extensions, n_faces, center, reach):
         cx, cy = _extend(center, center, bx, by, reach)
         dx, dy = _extend(center, center, ax, ay, reach)
         value = n_faces + e
+        # either winding: _fill_triangle's barycentrics are divided by the signed area
         _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, True)
         _fill_triangle(ids, ax, ay, cx, cy, dx, dy, value, True)
-        # the quad may be wound either way: fill its mirror too
-        _fill_triangle(ids, ax, ay, cx, cy, bx, by, value, True)
-        _fill_triangle(ids, ax, ay, dx, dy, cx, cy, value, True)
 
 
 def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.ndarray,

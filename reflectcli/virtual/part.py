@@ -53,7 +53,7 @@ class ExplosionPart:
         retry = None
         tiles = self.view.tiles
         if tiles is not None:
-            reach, retry = tiles.scan(points, self.grid[0], self.grid[1])
+            reach, retry = tiles.scan(points, self.grid[0], self.grid[1], polygons)
             if polygons is not None:
                 todo = reach.copy()
                 todo[polygons[reach[polygons].any(axis=1)].ravel()] = True

@@ -8,7 +8,7 @@ import numpy as np
 from ..camera import Camera
 from ..geometry import transform_plane
 from ..raster.primary import Primary
-from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP, rasterize, standard_planes
+from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP, RasterWorkspace, rasterize, standard_planes
 from ..raster.shade import shade_buffers
 from ..scene.types import Scene, Triangles
 from .refine import reflector_grid
@@ -17,7 +17,8 @@ from .refine import reflector_grid
 def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world: np.ndarray,
                  reflected: Triangles, virtual: np.ndarray, dropped: np.ndarray,
                  stencil: np.ndarray, sid: int, mirror_plane: np.ndarray | None,
-                 reflector_test: str, incoming: np.ndarray) -> np.ndarray:
+                 reflector_test: str, incoming: np.ndarray,
+                 workspace: RasterWorkspace | None = None) -> np.ndarray:
     """(H, W, 3) colors of the virtual triangles `virtual` (T, 3, 3 world) over `stencil`
     (H, W screen); `dropped` (T,) are skipped. A planar mirror (`mirror_plane` n, d facing
     the eye) clips them exactly; a curved one applies `reflector_test`.
@@ -25,22 +26,34 @@ def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world
     Each fragment is shaded as the ray tracer shades the same hit: seen along the reflected
     ray that reaches it, `incoming` (H, W, 3 world: per pixel, the eye ray reflected at the
     reflector point under it; `reflected_rays`), not from the real eye, which sees the
-    original surface from its other side wherever the mirror shows its underside."""
+    original surface from its other side wherever the mirror shows its underside.
+
+    Only the stencil's pixels of the result are meaningful (the others hold whatever the
+    last call left). `workspace` (outputs=True): the rasterizer's buffers and the colors
+    kept from call to call; the result is valid until the next call with it."""
+    ws = workspace if workspace is not None else RasterWorkspace(outputs=True)
+    h, w = stencil.shape
     planes = standard_planes()  # clip space
     floor = None
     if mirror_plane is not None:  # the exact case: the mirror plane clips
         planes = np.vstack([planes, mirror_clip_plane(mirror_plane, camera.eye,
                                                       clip_from_world)])
     elif reflector_test == "zbuffer":
-        floor = np.where(stencil, primary.buffers.depth, 0.0).astype(np.float32)
+        floor = ws.get("virtual_floor", (h, w), np.float32)
+        floor.fill(0.0)
+        np.copyto(floor, primary.buffers.depth, where=stencil)
     elif reflector_test == "clip_planes":
         pts = primary.triangles.corners[primary.triangles.surface == sid].reshape(-1, 3)
         planes = np.vstack([planes, box_planes(pts, camera.eye, clip_from_world)])
     flags = np.where(reflected.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
     flags[dropped] |= FLAG_SKIP
-    buffers = rasterize(virtual.astype(np.float32), flags, clip_from_world, camera.width,
-                        camera.height, planes, mask=stencil, depth_floor=floor)
-    colors, _ = shade_buffers(buffers, reflected, scene, camera.eye, incoming)
+    buffers = rasterize(np.ascontiguousarray(virtual, np.float32), flags, clip_from_world,
+                        camera.width, camera.height, planes, mask=stencil, depth_floor=floor,
+                        workspace=ws)
+    # shaded where the stencil is: fragments (and the pixels fill_cracks reads) lie there
+    colors, _ = shade_buffers(buffers, reflected, scene, camera.eye, incoming, stencil=stencil,
+                              out=(ws.get("virtual_rgb", (h, w, 3), np.float32),
+                                   ws.get("virtual_surface", (h, w), np.int32)))
     if mirror_plane is None:
         fill_cracks(colors, buffers.triangle >= 0, stencil)
     return colors
@@ -59,39 +72,42 @@ def fill_cracks(colors: np.ndarray, covered: np.ndarray, stencil: np.ndarray) ->
     on both sides is not something the tessellated objects can show, so the fill is safe;
     wider gaps (a reflection of the background) are kept."""
     h, w = covered.shape
-    crack = stencil & ~covered
-    if not crack.any():
+    ys, xs = np.nonzero(stencil & ~covered)
+    if not ys.size:
         return
-    total = np.zeros((h, w, 3), np.float64)
-    count = np.zeros((h, w), np.int64)
-    for axis in (0, 1):
-        before = np.zeros_like(covered)
-        after = np.zeros_like(covered)
-        if axis == 0:
-            before[1:] = covered[:-1]
-            after[:-1] = covered[1:]
-        else:
-            before[:, 1:] = covered[:, :-1]
-            after[:, :-1] = covered[:, 1:]
-        pair = crack & before & after
-        if not pair.any():
+    # per crack pixel (in row-major order), the same sums in the same order as over whole
+    # images: above + below, then left + right
+    total = np.zeros((ys.size, 3), np.float64)
+    count = np.zeros(ys.size, np.int64)
+    for dy, dx in ((1, 0), (0, 1)):
+        pair = (ys >= dy) & (xs >= dx) & (ys + dy < h) & (xs + dx < w)
+        k = np.flatnonzero(pair)
+        k = k[covered[ys[k] - dy, xs[k] - dx] & covered[ys[k] + dy, xs[k] + dx]]
+        if not k.size:
             continue
-        ys, xs = np.nonzero(pair)
-        dy, dx = (1, 0) if axis == 0 else (0, 1)
-        total[ys, xs] += colors[ys - dy, xs - dx].astype(np.float64)
-        total[ys, xs] += colors[ys + dy, xs + dx].astype(np.float64)
-        count[ys, xs] += 2
+        total[k] += colors[ys[k] - dy, xs[k] - dx].astype(np.float64)
+        total[k] += colors[ys[k] + dy, xs[k] + dx].astype(np.float64)
+        count[k] += 2
     filled = count > 0
-    colors[filled] = (total[filled] / count[filled][:, None]).astype(np.float32)
+    colors[ys[filled], xs[filled]] = (total[filled] / count[filled][:, None]).astype(np.float32)
 
 
-def reflected_rays(primary: Primary, eye: np.ndarray) -> np.ndarray:
-    """(H, W, 3) world: per pixel of the primary pass, the direction of the eye ray reflected
-    at the surface point under it (interpolated normal; NaN where nothing was drawn). For a
-    planar mirror every such ray leaves the mirrored eye; for a curved one each pixel has
-    its own viewpoint."""
-    _, r = reflector_grid(primary.buffers.triangle, primary.buffers.b1, primary.buffers.b2,
-                          primary.triangles.corners, primary.triangles.normals, eye)
+def reflected_rays(primary: Primary, eye: np.ndarray,
+                   workspace: RasterWorkspace | None = None) -> np.ndarray:
+    """(H, W, 3) world: per mirror pixel of the primary pass, the direction of the eye ray
+    reflected at the surface point under it (interpolated normal; NaN elsewhere: only mirror
+    pixels are drawn over). For a planar mirror every such ray leaves the mirrored eye; for a
+    curved one each pixel has its own viewpoint. `workspace`: arrays kept across frames (the
+    result is valid until the next call with it)."""
+    ws = workspace if workspace is not None else RasterWorkspace()
+    tri = primary.buffers.triangle
+    h, w = tri.shape
+    mirrors = ws.get("incoming_triangle", (h, w), np.int32)
+    np.copyto(mirrors, tri)
+    mirrors[~primary.frame.mirror_mask] = -1
+    _, r = reflector_grid(mirrors, primary.buffers.b1, primary.buffers.b2,
+                          primary.triangles.corners, primary.triangles.normals, eye,
+                          out=(None, ws.get("incoming_r", (h, w, 3), np.float64)))
     return r
 
 

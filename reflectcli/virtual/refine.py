@@ -25,16 +25,27 @@ from numba import njit, prange
 
 
 def reflector_grid(triangle: np.ndarray, b1: np.ndarray, b2: np.ndarray, corners: np.ndarray,
-                   normals: np.ndarray, eye: np.ndarray):
+                   normals: np.ndarray, eye: np.ndarray,
+                   out: tuple[np.ndarray | None, np.ndarray] | None = None):
     """Per pixel of a reflector-only item buffer: Q (H, W, 3) world point, R (H, W, 3) unit
     reflected direction of the eye ray (interpolated normal, two-sided); pixels the reflector
-    does not cover hold NaN."""
+    does not cover hold NaN. `out`: (Q, R) (H, W, 3) float64 arrays to fill instead of new
+    ones; Q None: R only (Q is returned as None)."""
     h, w = triangle.shape
-    q = np.full((h, w, 3), np.nan)
-    r = np.full((h, w, 3), np.nan)
+    if out is None:
+        q = np.full((h, w, 3), np.nan)
+        r = np.full((h, w, 3), np.nan)
+    else:
+        q, r = out
+        if q is not None:
+            q.fill(np.nan)
+        r.fill(np.nan)
+    want_q = q is not None
+    if not want_q:
+        q = np.empty((0, 0, 3))
     _grid(triangle, b1, b2, corners.astype(np.float64), normals.astype(np.float64),
           np.asarray(eye, np.float64), q, r)
-    return q, r
+    return (q if want_q else None), r
 
 
 @njit(cache=True, parallel=True)
@@ -55,8 +66,10 @@ def _grid(triangle, b1, b2, corners, normals, eye, q, r):
             d = d / math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
             dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2]
             for i in range(3):
-                q[y, x, i] = p[i]
                 r[y, x, i] = d[i] - 2.0 * dn * n[i]
+            if q.shape[0]:  # (0, 0, 3): R only
+                for i in range(3):
+                    q[y, x, i] = p[i]
 
 
 NONE, EXACT, BOUNDARY = 0, 1, 2
@@ -139,22 +152,23 @@ def _residual(p, inside, q, r, sx, sy, res, qq, rr):
 
 
 @njit(cache=True)
-def _walk(p, inside, q, r, sx, sy, iterations, q_ext, rr):
+def _walk(p, inside, q, r, sx, sy, iterations, q_ext, rr, work):
     """Gauss-Newton from screen point (sx, sy) toward the reflection point of p: EXACT with
     q_ext = Q there, BOUNDARY where the walk leaves the part (the reflection lies past a
     silhouette, or on another part): then the last step is taken on the linear model from
     the last point inside, Q extrapolated along its screen derivatives, so that polygons
     reaching out there stretch past the part's edge (and are masked) as exact ones would;
-    NONE if the part was never sampled. rr receives R at the last point inside."""
+    NONE if the part was never sampled. rr receives R at the last point inside. `work`:
+    21 floats of scratch (views of it, not seven small arrays allocated per walk)."""
     h, w = inside.shape
     step_h = 0.5  # finite-difference step, pixels
-    c = np.empty(3)
-    cx = np.empty(3)
-    cy = np.empty(3)
-    q0 = np.empty(3)
-    qx = np.empty(3)
-    qy = np.empty(3)
-    scratch = np.empty(3)
+    c = work[0:3]
+    cx = work[3:6]
+    cy = work[6:9]
+    q0 = work[9:12]
+    qx = work[12:15]
+    qy = work[15:18]
+    scratch = work[18:21]
     status = NONE
     for _ in range(iterations):
         if not (0.0 <= sx < w and 0.0 <= sy < h):
@@ -217,15 +231,18 @@ def _walk(p, inside, q, r, sx, sy, iterations, q_ext, rr):
 def _refine(points, seeds, inside, q, r, eye, iterations, retry, out, ok):
     for k in prange(points.shape[0]):
         p = points[k]
-        q_ext = np.empty(3)
-        rr = np.empty(3)
+        buf = np.empty(33)  # one allocation per point: the walks' vectors are views of it
+        q_ext = buf[0:3]
+        rr = buf[3:6]
+        work = buf[12:33]
         status = NONE
         if np.isfinite(seeds[k, 0]) and np.isfinite(seeds[k, 1]):
-            status = _walk(p, inside, q, r, seeds[k, 0], seeds[k, 1], iterations, q_ext, rr)
+            status = _walk(p, inside, q, r, seeds[k, 0], seeds[k, 1], iterations, q_ext, rr,
+                           work)
         if status != EXACT and np.isfinite(retry[k, 0]):
-            q2 = np.empty(3)
-            r2 = np.empty(3)
-            again = _walk(p, inside, q, r, retry[k, 0], retry[k, 1], iterations, q2, r2)
+            q2 = buf[6:9]
+            r2 = buf[9:12]
+            again = _walk(p, inside, q, r, retry[k, 0], retry[k, 1], iterations, q2, r2, work)
             if again == EXACT or (status == NONE and again != NONE):
                 status = again
                 for i in range(3):
@@ -233,10 +250,11 @@ def _refine(points, seeds, inside, q, r, eye, iterations, retry, out, ok):
                     rr[i] = r2[i]
         if status == NONE:
             continue
-        d = p - q_ext
-        e = q_ext - eye
-        le = math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
-        lp = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
-        for i in range(3):
-            out[k, i] = eye[i] + e[i] / le * (le + lp)
+        d0, d1, d2 = p[0] - q_ext[0], p[1] - q_ext[1], p[2] - q_ext[2]
+        e0, e1, e2 = q_ext[0] - eye[0], q_ext[1] - eye[1], q_ext[2] - eye[2]
+        le = math.sqrt(e0 ** 2 + e1 ** 2 + e2 ** 2)
+        lp = math.sqrt(d0 ** 2 + d1 ** 2 + d2 ** 2)
+        out[k, 0] = eye[0] + e0 / le * (le + lp)
+        out[k, 1] = eye[1] + e1 / le * (le + lp)
+        out[k, 2] = eye[2] + e2 / le * (le + lp)
         ok[k] = status

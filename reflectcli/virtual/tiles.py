@@ -50,16 +50,65 @@ class PartTiles:
             mid = np.flatnonzero(own)[np.argmin(np.linalg.norm(pts[own] - c, axis=1))]
             self.pixel[j] = bx[mid] + ex + 0.5, by[mid] + ey + 0.5
         self.margin = math.radians(margin_degrees)
+        # one ball and cone holding every tile's (with their margins): a point outside the
+        # part's cone is outside every tile's (see candidates)
+        self.part_center = self.center.mean(axis=0) if n else np.zeros(3)
+        self.part_radius = (float(np.max(np.linalg.norm(self.center - self.part_center, axis=1)
+                                         + self.radius * 1.001)) * (1 + 1e-9) if n else 0.0)
+        a = self.axis.sum(axis=0) if n else np.zeros(3)
+        norm = float(np.linalg.norm(a))
+        self.part_axis = a / norm if norm > 0 else np.array([0.0, 0.0, 1.0])
+        self.part_half = (float(np.max(np.arccos(np.clip(self.axis @ self.part_axis, -1, 1))
+                                       + self.half)) + 1e-9 if n and norm > 0 else math.pi)
 
-    def scan(self, points: np.ndarray, q: np.ndarray, r: np.ndarray):
+    def candidates(self, points: np.ndarray) -> np.ndarray:
+        """(N,) bool: points the part's ball and cone may reach; the others are reached by
+        no tile. A tile's test holds exactly the points some ray from its ball along a
+        direction of its cone passes (or its ball, grown by 0.1%); each such ray starts in the
+        part's ball along a direction of the part's cone, so the same test with the part's
+        ball and cone holds the point too (with 1e-9 to spare for rounding)."""
+        v = np.asarray(points, np.float64) - self.part_center
+        dist = np.linalg.norm(v, axis=1)
+        a = self.part_half + self.margin
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sin_s = np.minimum(self.part_radius / dist, 1.0)
+            c = (v @ self.part_axis) / dist
+            bound = math.cos(a) * np.sqrt(1.0 - sin_s * sin_s) - math.sin(a) * sin_s
+            wide = a + np.arcsin(sin_s) >= math.pi if a >= 0.5 * math.pi else False
+        return ~(c < bound - 1e-9) | (dist <= self.part_radius) | (sin_s >= 1.0) | wide
+
+    def scan(self, points: np.ndarray, q: np.ndarray, r: np.ndarray,
+             polygons: np.ndarray | None = None):
         """(reach (N,) bool: some tile's cone holds the point; seeds (N, 2): the middle pixel
         of the tile whose ray passes closest to it, among the tiles that reach it, else
-        among all)."""
-        reach = np.zeros(points.shape[0], np.bool_)
-        seeds = np.full((points.shape[0], 2), np.nan)
-        _scan(np.ascontiguousarray(points, np.float64), self.center, self.radius, self.axis,
-              self.half, self.pixel, self.margin, q, r, reach, seeds)
+        among all). With `polygons` (T, 3) point indices, seeds are found only for the
+        points a part needs: those that reach it and those a polygon joins to one that does
+        (NaN elsewhere); points outside the part's own cone skip the per-tile tests."""
+        n = points.shape[0]
+        points = np.ascontiguousarray(points, np.float64)
+        reach = np.zeros(n, np.bool_)
+        seeds = np.full((n, 2), np.nan)
+        if polygons is None:
+            self._scan_rows(points, q, r, np.arange(n), reach, seeds)
+            return reach, seeds
+        near = self.candidates(points)
+        self._scan_rows(points, q, r, np.flatnonzero(near), reach, seeds)
+        todo = reach.copy()
+        todo[polygons[reach[polygons].any(axis=1)].ravel()] = True
+        self._scan_rows(points, q, r, np.flatnonzero(todo & ~near), reach, seeds)
         return reach, seeds
+
+    def _scan_rows(self, points, q, r, rows, reach, seeds) -> None:
+        """_scan of points[rows] into reach[rows] and seeds[rows] (each point's answer is its
+        own: a subset gives the same answers)."""
+        if rows.size == 0:
+            return
+        sub_reach = np.zeros(rows.size, np.bool_)
+        sub_seeds = np.full((rows.size, 2), np.nan)
+        _scan(np.ascontiguousarray(points[rows]), self.center, self.radius, self.axis,
+              self.half, self.pixel, self.margin, q, r, sub_reach, sub_seeds)
+        reach[rows] = sub_reach
+        seeds[rows] = sub_seeds
 
 
 @njit(cache=True, parallel=True)

@@ -14,6 +14,7 @@ from naive import (
     grid_sample,
     map_coords,
     mirror_on_circle,
+    nearest_filled_distance,
     plane_from_map,
     profile_one,
     refine_point,
@@ -121,6 +122,12 @@ def test_reflector_grid_matches_twin():
     for g, x in zip(got, want, strict=True):
         np.testing.assert_array_equal(np.isnan(g), np.isnan(x))
         np.testing.assert_allclose(g[~np.isnan(x)], x[~np.isnan(x)], rtol=1e-12, atol=1e-12)
+    # R alone, into kept arrays holding an earlier call's values
+    r_only = np.zeros((h, w, 3))
+    q_none, r = refine.reflector_grid(tri, b[..., 1].copy(), b[..., 2].copy(), corners,
+                                      normals, eye, out=(None, r_only))
+    assert q_none is None and r is r_only
+    np.testing.assert_array_equal(r, got[1])
 
 
 def test_grid_sample_matches_twin():
@@ -168,6 +175,25 @@ def test_tile_scan_matches_twin():
     np.testing.assert_array_equal(reach, want_reach)
     np.testing.assert_array_equal(seeds, want_seeds)
     assert reach.any() and not reach.all()
+    # a small patch of the sphere (a part whose rays leave in a narrow cone): its own ball and
+    # cone hold every point a tile reaches, and the culled scan (with polygons) answers alike
+    # wherever the part needs a seed
+    ys, xs = np.nonzero(inside)
+    patch = np.zeros_like(inside)
+    y0, x0 = ys[len(ys) // 2], xs[len(xs) // 2]
+    patch[y0:y0 + 12, x0:x0 + 12] = inside[y0:y0 + 12, x0:x0 + 12]
+    small = PartTiles(patch, q, r, size=4)
+    far = np.concatenate([pts, rng.normal(size=(600, 3)) * 20.0])
+    polygons = rng.integers(0, len(far), (300, 3))
+    full_reach, full_seeds = small.scan(far, q, r)
+    assert full_reach.any()
+    assert small.candidates(far)[full_reach].all()
+    assert not small.candidates(far).all()  # the cull does cull
+    culled_reach, culled_seeds = small.scan(far, q, r, polygons)
+    np.testing.assert_array_equal(culled_reach, full_reach)
+    todo = full_reach.copy()
+    todo[polygons[full_reach[polygons].any(axis=1)].ravel()] = True
+    np.testing.assert_array_equal(culled_seeds[todo], full_seeds[todo])
 
 
 @pytest.fixture(scope="module")
@@ -270,3 +296,24 @@ def test_explosion_lookup_matches_twin(sphere_maps, flip):
     np.testing.assert_allclose(got, want, atol=1e-8, rtol=1e-9)
     np.testing.assert_array_equal(flags, (hidden_face >= 0) | unreflected)
     assert not unreflected.all() and (unreflected.any() or flip)
+
+
+def test_nearest_filled_matches_twin():
+    """The feature transform behind _fill_nearest names, for every texel, a filled texel at
+    the least distance (ties may go either way), on sparse, dense, one-row and one-column
+    maps and a map with one filled texel."""
+    rng = np.random.default_rng(8)
+    cases = [rng.random(tuple(rng.integers(1, 30, 2))) < p for p in (0.3, 0.8, 0.97)
+             for _ in range(10)]
+    cases += [rng.random((1, 25)) < 0.7, rng.random((25, 1)) < 0.7,
+              np.arange(400).reshape(20, 20) != 137]
+    for empty in cases:
+        if empty.all():
+            continue
+        h, w = empty.shape
+        rows = np.empty((h, w), np.int32)
+        cols = np.empty((h, w), np.int32)
+        explosion._nearest_filled(empty, rows, cols)
+        assert not empty[rows, cols].any()
+        got = np.hypot(rows - np.arange(h)[:, None], cols - np.arange(w)[None, :])
+        np.testing.assert_allclose(got, nearest_filled_distance(empty), rtol=0, atol=1e-12)

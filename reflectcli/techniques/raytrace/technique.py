@@ -35,7 +35,10 @@ class Raytrace(Technique):
         geometry = scene.geometry(frame_index)
         built = 0.0
         if state.accel is None or state.accel.key != geometry.key:
+            kept = state.accel.buffers if state.accel is not None else None
             state.accel = build_accelerators(geometry)
+            if kept is not None:  # work arrays outlive the geometry (moving objects)
+                state.accel.buffers = kept
             built = state.accel.build_seconds
         result = trace_frame(scene, geometry, state.accel, camera, self.params.max_depth,
                              self.params.samples, self.threads)

@@ -34,6 +34,7 @@ import numpy as np
 from ...camera import Camera
 from ...frame import Frame
 from ...raster.primary import render_primary
+from ...raster.rasterize import RasterWorkspace
 from ...scene.types import PLANAR, Scene
 from ...virtual.dispatch import choose_method, facing_plane, reflector_parts
 from ...virtual.raster import draw_virtual, reflected_rays
@@ -53,6 +54,11 @@ class VirtualState:
     reflected: ReflectedCache = field(default_factory=ReflectedCache)
     shapes: ShapeCache = field(default_factory=ShapeCache)
     views: ViewCache = field(default_factory=ViewCache)
+    # the rasterizer's scratch of the primary pass (its outputs stay the frame's own), and
+    # the virtual passes' buffers, consumed per part: kept across frames, not allocated anew
+    primary_raster: RasterWorkspace = field(default_factory=RasterWorkspace)
+    virtual_raster: RasterWorkspace = field(
+        default_factory=lambda: RasterWorkspace(outputs=True))
 
     @cached_property
     def scene_points(self) -> np.ndarray:
@@ -93,7 +99,7 @@ class Virtual(Technique):
 
     def render(self, state: VirtualState, frame_index: int, camera: Camera) -> Frame:
         scene = state.scene
-        primary = render_primary(scene, frame_index, camera)
+        primary = render_primary(scene, frame_index, camera, workspace=state.primary_raster)
         result = primary.frame
         geometry = scene.geometry(frame_index)
         clip_from_world = camera.clip_from_world()
@@ -105,7 +111,7 @@ class Virtual(Technique):
             if not (result.surface == scene.n_objects + k).any():
                 continue  # not in view
             if incoming is None:
-                incoming = reflected_rays(primary, camera.eye)
+                incoming = reflected_rays(primary, camera.eye, state.virtual_raster)
             t_start = time.perf_counter()
             tess = state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation)
             seconds["tessellate"] += time.perf_counter() - t_start
@@ -127,10 +133,13 @@ class Virtual(Technique):
                 # them); mixed ones keep their doubly virtual vertices
                 dropped = hidden[tess.corner_index].all(axis=1)
                 t1 = time.perf_counter()
+                # corners gathered in float32 (what the rasterizer takes): half the bytes
+                corners = virtual.astype(np.float32)[tess.corner_index]
                 colors = draw_virtual(scene, primary, camera, clip_from_world, tess.triangles,
-                                      virtual[tess.corner_index], dropped, stencil,
+                                      corners, dropped, stencil,
                                       scene.n_objects + k, mirror_plane,
-                                      self.params.reflector_test, incoming)
+                                      self.params.reflector_test, incoming,
+                                      state.virtual_raster)
                 result.rgb[stencil] += scene.mirrors.reflectance[k] * colors[stencil]
                 seconds["virtual_vertices"] += t1 - t0
                 seconds["virtual_raster"] += time.perf_counter() - t1
