@@ -12,7 +12,9 @@ from .limits import MAX_TRIANGLES
 # bytes per unit, generous (kernels keep several float buffers per pixel and per triangle)
 BYTES_PER_PIXEL = 256
 BYTES_PER_TRIANGLE = 600
-BYTES_PER_TEXEL = 48  # dprm zexel maps: color, depth, triangle ids, mips; envmap faces
+# dprm zexel maps: color, depth, triangle ids, mips (48), the warp's colour + triangle rows
+# (16), and while capturing, the rasterizer's sort-last buffers (8 per thread); envmap faces
+BYTES_PER_TEXEL = 48 + 16 + 8 * max(os.cpu_count() or 1, 2)
 MESH_FILE_BYTES_PER_TRIANGLE = 12  # a binary STL triangle is 50 bytes; be generous
 
 
