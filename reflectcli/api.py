@@ -23,8 +23,9 @@ from typing import Any, Literal, TypeVar
 
 from pydantic import BaseModel
 
-from . import interrupts
+from . import heap, interrupts
 from .camera import Camera, camera_from_config
+from .config.memory import BYTES_PER_PIXEL
 from .config.scene import SceneConfig
 from .errors import Problem, Problems
 from .frame import Frame
@@ -289,11 +290,15 @@ class OpenedScene:
         return self.compile_seconds
 
     def prepare(self) -> Any:
-        """The technique's per-scene work (acceleration structures, maps), done once."""
+        """The technique's per-scene work (acceleration structures, maps) and the frames'
+        working memory (heap.py), done once."""
         if not self._prepared:
             scene, technique = self.scene, self.technique
             start = time.perf_counter()
             self._state = technique.prepare(scene)
+            # the frames' working memory faulted in once, here, not in frame 0's time
+            camera = self.config.camera
+            heap.reserve(camera.width * camera.height * BYTES_PER_PIXEL)
             self.prepare_seconds = time.perf_counter() - start
             self._prepared = True
         return self._state

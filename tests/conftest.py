@@ -13,7 +13,8 @@ from reflectcli import api
 # `make coverage` runs the kernels as Python (NUMBA_DISABLE_JIT=1). A few tests hold the
 # compiled kernel to a result only compiled code gives: interpreted NumPy 2 keeps some
 # float32 arithmetic in float32 where the compiled kernel widens to float64 (texel weights,
-# ties in _pick, the reflector grid's coordinates), and the Embree packet kernel cannot call into the library.
+# ties in _pick, the reflector grid's coordinates), and the Embree packet kernel cannot call
+# into the library.
 compiled_only = pytest.mark.skipif(numba.config.DISABLE_JIT,
                                    reason="holds the compiled kernel; numba's JIT is off")
 
