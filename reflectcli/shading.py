@@ -85,17 +85,19 @@ def surface_color(
         nx, ny, nz = -nx, -ny, -nz
     er = eg = eb = ambient
     for k in range(light_f.shape[0]):
-        if int(light_f[k, 0]) == POINT:
+        if light_f[k, 0] == POINT:
             lx = light_f[k, 1] - px
             ly = light_f[k, 2] - py
             lz = light_f[k, 3] - pz
-            d2 = lx * lx + ly * ly + lz * lz
-            inv = 1.0 / math.sqrt(d2)
-            cos = (nx * lx + ny * ly + nz * lz) * inv
-            scale = max(cos, 0.0) / d2
+            nl = nx * lx + ny * ly + nz * lz
+            if not nl > 0.0:  # facing away (cos <= 0): no light, and no square root
+                continue
+            inv = 1.0 / math.sqrt(lx * lx + ly * ly + lz * lz)
+            scale = nl * inv * (inv * inv)  # cos / d^2
         else:
-            cos = -(nx * light_f[k, 1] + ny * light_f[k, 2] + nz * light_f[k, 3])
-            scale = max(cos, 0.0)
+            scale = -(nx * light_f[k, 1] + ny * light_f[k, 2] + nz * light_f[k, 3])
+            if not scale > 0.0:
+                continue
         er += light_f[k, 4] * scale
         eg += light_f[k, 5] * scale
         eb += light_f[k, 6] * scale

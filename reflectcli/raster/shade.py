@@ -6,9 +6,9 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..scene.types import Scene, Triangles
-from ..shading import surface_color
-from .rasterize import RasterBuffers, barycentrics_at, clip_corners
+from ..scene.types import UNLIT, Scene, Triangles
+from ..shading import material_albedo, surface_color
+from .rasterize import RasterBuffers, clip_corners
 
 
 def shade_buffers(
@@ -71,17 +71,17 @@ def _shade(tri, b1, b2, recover, m, drawn, corners, uvs, normals, material, surf
     """Every pixel shaded. `recover`: barycentrics from the clip-space corners of the
     triangles drawn (`drawn`, world; clip from world `m`) instead of b1, b2."""
     h, w = tri.shape
+    no_stencil = np.zeros((1, 1), np.bool_)
     for y in prange(h):
-        last = -1  # the triangle whose clip-space corners `clip` holds (kept along the row)
-        clip = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        if recover:
+            _shade_row(y, no_stencil, False, tri, m, drawn, corners, uvs, normals, material,
+                       surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                       shading, ambient, background, refl, base, rgb, surf)
+            continue
         for x in range(w):
-            t = tri[y, x]
-            if recover and t >= 0 and t != last:
-                last = t
-                clip = clip_corners(drawn, t, m)
-            _shade_pixel(y, x, tri, b1, b2, recover, clip, corners, uvs, normals,
-                         material, surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
-                         texels, light_f, shading, ambient, background, refl, base, rgb, surf)
+            _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
+                         n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                         shading, ambient, background, refl, base, rgb, surf)
 
 
 @njit(cache=True, parallel=True)
@@ -91,24 +91,112 @@ def _shade_stencil(stencil, tri, b1, b2, recover, m, drawn, corners, uvs, normal
     """_shade of the pixels where `stencil` is set; the others are left as they are."""
     h, w = tri.shape
     for y in prange(h):
-        last = -1
-        clip = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        if recover:
+            _shade_row(y, stencil, True, tri, m, drawn, corners, uvs, normals, material,
+                       surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                       shading, ambient, background, refl, base, rgb, surf)
+            continue
         for x in range(w):
             if stencil[y, x]:
-                t = tri[y, x]
-                if recover and t >= 0 and t != last:
-                    last = t
-                    clip = clip_corners(drawn, t, m)
-                _shade_pixel(y, x, tri, b1, b2, recover, clip, corners, uvs, normals,
-                             material, surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
-                             texels, light_f, shading, ambient, background, refl, base, rgb,
-                             surf)
+                _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
+                             n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                             shading, ambient, background, refl, base, rgb, surf)
+
+@njit(cache=True, inline="always")
+def _run_setup(drawn, t, m, ny, corners, uvs, normals):
+    """Triangle t's attributes along pixel row NDC y = ny, as affine functions of NDC x:
+    u, v, p (world) and n each (numerator at nx = 0, its slope), and the denominator; the
+    attribute at nx is (a - nx * e) / (D0 - nx * De).
+
+    Barycentrics are b_i = d_i / (d0 + d1 + d2) with d_i the 2D cross products of the other
+    two corners' (x - nx w, y - ny w) (`barycentrics_at`); along a row each d_i is
+    a_i - nx * e_i, so each interpolated attribute sum_i A_i b_i is (sum A_i a_i - nx sum A_i
+    e_i) / (sum a_i - nx sum e_i): the same perspective-correct interpolation, worked once per
+    run of a triangle's pixels instead of per pixel."""
+    x0, x1, x2, y0, y1, y2, w0, w1, w2 = clip_corners(drawn, t, m)
+    v0, v1, v2 = y0 - ny * w0, y1 - ny * w1, y2 - ny * w2
+    a0, e0 = x1 * v2 - x2 * v1, w1 * v2 - w2 * v1
+    a1, e1 = x2 * v0 - x0 * v2, w2 * v0 - w0 * v2
+    a2, e2 = x0 * v1 - x1 * v0, w0 * v1 - w1 * v0
+    return (a0 + a1 + a2, e0 + e1 + e2,
+            a0 * uvs[t, 0, 0] + a1 * uvs[t, 1, 0] + a2 * uvs[t, 2, 0],
+            e0 * uvs[t, 0, 0] + e1 * uvs[t, 1, 0] + e2 * uvs[t, 2, 0],
+            a0 * uvs[t, 0, 1] + a1 * uvs[t, 1, 1] + a2 * uvs[t, 2, 1],
+            e0 * uvs[t, 0, 1] + e1 * uvs[t, 1, 1] + e2 * uvs[t, 2, 1],
+            a0 * corners[t, 0, 0] + a1 * corners[t, 1, 0] + a2 * corners[t, 2, 0],
+            e0 * corners[t, 0, 0] + e1 * corners[t, 1, 0] + e2 * corners[t, 2, 0],
+            a0 * corners[t, 0, 1] + a1 * corners[t, 1, 1] + a2 * corners[t, 2, 1],
+            e0 * corners[t, 0, 1] + e1 * corners[t, 1, 1] + e2 * corners[t, 2, 1],
+            a0 * corners[t, 0, 2] + a1 * corners[t, 1, 2] + a2 * corners[t, 2, 2],
+            e0 * corners[t, 0, 2] + e1 * corners[t, 1, 2] + e2 * corners[t, 2, 2],
+            a0 * normals[t, 0, 0] + a1 * normals[t, 1, 0] + a2 * normals[t, 2, 0],
+            e0 * normals[t, 0, 0] + e1 * normals[t, 1, 0] + e2 * normals[t, 2, 0],
+            a0 * normals[t, 0, 1] + a1 * normals[t, 1, 1] + a2 * normals[t, 2, 1],
+            e0 * normals[t, 0, 1] + e1 * normals[t, 1, 1] + e2 * normals[t, 2, 1],
+            a0 * normals[t, 0, 2] + a1 * normals[t, 1, 2] + a2 * normals[t, 2, 2],
+            e0 * normals[t, 0, 2] + e1 * normals[t, 1, 2] + e2 * normals[t, 2, 2])
 
 
 @njit(cache=True, inline="always")
-def _shade_pixel(y, x, tri, b1, b2, recover, clip, corners, uvs, normals, material, surface,
-                 n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading,
-                 ambient, background, refl, base, rgb, surf):
+def _shade_row(y, stencil, use_stencil, tri, m, drawn, corners, uvs, normals, material,
+               surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+               shading, ambient, background, refl, base, rgb, surf):
+    """Row y of a pass whose barycentrics are recovered (see _run_setup); with use_stencil
+    only the pixels where `stencil` is set."""
+    h, w = tri.shape
+    ny = 1.0 - (y + 0.5) * (2.0 / h)
+    sx = 2.0 / w
+    last = -1  # the triangle whose run setup `co` holds (kept along the row)
+    co = (0.0,) * 18
+    for x in range(w):
+        if use_stencil and not stencil[y, x]:
+            continue
+        t = tri[y, x]
+        if t < 0:
+            surf[y, x] = -1
+            for c in range(3):
+                rgb[y, x, c] = background[c]
+            continue
+        s = surface[t]
+        surf[y, x] = s
+        if s >= n_objects:
+            k = s - n_objects
+            for c in range(3):
+                rgb[y, x, c] = (1.0 - refl[k, c]) * base[k, c]
+            continue
+        if t != last:
+            last = t
+            co = _run_setup(drawn, t, m, ny, corners, uvs, normals)
+        nx = (x + 0.5) * sx - 1.0
+        q = 1.0 / (co[0] - nx * co[1])
+        u = (co[2] - nx * co[3]) * q
+        v = (co[4] - nx * co[5]) * q
+        mat = material[t]
+        if shading == UNLIT:
+            r, g, bl = material_albedo(mat, u, v, mat_i, mat_f, texels)
+        else:
+            px = (co[6] - nx * co[7]) * q
+            py = (co[8] - nx * co[9]) * q
+            pz = (co[10] - nx * co[11]) * q
+            nnx = (co[12] - nx * co[13]) * q
+            nny = (co[14] - nx * co[15]) * q
+            nnz = (co[16] - nx * co[17]) * q
+            if per_pixel:
+                dx, dy, dz = dirs[y, x, 0], dirs[y, x, 1], dirs[y, x, 2]
+            else:
+                dx, dy, dz = px - eye[0], py - eye[1], pz - eye[2]
+            r, g, bl = surface_color(mat, u, v, px, py, pz, nnx, nny, nnz, dx, dy, dz,
+                                     mat_i, mat_f, texels, light_f, shading, ambient)
+        rgb[y, x, 0] = r
+        rgb[y, x, 1] = g
+        rgb[y, x, 2] = bl
+
+
+@njit(cache=True, inline="always")
+def _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
+                 dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient, background,
+                 refl, base, rgb, surf):
+    """One pixel of a pass with stored barycentrics b1, b2."""
     t = tri[y, x]
     if t < 0:
         surf[y, x] = -1
@@ -122,13 +210,8 @@ def _shade_pixel(y, x, tri, b1, b2, recover, clip, corners, uvs, normals, materi
         for c in range(3):
             rgb[y, x, c] = (1.0 - refl[k, c]) * base[k, c]
         return
-    if recover:  # from the triangle's clip-space corners and the pixel center's NDC
-        h, w = tri.shape
-        c1, c2 = barycentrics_at(clip, (x + 0.5) * (2.0 / w) - 1.0,
-                                 1.0 - (y + 0.5) * (2.0 / h))
-    else:
-        c1 = b1[y, x]
-        c2 = b2[y, x]
+    c1 = b1[y, x]
+    c2 = b2[y, x]
     c0 = 1.0 - c1 - c2
     u = c0 * uvs[t, 0, 0] + c1 * uvs[t, 1, 0] + c2 * uvs[t, 2, 0]
     v = c0 * uvs[t, 0, 1] + c1 * uvs[t, 1, 1] + c2 * uvs[t, 2, 1]

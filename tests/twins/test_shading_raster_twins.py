@@ -247,6 +247,27 @@ def test_shade_pass_recovering_barycentrics_matches_twin(seed):
     covered = same & (tri_ref >= 0)
     np.testing.assert_allclose(got.b1[covered], b1_ref[covered], atol=1e-5)
     np.testing.assert_allclose(got.b2[covered], b2_ref[covered], atol=1e-5)
+    # the stencilled kernel, unlit shading, per-pixel incoming rays and interpolated uvs
+    # (a bilinear texture: smooth in uv) take the same recovering route
+    mat_i = np.array([[SOLID, 0, 0, 0, 0], [TEXTURE, 0, 2, 2, 1]], np.int32)
+    mat_f = np.array([[0.7, 0.4, 0.2, 0, 0, 0, 1, 1], [0, 0, 0, 0, 0, 0, 1.5, 0.5]], np.float64)
+    texels = rng.random((4, 3)).astype(np.float32)
+    material = rng.integers(0, 2, n_tri).astype(np.int32)
+    stencil = rng.random((H, W)) < 0.5
+    incoming = rng.normal(size=(H, W, 3))
+    for shading, per_pixel in ((UNLIT, False), (LAMBERT, False), (LAMBERT, True)):
+        rgb_s = np.full((H, W, 3), -7.0, np.float32)
+        surf_s = np.full((H, W), -9, np.int32)
+        _shade_stencil(stencil, got.triangle, dummy, dummy, True, m, corners, corners, uvs,
+                       normals, material, surface, n_objects, eye,
+                       incoming if per_pixel else np.zeros((1, 1, 3)), per_pixel, mat_i, mat_f,
+                       texels, light_f, shading, 0.1, background, none3, none3, rgb_s, surf_s)
+        want_rgb, _ = shade(tri_ref, b1_ref, b2_ref, corners, uvs, normals, material, surface,
+                            n_objects, eye, mat_i, mat_f, texels, light_f, shading, 0.1,
+                            background, none3, none3, incoming if per_pixel else None)
+        inside = same & stencil
+        np.testing.assert_allclose(rgb_s[inside], want_rgb[inside], rtol=1e-5, atol=1e-6)
+        assert (rgb_s[~stencil] == -7.0).all() and (surf_s[~stencil] == -9).all()
 
 
 W, H = 32, 24
