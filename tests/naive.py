@@ -409,6 +409,11 @@ def quad_closed_form(o, d, n, c00, e1, e2, tmin):
     return np.where(inside, t, np.inf), marginal
 
 
+def compact(alive, *arrays):
+    """Twin of trace.tracer._compact: each array's rows where `alive` is set, in order."""
+    return [np.compress(alive, a, axis=0) for a in arrays]
+
+
 def pick(t_o, t_m, t_a):
     """Twin of trace.tracer._pick: of the finite candidates (object t, mirror triangle t and
     analytic mirror t, mirrors' t scaled by MIRROR_TIE), the nearest; ties go to the analytic

@@ -32,10 +32,12 @@ from ..scene.types import (
 
 def intersect_analytic(
     origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray, kind: np.ndarray,
-    params: np.ndarray, tmin: float, out: tuple[np.ndarray, np.ndarray] | None = None
+    params: np.ndarray, tmin: float, out: tuple[np.ndarray, np.ndarray] | None = None,
+    edges: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Nearest analytic-mirror hit per ray in (tmin, tfar): (t or inf, mirror index or -1).
-    `out`: (n,) float32 and int32 arrays to fill instead of new ones."""
+    `out`: (n,) float32 and int32 arrays to fill instead of new ones; `edges`: the mirrors'
+    quad_edges, when the caller keeps them (they are made here otherwise)."""
     n = origins.shape[0]
     if out is None:
         t = np.full(n, np.inf, np.float32)
@@ -46,8 +48,9 @@ def intersect_analytic(
         idx.fill(-1)
     if np.any((kind == SPHERE) | (kind == CYLINDER) | (kind == PLANAR)):
         params = np.ascontiguousarray(params, dtype=np.float64)
-        _intersect(origins, directions, tfar, kind, params, quad_edges(kind, params), tmin,
-                   t, idx)
+        if edges is None:
+            edges = quad_edges(kind, params)
+        _intersect(origins, directions, tfar, kind, params, edges, tmin, t, idx)
     return t, idx
 
 

@@ -29,7 +29,7 @@ from ..scene.types import (
     Scene,
 )
 from ..shading import surface_color
-from .analytic import intersect_analytic
+from .analytic import intersect_analytic, quad_edges
 from .embree import TriangleScene
 from .rays import primary_rays
 
@@ -43,6 +43,21 @@ class TraceBuffers:
 
     def __init__(self) -> None:
         self._arrays: dict[str, np.ndarray] = {}
+        self._edges: tuple[np.ndarray, np.ndarray] | None = None  # (mirror params, edges)
+
+    def quad_edges(self, kind: np.ndarray, params: np.ndarray) -> np.ndarray:
+        """analytic.quad_edges of the scene's mirrors, made once (the mirrors' parameters
+        are the scene's: the same array every frame)."""
+        if self._edges is None or self._edges[0] is not params:
+            self._edges = (params, quad_edges(kind, params))
+        return self._edges[1]
+
+    def identity(self, n: int) -> np.ndarray:
+        """0 .. n-1 (int64), kept: the primary rays' slots (read, never written)."""
+        a = self._arrays.get("identity")
+        if a is None or a.shape[0] != n:
+            a = self._arrays["identity"] = np.arange(n, dtype=np.int64)
+        return a
 
     def get(self, name: str, n: int, dtype, width: int = 0) -> np.ndarray:
         """The first n rows of buffer `name` ((n,) or (n, width)), grown when too small;
@@ -127,8 +142,7 @@ def _trace_frame(
         buffers.get("primary_o", n, np.float32, 3), buffers.get("primary_d", n, np.float32, 3)))
     tfar = buffers.get("tfar", n, np.float32)
     tfar.fill(camera.far - camera.near)
-    slot = buffers.get("slot", n, np.int64)
-    slot[:] = np.arange(n, dtype=np.int64)
+    slot = buffers.identity(n)
     weight = buffers.get("weight", n, np.float32, 3)
     weight.fill(1.0)
     color = np.zeros((n, 3), np.float32)  # the frame's rgb: new every frame
@@ -161,12 +175,12 @@ def _trace_frame(
             reflected_hit[slot[hit_surface >= 0]] = 1.0
         # the rays that go on, in order, into the buffers of the next bounce's rays
         m = int(np.count_nonzero(alive))
-        origins = np.compress(alive, next_o, axis=0, out=buffers.get("ray_o", m, np.float32, 3))
-        directions = np.compress(alive, next_d, axis=0,
-                                 out=buffers.get("ray_d", m, np.float32, 3))
-        weight = np.compress(alive, next_w, axis=0, out=buffers.get("ray_w", m, np.float32, 3))
-        slot = np.compress(alive, slot, out=buffers.get("ray_slot_" + "ab"[bounce % 2], m,
-                                                        np.int64))
+        origins = buffers.get("ray_o", m, np.float32, 3)
+        directions = buffers.get("ray_d", m, np.float32, 3)
+        weight = buffers.get("ray_w", m, np.float32, 3)
+        slot_in = slot
+        slot = buffers.get("ray_slot_" + "ab"[bounce % 2], m, np.int64)
+        _compact(alive, next_o, next_d, next_w, slot_in, origins, directions, weight, slot)
         tfar = buffers.get("tfar_bounce", m, np.float32)
         tfar.fill(_FAR_AWAY)
     if depth is None:  # no rays at all
@@ -232,6 +246,7 @@ def _wave(
     t_a, k_a = intersect_analytic(
         origins, directions, tfar, scene.mirrors.kind, scene.mirrors.params, 0.0,
         out=(b.get("analytic_t", count, np.float32), b.get("analytic_k", count, np.int32)),
+        edges=b.quad_edges(scene.mirrors.kind, scene.mirrors.params),
     )
     t1 = time.perf_counter()
     hit_t = b.get("hit_t", count, np.float32)
@@ -289,6 +304,23 @@ def _wave(
     timings["intersect"] += t1 - t0
     timings["shade"] += time.perf_counter() - t1
     return hit_t, hit_surface, alive, next_o, next_d, next_w
+
+
+@njit(cache=True)
+def _compact(alive, next_o, next_d, next_w, slot, out_o, out_d, out_w, out_slot):
+    """The rays that go on, in order: the rows of next_o, next_d, next_w and slot where
+    `alive` is set, into the out arrays (as many rows as alive has set); np.compress of
+    each in one pass."""
+    j = 0
+    for i in range(alive.shape[0]):
+        if alive[i]:
+            for c in range(3):
+                out_o[j, c] = next_o[i, c]
+                out_d[j, c] = next_d[i, c]
+                out_w[j, c] = next_w[i, c]
+            out_slot[j] = slot[i]
+            j += 1
+    return j
 
 
 @njit(cache=True)

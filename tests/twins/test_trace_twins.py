@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import compiled_only
-from naive import pick, resolve
+from naive import compact, pick, resolve
 from test_shading_raster_twins import lights, materials
 
 from reflectcli.scene.types import CYLINDER, LAMBERT, MESH, MIRROR_PARAMS, PLANAR, SPHERE, UNLIT
-from reflectcli.trace.tracer import _pick, _resolve
+from reflectcli.trace.tracer import _compact, _pick, _resolve
 
 
 @compiled_only
@@ -97,3 +97,20 @@ def test_resolve_matches_twin(seed, follow, shading):
     np.testing.assert_allclose(out[3][a], next_o[a], rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(out[4][a], next_d[a], rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(out[5][a], next_w[a], rtol=1e-6)
+
+
+@pytest.mark.parametrize("n", [0, 1, 7, 1000])
+def test_compact_matches_twin(n):
+    rng = np.random.default_rng(n)
+    alive = rng.random(n) < 0.4
+    if n:
+        alive[0], alive[-1] = True, n > 1 and alive[-1]
+    arrays = [rng.normal(size=(n, 3)).astype(np.float32) for _ in range(3)]
+    slot = rng.permutation(n).astype(np.int64)
+    m = int(alive.sum())
+    out = [np.full((m + 2, 3), -7.0, np.float32) for _ in range(3)]
+    out_slot = np.full(m + 2, -9, np.int64)
+    assert _compact(alive, *arrays, slot, *out, out_slot) == m
+    for got, want in zip([*out, out_slot], compact(alive, *arrays, slot), strict=True):
+        np.testing.assert_array_equal(got[:m], want)
+        assert (got[m:] < -6).all()  # nothing written past the alive rows
