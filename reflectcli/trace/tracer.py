@@ -25,10 +25,11 @@ from ..scene.types import (
     PLANE_NORMAL,
     SPHERE,
     SPHERE_CENTER,
+    UNLIT,
     Geometry,
     Scene,
 )
-from ..shading import surface_color
+from ..shading import material_albedo, surface_color
 from .analytic import intersect_analytic, quad_edges
 from .embree import TriangleScene
 from .rays import primary_rays
@@ -403,32 +404,17 @@ def _resolve(
             b0 = 1.0 - b1 - b2
             hit_t[i] = t
             hit_surface[i] = surface[tri]
-            px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
             u = b0 * uvs[tri, 0, 0] + b1 * uvs[tri, 1, 0] + b2 * uvs[tri, 2, 0]
             v = b0 * uvs[tri, 0, 1] + b1 * uvs[tri, 1, 1] + b2 * uvs[tri, 2, 1]
-            nx = b0 * normals[tri, 0, 0] + b1 * normals[tri, 1, 0] + b2 * normals[tri, 2, 0]
-            ny = b0 * normals[tri, 0, 1] + b1 * normals[tri, 1, 1] + b2 * normals[tri, 2, 1]
-            nz = b0 * normals[tri, 0, 2] + b1 * normals[tri, 1, 2] + b2 * normals[tri, 2, 2]
-            r, g, b = surface_color(
-                material[tri],
-                u,
-                v,
-                px,
-                py,
-                pz,
-                nx,
-                ny,
-                nz,
-                dx,
-                dy,
-                dz,
-                mat_i,
-                mat_f,
-                texels,
-                light_f,
-                shading,
-                ambient,
-            )
+            if shading == UNLIT:  # the albedo: no hit point, no normal to interpolate
+                r, g, b = material_albedo(material[tri], u, v, mat_i, mat_f, texels)
+            else:
+                px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
+                nx = b0 * normals[tri, 0, 0] + b1 * normals[tri, 1, 0] + b2 * normals[tri, 2, 0]
+                ny = b0 * normals[tri, 0, 1] + b1 * normals[tri, 1, 1] + b2 * normals[tri, 2, 1]
+                nz = b0 * normals[tri, 0, 2] + b1 * normals[tri, 1, 2] + b2 * normals[tri, 2, 2]
+                r, g, b = surface_color(material[tri], u, v, px, py, pz, nx, ny, nz, dx, dy, dz,
+                                        mat_i, mat_f, texels, light_f, shading, ambient)
             color[s, 0] += weight[i, 0] * r
             color[s, 1] += weight[i, 1] * g
             color[s, 2] += weight[i, 2] * b
