@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 from numba import njit, prange
 
-from ..scene.types import UNLIT, Scene, Triangles
+from ..scene.types import POINT, UNLIT, Scene, Triangles
 from ..shading import material_albedo, surface_color
 from .rasterize import RasterBuffers, clip_corners
 
@@ -142,10 +144,23 @@ def _shade_row(y, stencil, use_stencil, tri, m, drawn, corners, uvs, normals, ma
                surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
                shading, ambient, background, refl, base, rgb, surf):
     """Row y of a pass whose barycentrics are recovered (see _run_setup); with use_stencil
-    only the pixels where `stencil` is set."""
+    only the pixels where `stencil` is set.
+
+    Lit rows go in two steps: each object pixel's albedo, point, normal and view direction
+    are gathered into columns of a scratch array, then `_light_row` lights the columns
+    (loops without branches over contiguous arrays: the compiler vectorizes their square
+    roots and divisions) in surface_color's order of operations: the same numbers."""
     h, w = tri.shape
     ny = 1.0 - (y + 0.5) * (2.0 / h)
     sx = 2.0 / w
+    lit = shading != UNLIT
+    if lit:
+        g = np.empty((12, w))  # albedo rgb, point xyz, normal xyz, view direction xyz
+        xs = np.empty(w, np.int64)
+    else:
+        g = np.empty((12, 0))
+        xs = np.empty(0, np.int64)
+    count = 0
     last = -1  # the triangle whose run setup `co` holds (kept along the row)
     co = (0.0,) * 18
     for x in range(w):
@@ -171,25 +186,77 @@ def _shade_row(y, stencil, use_stencil, tri, m, drawn, corners, uvs, normals, ma
         q = 1.0 / (co[0] - nx * co[1])
         u = (co[2] - nx * co[3]) * q
         v = (co[4] - nx * co[5]) * q
-        mat = material[t]
-        if shading == UNLIT:
-            r, g, bl = material_albedo(mat, u, v, mat_i, mat_f, texels)
+        r, gr, bl = material_albedo(material[t], u, v, mat_i, mat_f, texels)
+        if not lit:
+            rgb[y, x, 0] = r
+            rgb[y, x, 1] = gr
+            rgb[y, x, 2] = bl
+            continue
+        px = (co[6] - nx * co[7]) * q
+        py = (co[8] - nx * co[9]) * q
+        pz = (co[10] - nx * co[11]) * q
+        g[0, count], g[1, count], g[2, count] = r, gr, bl
+        g[3, count], g[4, count], g[5, count] = px, py, pz
+        g[6, count] = (co[12] - nx * co[13]) * q
+        g[7, count] = (co[14] - nx * co[15]) * q
+        g[8, count] = (co[16] - nx * co[17]) * q
+        if per_pixel:
+            g[9, count], g[10, count], g[11, count] = dirs[y, x, 0], dirs[y, x, 1], dirs[y, x, 2]
         else:
-            px = (co[6] - nx * co[7]) * q
-            py = (co[8] - nx * co[9]) * q
-            pz = (co[10] - nx * co[11]) * q
-            nnx = (co[12] - nx * co[13]) * q
-            nny = (co[14] - nx * co[15]) * q
-            nnz = (co[16] - nx * co[17]) * q
-            if per_pixel:
-                dx, dy, dz = dirs[y, x, 0], dirs[y, x, 1], dirs[y, x, 2]
-            else:
-                dx, dy, dz = px - eye[0], py - eye[1], pz - eye[2]
-            r, g, bl = surface_color(mat, u, v, px, py, pz, nnx, nny, nnz, dx, dy, dz,
-                                     mat_i, mat_f, texels, light_f, shading, ambient)
-        rgb[y, x, 0] = r
-        rgb[y, x, 1] = g
-        rgb[y, x, 2] = bl
+            g[9, count], g[10, count], g[11, count] = px - eye[0], py - eye[1], pz - eye[2]
+        xs[count] = x
+        count += 1
+    if count:
+        _light_row(g, count, light_f, ambient)
+        for j in range(count):
+            x = xs[j]
+            rgb[y, x, 0] = g[0, j]
+            rgb[y, x, 1] = g[1, j]
+            rgb[y, x, 2] = g[2, j]
+
+
+@njit(cache=True, inline="always")
+def _light_row(g, count, light_f, ambient):
+    """Lambert lighting of the first `count` columns of a row's gathered columns `g` (see
+    _shade_row), written over its albedo rows: surface_color's lambert, column by column."""
+    ar, ag, ab = g[0], g[1], g[2]
+    px, py, pz = g[3], g[4], g[5]
+    nx, ny, nz = g[6], g[7], g[8]
+    er, eg, eb = g[9], g[10], g[11]  # the view direction, then the irradiance
+    for j in range(count):
+        inv_len = 1.0 / math.sqrt(nx[j] * nx[j] + ny[j] * ny[j] + nz[j] * nz[j])
+        a, b, c = nx[j] * inv_len, ny[j] * inv_len, nz[j] * inv_len
+        sign = -1.0 if a * er[j] + b * eg[j] + c * eb[j] > 0.0 else 1.0
+        nx[j], ny[j], nz[j] = sign * a, sign * b, sign * c
+        er[j] = ambient
+        eg[j] = ambient
+        eb[j] = ambient
+    for k in range(light_f.shape[0]):
+        ir, ig, ib = light_f[k, 4], light_f[k, 5], light_f[k, 6]
+        if light_f[k, 0] == POINT:
+            qx, qy, qz = light_f[k, 1], light_f[k, 2], light_f[k, 3]
+            for j in range(count):
+                lx = qx - px[j]
+                ly = qy - py[j]
+                lz = qz - pz[j]
+                nl = nx[j] * lx + ny[j] * ly + nz[j] * lz
+                inv = 1.0 / math.sqrt(lx * lx + ly * ly + lz * lz)
+                scale = nl * inv * (inv * inv) if nl > 0.0 else 0.0
+                er[j] += ir * scale
+                eg[j] += ig * scale
+                eb[j] += ib * scale
+        else:
+            qx, qy, qz = light_f[k, 1], light_f[k, 2], light_f[k, 3]
+            for j in range(count):
+                scale = -(nx[j] * qx + ny[j] * qy + nz[j] * qz)
+                scale = scale if scale > 0.0 else 0.0
+                er[j] += ir * scale
+                eg[j] += ig * scale
+                eb[j] += ib * scale
+    for j in range(count):
+        ar[j] *= er[j]
+        ag[j] *= eg[j]
+        ab[j] *= eb[j]
 
 
 @njit(cache=True, inline="always")
