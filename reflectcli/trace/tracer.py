@@ -143,10 +143,10 @@ def _trace_frame(
         buffers.get("primary_o", n, np.float32, 3), buffers.get("primary_d", n, np.float32, 3)))
     tfar = buffers.get("tfar", n, np.float32)
     tfar.fill(camera.far - camera.near)
-    slot = buffers.identity(n)
+    slot = buffers.identity(n)  # the first wave reads neither slots nor weights: ones
     weight = buffers.get("weight", n, np.float32, 3)
-    weight.fill(1.0)
-    color = np.zeros((n, 3), np.float32)  # the frame's rgb: new every frame
+    color = np.empty((n, 3), np.float32)  # the frame's rgb: new every frame, the first wave
+    # writes every row
     depth = surface = None  # the primary wave's (bounce 0 always runs)
     reflected_hit = np.zeros(n, np.float32)  # first reflected ray hit geometry
     timings["primary_rays"] = time.perf_counter() - start
@@ -168,6 +168,7 @@ def _trace_frame(
             bounce < max_depth,
             threads,
             timings,
+            first=bounce == 0,
         )
         if bounce == 0:
             depth = np.where(hit_surface >= 0, hit_t + np.float32(camera.near), np.inf)
@@ -229,7 +230,8 @@ def _trace_frame(
 
 
 def _wave(
-    scene, geometry, accel, origins, directions, tfar, weight, slot, color, follow, threads, timings
+    scene, geometry, accel, origins, directions, tfar, weight, slot, color, follow, threads,
+    timings, first=False,
 ):
     """Intersect one batch of rays, shade their hits into color, emit reflected rays."""
     t0 = time.perf_counter()
@@ -301,6 +303,7 @@ def _wave(
         next_o,
         next_d,
         next_w,
+        first,
     )
     timings["intersect"] += t1 - t0
     timings["shade"] += time.perf_counter() - t1
@@ -322,6 +325,15 @@ def _compact(alive, next_o, next_d, next_w, slot, out_o, out_d, out_w, out_slot)
             out_slot[j] = slot[i]
             j += 1
     return j
+
+
+@njit(cache=True, inline="always")
+def _add(color, s, c, x, first):
+    """color[s, c] += x, or = x on the first wave (its rows start empty)."""
+    if first:
+        color[s, c] = x
+    else:
+        color[s, c] += x
 
 
 @njit(cache=True)
@@ -381,13 +393,22 @@ def _resolve(
     next_o,
     next_d,
     next_w,
+    first,
 ):
     """Shade each ray's nearest hit into color[slot] and emit its reflected ray if any.
 
     Inputs are float32; hit points and reflected directions are worked in float64
-    (np.float64(), since numba's float() keeps a float32 a float32)."""
+    (np.float64(), since numba's float() keeps a float32 a float32). `first`: the primary
+    wave, whose weights are ones and slots the identity (neither array is read) and whose
+    color rows are written rather than added to (the same numbers: 0 + x is x, 1 * x is x;
+    `color` may then hold anything before)."""
     for i in prange(origins.shape[0]):
-        s = slot[i]
+        if first:
+            s = np.int64(i)
+            w = (np.float32(1.0), np.float32(1.0), np.float32(1.0))
+        else:
+            s = slot[i]
+            w = (weight[i, 0], weight[i, 1], weight[i, 2])
         ox, oy, oz = np.float64(origins[i, 0]), np.float64(origins[i, 1]), np.float64(origins[i, 2])
         dx, dy, dz = np.float64(dirs[i, 0]), np.float64(dirs[i, 1]), np.float64(dirs[i, 2])
         which = _pick(t_o[i], t_m[i], t_a[i])
@@ -395,7 +416,7 @@ def _resolve(
             hit_t[i] = np.inf
             hit_surface[i] = -1
             for c in range(3):
-                color[s, c] += weight[i, c] * background[c]
+                _add(color, s, c, w[c] * background[c], first)
             continue
         if which == 0:
             t = np.float64(t_o[i])
@@ -415,9 +436,9 @@ def _resolve(
                 nz = b0 * normals[tri, 0, 2] + b1 * normals[tri, 1, 2] + b2 * normals[tri, 2, 2]
                 r, g, b = surface_color(material[tri], u, v, px, py, pz, nx, ny, nz, dx, dy, dz,
                                         mat_i, mat_f, texels, light_f, shading, ambient)
-            color[s, 0] += weight[i, 0] * r
-            color[s, 1] += weight[i, 1] * g
-            color[s, 2] += weight[i, 2] * b
+            _add(color, s, 0, w[0] * r, first)
+            _add(color, s, 1, w[1] * g, first)
+            _add(color, s, 2, w[2] * b, first)
             continue
         # a mirror: geometric normal (for the offset) and shading normal (for the reflection)
         if which == 1:
@@ -459,7 +480,7 @@ def _resolve(
         hit_t[i] = t
         hit_surface[i] = n_objects + k
         for c in range(3):
-            color[s, c] += weight[i, c] * (1.0 - m_refl[k, c]) * m_base[k, c]
+            _add(color, s, c, w[c] * (1.0 - m_refl[k, c]) * m_base[k, c], first)
         if not follow:
             continue
         # face both normals toward the incoming ray (mirrors are two-sided)
@@ -483,6 +504,6 @@ def _resolve(
         next_d[i, 0], next_d[i, 1], next_d[i, 2] = rx, ry, rz
         any_weight = False
         for c in range(3):
-            next_w[i, c] = weight[i, c] * m_refl[k, c]
+            next_w[i, c] = w[c] * m_refl[k, c]
             any_weight = any_weight or next_w[i, c] > 0.0
         alive[i] = any_weight

@@ -85,7 +85,7 @@ def test_resolve_matches_twin(seed, follow, shading):
             params, m_refl, m_base, n_objects, mat_i, mat_f, texels, light_f, shading, 0.1,
             background, follow)
     got_color = color.copy()
-    _resolve(*args, got_color, *out)
+    _resolve(*args, got_color, *out, False)
     want_color, hit_t, hit_surface, alive, next_o, next_d, next_w = resolve(
         *args, color.astype(np.float64))
     np.testing.assert_allclose(got_color, want_color, rtol=2e-5, atol=1e-6)
@@ -97,6 +97,18 @@ def test_resolve_matches_twin(seed, follow, shading):
     np.testing.assert_allclose(out[3][a], next_o[a], rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(out[4][a], next_d[a], rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(out[5][a], next_w[a], rtol=1e-6)
+    # the first wave: weights ones and slots the identity, never read (garbage here), color
+    # rows written over whatever they held; the same as the general route given those
+    ones = np.ones((n, 3), np.float32)
+    first_args = (*args[:2], ones, np.arange(n, dtype=np.int64), *args[4:])
+    want_first = [np.zeros((n, 3), np.float32)] + [a.copy() for a in out]
+    _resolve(*first_args, want_first[0], *want_first[1:], False)
+    garbage = (*args[:2], np.full((n, 3), np.nan, np.float32), np.full(n, -(10 ** 9), np.int64),
+               *args[4:])
+    got_first = [np.full((n, 3), np.nan, np.float32)] + [a.copy() for a in out]
+    _resolve(*garbage, got_first[0], *got_first[1:], True)
+    for got, want in zip(got_first, want_first, strict=True):
+        np.testing.assert_array_equal(got, want)
 
 
 @pytest.mark.parametrize("n", [0, 1, 7, 1000])
