@@ -276,6 +276,15 @@ def fill_fixed(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top
                 tri[r, c] = t
 
 
+def add_reflection(rgb, reflected, stencil, reflectance):
+    """Twin of raster.shade.add_reflection (over the whole image: the box is an
+    optimisation): rgb + reflectance * reflected where the stencil is set, in float32."""
+    out = rgb.copy()
+    part = (reflectance.astype(np.float32) * reflected).astype(np.float32)
+    out[stencil] = (rgb[stencil] + part[stencil]).astype(np.float32)
+    return out
+
+
 def shade_stencil(stencil, rgb, surf, *args):
     """Twin of raster.shade._shade_stencil: `shade` where `stencil` is set, the given rgb and
     surface arrays untouched elsewhere. Returns (rgb, surface id) as new arrays."""

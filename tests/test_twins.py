@@ -61,6 +61,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/shade.py:_shade_row": (RECOVER, "_shade"),
     "raster/shade.py:_run_setup": (RECOVER, "_shade_row"),
     "raster/shade.py:_light_row": (RECOVER, "_shade_row"),
+    "raster/shade.py:add_reflection": ([SR + "test_add_reflection_matches_twin"], None),
     "raster/rasterize.py:_draw": (RASTER, "rasterize"),
     "raster/rasterize.py:_snap": (RASTER, "_draw"),
     "raster/rasterize.py:_clip_xyzw": (RASTER, "_draw"),

@@ -297,3 +297,14 @@ def _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface, n_
     rgb[y, x, 0] = r
     rgb[y, x, 1] = g
     rgb[y, x, 2] = bl
+
+
+@njit(cache=True)
+def add_reflection(rgb, reflected, stencil, reflectance, y0, y1, x0, x1):
+    """rgb += reflectance * reflected on the pixels of `stencil` inside rows y0..y1-1 and
+    columns x0..x1-1 (its box): a mirror's reflection added to its (1 - r) * base."""
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            if stencil[y, x]:
+                for c in range(3):
+                    rgb[y, x, c] += reflectance[c] * reflected[y, x, c]

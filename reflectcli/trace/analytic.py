@@ -104,11 +104,14 @@ def _sphere(ox, oy, oz, dx, dy, dz, cx, cy, cz, r, tmin):
 
 
 @njit(cache=True, inline="always")
-def _cylinder(ox, oy, oz, dx, dy, dz, p, tmin):
-    """Smallest t > tmin on the open tube of mirror params row p (origin, unit axis, radius,
-    height)."""
-    ax, ay, az = p[CYLINDER_AXIS], p[CYLINDER_AXIS + 1], p[CYLINDER_AXIS + 2]
-    lx, ly, lz = ox - p[CYLINDER_ORIGIN], oy - p[CYLINDER_ORIGIN + 1], oz - p[CYLINDER_ORIGIN + 2]
+def _cylinder(ox, oy, oz, dx, dy, dz, params, k, tmin):
+    """Smallest t > tmin on the open tube of mirror k (params row: origin, unit axis, radius,
+    height; read in place: a row view per ray costs reference counting)."""
+    p = params
+    ax, ay, az = p[k, CYLINDER_AXIS], p[k, CYLINDER_AXIS + 1], p[k, CYLINDER_AXIS + 2]
+    lx = ox - p[k, CYLINDER_ORIGIN]
+    ly = oy - p[k, CYLINDER_ORIGIN + 1]
+    lz = oz - p[k, CYLINDER_ORIGIN + 2]
     dd = dx * ax + dy * ay + dz * az
     ld = lx * ax + ly * ay + lz * az
     # components perpendicular to the axis
@@ -118,7 +121,7 @@ def _cylinder(ox, oy, oz, dx, dy, dz, p, tmin):
     if a == 0.0:
         return np.inf
     b = ux * wx + uy * wy + uz * wz
-    c = wx * wx + wy * wy + wz * wz - p[CYLINDER_RADIUS] * p[CYLINDER_RADIUS]
+    c = wx * wx + wy * wy + wz * wz - p[k, CYLINDER_RADIUS] * p[k, CYLINDER_RADIUS]
     disc = b * b - a * c
     if disc < 0.0:
         return np.inf
@@ -127,36 +130,39 @@ def _cylinder(ox, oy, oz, dx, dy, dz, p, tmin):
         t = (-b + sign * s) / a
         if t > tmin:
             h = ld + t * dd
-            if 0.0 <= h <= p[CYLINDER_HEIGHT]:
+            if 0.0 <= h <= p[k, CYLINDER_HEIGHT]:
                 return t
     return np.inf
 
 
 @njit(cache=True, inline="always")
-def _quad(ox, oy, oz, dx, dy, dz, p, edges, tmin):
-    """t > tmin where the ray meets the planar quad (triangles p00 p10 p11 and p00 p11 p01,
-    edges inclusive; `edges`: the mirror's rows of quad_edges)."""
-    nx, ny, nz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
+def _quad(ox, oy, oz, dx, dy, dz, params, edges, k, tmin):
+    """t > tmin where the ray meets planar mirror k's quad (triangles p00 p10 p11 and p00 p11
+    p01, edges inclusive; `edges`: quad_edges). Rows are read in place (a row view per ray
+    costs reference counting)."""
+    nx, ny, nz = params[k, PLANE_NORMAL], params[k, PLANE_NORMAL + 1], params[k, PLANE_NORMAL + 2]
     denom = nx * dx + ny * dy + nz * dz
     if denom == 0.0:
         return np.inf
-    t = -(nx * ox + ny * oy + nz * oz + p[PLANE_D]) / denom
+    t = -(nx * ox + ny * oy + nz * oz + params[k, PLANE_D]) / denom
     if not t > tmin:
         return np.inf
     px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
-    if (_inner(edges, 0, px, py, pz) and _inner(edges, 1, px, py, pz)
-            and _inner(edges, 2, px, py, pz)):
+    if (_inner(edges, k, 0, px, py, pz) and _inner(edges, k, 1, px, py, pz)
+            and _inner(edges, k, 2, px, py, pz)):
         return t
-    if (_inner(edges, 3, px, py, pz) and _inner(edges, 4, px, py, pz)
-            and _inner(edges, 5, px, py, pz)):
+    if (_inner(edges, k, 3, px, py, pz) and _inner(edges, k, 4, px, py, pz)
+            and _inner(edges, k, 5, px, py, pz)):
         return t
     return np.inf
 
 
 @njit(cache=True, inline="always")
-def _inner(edges, e, px, py, pz):
-    """Is the point on the inner side of (or on) edge e of quad_edges (NaN counts in)?"""
-    return not edges[e, 0] * px + edges[e, 1] * py + edges[e, 2] * pz - edges[e, 3] < 0.0
+def _inner(edges, k, e, px, py, pz):
+    """Is the point on the inner side of (or on) edge e of mirror k's quad_edges (NaN counts
+    in)?"""
+    return not (edges[k, e, 0] * px + edges[k, e, 1] * py + edges[k, e, 2] * pz
+                - edges[k, e, 3] < 0.0)
 
 
 @njit(cache=True, parallel=True)
@@ -169,14 +175,14 @@ def _intersect(origins, directions, tfar, kind, params, edges, tmin, t_out, idx_
         best = f64(tfar[i])
         found = -1
         for k in range(kind.shape[0]):
-            p = params[k]
             if kind[k] == SPHERE:
-                t = _sphere(ox, oy, oz, dx, dy, dz, p[SPHERE_CENTER], p[SPHERE_CENTER + 1],
-                            p[SPHERE_CENTER + 2], p[SPHERE_RADIUS], tmin)
+                t = _sphere(ox, oy, oz, dx, dy, dz, params[k, SPHERE_CENTER],
+                            params[k, SPHERE_CENTER + 1], params[k, SPHERE_CENTER + 2],
+                            params[k, SPHERE_RADIUS], tmin)
             elif kind[k] == CYLINDER:
-                t = _cylinder(ox, oy, oz, dx, dy, dz, p, tmin)
+                t = _cylinder(ox, oy, oz, dx, dy, dz, params, k, tmin)
             elif kind[k] == PLANAR:
-                t = _quad(ox, oy, oz, dx, dy, dz, p, edges[k], tmin)
+                t = _quad(ox, oy, oz, dx, dy, dz, params, edges, k, tmin)
             else:
                 continue
             if t < best:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import compiled_only
+from naive import add_reflection as naive_add_reflection
 from naive import (
     material_albedo,
     primary_rays,
@@ -25,7 +26,7 @@ from reflectcli.raster.rasterize import (
 from reflectcli.raster.rasterize import (
     rasterize as fast_rasterize,
 )
-from reflectcli.raster.shade import _shade, _shade_stencil
+from reflectcli.raster.shade import _shade, _shade_stencil, add_reflection
 from reflectcli.scene.types import CHECKER, DIRECTIONAL, LAMBERT, POINT, SOLID, TEXTURE, UNLIT
 from reflectcli.shading import material_albedo as fast_albedo
 from reflectcli.shading import surface_color as fast_surface_color
@@ -356,3 +357,19 @@ def test_rasterizer_culling_and_skip_match_twin(seed, cull):
     got = fast_rasterize(corners, flags, m, W, H, cull=cull)
     compare_raster(got, rasterize(corners, flags, m, W, H, cull=cull))
     assert not np.isin(got.triangle, np.flatnonzero(flags & FLAG_SKIP)).any()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_add_reflection_matches_twin(seed):
+    rng = np.random.default_rng(seed)
+    h, w = 13, 17
+    rgb = rng.random((h, w, 3)).astype(np.float32)
+    reflected = rng.random((h, w, 3)).astype(np.float32)
+    stencil = np.zeros((h, w), np.bool_)
+    stencil[3:9, 2:12] = rng.random((6, 10)) < 0.7
+    stencil[3, 2] = stencil[8, 11] = True  # the box's corners
+    reflectance = rng.random(3).astype(np.float32)
+    want = naive_add_reflection(rgb, reflected, stencil, reflectance)
+    got = rgb.copy()
+    add_reflection(got, reflected, stencil, reflectance, 3, 9, 2, 12)
+    np.testing.assert_array_equal(got, want)

@@ -12,7 +12,7 @@ from ...frame import Frame
 from ...geometry import reflection_matrix
 from ...raster.primary import render_primary
 from ...raster.rasterize import FLAG_SKIP, RasterWorkspace, rasterize
-from ...raster.shade import shade_buffers
+from ...raster.shade import add_reflection, shade_buffers
 from ...scene.types import PLANAR, Scene, Triangles
 from ..base import Technique, warn_non_planar
 from . import RerenderParams
@@ -96,11 +96,8 @@ class Rerender(Technique):
             stats["pass_seconds"].append(time.perf_counter() - start)
             self._reflect(scene, tris, flags, camera, level + 1, new_chain, new_eye,
                           reflected_surface, stencil, reflected, stats)
-            # over the stencil's box (boolean indexing of (H, W, 3) arrays costs milliseconds)
+            # over the stencil's box; the rest of `reflected` was never written
             rows = np.flatnonzero(stencil.any(axis=1))
             cols = np.flatnonzero(stencil.any(axis=0))
-            box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
-            inside = stencil[box][..., None]  # the rest of `reflected` was never written
-            part = np.multiply(mirrors.reflectance[k], reflected[box], where=inside,
-                               out=np.zeros(reflected[box].shape, np.float32))
-            np.add(rgb[box], part, out=rgb[box], where=inside)
+            add_reflection(rgb, reflected, stencil, mirrors.reflectance[k], rows[0],
+                           rows[-1] + 1, cols[0], cols[-1] + 1)
