@@ -95,6 +95,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "trace/tracer.py:_resolve": ([T + "test_resolve_matches_twin"], None),
     "trace/tracer.py:_compact": ([T + "test_compact_matches_twin"], None),
     "trace/tracer.py:_add": ([T + "test_resolve_matches_twin"], "_resolve"),
+    "trace/tracer.py:_ray": ([T + "test_resolve_matches_twin"], "_resolve"),
     "maps/cube.py:cube_face_coords": ([M + "test_cube_lookup_matches_twin"], None),
     "maps/cube.py:cube_sample": ([M + "test_cube_lookup_matches_twin"], None),
     "maps/cube.py:image_sample": ([M + "test_image_sample_matches_twin"], None),

@@ -328,6 +328,15 @@ def _compact(alive, next_o, next_d, next_w, slot, out_o, out_d, out_w, out_slot)
 
 
 @njit(cache=True, inline="always")
+def _ray(origins, dirs, i):
+    """Ray i's origin and direction in float64 (read only where a hit needs them: an unlit
+    object hit does not)."""
+    f64 = np.float64
+    return (f64(origins[i, 0]), f64(origins[i, 1]), f64(origins[i, 2]),
+            f64(dirs[i, 0]), f64(dirs[i, 1]), f64(dirs[i, 2]))
+
+
+@njit(cache=True, inline="always")
 def _add(color, s, c, x, first):
     """color[s, c] += x, or = x on the first wave (its rows start empty)."""
     if first:
@@ -409,8 +418,6 @@ def _resolve(
         else:
             s = slot[i]
             w = (weight[i, 0], weight[i, 1], weight[i, 2])
-        ox, oy, oz = np.float64(origins[i, 0]), np.float64(origins[i, 1]), np.float64(origins[i, 2])
-        dx, dy, dz = np.float64(dirs[i, 0]), np.float64(dirs[i, 1]), np.float64(dirs[i, 2])
         which = _pick(t_o[i], t_m[i], t_a[i])
         if which < 0:
             hit_t[i] = np.inf
@@ -430,6 +437,7 @@ def _resolve(
             if shading == UNLIT:  # the albedo: no hit point, no normal to interpolate
                 r, g, b = material_albedo(material[tri], u, v, mat_i, mat_f, texels)
             else:
+                ox, oy, oz, dx, dy, dz = _ray(origins, dirs, i)
                 px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
                 nx = b0 * normals[tri, 0, 0] + b1 * normals[tri, 1, 0] + b2 * normals[tri, 2, 0]
                 ny = b0 * normals[tri, 0, 1] + b1 * normals[tri, 1, 1] + b2 * normals[tri, 2, 1]
@@ -441,6 +449,7 @@ def _resolve(
             _add(color, s, 2, w[2] * b, first)
             continue
         # a mirror: geometric normal (for the offset) and shading normal (for the reflection)
+        ox, oy, oz, dx, dy, dz = _ray(origins, dirs, i)
         if which == 1:
             t = np.float64(t_m[i])
             tri = p_m[i]
