@@ -118,7 +118,7 @@ def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near:
     return out.sx, out.sy, out.z, out.row_lo, out.row_hi
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, error_model="numpy")
 def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, positions, sx, sy, z, pix,
              dist, row_lo, row_hi, count):
     # homogeneous screen point (hx, hy, hw) = M (u, v, 1, delta), scaled by the depth d
@@ -346,24 +346,23 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
     distance of the zexel to the pixel center) and best_id (ids base + zexel index), only
     inside `region` = (x0, x1, y0, y1) (and, with `use_stencil`, only on stencil pixels);
     `proj` must come from `project_map` with that region as its grown box (its columns are
-    not checked again), with positions if best_zd has room for offsets, else with distances.
-    `clear`: reset the region first (inside the kernel, each band its rows). best_zd (H, W,
-    4) also receives the kept zexel's offset from the pixel center (for `spread`). One band
-    of rows per task, balanced by zexel count; each band visits every run but skips the map
-    rows that cannot reach it, so the result does not depend on the thread count. `bands`:
-    how many (default: two a thread). `payload` (n, c): a row per zexel, copied into
-    `payload_out` (H, W, c) with each zexel that takes a pixel (so a reached pixel ends
-    with its kept zexel's row; other pixels are left alone)."""
+    not checked again) and `positions=False` (the distances). `clear`: reset the region
+    first (inside the kernel, each band its rows; a cleared pixel is (inf, inf), -1, which
+    the rule reads as empty without looking at its id). One band of rows per task, balanced
+    by zexel count; each band visits every run but skips the map rows that cannot reach it,
+    so the result does not depend on the thread count. `bands`: how many (default: two a
+    thread). `payload` (n, c): a row per zexel, copied into `payload_out` (H, W, c) with
+    each zexel that takes a pixel (so a reached pixel ends with its kept zexel's row; other
+    pixels are left alone)."""
     x0, x1, y0, y1 = region
     if bands is None:
         bands = max(1, numba.get_num_threads()) * 2
     h, w = best_id.shape
     pay, pay_out = _payload_args(payload, payload_out)
-    _splat_pixels(proj.pix, proj.sx, proj.sy, proj.d, proj.z, runs, mw, proj.row_lo,
-                  proj.row_hi, proj.count, base, ordered, stencil.reshape(-1), use_stencil,
-                  best_zd.shape[2] == 4, x0, x1, y0, y1, w, clear, bands,
-                  best_zd.reshape(-1), best_zd.shape[2], best_id.reshape(-1),
-                  payload is not None, pay, pay_out)
+    _splat_pixels(proj.pix, proj.d, proj.z, runs, mw, proj.row_lo, proj.row_hi, proj.count,
+                  base, ordered, stencil.reshape(-1), use_stencil, x0, x1, y0, y1, w, clear,
+                  bands, best_zd.reshape(-1), best_id.reshape(-1), payload is not None, pay,
+                  pay_out)
 
 
 @njit(cache=True, inline="always")
@@ -392,12 +391,11 @@ def _payload_args(payload, payload_out):
     return np.ascontiguousarray(payload), payload_out.reshape(-1, c)
 
 
-@njit(cache=True, parallel=True)
-def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
-                  use_stencil, keep_offsets, x0, x1, y0, y1, width, clear, bands, zd, rec, ids,
-                  with_payload, pay, pay_out):
-    # zd: a record of `rec` floats per pixel, (depth, squared distance[, offset x, offset y]):
-    # one cache line for all
+@njit(cache=True, parallel=True, error_model="numpy")
+def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
+                  use_stencil, x0, x1, y0, y1, width, clear, bands, zd, ids, with_payload, pay,
+                  pay_out):
+    # zd: (depth, squared distance) per pixel, one 8-byte record
     # band edges over rows [y0, y1): each map row's zexels counted at its middle row
     hist = np.zeros(y1 - y0 + 1, np.int64)
     total = 0
@@ -420,7 +418,6 @@ def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, o
         edges[b] = y1
         b += 1
     inf = np.float32(np.inf)
-    half = np.float32(0.5)
     for b in prange(bands):
         r0 = edges[b]
         r1 = edges[b + 1]
@@ -429,7 +426,8 @@ def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, o
         if clear:
             for y in range(r0, r1):
                 for p in range(y * width + x0, y * width + x1):
-                    zd[rec * p] = inf  # (the distance is read only where ids holds a zexel)
+                    zd[2 * p] = inf
+                    zd[2 * p + 1] = inf  # no zexel lands this far from a center: empty
                     ids[p] = -1
         p0 = r0 * width
         p1 = r1 * width
@@ -444,49 +442,47 @@ def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, o
                     continue
                 if use_stencil and not stencil[p]:
                     continue
-                if keep_offsets:  # positions projected: the offsets for spread
-                    fx = sx[k]
-                    fy = sy[k]
-                    dx = fx - np.floor(fx) - half
-                    dy = fy - np.floor(fy) - half
-                    dk = dx * dx + dy * dy
-                else:  # only the squared distance projected
-                    dx = dy = half
-                    dk = dist[k]
+                dk = dist[k]
                 zk = z[k]
                 ident = base + k
-                current = ids[p]
-                bz = zd[rec * p]
-                take = False
-                if current < 0 or zk < bz * (1.0 - SAME_SURFACE) or (
-                        ordered and current >= base):
-                    take = True
-                elif zk <= bz * (1.0 + SAME_SURFACE) or zk == bz:
-                    bd = zd[rec * p + 1]
-                    take = (dk < bd) | ((dk == bd) & (ident < current))
+                bz = zd[2 * p]
+                # an empty pixel (inf, inf): a finite zk is nearer, an infinite one lands
+                # nearer the center; its id is read only for an exact tie or in ordered mode
+                take = zk < bz * (1.0 - SAME_SURFACE)
+                if not take and ordered:
+                    take = ids[p] >= base
+                if not take and (zk <= bz * (1.0 + SAME_SURFACE) or zk == bz):
+                    bd = zd[2 * p + 1]
+                    take = dk < bd
+                    if dk == bd:
+                        take = ident < ids[p]
                 if take:
-                    zd[rec * p] = zk
-                    zd[rec * p + 1] = dk
+                    zd[2 * p] = zk
+                    zd[2 * p + 1] = dk
                     ids[p] = ident
-                    if keep_offsets:
-                        zd[rec * p + 2] = dx
-                        zd[rec * p + 3] = dy
                     if with_payload:
                         _copy_row(pay, k, pay_out, p)
 
 
-def spread(records, best_id, radius: int, stencil, box, out_z, out_id, payloads=None,
-           stride: int = 1, payload_out=None) -> None:
-    """A splat of (2 radius + 1)^2 pixels from the one-pixel splat's result (`records` (H,
-    W, 4): depth, distance, offset from the pixel center x, y; best_id): of the zexels
-    kept in the square around a stencil pixel of `box` = (x0, x1, y0, y1), the front surface
-    is those within SAME_SURFACE of the nearest depth (or equal to it: at infinity). The
-    pixel keeps its own zexel if that is on the front surface (where zexels are dense, the
-    wide splat is the one-pixel one); else it takes the front surface's zexel landing
-    nearest its center (ties to the lower id). Writes out_z / out_id over the box (inf / -1
-    off the stencil). `payloads`: per map (n, c) rows, ids slot * stride + index (stride a
-    power of two); `payload_out` (H, W, c) already holds each pixel's own zexel's row (the
-    one-pixel splat wrote it), and a pixel that takes another zexel gets that one's row."""
+# key of no zexel in `spread`: above every (depth bits, id) key, inf depths included
+_NO_KEY = np.int64(0x7FFFFFFFFFFFFFFF)
+
+
+def spread(best_zd, best_id, radius: int, stencil, box, out_z, out_id, payloads=None,
+           stride: int = 1, payload_out=None, bands: int | None = None) -> None:
+    """A splat of (2 radius + 1)^2 pixels from the one-pixel splat's result (`best_zd` (H,
+    W, 2): depth, distance; best_id). Each kept zexel has the key (float32 depth bits, id)
+    (bits of a non-negative float order as the float does): of the kept zexels in the
+    square around a stencil pixel of `box` = (x0, x1, y0, y1), the one with the least key
+    is the nearest (ties to the lower id), and the front surface is those within
+    SAME_SURFACE of its depth (or equal to it: at infinity). The pixel keeps its own zexel
+    if that is on the front surface (where zexels are dense, the wide splat is the one-pixel
+    one); else it takes the least key's zexel. The least key over a square is a separable
+    minimum (over the square's rows, then its columns). Writes out_z / out_id over the box
+    (inf / -1 off the stencil). `payloads`: per map (n, c) rows, ids slot * stride + index
+    (stride a power of two); `payload_out` (H, W, c) already holds each pixel's own zexel's
+    row (the one-pixel splat wrote it), and a pixel that takes another zexel gets that
+    one's row."""
     x0, x1, y0, y1 = box
     if payloads is None:
         rows = (np.empty((0, 1), np.float32),)
@@ -494,116 +490,115 @@ def spread(records, best_id, radius: int, stencil, box, out_z, out_id, payloads=
     else:
         rows = tuple(np.ascontiguousarray(p) for p in payloads)
         _, pay_out = _payload_args(rows[0], payload_out)
-    _spread(records, best_id, radius, stencil, x0, x1, y0, y1, out_z, out_id,
-            payloads is not None, rows, stride.bit_length() - 1, pay_out)
+    zd = np.ascontiguousarray(best_zd).reshape(-1)
+    if bands is None:
+        bands = max(1, numba.get_num_threads()) * 4
+    _spread(zd, zd.view(np.int32), np.ascontiguousarray(best_id).reshape(-1), radius,
+            stencil, x0, x1, y0, y1, best_id.shape[0], best_id.shape[1], out_z, out_id,
+            payloads is not None, rows, stride.bit_length() - 1, pay_out, bands)
 
 
-@njit(cache=True, parallel=True)
-def _spread(records, ids, r, stencil, x0, x1, y0, y1, out_z, out_id, with_payload, rows, shift,
-            pay_out):
-    h, w = ids.shape
-    # flat views: one index per pixel, neighbours at fixed offsets from it
-    flat = records.reshape(-1)
-    z = flat[::4]
-    oxf = flat[2::4]
-    oyf = flat[3::4]
-    idf = ids.reshape(-1)
-    for y in prange(y0, y1):
+@njit(cache=True, parallel=True, error_model="numpy")
+def _spread(zd, bits, idf, r, stencil, x0, x1, y0, y1, h, w, out_z, out_id, with_payload, rows,
+            shift, pay_out, bands):
+    # bands of rows, each run top to bottom with a ring of the 2r + 1 rows' keys around its
+    # row (each pixel's key made once a band); a pixel's result depends on its square only
+    for b in prange(bands):
+        ya = y0 + (y1 - y0) * b // bands
+        yb = y0 + (y1 - y0) * (b + 1) // bands
+        if yb <= ya:
+            continue
         # the common radii as constants: their loops unroll
         if r == 1:
-            _spread_row(z, idf, oxf, oyf, 1, stencil, x0, x1, y, h, w, out_z, out_id,
-                        with_payload, rows, shift, pay_out)
+            _spread_band(zd, bits, idf, 1, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
+                         with_payload, rows, shift, pay_out)
         elif r == 2:
-            _spread_row(z, idf, oxf, oyf, 2, stencil, x0, x1, y, h, w, out_z, out_id,
-                        with_payload, rows, shift, pay_out)
+            _spread_band(zd, bits, idf, 2, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
+                         with_payload, rows, shift, pay_out)
         else:
-            _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id,
-                        with_payload, rows, shift, pay_out)
+            _spread_band(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
+                         with_payload, rows, shift, pay_out)
 
 
 @njit(cache=True, inline="always")
-def _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id, with_payload,
-                rows, shift, pay_out):
-    """Row y of `spread`. Neighbours off the screen are replaced by the nearest pixel on it
-    (clamped coordinates, no branches): a pixel counted twice changes no minimum. Indices
-    are unsigned where it matters (numba then adds no negative-index wraparound, and the
-    loops vectorize)."""
-    inf = np.float32(np.inf)
-    # the square's nearest depth: a column minimum over its rows, then a row minimum
+def _spread_band(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id, with_payload,
+                 rows, shift, pay_out):
+    """Rows [ya, yb) of `spread`. Neighbours off the screen are replaced by the nearest pixel
+    on it (clamped coordinates): a pixel counted twice changes no minimum."""
     xa = max(x0 - r, 0)
     n_col = min(x1 + r, w) - xa
-    column = np.empty(n_col, np.float32)  # column[i]: screen column xa + i
-    first = min(max(y - r, 0), h - 1) * w + xa
-    column[:] = z[first:first + n_col]
-    for dy in range(-r + 1, r + 1):
-        start = min(max(y + dy, 0), h - 1) * w + xa
-        _min_into(column, z[start:start + n_col])
-    front = np.empty(x1 - x0, np.float32)
-    front[:] = column[x0 - xa:x0 - xa + x1 - x0]
-    for dx in range(-r, r + 1):
-        if dx != 0:
-            _min_shifted(front, column, x0 - xa + dx, n_col)
-    # a pixel whose own zexel is on the front surface keeps it (no branches); the others
-    # (holes of the one-pixel splat, or behind a nearer neighbour) are listed
-    zo = z[y * w + x0:y * w + x1]
-    own = idf[y * w + x0:y * w + x1]
-    on = stencil[y, x0:x1]
-    oz = out_z[y, x0:x1]
-    oi = out_id[y, x0:x1]
-    rest = np.empty(x1 - x0, np.int64)
-    n_rest = 0
-    for i in range(x1 - x0):
-        f = front[i]
-        keep = (own[i] >= 0) & ((zo[i] <= f * (1.0 + SAME_SURFACE)) | (zo[i] == f)) & on[i]
-        oz[i] = zo[i] if keep else inf
-        oi[i] = own[i] if keep else -1
-        rest[n_rest] = x0 + i
-        n_rest += 0 if keep or not on[i] else 1
-    none = np.int64(0x7FFFFFFFFFFFFFFF)
-    for j in range(n_rest):
-        x = rest[j]
-        f = front[x - x0]
-        limit = f * (1.0 + SAME_SURFACE)
-        # (squared distance bits, id): the bits of a non-negative float32 order as it does,
-        # so one integer minimum picks the nearest, ties to the lower id (ids are below
-        # 2^32: warp_depths checks)
-        best = none
-        best_z = inf
-        inside = (r <= y < h - r) and (r <= x < w - r)
-        for dy in range(-r, r + 1):
-            yy = y + dy if inside else min(max(y + dy, 0), h - 1)
-            for dx in range(-r, r + 1):
-                xx = x + dx if inside else min(max(x + dx, 0), w - 1)
-                n = np.uint64(yy * w + xx)
-                q = idf[n]
-                zq = z[n]
-                ex = oxf[n] + np.float32(xx - x)
-                ey = oyf[n] + np.float32(yy - y)
-                key = (np.int64(np.float32(ex * ex + ey * ey).view(np.int32)) << 32) | q
-                take = (q >= 0) & ((zq <= limit) | (zq == f)) & (key < best)
-                best = key if take else best
-                best_z = zq if take else best_z
-        if best != none:
-            oz[x - x0] = best_z
-            oi[x - x0] = best & 0xFFFFFFFF
-            if with_payload:  # another pixel's zexel: its row from its map
-                q = best & 0xFFFFFFFF
-                slot = q >> shift
-                _copy_row(rows[slot], q - (slot << shift), pay_out, y * w + x)
+    n = x1 - x0
+    size = 2 * r + 1
+    ring = np.empty((size, n_col), np.int64)  # ring[(yy + r) % size]: keys of row clamp(yy)
+    for yy in range(ya - r, ya + r):
+        _key_row(ring[(yy + r) % size], bits, idf, min(max(yy, 0), h - 1) * w + xa)
+    column = np.empty(n_col, np.int64)  # column[i]: screen column xa + i
+    padded = np.full(n_col + 2 * r, _NO_KEY, np.int64)  # padded[r + i] = column[i]
+    least = np.empty(n, np.int64)
+    front_bits = np.empty(n, np.int32)
+    front = front_bits.view(np.float32)
+    for y in range(ya, yb):
+        _key_row(ring[(y + 2 * r) % size], bits, idf, min(y + r, h - 1) * w + xa)
+        # the square's least key: a column minimum over its rows, then a row minimum
+        column[:] = ring[0]
+        for j in range(1, size):
+            _min_into(column, ring[j])
+        # the row minimum over a copy padded with no key (the clamped columns repeat an
+        # edge column already in the square)
+        padded[r:r + n_col] = column
+        least[:] = padded[x0 - xa:x0 - xa + n]
+        for dx in range(1, 2 * r + 1):
+            _min_into(least, padded[x0 - xa + dx:x0 - xa + dx + n])
+        for i in range(n):  # the least key's depth, as float32 (its high bits)
+            front_bits[i] = np.int32(least[i] >> 32)
+        # a pixel whose own zexel is on the front surface keeps it (no branches); the others
+        # (holes of the one-pixel splat, or behind a nearer neighbour) take the least key's
+        base = y * w + x0
+        _spread_pick(zd[2 * base:2 * (base + n)], idf[base:base + n], least, front,
+                     stencil[y, x0:x1], out_z[y, x0:x1], out_id[y, x0:x1])
+        if with_payload:  # another pixel's zexel: its row from its map
+            oi = out_id[y, x0:x1]
+            own = idf[base:base + n]
+            for i in range(n):
+                q = oi[i]
+                if q >= 0 and q != own[i]:
+                    slot = q >> shift
+                    _copy_row(rows[slot], q - (slot << shift), pay_out, base + i)
+
+
+@njit(cache=True, inline="always")
+def _spread_pick(zd, own, least, front, on, oz, oi):
+    """One row's choice: own zexel if on the front surface, else the least key's."""
+    inf = np.float32(np.inf)
+    for i in range(own.shape[0]):
+        zo = zd[2 * i]
+        fz = front[i]
+        keep = (own[i] >= 0) & ((zo <= fz * (1.0 + SAME_SURFACE)) | (zo == fz))
+        key = least[i]
+        found = key != _NO_KEY
+        z_other = fz if found else inf
+        id_other = (key & 0xFFFFFFFF) if found else np.int64(-1)
+        z_pick = zo if keep else z_other
+        id_pick = own[i] if keep else id_other
+        oz[i] = z_pick if on[i] else inf
+        oi[i] = id_pick if on[i] else np.int64(-1)
+
+
+@njit(cache=True, inline="always")
+def _key_row(dst, bits, idf, start):
+    """dst[i] = key of pixel start + i: (depth bits << 32) | id, or no key."""
+    n = dst.shape[0]
+    b = bits[2 * start:2 * (start + n)]
+    q = idf[start:start + n]
+    for i in range(n):
+        key = (np.int64(b[2 * i]) << 32) | (q[i] & 0xFFFFFFFF)
+        dst[i] = key if q[i] >= 0 else _NO_KEY
 
 
 @njit(cache=True, inline="always")
 def _min_into(acc, values):
     for i in range(acc.shape[0]):
         v = values[i]
-        acc[i] = v if v < acc[i] else acc[i]
-
-
-@njit(cache=True, inline="always")
-def _min_shifted(acc, values, shift, n):
-    """acc[i] = min(acc[i], values[clamp(i + shift, 0, n - 1)])."""
-    for i in range(acc.shape[0]):
-        v = values[np.uint64(min(max(i + shift, 0), n - 1))]
         acc[i] = v if v < acc[i] else acc[i]
 
 
@@ -617,9 +612,6 @@ class WarpBuffers:
         self.shape = (height, width)
         self.best_zd = np.full((height, width, 2), np.inf, np.float32)
         self.best_id = np.full((height, width), -1, np.int64)
-        # the one-pixel splat's (depth, distance, offset x, offset y) per pixel before a
-        # spread; its kernel clears what it uses, nothing else reads it
-        self.records = np.full((height, width, 4), np.inf, np.float32)
         self.out_z = np.full((height, width), np.inf, np.float32)
         self.out_id = np.full((height, width), -1, np.int64)
         self.projections: dict[tuple[int, int], Projection] = {}
@@ -741,18 +733,18 @@ def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bo
         for slot, (depth, wm, runs) in enumerate(items):
             mh, mw = depth.shape
             proj = buffers.projection(mh, mw)
-            project_map(depth, wm, w, h, near, box, radius, proj, positions=radius > 0)
+            project_map(depth, wm, w, h, near, box, radius, proj, positions=False)
             if runs is None:
                 runs = buffers.raster_runs(mh, mw)
             splat_pixels(proj, runs, mw, slot * stride, stencil,
-                         buffers.records if radius > 0 else buffers.best_zd, buffers.best_id,
+                         buffers.best_zd, buffers.best_id,
                          ordered, region, slot == 0, use_stencil,
                          payload=None if payloads is None else payloads[slot], payload_out=out)
             zexels += int(proj.count.sum())
         if radius == 0:
             return buffers.best_zd[:, :, 0], buffers.best_id, stride, zexels
         buffers.claim_out(box)
-        spread(buffers.records, buffers.best_id, radius, stencil, box, buffers.out_z,
+        spread(buffers.best_zd, buffers.best_id, radius, stencil, box, buffers.out_z,
                buffers.out_id, payloads, stride, out)
         return buffers.out_z, buffers.out_id, stride, zexels
     buffers.claim(box)
