@@ -32,7 +32,8 @@ RECOVER = [SR + "test_shade_pass_recovering_barycentrics_matches_twin",
 SPLAT = [W + "test_splat_matches_the_reference",
          M + "test_splat_both_modes_match_sequential_twin"]
 PIXELS = [W + "test_pixel_splat_matches_the_reference",
-          M + "test_pixel_splat_both_modes_match_sequential_twin"]
+          M + "test_pixel_splat_both_modes_match_sequential_twin",
+          M + "test_splat_projecting_inside_matches_project_then_splat"]
 SPREAD = [W + "test_spread_matches_the_reference"]
 ANALYTIC = [E + "test_analytic_matches_closed_forms"]
 SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
@@ -99,6 +100,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/lookup.py:_add": ([M + "test_envmap_lookup_matches_twin"], None),
     "maps/surface.py:_intersect": ([M + "test_surface_reconstruction_matches_twin"], None),
     "maps/warp.py:_project": ([M + "test_warp_projection_matches_twin"], "project_map"),
+    "maps/warp.py:_project_row": ([M + "test_warp_projection_matches_twin",
+                                   M + "test_splat_projecting_inside_matches_project_then_splat"],
+                                  "_project"),
     "maps/warp.py:_adaptive": ([M + "test_adaptive_radii_match_twin"], "splat_radii"),
     "maps/warp.py:_splat": (SPLAT, "splat"),
     "maps/warp.py:_write": (SPLAT, "_splat"),

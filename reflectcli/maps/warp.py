@@ -121,10 +121,26 @@ def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near:
 @njit(cache=True, parallel=True, error_model="numpy")
 def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, positions, sx, sy, z, pix,
              dist, row_lo, row_hi, count):
-    # homogeneous screen point (hx, hy, hw) = M (u, v, 1, delta), scaled by the depth d
-    # (the same point for d > 0, without dividing by d): hw is then the eye depth in the
-    # target camera. Written without branches (selects) so that the row loop vectorizes.
     mh, mw = depth.shape
+    for v in prange(mh):
+        a = v * mw
+        lo, hi, warped = _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width,
+                                      height, positions, sx[a:a + mw], sy[a:a + mw],
+                                      z[a:a + mw], pix[a:a + mw], dist[a:a + mw])
+        row_lo[v] = lo if warped > 0 else 1 << 40
+        row_hi[v] = hi if warped > 0 else -1
+        count[v] = warped
+
+
+@njit(cache=True, inline="always")
+def _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width, height, positions, sx, sy, z,
+                 pix, dist):
+    """Map row v into the row arrays (sx, sy: with `positions`, else dist); returns (first
+    row, last row, count) of its warped zexels. The homogeneous screen point (hx, hy, hw) = M
+    (u, v, 1, delta), scaled by the depth d (the same point for d > 0, without dividing by
+    d): hw is then the eye depth in the target camera. Written without branches (selects)
+    so that the loop vectorizes."""
+    mw = depth.shape[1]
     one = np.float32(1.0)
     zero = np.float32(0.0)
     inf = np.float32(np.inf)
@@ -135,52 +151,47 @@ def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, positions, s
     fy0, fy1 = np.float32(ymin), np.float32(ymax)
     wid = np.int32(width)
     fw, fh = np.float32(width), np.float32(height)
-    for v in prange(mh):
-        vf = np.float32(v)
-        r0 = m[0, 1] * vf + m[0, 2]
-        r1 = m[1, 1] * vf + m[1, 2]
-        r3 = m[3, 1] * vf + m[3, 2]
-        a0, a1, a3 = m[0, 0], m[1, 0], m[3, 0]
-        t0, t1, t3 = m[0, 3], m[1, 3], m[3, 3]
-        lo = np.int32(1 << 30)
-        hi = np.int32(-(1 << 30))
-        warped = 0
-        base = v * mw
-        for u in range(mw):
-            uf = np.float32(u)
-            d = depth[v, u]
-            finite = d < inf  # False for inf (a direction: delta = 0) and NaN
-            s = d if finite else one
-            t = one if finite else zero
-            hx = (a0 * uf + r0) * s + t0 * t
-            hy = (a1 * uf + r1) * s + t1 * t
-            hw = (a3 * uf + r3) * s + t3 * t
-            inv = one / hw
-            x = hx * inv
-            y = hy * inv
-            ok = ((finite & (d > zero) & (hw > near32)) | ((d == inf) & (hw > zero))) & (
-                x >= fx0) & (x < fx1) & (y >= fy0) & (y < fy1)
-            xs = x if ok else zero
-            ys = y if ok else zero
-            px = np.int32(np.floor(xs))
-            py = np.int32(np.floor(ys))
-            k = base + u
-            if positions:
-                sx[k] = x if ok else nan
-                sy[k] = ys
-            else:
-                ex = xs - np.floor(xs) - half
-                ey = ys - np.floor(ys) - half
-                dist[k] = ex * ex + ey * ey
-            z[k] = hw if finite else inf
-            on_screen = ok & (xs >= zero) & (xs < fw) & (ys >= zero) & (ys < fh)
-            pix[k] = py * wid + px if on_screen else np.int32(-1)
-            lo = min(lo, py if ok else np.int32(1 << 30))
-            hi = max(hi, py if ok else np.int32(-(1 << 30)))
-            warped += 1 if ok else 0
-        row_lo[v] = lo if warped > 0 else 1 << 40
-        row_hi[v] = hi if warped > 0 else -1
-        count[v] = warped
+    vf = np.float32(v)
+    r0 = m[0, 1] * vf + m[0, 2]
+    r1 = m[1, 1] * vf + m[1, 2]
+    r3 = m[3, 1] * vf + m[3, 2]
+    a0, a1, a3 = m[0, 0], m[1, 0], m[3, 0]
+    t0, t1, t3 = m[0, 3], m[1, 3], m[3, 3]
+    lo = np.int32(1 << 30)
+    hi = np.int32(-(1 << 30))
+    warped = 0
+    for u in range(mw):
+        uf = np.float32(u)
+        d = depth[v, u]
+        finite = d < inf  # False for inf (a direction: delta = 0) and NaN
+        s = d if finite else one
+        t = one if finite else zero
+        hx = (a0 * uf + r0) * s + t0 * t
+        hy = (a1 * uf + r1) * s + t1 * t
+        hw = (a3 * uf + r3) * s + t3 * t
+        inv = one / hw
+        x = hx * inv
+        y = hy * inv
+        ok = ((finite & (d > zero) & (hw > near32)) | ((d == inf) & (hw > zero))) & (
+            x >= fx0) & (x < fx1) & (y >= fy0) & (y < fy1)
+        xs = x if ok else zero
+        ys = y if ok else zero
+        px = np.int32(np.floor(xs))
+        py = np.int32(np.floor(ys))
+        if positions:
+            sx[u] = x if ok else nan
+            sy[u] = ys
+        else:
+            ex = xs - np.floor(xs) - half
+            ey = ys - np.floor(ys) - half
+            dist[u] = ex * ex + ey * ey
+        z[u] = hw if finite else inf
+        on_screen = ok & (xs >= zero) & (xs < fw) & (ys >= zero) & (ys < fh)
+        pix[u] = py * wid + px if on_screen else np.int32(-1)
+        lo = min(lo, py if ok else np.int32(1 << 30))
+        hi = max(hi, py if ok else np.int32(-(1 << 30)))
+        warped += 1 if ok else 0
+    return lo, hi, warped
 
 
 def splat_radii(sx, sy, z, shape, mode, out: np.ndarray | None = None) -> np.ndarray:
@@ -340,7 +351,7 @@ def _write(y, x, zk, dk, ident, slot, stride, best_zd, best_id, ordered):
 
 def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, ordered: bool,
                  region, clear: bool, use_stencil: bool, bands: int | None = None,
-                 payload=None, payload_out=None) -> None:
+                 payload=None, payload_out=None, source=None) -> None:
     """The one-pixel splat: each zexel of `proj` (visited run by run) at the pixel it lands
     in, by the visibility rule of `_write`, into best_zd (H, W, 2) float32 (depth, squared
     distance of the zexel to the pixel center) and best_id (ids base + zexel index), only
@@ -353,16 +364,28 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
     so the result does not depend on the thread count. `bands`: how many (default: two a
     thread). `payload` (n, c): a row per zexel, copied into `payload_out` (H, W, c) with
     each zexel that takes a pixel (so a reached pixel ends with its kept zexel's row; other
-    pixels are left alone)."""
+    pixels are left alone). `source` = (depth (mh, mw), W, near, (x0, x1, y0, y1) the grown
+    box): project the map inside the kernel instead (each task the rows that reach its band,
+    into buffers it keeps in cache; the same arithmetic and results as `project_map` with
+    that box and `positions=False`), and fill only proj's row spans and counts."""
     x0, x1, y0, y1 = region
     if bands is None:
         bands = max(1, numba.get_num_threads()) * 2
     h, w = best_id.shape
     pay, pay_out = _payload_args(payload, payload_out)
+    if source is None:  # proj holds the projection
+        from_depth, near, grown = False, 0.0, region
+        depth, m = np.empty((1, 1), np.float32), np.empty((4, 4), np.float32)
+    else:  # project here: proj receives only the rows' spans and counts
+        depth, wm, near, grown = source
+        from_depth = True
+        depth = np.ascontiguousarray(depth, np.float32)
+        m = np.ascontiguousarray(screen_matrix(w, h) @ wm, np.float32)
     _splat_pixels(proj.pix, proj.d, proj.z, runs, mw, proj.row_lo, proj.row_hi, proj.count,
                   base, ordered, stencil.reshape(-1), use_stencil, x0, x1, y0, y1, w, clear,
                   bands, best_zd.reshape(-1), best_id.reshape(-1), payload is not None, pay,
-                  pay_out)
+                  pay_out, from_depth, depth, m, near, grown[0], grown[1], grown[2], grown[3],
+                  h)
 
 
 @njit(cache=True, inline="always")
@@ -394,8 +417,22 @@ def _payload_args(payload, payload_out):
 @njit(cache=True, parallel=True, error_model="numpy")
 def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
                   use_stencil, x0, x1, y0, y1, width, clear, bands, zd, ids, with_payload, pay,
-                  pay_out):
-    # zd: (depth, squared distance) per pixel, one 8-byte record
+                  pay_out, from_depth, depth, m, near, xmin, xmax, ymin, ymax, height):
+    # zd: (depth, squared distance) per pixel, one 8-byte record.
+    # from_depth: project the map (depth, m: as `_project` with positions=False) here, row by
+    # row into buffers each task keeps in cache, instead of reading pix, dist, z: first
+    # every row's screen span (into row_lo, row_hi, count), then each band projects again
+    # the rows that reach it (the same arithmetic: the same results)
+    if from_depth:
+        for v in prange(row_lo.shape[0]):
+            rp = np.empty(mw, np.int32)
+            rz = np.empty(mw, np.float32)
+            rd = np.empty(mw, np.float32)
+            lo, hi, warped = _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width,
+                                          height, False, rd, rd, rz, rp, rd)
+            row_lo[v] = lo if warped > 0 else 1 << 40
+            row_hi[v] = hi if warped > 0 else -1
+            count[v] = warped
     # band edges over rows [y0, y1): each map row's zexels counted at its middle row
     hist = np.zeros(y1 - y0 + 1, np.int64)
     total = 0
@@ -431,30 +468,44 @@ def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, 
                     ids[p] = -1
         p0 = r0 * width
         p1 = r1 * width
+        bp = np.empty(mw, np.int32)
+        bz = np.empty(mw, np.float32)
+        bd = np.empty(mw, np.float32)
+        projected = -1
         for run in range(runs.shape[0]):
             v = runs[run, 0]
             if row_hi[v] < r0 or row_lo[v] >= r1:
                 continue
+            if from_depth:
+                if v != projected:
+                    _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width, height,
+                                 False, bd, bd, bz, bp, bd)
+                    projected = v
+                rp, rz, rd = bp, bz, bd
+            else:
+                rp = pix[v * mw:(v + 1) * mw]
+                rz = z[v * mw:(v + 1) * mw]
+                rd = dist[v * mw:(v + 1) * mw]
             for u in range(runs[run, 1], runs[run, 2], runs[run, 3]):
-                k = v * mw + u
-                p = pix[k]
+                p = rp[u]
                 if p < p0 or p >= p1:  # also p = -1: not warped
                     continue
                 if use_stencil and not stencil[p]:
                     continue
-                dk = dist[k]
-                zk = z[k]
+                dk = rd[u]
+                zk = rz[u]
+                k = v * mw + u
                 ident = base + k
-                bz = zd[2 * p]
+                cz = zd[2 * p]
                 # an empty pixel (inf, inf): a finite zk is nearer, an infinite one lands
                 # nearer the center; its id is read only for an exact tie or in ordered mode
-                take = zk < bz * (1.0 - SAME_SURFACE)
+                take = zk < cz * (1.0 - SAME_SURFACE)
                 if not take and ordered:
                     take = ids[p] >= base
-                if not take and (zk <= bz * (1.0 + SAME_SURFACE) or zk == bz):
-                    bd = zd[2 * p + 1]
-                    take = dk < bd
-                    if dk == bd:
+                if not take and (zk <= cz * (1.0 + SAME_SURFACE) or zk == cz):
+                    cd = zd[2 * p + 1]
+                    take = dk < cd
+                    if dk == cd:
                         take = ident < ids[p]
                 if take:
                     zd[2 * p] = zk
@@ -733,13 +784,14 @@ def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bo
         for slot, (depth, wm, runs) in enumerate(items):
             mh, mw = depth.shape
             proj = buffers.projection(mh, mw)
-            project_map(depth, wm, w, h, near, box, radius, proj, positions=False)
             if runs is None:
                 runs = buffers.raster_runs(mh, mw)
-            splat_pixels(proj, runs, mw, slot * stride, stencil,
-                         buffers.best_zd, buffers.best_id,
-                         ordered, region, slot == 0, use_stencil,
-                         payload=None if payloads is None else payloads[slot], payload_out=out)
+            # projected inside the splat: zexels beyond the region cannot reach the box
+            splat_pixels(proj, runs, mw, slot * stride, stencil, buffers.best_zd,
+                         buffers.best_id, ordered, region, slot == 0, use_stencil,
+                         payload=None if payloads is None else payloads[slot], payload_out=out,
+                         source=(depth, wm, near, (x0 - radius, x1 + radius, y0 - radius,
+                                                   y1 + radius)))
             zexels += int(proj.count.sum())
         if radius == 0:
             return buffers.best_zd[:, :, 0], buffers.best_id, stride, zexels
