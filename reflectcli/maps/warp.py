@@ -25,12 +25,14 @@ on the thread count (the order within a band is fixed: map rows in run order).
 
 Fixed splats wider than a pixel in z-buffer mode are a `spread` of the one-pixel result:
 over its (2r + 1)^2 square a pixel keeps its own zexel if that is on the square's front
-surface, else takes the front surface's kept zexel landing nearest its center; adaptive
-splats and ordered wide ones splat each zexel over its square (`splat`).
+surface, else takes the square's nearest kept zexel (least (depth, id): a separable
+minimum over packed integer keys, as a z-buffered splat of the one-pixel result would);
+adaptive splats and ordered wide ones splat each zexel over its square (`splat`).
 
 The projection is float32 throughout (one 4x4 from map pixel to homogeneous screen point,
-written with selects so that it vectorizes); the warp writes each reached pixel's payload
-row (colour, triangle) as it goes, so no gather pass follows it.
+written with selects so that it vectorizes). The one-pixel splat projects the map itself,
+row by row into buffers each task keeps in cache (no projection arrays), and writes each
+reached pixel's payload row (colour, triangle) as it goes, so no gather pass follows it.
 """
 
 from __future__ import annotations
@@ -531,9 +533,9 @@ def spread(best_zd, best_id, radius: int, stencil, box, out_z, out_id, payloads=
     one); else it takes the least key's zexel. The least key over a square is a separable
     minimum (over the square's rows, then its columns). Writes out_z / out_id over the box
     (inf / -1 off the stencil). `payloads`: per map (n, c) rows, ids slot * stride + index
-    (stride a power of two); `payload_out` (H, W, c) already holds each pixel's own zexel's
-    row (the one-pixel splat wrote it), and a pixel that takes another zexel gets that
-    one's row."""
+    (stride a power of two); each pixel of the box gets its zexel's row in `payload_out`
+    (H, W, c) (copied for every pixel, without a branch on which changed: pixels no zexel
+    reached, or off the stencil, receive some row)."""
     x0, x1, y0, y1 = box
     if payloads is None:
         rows = (np.empty((0, 1), np.float32),)
@@ -607,14 +609,14 @@ def _spread_band(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
         base = y * w + x0
         _spread_pick(zd[2 * base:2 * (base + n)], idf[base:base + n], least, front,
                      stencil[y, x0:x1], out_z[y, x0:x1], out_id[y, x0:x1])
-        if with_payload:  # another pixel's zexel: its row from its map
+        if with_payload:  # each pixel's zexel's row from its map
             oi = out_id[y, x0:x1]
-            own = idf[base:base + n]
             for i in range(n):
-                q = oi[i]
-                if q >= 0 and q != own[i]:
-                    slot = q >> shift
-                    _copy_row(rows[slot], q - (slot << shift), pay_out, base + i)
+                # every pixel (no branch on which): a kept own zexel's row again, and for
+                # one no zexel reached some row (its value does not matter)
+                q = max(oi[i], 0)
+                slot = q >> shift
+                _copy_row(rows[slot], q - (slot << shift), pay_out, base + i)
 
 
 @njit(cache=True, inline="always")
