@@ -534,8 +534,8 @@ def spread(best_zd, best_id, radius: int, stencil, box, out_z, out_id, payloads=
     minimum (over the square's rows, then its columns). Writes out_z / out_id over the box
     (inf / -1 off the stencil). `payloads`: per map (n, c) rows, ids slot * stride + index
     (stride a power of two); each pixel of the box gets its zexel's row in `payload_out`
-    (H, W, c) (copied for every pixel, without a branch on which changed: pixels no zexel
-    reached, or off the stencil, receive some row)."""
+    (H, W, c) (copied for every pixel, without a branch: pixels no zexel reached, or off the
+    stencil, receive some row), so the one-pixel splat need not write rows."""
     x0, x1, y0, y1 = box
     if payloads is None:
         rows = (np.empty((0, 1), np.float32),)
@@ -585,20 +585,19 @@ def _spread_band(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
     ring = np.empty((size, n_col), np.int64)  # ring[(yy + r) % size]: keys of row clamp(yy)
     for yy in range(ya - r, ya + r):
         _key_row(ring[(yy + r) % size], bits, idf, min(max(yy, 0), h - 1) * w + xa)
-    column = np.empty(n_col, np.int64)  # column[i]: screen column xa + i
-    padded = np.full(n_col + 2 * r, _NO_KEY, np.int64)  # padded[r + i] = column[i]
+    padded = np.full(n_col + 2 * r, _NO_KEY, np.int64)
     least = np.empty(n, np.int64)
     front_bits = np.empty(n, np.int32)
     front = front_bits.view(np.float32)
     for y in range(ya, yb):
         _key_row(ring[(y + 2 * r) % size], bits, idf, min(y + r, h - 1) * w + xa)
-        # the square's least key: a column minimum over its rows, then a row minimum
+        # the square's least key: a column minimum over its rows (into a row padded with no
+        # key: the clamped columns repeat an edge column already in the square), then a row
+        # minimum
+        column = padded[r:r + n_col]  # column[i]: screen column xa + i
         column[:] = ring[0]
         for j in range(1, size):
             _min_into(column, ring[j])
-        # the row minimum over a copy padded with no key (the clamped columns repeat an
-        # edge column already in the square)
-        padded[r:r + n_col] = column
         least[:] = padded[x0 - xa:x0 - xa + n]
         for dx in range(1, 2 * r + 1):
             _min_into(least, padded[x0 - xa + dx:x0 - xa + dx + n])
@@ -791,7 +790,9 @@ def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bo
             # projected inside the splat: zexels beyond the region cannot reach the box
             splat_pixels(proj, runs, mw, slot * stride, stencil, buffers.best_zd,
                          buffers.best_id, ordered, region, slot == 0, use_stencil,
-                         payload=None if payloads is None else payloads[slot], payload_out=out,
+                         # a spread copies every pixel's row itself
+                         payload=None if payloads is None or radius > 0 else payloads[slot],
+                         payload_out=out,
                          source=(depth, wm, near, (x0 - radius, x1 + radius, y0 - radius,
                                                    y1 + radius)))
             zexels += int(proj.count.sum())
