@@ -772,30 +772,37 @@ def splat_spread(sx, sy, z, radius, stencil):
     it, one of the nearest depth's surface (`splat_zbuffer` with radius 0, no stencil); then
     each stencil pixel looks at the kept zexels in its (2 radius + 1)^2 square: the nearest
     is the one of least (depth, index), and the front surface is those within SAME_SURFACE
-    of its depth (or equal to it); the pixel keeps its own zexel if that is on it, else
-    takes the nearest. Returns (depth, id) with -1 / inf where none."""
+    of its depth (or equal to it). The pixel keeps its own zexel if that is on it, else
+    takes, of the squares of radius 1, 2, ..., radius around it, the first whose nearest
+    zexel is on the front surface: that nearest. Returns (depth, id), -1 / inf where none."""
     from reflectcli.maps.warp import SAME_SURFACE
 
     h, w = stencil.shape
     kept = splat_zbuffer(sx, sy, z, np.zeros(sx.size, np.int64), None, np.ones((h, w), bool))
     best_z = np.full((h, w), np.inf, np.float32)
     best_id = np.full((h, w), -1)
+
+    def nearest(y, x, r):
+        square = [kept[yy, xx] for yy in range(y - r, y + r + 1)
+                  for xx in range(x - r, x + r + 1)
+                  if 0 <= yy < h and 0 <= xx < w and kept[yy, xx] >= 0]
+        return min(square, key=lambda k: (z[k], k)) if square else -1
+
     for y in range(h):
         for x in range(w):
-            if not stencil[y, x]:
+            if not stencil[y, x] or nearest(y, x, radius) < 0:
                 continue
-            square = [kept[yy, xx] for yy in range(y - radius, y + radius + 1)
-                      for xx in range(x - radius, x + radius + 1)
-                      if 0 <= yy < h and 0 <= xx < w and kept[yy, xx] >= 0]
-            if not square:
-                continue
-            nearest = min(square, key=lambda k: (z[k], k))
-            front = z[nearest]
+            front = z[nearest(y, x, radius)]
+
+            def on_front(k, front=front):
+                return z[k] <= front * (1 + SAME_SURFACE) or z[k] == front
+
             own = kept[y, x]
-            if own >= 0 and (z[own] <= front * (1 + SAME_SURFACE) or z[own] == front):
+            if own >= 0 and on_front(own):
                 choice = own
             else:
-                choice = nearest
+                choice = next(nearest(y, x, r) for r in range(1, radius + 1)
+                              if nearest(y, x, r) >= 0 and on_front(nearest(y, x, r)))
             best_id[y, x] = choice
             best_z[y, x] = z[choice]
     return best_z, best_id
