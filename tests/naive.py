@@ -784,43 +784,39 @@ def splat_spread(sx, sy, z, radius, stencil):
     """Twin of maps.warp's one-pixel splat followed by `spread` (_splat_pixels, _spread,
     z-buffer mode, one map): first every pixel of the screen keeps, of the zexels landing in
     it, one of the nearest depth's surface (`splat_zbuffer` with radius 0, no stencil); then
-    each stencil pixel looks at the kept zexels in its (2 radius + 1)^2 square: the front
-    surface is those within SAME_SURFACE of their nearest depth (or equal to it); the pixel
-    keeps its own zexel if that is on it, else takes the front surface's zexel landing
-    nearest its center (float32 squared distance from the zexel's offset in its own pixel;
-    ties to the lower index). Returns (depth, id) with -1 / inf where none."""
+    each stencil pixel looks at the kept zexels in its (2 radius + 1)^2 square: the nearest
+    is the one of least (depth, index), and the front surface is those within SAME_SURFACE
+    of its depth (or equal to it). The pixel keeps its own zexel if that is on it, else
+    takes, of the squares of radius 1, 2, ..., radius around it, the first whose nearest
+    zexel is on the front surface: that nearest. Returns (depth, id), -1 / inf where none."""
     from reflectcli.maps.warp import SAME_SURFACE
 
     h, w = stencil.shape
     kept = splat_zbuffer(sx, sy, z, np.zeros(sx.size, np.int64), None, np.ones((h, w), bool))
     best_z = np.full((h, w), np.inf, np.float32)
     best_id = np.full((h, w), -1)
+
+    def nearest(y, x, r):
+        square = [kept[yy, xx] for yy in range(y - r, y + r + 1)
+                  for xx in range(x - r, x + r + 1)
+                  if 0 <= yy < h and 0 <= xx < w and kept[yy, xx] >= 0]
+        return min(square, key=lambda k: (z[k], k)) if square else -1
+
     for y in range(h):
         for x in range(w):
-            if not stencil[y, x]:
+            if not stencil[y, x] or nearest(y, x, radius) < 0:
                 continue
-            square = [(yy, xx) for yy in range(y - radius, y + radius + 1)
-                      for xx in range(x - radius, x + radius + 1)
-                      if 0 <= yy < h and 0 <= xx < w and kept[yy, xx] >= 0]
-            if not square:
-                continue
-            front = min(z[kept[yy, xx]] for yy, xx in square)
-            on_front = [(yy, xx) for yy, xx in square
-                        if z[kept[yy, xx]] <= front * (1 + SAME_SURFACE)
-                        or z[kept[yy, xx]] == front]
-            if (y, x) in on_front:
-                choice = kept[y, x]
+            front = z[nearest(y, x, radius)]
+
+            def on_front(k, front=front):
+                return z[k] <= front * (1 + SAME_SURFACE) or z[k] == front
+
+            own = kept[y, x]
+            if own >= 0 and on_front(own):
+                choice = own
             else:
-                def distance(pixel, y=y, x=x):
-                    yy, xx = pixel
-                    k = kept[yy, xx]
-                    fx, fy = np.float32(sx[k]), np.float32(sy[k])
-                    ox = fx - np.float32(math.floor(fx)) - np.float32(0.5)
-                    oy = fy - np.float32(math.floor(fy)) - np.float32(0.5)
-                    ex = np.float32(ox + np.float32(xx - x))
-                    ey = np.float32(oy + np.float32(yy - y))
-                    return np.float32(ex * ex + ey * ey), k
-                choice = kept[min(on_front, key=distance)]
+                choice = next(nearest(y, x, r) for r in range(1, radius + 1)
+                              if nearest(y, x, r) >= 0 and on_front(nearest(y, x, r)))
             best_id[y, x] = choice
             best_z[y, x] = z[choice]
     return best_z, best_id

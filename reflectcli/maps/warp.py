@@ -25,12 +25,15 @@ on the thread count (the order within a band is fixed: map rows in run order).
 
 Fixed splats wider than a pixel in z-buffer mode are a `spread` of the one-pixel result:
 over its (2r + 1)^2 square a pixel keeps its own zexel if that is on the square's front
-surface, else takes the front surface's kept zexel landing nearest its center; adaptive
-splats and ordered wide ones splat each zexel over its square (`splat`).
+surface, else the nearest kept zexel (least (depth, id): a separable minimum over packed
+integer keys, as a z-buffered splat of the one-pixel result would) of the smallest square
+around it (radius 1, 2, ..., r) whose nearest is on that front surface;
+adaptive splats and ordered wide ones splat each zexel over its square (`splat`).
 
 The projection is float32 throughout (one 4x4 from map pixel to homogeneous screen point,
-written with selects so that it vectorizes); the warp writes each reached pixel's payload
-row (colour, triangle) as it goes, so no gather pass follows it.
+written with selects so that it vectorizes). The one-pixel splat projects the map itself,
+row by row into buffers each task keeps in cache (no projection arrays), and writes each
+reached pixel's payload row (colour, triangle) as it goes, so no gather pass follows it.
 """
 
 from __future__ import annotations
@@ -118,13 +121,29 @@ def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near:
     return out.sx, out.sy, out.z, out.row_lo, out.row_hi
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, error_model="numpy")
 def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, positions, sx, sy, z, pix,
              dist, row_lo, row_hi, count):
-    # homogeneous screen point (hx, hy, hw) = M (u, v, 1, delta), scaled by the depth d
-    # (the same point for d > 0, without dividing by d): hw is then the eye depth in the
-    # target camera. Written without branches (selects) so that the row loop vectorizes.
     mh, mw = depth.shape
+    for v in prange(mh):
+        a = v * mw
+        lo, hi, warped = _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width,
+                                      height, positions, sx[a:a + mw], sy[a:a + mw],
+                                      z[a:a + mw], pix[a:a + mw], dist[a:a + mw])
+        row_lo[v] = lo if warped > 0 else 1 << 40
+        row_hi[v] = hi if warped > 0 else -1
+        count[v] = warped
+
+
+@njit(cache=True, inline="always")
+def _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width, height, positions, sx, sy, z,
+                 pix, dist):
+    """Map row v into the row arrays (sx, sy: with `positions`, else dist); returns (first
+    row, last row, count) of its warped zexels. The homogeneous screen point (hx, hy, hw) = M
+    (u, v, 1, delta), scaled by the depth d (the same point for d > 0, without dividing by
+    d): hw is then the eye depth in the target camera. Written without branches (selects)
+    so that the loop vectorizes."""
+    mw = depth.shape[1]
     one = np.float32(1.0)
     zero = np.float32(0.0)
     inf = np.float32(np.inf)
@@ -135,52 +154,47 @@ def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, positions, s
     fy0, fy1 = np.float32(ymin), np.float32(ymax)
     wid = np.int32(width)
     fw, fh = np.float32(width), np.float32(height)
-    for v in prange(mh):
-        vf = np.float32(v)
-        r0 = m[0, 1] * vf + m[0, 2]
-        r1 = m[1, 1] * vf + m[1, 2]
-        r3 = m[3, 1] * vf + m[3, 2]
-        a0, a1, a3 = m[0, 0], m[1, 0], m[3, 0]
-        t0, t1, t3 = m[0, 3], m[1, 3], m[3, 3]
-        lo = np.int32(1 << 30)
-        hi = np.int32(-(1 << 30))
-        warped = 0
-        base = v * mw
-        for u in range(mw):
-            uf = np.float32(u)
-            d = depth[v, u]
-            finite = d < inf  # False for inf (a direction: delta = 0) and NaN
-            s = d if finite else one
-            t = one if finite else zero
-            hx = (a0 * uf + r0) * s + t0 * t
-            hy = (a1 * uf + r1) * s + t1 * t
-            hw = (a3 * uf + r3) * s + t3 * t
-            inv = one / hw
-            x = hx * inv
-            y = hy * inv
-            ok = ((finite & (d > zero) & (hw > near32)) | ((d == inf) & (hw > zero))) & (
-                x >= fx0) & (x < fx1) & (y >= fy0) & (y < fy1)
-            xs = x if ok else zero
-            ys = y if ok else zero
-            px = np.int32(np.floor(xs))
-            py = np.int32(np.floor(ys))
-            k = base + u
-            if positions:
-                sx[k] = x if ok else nan
-                sy[k] = ys
-            else:
-                ex = xs - np.floor(xs) - half
-                ey = ys - np.floor(ys) - half
-                dist[k] = ex * ex + ey * ey
-            z[k] = hw if finite else inf
-            on_screen = ok & (xs >= zero) & (xs < fw) & (ys >= zero) & (ys < fh)
-            pix[k] = py * wid + px if on_screen else np.int32(-1)
-            lo = min(lo, py if ok else np.int32(1 << 30))
-            hi = max(hi, py if ok else np.int32(-(1 << 30)))
-            warped += 1 if ok else 0
-        row_lo[v] = lo if warped > 0 else 1 << 40
-        row_hi[v] = hi if warped > 0 else -1
-        count[v] = warped
+    vf = np.float32(v)
+    r0 = m[0, 1] * vf + m[0, 2]
+    r1 = m[1, 1] * vf + m[1, 2]
+    r3 = m[3, 1] * vf + m[3, 2]
+    a0, a1, a3 = m[0, 0], m[1, 0], m[3, 0]
+    t0, t1, t3 = m[0, 3], m[1, 3], m[3, 3]
+    lo = np.int32(1 << 30)
+    hi = np.int32(-(1 << 30))
+    warped = 0
+    for u in range(mw):
+        uf = np.float32(u)
+        d = depth[v, u]
+        finite = d < inf  # False for inf (a direction: delta = 0) and NaN
+        s = d if finite else one
+        t = one if finite else zero
+        hx = (a0 * uf + r0) * s + t0 * t
+        hy = (a1 * uf + r1) * s + t1 * t
+        hw = (a3 * uf + r3) * s + t3 * t
+        inv = one / hw
+        x = hx * inv
+        y = hy * inv
+        ok = ((finite & (d > zero) & (hw > near32)) | ((d == inf) & (hw > zero))) & (
+            x >= fx0) & (x < fx1) & (y >= fy0) & (y < fy1)
+        xs = x if ok else zero
+        ys = y if ok else zero
+        px = np.int32(np.floor(xs))
+        py = np.int32(np.floor(ys))
+        if positions:
+            sx[u] = x if ok else nan
+            sy[u] = ys
+        else:
+            ex = xs - np.floor(xs) - half
+            ey = ys - np.floor(ys) - half
+            dist[u] = ex * ex + ey * ey
+        z[u] = hw if finite else inf
+        on_screen = ok & (xs >= zero) & (xs < fw) & (ys >= zero) & (ys < fh)
+        pix[u] = py * wid + px if on_screen else np.int32(-1)
+        lo = min(lo, py if ok else np.int32(1 << 30))
+        hi = max(hi, py if ok else np.int32(-(1 << 30)))
+        warped += 1 if ok else 0
+    return lo, hi, warped
 
 
 def splat_radii(sx, sy, z, shape, mode, out: np.ndarray | None = None) -> np.ndarray:
@@ -340,30 +354,41 @@ def _write(y, x, zk, dk, ident, slot, stride, best_zd, best_id, ordered):
 
 def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, ordered: bool,
                  region, clear: bool, use_stencil: bool, bands: int | None = None,
-                 payload=None, payload_out=None) -> None:
+                 payload=None, payload_out=None, source=None) -> None:
     """The one-pixel splat: each zexel of `proj` (visited run by run) at the pixel it lands
     in, by the visibility rule of `_write`, into best_zd (H, W, 2) float32 (depth, squared
     distance of the zexel to the pixel center) and best_id (ids base + zexel index), only
     inside `region` = (x0, x1, y0, y1) (and, with `use_stencil`, only on stencil pixels);
     `proj` must come from `project_map` with that region as its grown box (its columns are
-    not checked again), with positions if best_zd has room for offsets, else with distances.
-    `clear`: reset the region first (inside the kernel, each band its rows). best_zd (H, W,
-    4) also receives the kept zexel's offset from the pixel center (for `spread`). One band
-    of rows per task, balanced by zexel count; each band visits every run but skips the map
-    rows that cannot reach it, so the result does not depend on the thread count. `bands`:
-    how many (default: two a thread). `payload` (n, c): a row per zexel, copied into
-    `payload_out` (H, W, c) with each zexel that takes a pixel (so a reached pixel ends
-    with its kept zexel's row; other pixels are left alone)."""
+    not checked again) and `positions=False` (the distances). `clear`: reset the region
+    first (inside the kernel, each band its rows; a cleared pixel is (inf, inf), -1, which
+    the rule reads as empty without looking at its id). One band of rows per task, balanced
+    by zexel count; each band visits every run but skips the map rows that cannot reach it,
+    so the result does not depend on the thread count. `bands`: how many (default: two a
+    thread). `payload` (n, c): a row per zexel, copied into `payload_out` (H, W, c) with
+    each zexel that takes a pixel (so a reached pixel ends with its kept zexel's row; other
+    pixels are left alone). `source` = (depth (mh, mw), W, near, (x0, x1, y0, y1) the grown
+    box): project the map inside the kernel instead (each task the rows that reach its band,
+    into buffers it keeps in cache; the same arithmetic and results as `project_map` with
+    that box and `positions=False`), and fill only proj's row spans and counts."""
     x0, x1, y0, y1 = region
     if bands is None:
         bands = max(1, numba.get_num_threads()) * 2
     h, w = best_id.shape
     pay, pay_out = _payload_args(payload, payload_out)
-    _splat_pixels(proj.pix, proj.sx, proj.sy, proj.d, proj.z, runs, mw, proj.row_lo,
-                  proj.row_hi, proj.count, base, ordered, stencil.reshape(-1), use_stencil,
-                  best_zd.shape[2] == 4, x0, x1, y0, y1, w, clear, bands,
-                  best_zd.reshape(-1), best_zd.shape[2], best_id.reshape(-1),
-                  payload is not None, pay, pay_out)
+    if source is None:  # proj holds the projection
+        from_depth, near, grown = False, 0.0, region
+        depth, m = np.empty((1, 1), np.float32), np.empty((4, 4), np.float32)
+    else:  # project here: proj receives only the rows' spans and counts
+        depth, wm, near, grown = source
+        from_depth = True
+        depth = np.ascontiguousarray(depth, np.float32)
+        m = np.ascontiguousarray(screen_matrix(w, h) @ wm, np.float32)
+    _splat_pixels(proj.pix, proj.d, proj.z, runs, mw, proj.row_lo, proj.row_hi, proj.count,
+                  base, ordered, stencil.reshape(-1), use_stencil, x0, x1, y0, y1, w, clear,
+                  bands, best_zd.reshape(-1), best_id.reshape(-1), payload is not None, pay,
+                  pay_out, from_depth, depth, m, near, grown[0], grown[1], grown[2], grown[3],
+                  h)
 
 
 @njit(cache=True, inline="always")
@@ -392,12 +417,25 @@ def _payload_args(payload, payload_out):
     return np.ascontiguousarray(payload), payload_out.reshape(-1, c)
 
 
-@njit(cache=True, parallel=True)
-def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
-                  use_stencil, keep_offsets, x0, x1, y0, y1, width, clear, bands, zd, rec, ids,
-                  with_payload, pay, pay_out):
-    # zd: a record of `rec` floats per pixel, (depth, squared distance[, offset x, offset y]):
-    # one cache line for all
+@njit(cache=True, parallel=True, error_model="numpy")
+def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
+                  use_stencil, x0, x1, y0, y1, width, clear, bands, zd, ids, with_payload, pay,
+                  pay_out, from_depth, depth, m, near, xmin, xmax, ymin, ymax, height):
+    # zd: (depth, squared distance) per pixel, one 8-byte record.
+    # from_depth: project the map (depth, m: as `_project` with positions=False) here, row by
+    # row into buffers each task keeps in cache, instead of reading pix, dist, z: first
+    # every row's screen span (into row_lo, row_hi, count), then each band projects again
+    # the rows that reach it (the same arithmetic: the same results)
+    if from_depth:
+        for v in prange(row_lo.shape[0]):
+            rp = np.empty(mw, np.int32)
+            rz = np.empty(mw, np.float32)
+            rd = np.empty(mw, np.float32)
+            lo, hi, warped = _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width,
+                                          height, False, rd, rd, rz, rp, rd)
+            row_lo[v] = lo if warped > 0 else 1 << 40
+            row_hi[v] = hi if warped > 0 else -1
+            count[v] = warped
     # band edges over rows [y0, y1): each map row's zexels counted at its middle row
     hist = np.zeros(y1 - y0 + 1, np.int64)
     total = 0
@@ -420,7 +458,6 @@ def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, o
         edges[b] = y1
         b += 1
     inf = np.float32(np.inf)
-    half = np.float32(0.5)
     for b in prange(bands):
         r0 = edges[b]
         r1 = edges[b + 1]
@@ -429,64 +466,79 @@ def _splat_pixels(pix, sx, sy, dist, z, runs, mw, row_lo, row_hi, count, base, o
         if clear:
             for y in range(r0, r1):
                 for p in range(y * width + x0, y * width + x1):
-                    zd[rec * p] = inf  # (the distance is read only where ids holds a zexel)
+                    zd[2 * p] = inf
+                    zd[2 * p + 1] = inf  # no zexel lands this far from a center: empty
                     ids[p] = -1
         p0 = r0 * width
         p1 = r1 * width
+        bp = np.empty(mw, np.int32)
+        bz = np.empty(mw, np.float32)
+        bd = np.empty(mw, np.float32)
+        projected = -1
         for run in range(runs.shape[0]):
             v = runs[run, 0]
             if row_hi[v] < r0 or row_lo[v] >= r1:
                 continue
+            if from_depth:
+                if v != projected:
+                    _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width, height,
+                                 False, bd, bd, bz, bp, bd)
+                    projected = v
+                rp, rz, rd = bp, bz, bd
+            else:
+                rp = pix[v * mw:(v + 1) * mw]
+                rz = z[v * mw:(v + 1) * mw]
+                rd = dist[v * mw:(v + 1) * mw]
             for u in range(runs[run, 1], runs[run, 2], runs[run, 3]):
-                k = v * mw + u
-                p = pix[k]
+                p = rp[u]
                 if p < p0 or p >= p1:  # also p = -1: not warped
                     continue
                 if use_stencil and not stencil[p]:
                     continue
-                if keep_offsets:  # positions projected: the offsets for spread
-                    fx = sx[k]
-                    fy = sy[k]
-                    dx = fx - np.floor(fx) - half
-                    dy = fy - np.floor(fy) - half
-                    dk = dx * dx + dy * dy
-                else:  # only the squared distance projected
-                    dx = dy = half
-                    dk = dist[k]
-                zk = z[k]
+                dk = rd[u]
+                zk = rz[u]
+                k = v * mw + u
                 ident = base + k
-                current = ids[p]
-                bz = zd[rec * p]
-                take = False
-                if current < 0 or zk < bz * (1.0 - SAME_SURFACE) or (
-                        ordered and current >= base):
-                    take = True
-                elif zk <= bz * (1.0 + SAME_SURFACE) or zk == bz:
-                    bd = zd[rec * p + 1]
-                    take = (dk < bd) | ((dk == bd) & (ident < current))
+                cz = zd[2 * p]
+                # an empty pixel (inf, inf): a finite zk is nearer, an infinite one lands
+                # nearer the center; its id is read only for an exact tie or in ordered mode
+                take = zk < cz * (1.0 - SAME_SURFACE)
+                if not take and ordered:
+                    take = ids[p] >= base
+                if not take and (zk <= cz * (1.0 + SAME_SURFACE) or zk == cz):
+                    cd = zd[2 * p + 1]
+                    take = dk < cd
+                    if dk == cd:
+                        take = ident < ids[p]
                 if take:
-                    zd[rec * p] = zk
-                    zd[rec * p + 1] = dk
+                    zd[2 * p] = zk
+                    zd[2 * p + 1] = dk
                     ids[p] = ident
-                    if keep_offsets:
-                        zd[rec * p + 2] = dx
-                        zd[rec * p + 3] = dy
                     if with_payload:
                         _copy_row(pay, k, pay_out, p)
 
 
-def spread(records, best_id, radius: int, stencil, box, out_z, out_id, payloads=None,
-           stride: int = 1, payload_out=None) -> None:
-    """A splat of (2 radius + 1)^2 pixels from the one-pixel splat's result (`records` (H,
-    W, 4): depth, distance, offset from the pixel center x, y; best_id): of the zexels
-    kept in the square around a stencil pixel of `box` = (x0, x1, y0, y1), the front surface
-    is those within SAME_SURFACE of the nearest depth (or equal to it: at infinity). The
-    pixel keeps its own zexel if that is on the front surface (where zexels are dense, the
-    wide splat is the one-pixel one); else it takes the front surface's zexel landing
-    nearest its center (ties to the lower id). Writes out_z / out_id over the box (inf / -1
-    off the stencil). `payloads`: per map (n, c) rows, ids slot * stride + index (stride a
-    power of two); `payload_out` (H, W, c) already holds each pixel's own zexel's row (the
-    one-pixel splat wrote it), and a pixel that takes another zexel gets that one's row."""
+# key of no zexel in `spread`: above every (depth bits, id) key, inf depths included
+_NO_KEY = np.int64(0x7FFFFFFFFFFFFFFF)
+
+
+def spread(best_zd, best_id, radius: int, stencil, box, out_z, out_id, payloads=None,
+           stride: int = 1, payload_out=None, bands: int | None = None) -> None:
+    """A splat of (2 radius + 1)^2 pixels from the one-pixel splat's result (`best_zd` (H,
+    W, 2): depth, distance; best_id). Each kept zexel has the key (float32 depth bits, id)
+    (bits of a non-negative float order as the float does): of the kept zexels in the
+    square around a stencil pixel of `box` = (x0, x1, y0, y1), the one with the least key
+    is the nearest (ties to the lower id), and the front surface is those within
+    SAME_SURFACE of its depth (or equal to it: at infinity). The pixel keeps its own zexel
+    if that is on the front surface (where zexels are dense, the wide splat is the one-pixel
+    one); else, of the squares of radius 1, 2, ..., radius around it, it takes the least
+    key's zexel of the first whose least key is on the front surface (so a hole takes a
+    near neighbour). The least key over a square is a separable minimum (over the square's
+    rows, then its columns). Writes out_z / out_id over the box
+    (inf / -1 off the stencil). `payloads`: per map (n, c) rows, ids slot * stride + index
+    (stride a power of two); each pixel of the box gets its zexel's row in `payload_out`
+    (H, W, c) (copied for every pixel, without a branch: pixels no zexel reached, or off the
+    stencil, receive some row), so the one-pixel splat need not write rows."""
     x0, x1, y0, y1 = box
     if payloads is None:
         rows = (np.empty((0, 1), np.float32),)
@@ -494,116 +546,204 @@ def spread(records, best_id, radius: int, stencil, box, out_z, out_id, payloads=
     else:
         rows = tuple(np.ascontiguousarray(p) for p in payloads)
         _, pay_out = _payload_args(rows[0], payload_out)
-    _spread(records, best_id, radius, stencil, x0, x1, y0, y1, out_z, out_id,
-            payloads is not None, rows, stride.bit_length() - 1, pay_out)
+    zd = np.ascontiguousarray(best_zd).reshape(-1)
+    if bands is None:
+        bands = max(1, numba.get_num_threads()) * 4
+    _spread(zd, zd.view(np.int32), np.ascontiguousarray(best_id).reshape(-1), radius,
+            stencil, x0, x1, y0, y1, best_id.shape[0], best_id.shape[1], out_z, out_id,
+            payloads is not None, rows, stride.bit_length() - 1, pay_out, bands)
 
 
-@njit(cache=True, parallel=True)
-def _spread(records, ids, r, stencil, x0, x1, y0, y1, out_z, out_id, with_payload, rows, shift,
-            pay_out):
-    h, w = ids.shape
-    # flat views: one index per pixel, neighbours at fixed offsets from it
-    flat = records.reshape(-1)
-    z = flat[::4]
-    oxf = flat[2::4]
-    oyf = flat[3::4]
-    idf = ids.reshape(-1)
-    for y in prange(y0, y1):
+@njit(cache=True, parallel=True, error_model="numpy")
+def _spread(zd, bits, idf, r, stencil, x0, x1, y0, y1, h, w, out_z, out_id, with_payload, rows,
+            shift, pay_out, bands):
+    # bands of rows, each run top to bottom with a ring of the 2r + 1 rows' keys around its
+    # row (each pixel's key made once a band); a pixel's result depends on its square only
+    for b in prange(bands):
+        ya = y0 + (y1 - y0) * b // bands
+        yb = y0 + (y1 - y0) * (b + 1) // bands
+        if yb <= ya:
+            continue
         # the common radii as constants: their loops unroll
         if r == 1:
-            _spread_row(z, idf, oxf, oyf, 1, stencil, x0, x1, y, h, w, out_z, out_id,
-                        with_payload, rows, shift, pay_out)
+            _spread_band(zd, bits, idf, 1, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
+                         with_payload, rows, shift, pay_out)
         elif r == 2:
-            _spread_row(z, idf, oxf, oyf, 2, stencil, x0, x1, y, h, w, out_z, out_id,
-                        with_payload, rows, shift, pay_out)
+            _spread_band_rings(zd, bits, idf, 2, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
+                               with_payload, rows, shift, pay_out)
         else:
-            _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id,
-                        with_payload, rows, shift, pay_out)
+            _spread_band_rings(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
+                               with_payload, rows, shift, pay_out)
 
 
 @njit(cache=True, inline="always")
-def _spread_row(z, idf, oxf, oyf, r, stencil, x0, x1, y, h, w, out_z, out_id, with_payload,
-                rows, shift, pay_out):
-    """Row y of `spread`. Neighbours off the screen are replaced by the nearest pixel on it
-    (clamped coordinates, no branches): a pixel counted twice changes no minimum. Indices
-    are unsigned where it matters (numba then adds no negative-index wraparound, and the
-    loops vectorize)."""
-    inf = np.float32(np.inf)
-    # the square's nearest depth: a column minimum over its rows, then a row minimum
+def _spread_band(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id, with_payload,
+                 rows, shift, pay_out):
+    """Rows [ya, yb) of `spread`. Neighbours off the screen are replaced by the nearest pixel
+    on it (clamped coordinates): a pixel counted twice changes no minimum."""
     xa = max(x0 - r, 0)
     n_col = min(x1 + r, w) - xa
-    column = np.empty(n_col, np.float32)  # column[i]: screen column xa + i
-    first = min(max(y - r, 0), h - 1) * w + xa
-    column[:] = z[first:first + n_col]
-    for dy in range(-r + 1, r + 1):
-        start = min(max(y + dy, 0), h - 1) * w + xa
-        _min_into(column, z[start:start + n_col])
-    front = np.empty(x1 - x0, np.float32)
-    front[:] = column[x0 - xa:x0 - xa + x1 - x0]
-    for dx in range(-r, r + 1):
-        if dx != 0:
-            _min_shifted(front, column, x0 - xa + dx, n_col)
-    # a pixel whose own zexel is on the front surface keeps it (no branches); the others
-    # (holes of the one-pixel splat, or behind a nearer neighbour) are listed
-    zo = z[y * w + x0:y * w + x1]
-    own = idf[y * w + x0:y * w + x1]
-    on = stencil[y, x0:x1]
-    oz = out_z[y, x0:x1]
-    oi = out_id[y, x0:x1]
-    rest = np.empty(x1 - x0, np.int64)
-    n_rest = 0
-    for i in range(x1 - x0):
-        f = front[i]
-        keep = (own[i] >= 0) & ((zo[i] <= f * (1.0 + SAME_SURFACE)) | (zo[i] == f)) & on[i]
-        oz[i] = zo[i] if keep else inf
-        oi[i] = own[i] if keep else -1
-        rest[n_rest] = x0 + i
-        n_rest += 0 if keep or not on[i] else 1
-    none = np.int64(0x7FFFFFFFFFFFFFFF)
-    for j in range(n_rest):
-        x = rest[j]
-        f = front[x - x0]
-        limit = f * (1.0 + SAME_SURFACE)
-        # (squared distance bits, id): the bits of a non-negative float32 order as it does,
-        # so one integer minimum picks the nearest, ties to the lower id (ids are below
-        # 2^32: warp_depths checks)
-        best = none
-        best_z = inf
-        inside = (r <= y < h - r) and (r <= x < w - r)
-        for dy in range(-r, r + 1):
-            yy = y + dy if inside else min(max(y + dy, 0), h - 1)
-            for dx in range(-r, r + 1):
-                xx = x + dx if inside else min(max(x + dx, 0), w - 1)
-                n = np.uint64(yy * w + xx)
-                q = idf[n]
-                zq = z[n]
-                ex = oxf[n] + np.float32(xx - x)
-                ey = oyf[n] + np.float32(yy - y)
-                key = (np.int64(np.float32(ex * ex + ey * ey).view(np.int32)) << 32) | q
-                take = (q >= 0) & ((zq <= limit) | (zq == f)) & (key < best)
-                best = key if take else best
-                best_z = zq if take else best_z
-        if best != none:
-            oz[x - x0] = best_z
-            oi[x - x0] = best & 0xFFFFFFFF
-            if with_payload:  # another pixel's zexel: its row from its map
-                q = best & 0xFFFFFFFF
+    n = x1 - x0
+    size = 2 * r + 1
+    ring = np.empty((size, n_col), np.int64)  # ring[(yy + r) % size]: keys of row clamp(yy)
+    for yy in range(ya - r, ya + r):
+        _key_row(ring[(yy + r) % size], bits, idf, min(max(yy, 0), h - 1) * w + xa)
+    padded = np.full(n_col + 2 * r, _NO_KEY, np.int64)
+    least = np.empty(n, np.int64)
+    front_bits = np.empty(n, np.int32)
+    front = front_bits.view(np.float32)
+    for y in range(ya, yb):
+        _key_row(ring[(y + 2 * r) % size], bits, idf, min(y + r, h - 1) * w + xa)
+        # the square's least key: a column minimum over its rows (into a row padded with no
+        # key: the clamped columns repeat an edge column already in the square), then a row
+        # minimum
+        column = padded[r:r + n_col]  # column[i]: screen column xa + i
+        column[:] = ring[0]
+        for j in range(1, size):
+            _min_into(column, ring[j])
+        least[:] = padded[x0 - xa:x0 - xa + n]
+        for dx in range(1, 2 * r + 1):
+            _min_into(least, padded[x0 - xa + dx:x0 - xa + dx + n])
+        for i in range(n):  # the least key's depth, as float32 (its high bits)
+            front_bits[i] = np.int32(least[i] >> 32)
+        # a pixel whose own zexel is on the front surface keeps it (no branches); the others
+        # (holes of the one-pixel splat, or behind a nearer neighbour) take the least key's
+        base = y * w + x0
+        _spread_pick(zd[2 * base:2 * (base + n)], idf[base:base + n], least, front,
+                     stencil[y, x0:x1], out_z[y, x0:x1], out_id[y, x0:x1])
+        if with_payload:  # each pixel's zexel's row from its map
+            oi = out_id[y, x0:x1]
+            for i in range(n):
+                # every pixel (no branch on which): a kept own zexel's row again, and for
+                # one no zexel reached some row (its value does not matter)
+                q = max(oi[i], 0)
                 slot = q >> shift
-                _copy_row(rows[slot], q - (slot << shift), pay_out, y * w + x)
+                _copy_row(rows[slot], q - (slot << shift), pay_out, base + i)
+
+
+@njit(cache=True, inline="always")
+def _spread_pick(zd, own, least, front, on, oz, oi):
+    """One row's choice: own zexel if on the front surface, else the least key's."""
+    inf = np.float32(np.inf)
+    for i in range(own.shape[0]):
+        zo = zd[2 * i]
+        fz = front[i]
+        keep = (own[i] >= 0) & ((zo <= fz * (1.0 + SAME_SURFACE)) | (zo == fz))
+        key = least[i]
+        found = key != _NO_KEY
+        z_other = fz if found else inf
+        id_other = (key & 0xFFFFFFFF) if found else np.int64(-1)
+        z_pick = zo if keep else z_other
+        id_pick = own[i] if keep else id_other
+        oz[i] = z_pick if on[i] else inf
+        oi[i] = id_pick if on[i] else np.int64(-1)
+
+
+@njit(cache=True, inline="always")
+def _spread_band_rings(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
+                       with_payload, rows, shift, pay_out):
+    """`_spread_band` for r > 1: a hole takes the least key of the smallest square around
+    it whose least key is on the front surface (its own function: in `_spread_band` the
+    squares' loop slows r = 1 by a fifth)."""
+    xa = max(x0 - r, 0)
+    n_col = min(x1 + r, w) - xa
+    n = x1 - x0
+    size = 2 * r + 1
+    ring = np.empty((size, n_col), np.int64)  # ring[(yy + r) % size]: keys of row clamp(yy)
+    for yy in range(ya - r, ya + r):
+        _key_row(ring[(yy + r) % size], bits, idf, min(max(yy, 0), h - 1) * w + xa)
+    padded = np.full(n_col + 2 * r, _NO_KEY, np.int64)
+    least = np.empty(n, np.int64)
+    pick = np.empty(n, np.int64)
+    inner = np.empty((max(r - 1, 1), n), np.int64)  # inner[k - 1]: squares of radius k < r
+    front_bits = np.empty(n, np.int32)
+    front = front_bits.view(np.float32)
+    pick_bits = np.empty(n, np.int32)
+    pick_z = pick_bits.view(np.float32)
+    for y in range(ya, yb):
+        _key_row(ring[(y + 2 * r) % size], bits, idf, min(y + r, h - 1) * w + xa)
+        # the least key of the square of radius k = 1..r around each pixel: a column
+        # minimum over its rows (into a row padded with no key: the clamped columns repeat an
+        # edge column already in the square), then a row minimum. `least` ends with the
+        # whole square's (the front surface's depth), `pick` with the smallest square's
+        # whose least key is on that front surface
+        column = padded[r:r + n_col]  # column[i]: screen column xa + i
+        base = y * w + x0
+        column[:] = ring[(y + r) % size]
+        for k in range(1, r + 1):
+            _min_into(column, ring[(y + r - k) % size])
+            _min_into(column, ring[(y + r + k) % size])
+            ring_least = least if k == r else inner[k - 1]
+            ring_least[:] = padded[x0 - xa + r - k:x0 - xa + r - k + n]
+            for dx in range(r - k + 1, r + k + 1):
+                _min_into(ring_least, padded[x0 - xa + dx:x0 - xa + dx + n])
+        for i in range(n):  # the least key's depth, as float32 (its high bits)
+            front_bits[i] = np.int32(least[i] >> 32)
+        pick[:] = least
+        for k in range(r - 1, 0, -1):  # smaller squares win where on the front surface
+            _nearer_ring(pick, inner[k - 1], front, pick_bits)
+        for i in range(n):  # the picked key's depth
+            pick_bits[i] = np.int32(pick[i] >> 32)
+        # the same choice, with the picked key instead of the least
+        _spread_pick_ring(zd[2 * base:2 * (base + n)], idf[base:base + n], pick, front, pick_z,
+                          stencil[y, x0:x1], out_z[y, x0:x1], out_id[y, x0:x1])
+        if with_payload:  # each pixel's zexel's row from its map
+            oi = out_id[y, x0:x1]
+            for i in range(n):
+                # every pixel (no branch on which): a kept own zexel's row again, and for
+                # one no zexel reached some row (its value does not matter)
+                q = max(oi[i], 0)
+                slot = q >> shift
+                _copy_row(rows[slot], q - (slot << shift), pay_out, base + i)
+
+
+@njit(cache=True, inline="always")
+def _spread_pick_ring(zd, own, pick, front, pick_z, on, oz, oi):
+    """`_spread_pick` with the picked key's depth given (a smaller square's key)."""
+    inf = np.float32(np.inf)
+    for i in range(own.shape[0]):
+        zo = zd[2 * i]
+        fz = front[i]
+        keep = (own[i] >= 0) & ((zo <= fz * (1.0 + SAME_SURFACE)) | (zo == fz))
+        key = pick[i]
+        found = key != _NO_KEY
+        z_other = pick_z[i] if found else inf
+        id_other = (key & 0xFFFFFFFF) if found else np.int64(-1)
+        z_pick = zo if keep else z_other
+        id_pick = own[i] if keep else id_other
+        oz[i] = z_pick if on[i] else inf
+        oi[i] = id_pick if on[i] else np.int64(-1)
+
+
+@njit(cache=True, inline="always")
+def _nearer_ring(pick, ring_least, front, scratch):
+    """pick[i] = ring_least[i] where that key's depth is on the front surface (`scratch`: an
+    int32 row for the depths' bits)."""
+    for i in range(pick.shape[0]):
+        scratch[i] = np.int32(ring_least[i] >> 32)
+    z = scratch.view(np.float32)
+    for i in range(pick.shape[0]):
+        key = ring_least[i]
+        f = front[i]
+        on = (key != _NO_KEY) & ((z[i] <= f * (1.0 + SAME_SURFACE)) | (z[i] == f))
+        pick[i] = key if on else pick[i]
+
+
+@njit(cache=True, inline="always")
+def _key_row(dst, bits, idf, start):
+    """dst[i] = key of pixel start + i: (depth bits << 32) | id, or no key."""
+    n = dst.shape[0]
+    b = bits[2 * start:2 * (start + n)]
+    q = idf[start:start + n]
+    for i in range(n):
+        key = (np.int64(b[2 * i]) << 32) | (q[i] & 0xFFFFFFFF)
+        dst[i] = key if q[i] >= 0 else _NO_KEY
 
 
 @njit(cache=True, inline="always")
 def _min_into(acc, values):
     for i in range(acc.shape[0]):
         v = values[i]
-        acc[i] = v if v < acc[i] else acc[i]
-
-
-@njit(cache=True, inline="always")
-def _min_shifted(acc, values, shift, n):
-    """acc[i] = min(acc[i], values[clamp(i + shift, 0, n - 1)])."""
-    for i in range(acc.shape[0]):
-        v = values[np.uint64(min(max(i + shift, 0), n - 1))]
         acc[i] = v if v < acc[i] else acc[i]
 
 
@@ -617,9 +757,6 @@ class WarpBuffers:
         self.shape = (height, width)
         self.best_zd = np.full((height, width, 2), np.inf, np.float32)
         self.best_id = np.full((height, width), -1, np.int64)
-        # the one-pixel splat's (depth, distance, offset x, offset y) per pixel before a
-        # spread; its kernel clears what it uses, nothing else reads it
-        self.records = np.full((height, width, 4), np.inf, np.float32)
         self.out_z = np.full((height, width), np.inf, np.float32)
         self.out_id = np.full((height, width), -1, np.int64)
         self.projections: dict[tuple[int, int], Projection] = {}
@@ -741,18 +878,21 @@ def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bo
         for slot, (depth, wm, runs) in enumerate(items):
             mh, mw = depth.shape
             proj = buffers.projection(mh, mw)
-            project_map(depth, wm, w, h, near, box, radius, proj, positions=radius > 0)
             if runs is None:
                 runs = buffers.raster_runs(mh, mw)
-            splat_pixels(proj, runs, mw, slot * stride, stencil,
-                         buffers.records if radius > 0 else buffers.best_zd, buffers.best_id,
-                         ordered, region, slot == 0, use_stencil,
-                         payload=None if payloads is None else payloads[slot], payload_out=out)
+            # projected inside the splat: zexels beyond the region cannot reach the box
+            splat_pixels(proj, runs, mw, slot * stride, stencil, buffers.best_zd,
+                         buffers.best_id, ordered, region, slot == 0, use_stencil,
+                         # a spread copies every pixel's row itself
+                         payload=None if payloads is None or radius > 0 else payloads[slot],
+                         payload_out=out,
+                         source=(depth, wm, near, (x0 - radius, x1 + radius, y0 - radius,
+                                                   y1 + radius)))
             zexels += int(proj.count.sum())
         if radius == 0:
             return buffers.best_zd[:, :, 0], buffers.best_id, stride, zexels
         buffers.claim_out(box)
-        spread(buffers.records, buffers.best_id, radius, stencil, box, buffers.out_z,
+        spread(buffers.best_zd, buffers.best_id, radius, stencil, box, buffers.out_z,
                buffers.out_id, payloads, stride, out)
         return buffers.out_z, buffers.out_id, stride, zexels
     buffers.claim(box)

@@ -77,14 +77,14 @@ def _pixels(sx, sy, z, mh, mw, shape, stencil, radius, box=None, bands=None):
     payload = np.random.default_rng(3).random((sx.size, 3)).astype(np.float32)
     out = np.full((h, w, 3), -5.0, np.float32)
     splat_pixels(proj, raster_runs(mh, mw), mw, 0, stencil,
-                 buffers.records if radius else buffers.best_zd, buffers.best_id, False,
+                 buffers.best_zd, buffers.best_id, False,
                  region, True, radius == 0, bands, payload, out)
     if radius == 0:
         got_z, got_id = buffers.best_zd[..., 0], buffers.best_id
     else:
         stride = 1 << (sx.size - 1).bit_length()
-        spread(buffers.records, buffers.best_id, radius, stencil, (x0, x1, y0, y1),
-               buffers.out_z, buffers.out_id, [payload], stride, out)
+        spread(buffers.best_zd, buffers.best_id, radius, stencil, (x0, x1, y0, y1),
+               buffers.out_z, buffers.out_id, [payload], stride, out, bands)
         got_z, got_id = buffers.out_z, buffers.out_id
     reached = got_id >= 0
     np.testing.assert_array_equal(out[reached], payload[got_id[reached]])
@@ -130,8 +130,9 @@ def test_spread_matches_the_reference(seed, radius, sub_box):
 
 
 @pytest.mark.parametrize("bands", [2, 3, 7])
-@pytest.mark.parametrize("radius", [0, 1])
+@pytest.mark.parametrize("radius", [0, 1, 2])
 def test_pixel_splat_does_not_depend_on_the_band_split(bands, radius):
+    """The one-pixel splat's bands and the spread's (rows run with a ring of keys)."""
     sx, sy, z, mh, mw, shape = _zexels(7)
     stencil = np.ones(shape, bool)
     one = _pixels(sx, sy, z, mh, mw, shape, stencil, radius, bands=1)[1].copy()
@@ -208,12 +209,12 @@ def test_payload_rows_follow_the_ids_over_several_maps(radius):
         sx, sy, z, mh, mw, _ = _zexels(slot + 30)
         payloads.append(np.random.default_rng(slot).random((sx.size, 4)).astype(np.float32))
         splat_pixels(projection_of(sx, sy, z, mh, mw, shape), raster_runs(mh, mw), mw,
-                     slot * stride, stencil, buffers.records if radius else buffers.best_zd,
+                     slot * stride, stencil, buffers.best_zd,
                      buffers.best_id, False, region, slot == 0, radius == 0, None,
                      payloads[slot], out)
     ids = buffers.best_id
     if radius:
-        spread(buffers.records, buffers.best_id, radius, stencil, region, buffers.out_z,
+        spread(buffers.best_zd, buffers.best_id, radius, stencil, region, buffers.out_z,
                buffers.out_id, payloads, stride, out)
         ids = buffers.out_id
     reached = ids >= 0

@@ -315,3 +315,46 @@ def test_pixel_splat_both_modes_match_sequential_twin(seed, ordered):
     np.testing.assert_array_equal(got_id, want_id[y0:y1, x0:x1])
     np.testing.assert_array_equal(buffers.best_zd[y0:y1, x0:x1, 0], want_z[y0:y1, x0:x1])
     assert (got_id >= 0).mean() > 0.25  # one zexel a pixel: sparser than the wide splats
+
+
+@pytest.mark.parametrize("ordered", [False, True])
+@pytest.mark.parametrize("seed", range(3))
+def test_splat_projecting_inside_matches_project_then_splat(seed, ordered):
+    """warp_depths' one-pixel splat projects the map itself (row by row, per band): its
+    result (ids, depths, distances, payload rows, row spans) equals `project_map` followed by
+    the splat reading that projection, which the tests above hold to their twins."""
+    rng = np.random.default_rng(seed + 40)
+    mh, mw, width, height, near = 30, 37, 20, 16, 0.2
+    depth = rng.uniform(0.5, 6.0, (mh, mw)).astype(np.float32)
+    depth[rng.random((mh, mw)) < 0.1] = np.inf
+    depth[0, :3] = (np.nan, 0.0, -1.0)
+    cam = Camera(np.array([0.0, 1.0, 3.0]), np.array([0.0, 1.0, 0.0]), np.array([0, 1.0, 0]),
+                 50.0, width, height, near, 50.0)
+    map_cam = Camera(np.array([1.5, 1.2, 2.5]), rng.uniform(-2, 2, 3) + [0.0, 1.0, 0.0],
+                     np.array([0, 1.0, 0]), 100.0, mw, mh, 0.1, 50.0)
+    wm = warp.warp_matrix(map_cam, cam, np.eye(4))
+    stencil = rng.random((height, width)) < 0.85
+    payload = rng.random((mh * mw, 3)).astype(np.float32)
+    runs = (warp.ordered_runs(mh, mw, rng.uniform(0, mw), rng.uniform(0, mh), True)
+            if ordered else warp.raster_runs(mh, mw))
+    for box, radius in (((0, width, 0, height), 0), ((4, 12, 3, 10), 1)):
+        x0, x1, y0, y1 = box
+        grown = (x0 - radius, x1 + radius, y0 - radius, y1 + radius)
+        region = (max(grown[0], 0), min(grown[1], width), max(grown[2], 0),
+                  min(grown[3], height))
+        results = []
+        for inside in (False, True):
+            buffers = warp.WarpBuffers(height, width)
+            out = np.zeros((height, width, 3), np.float32)
+            proj = warp.Projection.empty(mh, mw)
+            if not inside:
+                warp.project_map(depth, wm, width, height, near, box, radius, proj,
+                                 positions=False)
+            warp.splat_pixels(proj, runs, mw, 0, stencil, buffers.best_zd, buffers.best_id,
+                              ordered, region, True, True, 3, payload, out,
+                              source=(depth, wm, near, grown) if inside else None)
+            results.append((buffers.best_zd.copy(), buffers.best_id.copy(), out,
+                            proj.row_lo.copy(), proj.row_hi.copy(), proj.count.copy()))
+        for a, b in zip(*results, strict=True):
+            np.testing.assert_array_equal(a, b)
+        assert (results[0][1] >= 0).sum() > 20
