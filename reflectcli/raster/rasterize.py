@@ -495,6 +495,7 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     snapped = np.empty((threads, 6, _CHUNK), np.int64)
     inv_w = np.empty((threads, 3, _CHUNK))
     status = np.empty((threads, _CHUNK), np.uint8)
+    chosen = np.empty((threads, _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
     for chunk in prange(chunks):
         if bounds.shape[0] > 0 and _box_misses(bounds, chunk, m, planes, n_cut, width,
@@ -511,29 +512,40 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
                     key[r, c] = 0.0
         t0 = chunk * _CHUNK
         count = min(n, t0 + _CHUNK) - t0
-        _run_setup(corners, flags, m, planes, n_cut, width, height, scale, t0, count,
-                   soa[me], clip[me], snapped[me], inv_w[me], status[me])
+        _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
+                   bottom, col0, col1, t0, count, soa[me], clip[me], snapped[me], inv_w[me],
+                   status[me])
         sn = snapped[me]
         iw = inv_w[me]
         st = status[me]
+        sel = chosen[me]
+        # the simple triangles left, listed without a branch per triangle
+        k = 0
+        clipped = 0
         for j in range(count):
-            if st[j] == _CULLED:
-                continue
+            sel[k] = j
+            k += st[j] == _SIMPLE
+            clipped += st[j] == _CLIPPED
+        for i in range(k):
+            j = sel[i]
             t = t0 + j
-            key_scale = 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0
-            if st[j] == _CLIPPED:
-                _draw_clipped(corners, t, key_scale, m, planes, width, height, bits, cull,
-                              scale, xyw[me], top, bottom, col0, col1, stencil, use_stencil,
-                              floor, use_floor, tri, key)
-                continue
-            _fill(t, key_scale, cull, sn[0, j], sn[1, j], iw[0, j], sn[2, j], sn[3, j],
-                  iw[1, j], sn[4, j], sn[5, j], iw[2, j], bits, top, bottom, col0, col1,
-                  stencil, use_stencil, floor, use_floor, tri, key)
+            _fill(t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, cull, sn[0, j],
+                  sn[1, j], iw[0, j], sn[2, j], sn[3, j], iw[1, j], sn[4, j], sn[5, j],
+                  iw[2, j], bits, top, bottom, col0, col1, stencil, use_stencil, floor,
+                  use_floor, tri, key)
+        if clipped:
+            for j in range(count):
+                if st[j] == _CLIPPED:
+                    t = t0 + j
+                    _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
+                                  else 1.0, m, planes, width, height, bits, cull, scale,
+                                  xyw[me], top, bottom, col0, col1, stencil, use_stencil,
+                                  floor, use_floor, tri, key)
 
 
 @njit(cache=True, error_model="numpy")
-def _run_setup(corners, flags, m, planes, n_cut, width, height, scale, t0, count, soa, clip,
-               snapped, inv_w, status):
+def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
+               bottom, col0, col1, t0, count, soa, clip, snapped, inv_w, status):
     """Setup of triangles t0 .. t0 + count - 1 (j = t - t0), in loops over the run without
     branches (vectorised): their corners' clip coordinates, status[j] _CULLED (outside one
     side of the frustum or one of the first n_cut planes, or FLAG_SKIP), _CLIPPED (a plane
@@ -594,6 +606,22 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, scale, t0, count
             snapped[2 * k, j] = _snap(sx, scale)
             snapped[2 * k + 1, j] = _snap(sy, scale)
             inv_w[k, j] = iw
+    # a simple triangle seen from the culled side, degenerate, or with no pixel center of
+    # the box inside its corners' box is culled here (the test _setup would make)
+    half = np.int64(1) << (bits - 1)
+    for j in range(count):
+        x0, y0 = snapped[0, j], snapped[1, j]
+        x1, y1 = snapped[2, j], snapped[3, j]
+        x2, y2 = snapped[4, j], snapped[5, j]
+        area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+        xs = max(-((half - min(x0, x1, x2)) >> bits), col0)
+        xe = min((max(x0, x1, x2) - half) >> bits, col1 - 1)
+        ys = max(-((half - min(y0, y1, y2)) >> bits), top)
+        ye = min((max(y0, y1, y2) - half) >> bits, bottom - 1)
+        gone = ((area == 0) | ((cull == CULL_BACK) & (area > 0))
+                | ((cull == CULL_FRONT) & (area < 0)) | (xs > xe) | (ys > ye))
+        s = status[j]
+        status[j] = _CULLED if (s == _SIMPLE) & gone else s
 
 
 @njit(cache=True, error_model="numpy")
