@@ -402,6 +402,22 @@ def _rows(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2,
         z_row = z_ref + dzdy * (py - first_y) + zx0
         r = py - top
         f0, f1, f2 = e0, e1, e2
+        if plain:  # without branches (a mispredicted one costs more than a pixel)
+            for k in range(n):
+                z = np.float32(z_row + dzdx * k)
+                old = key[r, c + k]
+                was = tri[r, c + k]
+                win = (((f0 | f1 | f2) >= 0)
+                       & ((z > old) | ((z == old) & (t32 < was))))
+                key[r, c + k] = z if win else old
+                tri[r, c + k] = t32 if win else was
+                f0 += sa0
+                f1 += sa1
+                f2 += sa2
+            e0 += sb0
+            e1 += sb1
+            e2 += sb2
+            continue
         for k in range(n):
             if (f0 | f1 | f2) >= 0:
                 zf = z_row + dzdx * k
@@ -529,10 +545,15 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
         for i in range(k):
             j = sel[i]
             t = t0 + j
-            _fill(t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, cull, sn[0, j],
-                  sn[1, j], iw[0, j], sn[2, j], sn[3, j], iw[1, j], sn[4, j], sn[5, j],
-                  iw[2, j], bits, top, bottom, col0, col1, stencil, use_stencil, floor,
-                  use_floor, tri, key)
+            mirror = flags[t] & FLAG_MIRROR
+            q = _setup(sn[0, j], sn[1, j], iw[0, j], sn[2, j], sn[3, j], iw[1, j], sn[4, j],
+                       sn[5, j], iw[2, j], 1.0 / MIRROR_TIE if mirror else 1.0, cull, bits,
+                       top, bottom, col0, col1)
+            if q[0]:
+                _rows(np.int32(t), q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], q[9],
+                      q[10], q[11], q[12], q[13], q[14], q[15], q[16], q[17], q[18],
+                      MIRROR_TIE if mirror else 1.0, top, col0, stencil, use_stencil, floor,
+                      use_floor, tri, key)
         if clipped:
             for j in range(count):
                 if st[j] == _CLIPPED:
