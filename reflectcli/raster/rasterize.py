@@ -322,17 +322,16 @@ def _clip_polygon(corners, t, m, planes, width, height, out_xyw):
 def _setup(x0, y0, w0, x1, y1, w1, x2, y2, w2, key_scale, cull, bits, top, bottom, col0, col1):
     """Triangle setup of one snapped screen triangle (corners in units of 2^-bits pixel,
     int64; w0..w2 their 1/w) for `_rows`, written without branches (a run's setups are one
-    loop). Returns (drawn, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2,
-    z_ref, dzdx, dzdy, zx0): drawn is False for a culled or degenerate triangle or one whose
-    pixel centers all miss the box [top, bottom) x [col0, col1); the edge functions at the
-    center of pixel (xs, ys) with their biases, their steps along a row and down a column;
-    the key plane as `_rows` evaluates it."""
+    vectorised loop). Returns (drawn, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0,
+    sb1, sb2, z_ref, dzdx, dzdy, zx0): drawn is False for a culled or degenerate triangle,
+    one whose pixel centers all miss the box [top, bottom) x [col0, col1), or one whose
+    corners' box holds at most 2 x 2 centers, none inside; the edge functions at the center
+    of pixel (xs, ys) with their biases, their steps along a row and down a column; the key
+    plane as `_rows` evaluates it (meaningless where drawn is False)."""
     area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
     # screen y points down: a counter-clockwise (front) triangle has negative area here
-    z = np.int64(0)
-    nothing = (False, z, z, z, z, z, z, z, z, z, z, z, z, z, z, 0.0, 0.0, 0.0, 0.0)
-    if area == 0 or (cull == CULL_BACK and area > 0) or (cull == CULL_FRONT and area < 0):
-        return nothing
+    facing = ((area != 0) & ((cull != CULL_BACK) | (area < 0))
+              & ((cull != CULL_FRONT) | (area > 0)))
     # wind every triangle one way: inside is then where all edges are >= 0
     flip = area < 0
     x1, x2 = (x2, x1) if flip else (x1, x2)
@@ -349,8 +348,6 @@ def _setup(x0, y0, w0, x1, y1, w1, x2, y2, w2, key_scale, cull, bits, top, botto
     xe = min(last_x, col1 - 1)
     ys = max(first_y, top)
     ye = min(last_y, bottom - 1)
-    if xs > xe or ys > ye:
-        return nothing
     # edge k is opposite corner k: e_k(P) = a_k (Px - xa) + b_k (Py - ya) over edge a -> b
     a0, b0 = y1 - y2, x2 - x1
     a1, b1 = y2 - y0, x0 - x2
@@ -367,15 +364,14 @@ def _setup(x0, y0, w0, x1, y1, w1, x2, y2, w2, key_scale, cull, bits, top, botto
     e2 = a2 * (px0 - x0) + b2 * (py0 - y0) + bias2
     sa0, sa1, sa2 = a0 << bits, a1 << bits, a2 << bits
     sb0, sb1, sb2 = b0 << bits, b1 << bits, b2 << bits
-    if xe - xs <= 1 and ye - ys <= 1:
-        # a box of at most 2 x 2 centers (most small triangles): none inside, no key plane
-        wide, tall = xe > xs, ye > ys
-        if not (((e0 | e1 | e2) >= 0)
-                or (wide and ((e0 + sa0) | (e1 + sa1) | (e2 + sa2)) >= 0)
-                or (tall and ((e0 + sb0) | (e1 + sb1) | (e2 + sb2)) >= 0)
-                or (wide and tall and ((e0 + sa0 + sb0) | (e1 + sa1 + sb1)
-                                       | (e2 + sa2 + sb2)) >= 0)):
-            return nothing
+    # a box of at most 2 x 2 centers (most small triangles) is tested here whole
+    wide, tall = xe > xs, ye > ys
+    covered = (((xe - xs) > 1) | ((ye - ys) > 1) | ((e0 | e1 | e2) >= 0)
+               | (wide & (((e0 + sa0) | (e1 + sa1) | (e2 + sa2)) >= 0))
+               | (tall & (((e0 + sb0) | (e1 + sb1) | (e2 + sb2)) >= 0))
+               | (wide & tall & (((e0 + sa0 + sb0) | (e1 + sa1 + sb1)
+                                  | (e2 + sa2 + sb2)) >= 0)))
+    drawn = facing & (xs <= xe) & (ys <= ye) & covered
     # 1/w is affine in screen space: the plane through the corners, stepped from the
     # (unclamped) box corner, so a pixel's key depends on the triangle and pixel only
     inv_area = key_scale / float(area)
@@ -386,9 +382,8 @@ def _setup(x0, y0, w0, x1, y1, w1, x2, y2, w2, key_scale, cull, bits, top, botto
     cy = (first_y << bits) + half
     z_ref = ((a0 * (cx - x1) + b0 * (cy - y1)) * w0 + (a1 * (cx - x2) + b1 * (cy - y2)) * w1
              + (a2 * (cx - x0) + b2 * (cy - y0)) * w2) * inv_area
-    return (True, xs, xe - xs + 1, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1,
-            sb2, z_ref, dzdx, dzdy,
-            dzdx * (xs - first_x))
+    return (drawn, xs, xe - xs + 1, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1,
+            sb2, z_ref, dzdx, dzdy, dzdx * (xs - first_x))
 
 
 @njit(cache=True, inline="always")
@@ -508,8 +503,8 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     threads = own_tri.shape[0]
     soa = np.empty((threads, 9, _CHUNK), np.float32)
     clip = np.empty((threads, 12, _CHUNK))
-    snapped = np.empty((threads, 6, _CHUNK), np.int64)
-    inv_w = np.empty((threads, 3, _CHUNK))
+    work_i = np.empty((threads, 21 * _CHUNK), np.int64)
+    work_f = np.empty((threads, 7 * _CHUNK))
     status = np.empty((threads, _CHUNK), np.uint8)
     chosen = np.empty((threads, _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
@@ -529,31 +524,30 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
         t0 = chunk * _CHUNK
         count = min(n, t0 + _CHUNK) - t0
         _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
-                   bottom, col0, col1, t0, count, soa[me], clip[me], snapped[me], inv_w[me],
+                   bottom, col0, col1, t0, count, soa[me], clip[me], work_i[me], work_f[me],
                    status[me])
-        sn = snapped[me]
-        iw = inv_w[me]
+        ints = work_i[me]
+        floats = work_f[me]
         st = status[me]
         sel = chosen[me]
-        # the simple triangles left, listed without a branch per triangle
+        c = _CHUNK
+        # the triangles to fill, listed without a branch per triangle
         k = 0
         clipped = 0
         for j in range(count):
             sel[k] = j
-            k += st[j] == _SIMPLE
+            k += ints[20 * c + j]
             clipped += st[j] == _CLIPPED
         for i in range(k):
             j = sel[i]
             t = t0 + j
-            mirror = flags[t] & FLAG_MIRROR
-            q = _setup(sn[0, j], sn[1, j], iw[0, j], sn[2, j], sn[3, j], iw[1, j], sn[4, j],
-                       sn[5, j], iw[2, j], 1.0 / MIRROR_TIE if mirror else 1.0, cull, bits,
-                       top, bottom, col0, col1)
-            if q[0]:
-                _rows(np.int32(t), q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], q[9],
-                      q[10], q[11], q[12], q[13], q[14], q[15], q[16], q[17], q[18],
-                      MIRROR_TIE if mirror else 1.0, top, col0, stencil, use_stencil, floor,
-                      use_floor, tri, key)
+            _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+                  ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+                  ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+                  ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+                  floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
+                  MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
+                  use_stencil, floor, use_floor, tri, key)
         if clipped:
             for j in range(count):
                 if st[j] == _CLIPPED:
@@ -566,7 +560,7 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
 
 @njit(cache=True, error_model="numpy")
 def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
-               bottom, col0, col1, t0, count, soa, clip, snapped, inv_w, status):
+               bottom, col0, col1, t0, count, soa, clip, ints, floats, status):
     """Setup of triangles t0 .. t0 + count - 1 (j = t - t0), in loops over the run without
     branches (vectorised): their corners' clip coordinates, status[j] _CULLED (outside one
     side of the frustum or one of the first n_cut planes, or FLAG_SKIP), _CLIPPED (a plane
@@ -624,25 +618,37 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
                                      height)
             sx = sx if simple else 0.0
             sy = sy if simple else 0.0
-            snapped[2 * k, j] = _snap(sx, scale)
-            snapped[2 * k + 1, j] = _snap(sy, scale)
-            inv_w[k, j] = iw
-    # a simple triangle seen from the culled side, degenerate, or with no pixel center of
-    # the box inside its corners' box is culled here (the test _setup would make)
-    half = np.int64(1) << (bits - 1)
+            ints[2 * k * _CHUNK + j] = _snap(sx, scale)
+            ints[(2 * k + 1) * _CHUNK + j] = _snap(sy, scale)
+            floats[k * _CHUNK + j] = iw
+    # the setups of the simple triangles (the others' are meaningless), their keep flag
+    # in row 20: drawn, see _setup (one array for the ints, one for the floats, rows a
+    # constant _CHUNK apart: the compiler sees they never overlap)
+    c = _CHUNK
     for j in range(count):
-        x0, y0 = snapped[0, j], snapped[1, j]
-        x1, y1 = snapped[2, j], snapped[3, j]
-        x2, y2 = snapped[4, j], snapped[5, j]
-        area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
-        xs = max(-((half - min(x0, x1, x2)) >> bits), col0)
-        xe = min((max(x0, x1, x2) - half) >> bits, col1 - 1)
-        ys = max(-((half - min(y0, y1, y2)) >> bits), top)
-        ye = min((max(y0, y1, y2) - half) >> bits, bottom - 1)
-        gone = ((area == 0) | ((cull == CULL_BACK) & (area > 0))
-                | ((cull == CULL_FRONT) & (area < 0)) | (xs > xe) | (ys > ye))
-        s = status[j]
-        status[j] = _CULLED if (s == _SIMPLE) & gone else s
+        q = _setup(ints[j], ints[c + j], floats[j], ints[2 * c + j], ints[3 * c + j],
+                   floats[c + j], ints[4 * c + j], ints[5 * c + j], floats[2 * c + j],
+                   1.0 / MIRROR_TIE if flags[t0 + j] & FLAG_MIRROR else 1.0, cull, bits, top,
+                   bottom, col0, col1)
+        ints[20 * c + j] = q[0] & (status[j] == _SIMPLE)
+        ints[6 * c + j] = q[1]
+        ints[7 * c + j] = q[2]
+        ints[8 * c + j] = q[3]
+        ints[9 * c + j] = q[4]
+        ints[10 * c + j] = q[5]
+        ints[11 * c + j] = q[6]
+        ints[12 * c + j] = q[7]
+        ints[13 * c + j] = q[8]
+        ints[14 * c + j] = q[9]
+        ints[15 * c + j] = q[10]
+        ints[16 * c + j] = q[11]
+        ints[17 * c + j] = q[12]
+        ints[18 * c + j] = q[13]
+        ints[19 * c + j] = q[14]
+        floats[3 * c + j] = q[15]
+        floats[4 * c + j] = q[16]
+        floats[5 * c + j] = q[17]
+        floats[6 * c + j] = q[18]
 
 
 @njit(cache=True, error_model="numpy")
