@@ -251,7 +251,7 @@ def rasterize(
     return RasterBuffers(tri, None, None, depth, corners, m, out)
 
 
-_CHUNK = 1024  # triangles per parallel task (and per box of chunk_bounds)
+_CHUNK = 256  # triangles per parallel task (and per box of chunk_bounds)
 
 
 @njit(cache=True, inline="always")
