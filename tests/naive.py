@@ -104,7 +104,7 @@ TIE_REL = 1e-6
 
 
 def rasterize(corners, flags, m, w, h, mask=None, depth_floor=None, cull=0):
-    """Twin of raster.rasterize (its kernels _draw, _classify, _fill, _resolve, and the
+    """Twin of raster.rasterize (its kernels _draw, _run_setup, _fill, _resolve, and the
     barycentrics of raster.rasterize.recover_barycentrics, clip_corners and
     barycentrics_at): a slow float64 z-buffer of triangles wholly inside near..far.
 

@@ -22,8 +22,10 @@ Sort-last: triangles go in runs of _CHUNK to whichever thread is free, each thre
 into its own buffers (the stencil's box), merged per pixel at the end. The depth test and
 the merge both pick the greatest key, then the lowest index, and every key depends only on
 the triangle and the pixel, so the bytes are the same for any thread count and any order
-the runs are drawn in. With a workspace, a run whose world box misses the view, an extra
-plane or the stencil's box is skipped whole (`_box_misses`).
+the runs are drawn in. Within a run, the per-corner work (clip space, classification,
+projection, snapping) is done for all its triangles at once in vectorised loops
+(`_run_setup`), then each triangle is filled. With a workspace, a run whose world box
+misses the view, an extra plane or the stencil's box is skipped whole (`_box_misses`).
 """
 from __future__ import annotations
 
@@ -249,7 +251,7 @@ def rasterize(
     return RasterBuffers(tri, None, None, depth, corners, m, out)
 
 
-_CHUNK = 1024  # triangles per parallel task (and per box of chunk_bounds)
+_CHUNK = 256  # triangles per parallel task (and per box of chunk_bounds)
 
 
 @njit(cache=True, inline="always")
@@ -270,30 +272,6 @@ def _clip_xyzw(m, x, y, z):
 @njit(cache=True, inline="always")
 def _outside(planes, p, x, y, z, w):
     return planes[p, 0] * x + planes[p, 1] * y + planes[p, 2] * z + planes[p, 3] * w < 0.0
-
-
-@njit(cache=True, inline="always")
-def _classify(x0, y0, z0, w0, x1, y1, z1, w1, x2, y2, z2, w2, planes, n_cut):
-    """_CULLED (wholly outside the frustum's sides or one of the first `n_cut` planes),
-    _CLIPPED (some plane cuts it, or it leaves the guard band: planes after n_cut, whose
-    4th coefficients are the band's half-widths in NDC) or _SIMPLE."""
-    if (((x0 < -w0) & (x1 < -w1) & (x2 < -w2)) | ((x0 > w0) & (x1 > w1) & (x2 > w2))
-            | ((y0 < -w0) & (y1 < -w1) & (y2 < -w2)) | ((y0 > w0) & (y1 > w1) & (y2 > w2))):
-        return _CULLED
-    cut = False
-    for p in range(n_cut):
-        o0 = _outside(planes, p, x0, y0, z0, w0)
-        o1 = _outside(planes, p, x1, y1, z1, w1)
-        o2 = _outside(planes, p, x2, y2, z2, w2)
-        if o0 & o1 & o2:
-            return _CULLED
-        cut |= o0 | o1 | o2
-    # beyond the guard band, screen coordinates could overflow the fixed-point range
-    gx = planes[n_cut, 3]
-    gy = planes[n_cut + 2, 3]
-    cut |= (abs(x0) > gx * w0) | (abs(x1) > gx * w1) | (abs(x2) > gx * w2)
-    cut |= (abs(y0) > gy * w0) | (abs(y1) > gy * w1) | (abs(y2) > gy * w2)
-    return _CLIPPED if cut else _SIMPLE
 
 
 @njit(cache=True)
@@ -340,23 +318,26 @@ def _clip_polygon(corners, t, m, planes, width, height, out_xyw):
     return n
 
 
-@njit(cache=True, error_model="numpy")
-def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bottom, col0,
-          col1, stencil, use_stencil, floor, use_floor, tri, key):
-    """Draw one snapped screen triangle into the box [top, bottom) x [col0, col1) (`tri`
-    and `key` hold the box: pixel (py, px) at [py - top, px - col0]).
-
-    (x, y): corners in units of 2^-bits pixel (int64); w0..w2 their 1/w. A pixel is drawn
-    where its center is inside (top-left rule), its stencil is set (`use_stencil`), its
-    depth w is beyond floor's (`use_floor`), and its key 1/w * key_scale is greater than
-    the stored one, or equal to it with a lower triangle index. `cull` as in rasterize."""
+@njit(cache=True, inline="always")
+def _setup(x0, y0, w0, x1, y1, w1, x2, y2, w2, key_scale, cull, bits, top, bottom, col0, col1):
+    """Triangle setup of one snapped screen triangle (corners in units of 2^-bits pixel,
+    int64; w0..w2 their 1/w) for `_rows`, written without branches (a run's setups are one
+    vectorised loop). Returns (drawn, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0,
+    sb1, sb2, z_ref, dzdx, dzdy, zx0): drawn is False for a culled or degenerate triangle,
+    one whose pixel centers all miss the box [top, bottom) x [col0, col1), or one whose
+    corners' box holds at most 2 x 2 centers, none inside; the edge functions at the center
+    of pixel (xs, ys) with their biases, their steps along a row and down a column; the key
+    plane as `_rows` evaluates it (meaningless where drawn is False)."""
     area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
     # screen y points down: a counter-clockwise (front) triangle has negative area here
-    if area == 0 or (cull == CULL_BACK and area > 0) or (cull == CULL_FRONT and area < 0):
-        return
-    if area < 0:  # wind every triangle one way: inside is then where all edges are >= 0
-        x1, y1, w1, x2, y2, w2 = x2, y2, w2, x1, y1, w1
-        area = -area
+    facing = ((area != 0) & ((cull != CULL_BACK) | (area < 0))
+              & ((cull != CULL_FRONT) | (area > 0)))
+    # wind every triangle one way: inside is then where all edges are >= 0
+    flip = area < 0
+    x1, x2 = (x2, x1) if flip else (x1, x2)
+    y1, y2 = (y2, y1) if flip else (y1, y2)
+    w1, w2 = (w2, w1) if flip else (w1, w2)
+    area = -area if flip else area
     one = np.int64(1)
     half = one << (bits - 1)
     first_x = -((half - min(x0, x1, x2)) >> bits)  # pixel centers inside the corners' box
@@ -367,17 +348,30 @@ def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bot
     xe = min(last_x, col1 - 1)
     ys = max(first_y, top)
     ye = min(last_y, bottom - 1)
-    if xs > xe or ys > ye:
-        return
     # edge k is opposite corner k: e_k(P) = a_k (Px - xa) + b_k (Py - ya) over edge a -> b
     a0, b0 = y1 - y2, x2 - x1
     a1, b1 = y2 - y0, x0 - x2
     a2, b2 = y0 - y1, x1 - x0
     # top-left rule: an edge owns the centers on it when its inward normal (a, b) points
     # right, or straight down; elsewhere a center must be strictly inside (e >= 1)
-    bias0 = 0 if a0 > 0 or (a0 == 0 and b0 > 0) else -1
-    bias1 = 0 if a1 > 0 or (a1 == 0 and b1 > 0) else -1
-    bias2 = 0 if a2 > 0 or (a2 == 0 and b2 > 0) else -1
+    bias0 = np.int64(0) if (a0 > 0) | ((a0 == 0) & (b0 > 0)) else np.int64(-1)
+    bias1 = np.int64(0) if (a1 > 0) | ((a1 == 0) & (b1 > 0)) else np.int64(-1)
+    bias2 = np.int64(0) if (a2 > 0) | ((a2 == 0) & (b2 > 0)) else np.int64(-1)
+    px0 = (xs << bits) + half
+    py0 = (ys << bits) + half
+    e0 = a0 * (px0 - x1) + b0 * (py0 - y1) + bias0
+    e1 = a1 * (px0 - x2) + b1 * (py0 - y2) + bias1
+    e2 = a2 * (px0 - x0) + b2 * (py0 - y0) + bias2
+    sa0, sa1, sa2 = a0 << bits, a1 << bits, a2 << bits
+    sb0, sb1, sb2 = b0 << bits, b1 << bits, b2 << bits
+    # a box of at most 2 x 2 centers (most small triangles) is tested here whole
+    wide, tall = xe > xs, ye > ys
+    covered = (((xe - xs) > 1) | ((ye - ys) > 1) | ((e0 | e1 | e2) >= 0)
+               | (wide & (((e0 + sa0) | (e1 + sa1) | (e2 + sa2)) >= 0))
+               | (tall & (((e0 + sb0) | (e1 + sb1) | (e2 + sb2)) >= 0))
+               | (wide & tall & (((e0 + sa0 + sb0) | (e1 + sa1 + sb1)
+                                  | (e2 + sa2 + sb2)) >= 0)))
+    drawn = facing & (xs <= xe) & (ys <= ye) & covered
     # 1/w is affine in screen space: the plane through the corners, stepped from the
     # (unclamped) box corner, so a pixel's key depends on the triangle and pixel only
     inv_area = key_scale / float(area)
@@ -388,22 +382,39 @@ def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bot
     cy = (first_y << bits) + half
     z_ref = ((a0 * (cx - x1) + b0 * (cy - y1)) * w0 + (a1 * (cx - x2) + b1 * (cy - y2)) * w1
              + (a2 * (cx - x0) + b2 * (cy - y0)) * w2) * inv_area
-    tie = 1.0 / key_scale
-    step0, step1, step2 = a0 << bits, a1 << bits, a2 << bits
-    px0 = (xs << bits) + half
-    n = xe - xs + 1
-    t32 = np.int32(t)
+    return (drawn, xs, xe - xs + 1, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1,
+            sb2, z_ref, dzdx, dzdy, dzdx * (xs - first_x))
+
+
+@njit(cache=True, inline="always")
+def _rows(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2, z_ref,
+          dzdx, dzdy, zx0, tie, top, col0, stencil, use_stencil, floor, use_floor, tri, key):
+    """Draw the pixels of rows ys..ye, columns xs..xs+n-1 whose centers are inside (every
+    edge function >= 0) into the box buffers (pixel (py, px) at [py - top, px - col0])."""
     plain = not use_stencil and not use_floor
+    c = xs - col0
     for py in range(ys, ye + 1):
-        cy = (py << bits) + half
-        e0 = a0 * (px0 - x1) + b0 * (cy - y1) + bias0
-        e1 = a1 * (px0 - x2) + b1 * (cy - y2) + bias1
-        e2 = a2 * (px0 - x0) + b2 * (cy - y0) + bias2
-        z_row = z_ref + dzdy * (py - first_y) + dzdx * (xs - first_x)
+        z_row = z_ref + dzdy * (py - first_y) + zx0
         r = py - top
-        c = xs - col0
+        f0, f1, f2 = e0, e1, e2
+        if plain:  # without branches (a mispredicted one costs more than a pixel)
+            for k in range(n):
+                z = np.float32(z_row + dzdx * k)
+                old = key[r, c + k]
+                was = tri[r, c + k]
+                win = (((f0 | f1 | f2) >= 0)
+                       & ((z > old) | ((z == old) & (t32 < was))))
+                key[r, c + k] = z if win else old
+                tri[r, c + k] = t32 if win else was
+                f0 += sa0
+                f1 += sa1
+                f2 += sa2
+            e0 += sb0
+            e1 += sb1
+            e2 += sb2
+            continue
         for k in range(n):
-            if (e0 | e1 | e2) >= 0:
+            if (f0 | f1 | f2) >= 0:
                 zf = z_row + dzdx * k
                 z = np.float32(zf)
                 old = key[r, c + k]
@@ -412,9 +423,32 @@ def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bot
                                   and (not use_floor or zf * tie * floor[py, xs + k] < 1.0))):
                     key[r, c + k] = z
                     tri[r, c + k] = t32
-            e0 += step0
-            e1 += step1
-            e2 += step2
+            f0 += sa0
+            f1 += sa1
+            f2 += sa2
+        e0 += sb0
+        e1 += sb1
+        e2 += sb2
+
+
+@njit(cache=True, error_model="numpy")
+def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bottom, col0,
+          col1, stencil, use_stencil, floor, use_floor, tri, key):
+    """Draw one snapped screen triangle into the box [top, bottom) x [col0, col1) (`tri`
+    and `key` hold the box: pixel (py, px) at [py - top, px - col0]): `_setup` then `_rows`.
+
+    (x, y): corners in units of 2^-bits pixel (int64); w0..w2 their 1/w. A pixel is drawn
+    where its center is inside (top-left rule), its stencil is set (`use_stencil`), its
+    depth w is beyond floor's (`use_floor`), and its key 1/w * key_scale is greater than
+    the stored one, or equal to it with a lower triangle index. `cull` as in rasterize."""
+    s = _setup(np.int64(x0), np.int64(y0), np.float64(w0), np.int64(x1), np.int64(y1),
+               np.float64(w1), np.int64(x2), np.int64(y2), np.float64(w2),
+               np.float64(key_scale), cull, bits, top, bottom, col0, col1)
+    if not s[0]:
+        return
+    _rows(np.int32(t), s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], s[10], s[11],
+          s[12], s[13], s[14], s[15], s[16], s[17], s[18], 1.0 / key_scale, top, col0,
+          stencil, use_stencil, floor, use_floor, tri, key)
 
 
 @njit(cache=True, error_model="numpy")
@@ -458,9 +492,22 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     """Every triangle, in chunks of _CHUNK, into the buffers of the thread drawing it;
     chunks whose world box (`bounds`, if given) misses the view or the box are skipped. A
     thread clears its buffers before its first chunk and marks them in `drew` (one parallel
-    region less: on a busy machine each costs a wake-up of the other threads)."""
+    region less: on a busy machine each costs a wake-up of the other threads).
+
+    A chunk goes in two phases: `_run_setup` (clip space, classification, projection and
+    snapping: loops without branches over the run, which the compiler vectorises, into
+    small per-thread arrays), then per triangle `_fill` (culling, box, edge functions, key
+    plane, pixels) or `_draw_clipped`."""
     n = corners.shape[0]
     scale = float(1 << bits)
+    threads = own_tri.shape[0]
+    soa = np.empty((threads, 9, _CHUNK), np.float32)
+    clip = np.empty((threads, 12, _CHUNK))
+    work_i = np.empty((threads, 21 * _CHUNK), np.int64)
+    work_f = np.empty((threads, 7 * _CHUNK))
+    status = np.empty((threads, _CHUNK), np.uint8)
+    chosen = np.empty((threads, _CHUNK), np.int64)
+    xyw = np.empty((threads, _MAX_POLY, 3))
     for chunk in prange(chunks):
         if bounds.shape[0] > 0 and _box_misses(bounds, chunk, m, planes, n_cut, width,
                                                 height, col0, col1, top, bottom):
@@ -474,30 +521,134 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
                 for c in range(tri.shape[1]):
                     tri[r, c] = -1
                     key[r, c] = 0.0
-        xyw = np.empty((_MAX_POLY, 3))
-        for t in range(chunk * _CHUNK, min(n, (chunk + 1) * _CHUNK)):
-            if flags[t] & FLAG_SKIP:
-                continue
-            x0, y0, z0, w0 = _clip_xyzw(m, corners[t, 0, 0], corners[t, 0, 1], corners[t, 0, 2])
-            x1, y1, z1, w1 = _clip_xyzw(m, corners[t, 1, 0], corners[t, 1, 1], corners[t, 1, 2])
-            x2, y2, z2, w2 = _clip_xyzw(m, corners[t, 2, 0], corners[t, 2, 1], corners[t, 2, 2])
-            status = _classify(x0, y0, z0, w0, x1, y1, z1, w1, x2, y2, z2, w2, planes, n_cut)
-            if status == _CULLED:
-                continue
-            key_scale = 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0
-            if status == _CLIPPED:
-                _draw_clipped(corners, t, key_scale, m, planes, width, height, bits, cull,
-                              scale, xyw, top, bottom, col0, col1, stencil, use_stencil, floor,
-                              use_floor, tri, key)
-                continue
-            iw0, iw1, iw2 = 1.0 / w0, 1.0 / w1, 1.0 / w2
-            sx0, sy0 = screen_from_ndc(x0 * iw0, y0 * iw0, width, height)
-            sx1, sy1 = screen_from_ndc(x1 * iw1, y1 * iw1, width, height)
-            sx2, sy2 = screen_from_ndc(x2 * iw2, y2 * iw2, width, height)
-            _fill(t, key_scale, cull, _snap(sx0, scale), _snap(sy0, scale), iw0,
-                  _snap(sx1, scale), _snap(sy1, scale), iw1, _snap(sx2, scale),
-                  _snap(sy2, scale), iw2, bits, top, bottom, col0, col1, stencil, use_stencil,
-                  floor, use_floor, tri, key)
+        t0 = chunk * _CHUNK
+        count = min(n, t0 + _CHUNK) - t0
+        _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
+                   bottom, col0, col1, t0, count, soa[me], clip[me], work_i[me], work_f[me],
+                   status[me])
+        ints = work_i[me]
+        floats = work_f[me]
+        st = status[me]
+        sel = chosen[me]
+        c = _CHUNK
+        # the triangles to fill, listed without a branch per triangle
+        k = 0
+        clipped = 0
+        for j in range(count):
+            sel[k] = j
+            k += ints[20 * c + j]
+            clipped += st[j] == _CLIPPED
+        for i in range(k):
+            j = sel[i]
+            t = t0 + j
+            _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+                  ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+                  ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+                  ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+                  floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
+                  MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
+                  use_stencil, floor, use_floor, tri, key)
+        if clipped:
+            for j in range(count):
+                if st[j] == _CLIPPED:
+                    t = t0 + j
+                    _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
+                                  else 1.0, m, planes, width, height, bits, cull, scale,
+                                  xyw[me], top, bottom, col0, col1, stencil, use_stencil,
+                                  floor, use_floor, tri, key)
+
+
+@njit(cache=True, error_model="numpy")
+def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
+               bottom, col0, col1, t0, count, soa, clip, ints, floats, status):
+    """Setup of triangles t0 .. t0 + count - 1 (j = t - t0), in loops over the run without
+    branches (vectorised): their corners' clip coordinates, status[j] _CULLED (outside one
+    side of the frustum or one of the first n_cut planes, or FLAG_SKIP), _CLIPPED (a plane
+    cuts it, or it leaves the guard band) or _SIMPLE, and for a simple one its corners'
+    snapped screen x, y (`snapped` rows 2k, 2k + 1) and 1/w (`inv_w` row k), the very
+    values (same operations, same order) as a scalar loop per triangle would give.
+    `soa`, `clip`: scratch, (9, n) corners and (12, n) clip x, y, z, w per corner."""
+    for j in range(count):
+        for k in range(3):
+            for q in range(3):
+                soa[3 * k + q, j] = corners[t0 + j, k, q]
+    m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]
+    m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]
+    m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
+    m30, m31, m32, m33 = m[3, 0], m[3, 1], m[3, 2], m[3, 3]
+    for k in range(3):
+        for j in range(count):
+            x = np.float64(soa[3 * k, j])
+            y = np.float64(soa[3 * k + 1, j])
+            z = np.float64(soa[3 * k + 2, j])
+            clip[4 * k, j] = m00 * x + m01 * y + m02 * z + m03
+            clip[4 * k + 1, j] = m10 * x + m11 * y + m12 * z + m13
+            clip[4 * k + 2, j] = m20 * x + m21 * y + m22 * z + m23
+            clip[4 * k + 3, j] = m30 * x + m31 * y + m32 * z + m33
+    # status so far: 0 culled, 1 simple, 2 cut (by the guard band: screen coordinates
+    # beyond it could overflow the fixed-point range)
+    gx = planes[n_cut, 3]
+    gy = planes[n_cut + 2, 3]
+    for j in range(count):
+        x0, y0, w0 = clip[0, j], clip[1, j], clip[3, j]
+        x1, y1, w1 = clip[4, j], clip[5, j], clip[7, j]
+        x2, y2, w2 = clip[8, j], clip[9, j], clip[11, j]
+        out = (((x0 < -w0) & (x1 < -w1) & (x2 < -w2)) | ((x0 > w0) & (x1 > w1) & (x2 > w2))
+               | ((y0 < -w0) & (y1 < -w1) & (y2 < -w2)) | ((y0 > w0) & (y1 > w1) & (y2 > w2))
+               | ((flags[t0 + j] & FLAG_SKIP) != 0))
+        cut = ((abs(x0) > gx * w0) | (abs(x1) > gx * w1) | (abs(x2) > gx * w2)
+               | (abs(y0) > gy * w0) | (abs(y1) > gy * w1) | (abs(y2) > gy * w2))
+        status[j] = _CULLED if out else (_CLIPPED if cut else _SIMPLE)
+    for p in range(n_cut):
+        a, b, c, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3]
+        for j in range(count):
+            o0 = a * clip[0, j] + b * clip[1, j] + c * clip[2, j] + d * clip[3, j] < 0.0
+            o1 = a * clip[4, j] + b * clip[5, j] + c * clip[6, j] + d * clip[7, j] < 0.0
+            o2 = a * clip[8, j] + b * clip[9, j] + c * clip[10, j] + d * clip[11, j] < 0.0
+            s = status[j]
+            status[j] = _CULLED if (o0 & o1 & o2) | (s == _CULLED) else (
+                _CLIPPED if o0 | o1 | o2 else s)
+    for k in range(3):
+        for j in range(count):
+            simple = status[j] == _SIMPLE
+            # only a simple triangle's corners are used (and safe to snap)
+            w = clip[4 * k + 3, j] if simple else 1.0
+            iw = 1.0 / w
+            sx, sy = screen_from_ndc(clip[4 * k, j] * iw, clip[4 * k + 1, j] * iw, width,
+                                     height)
+            sx = sx if simple else 0.0
+            sy = sy if simple else 0.0
+            ints[2 * k * _CHUNK + j] = _snap(sx, scale)
+            ints[(2 * k + 1) * _CHUNK + j] = _snap(sy, scale)
+            floats[k * _CHUNK + j] = iw
+    # the setups of the simple triangles (the others' are meaningless), their keep flag
+    # in row 20: drawn, see _setup (one array for the ints, one for the floats, rows a
+    # constant _CHUNK apart: the compiler sees they never overlap)
+    c = _CHUNK
+    for j in range(count):
+        q = _setup(ints[j], ints[c + j], floats[j], ints[2 * c + j], ints[3 * c + j],
+                   floats[c + j], ints[4 * c + j], ints[5 * c + j], floats[2 * c + j],
+                   1.0 / MIRROR_TIE if flags[t0 + j] & FLAG_MIRROR else 1.0, cull, bits, top,
+                   bottom, col0, col1)
+        ints[20 * c + j] = q[0] & (status[j] == _SIMPLE)
+        ints[6 * c + j] = q[1]
+        ints[7 * c + j] = q[2]
+        ints[8 * c + j] = q[3]
+        ints[9 * c + j] = q[4]
+        ints[10 * c + j] = q[5]
+        ints[11 * c + j] = q[6]
+        ints[12 * c + j] = q[7]
+        ints[13 * c + j] = q[8]
+        ints[14 * c + j] = q[9]
+        ints[15 * c + j] = q[10]
+        ints[16 * c + j] = q[11]
+        ints[17 * c + j] = q[12]
+        ints[18 * c + j] = q[13]
+        ints[19 * c + j] = q[14]
+        floats[3 * c + j] = q[15]
+        floats[4 * c + j] = q[16]
+        floats[5 * c + j] = q[17]
+        floats[6 * c + j] = q[18]
 
 
 @njit(cache=True, error_model="numpy")
