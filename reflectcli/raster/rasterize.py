@@ -374,7 +374,9 @@ def _setup(x0, y0, w0, x1, y1, w1, x2, y2, w2, key_scale, cull, bits, top, botto
     drawn = facing & (xs <= xe) & (ys <= ye) & covered
     # 1/w is affine in screen space: the plane through the corners, stepped from the
     # (unclamped) box corner, so a pixel's key depends on the triangle and pixel only
-    inv_area = key_scale / float(area)
+    # (a degenerate triangle is never drawn; dividing by 1 keeps the interpreted twin run
+    # of this branch-free code, under NUMBA_DISABLE_JIT, from raising)
+    inv_area = key_scale / float(area + (area == 0))
     sx = float(one << bits)
     dzdx = (a0 * w0 + a1 * w1 + a2 * w2) * sx * inv_area
     dzdy = (b0 * w0 + b1 * w1 + b2 * w2) * sx * inv_area
