@@ -392,6 +392,17 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
 
 
 @njit(cache=True, inline="always")
+def _copy_zexel_rows(ids, rows, shift, dst, base):
+    """dst[base + i] = the row of zexel ids[i] from its map, for every pixel of a row (no
+    branch on which: a kept own zexel's row again, and for a pixel no zexel reached some
+    row, whose value does not matter)."""
+    for i in range(ids.shape[0]):
+        q = max(ids[i], 0)
+        slot = q >> shift
+        _copy_row(rows[slot], q - (slot << shift), dst, base + i)
+
+
+@njit(cache=True, inline="always")
 def _copy_row(src, k, dst, p):
     """dst[p] = src[k], with the common widths (3: colour, 4: colour and triangle) as
     constant loops."""
@@ -612,13 +623,7 @@ def _spread_band(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
         _spread_pick(zd[2 * base:2 * (base + n)], idf[base:base + n], least, front,
                      stencil[y, x0:x1], out_z[y, x0:x1], out_id[y, x0:x1])
         if with_payload:  # each pixel's zexel's row from its map
-            oi = out_id[y, x0:x1]
-            for i in range(n):
-                # every pixel (no branch on which): a kept own zexel's row again, and for
-                # one no zexel reached some row (its value does not matter)
-                q = max(oi[i], 0)
-                slot = q >> shift
-                _copy_row(rows[slot], q - (slot << shift), pay_out, base + i)
+            _copy_zexel_rows(out_id[y, x0:x1], rows, shift, pay_out, base)
 
 
 @njit(cache=True, inline="always")
@@ -688,13 +693,7 @@ def _spread_band_rings(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, o
         _spread_pick_ring(zd[2 * base:2 * (base + n)], idf[base:base + n], pick, front, pick_z,
                           stencil[y, x0:x1], out_z[y, x0:x1], out_id[y, x0:x1])
         if with_payload:  # each pixel's zexel's row from its map
-            oi = out_id[y, x0:x1]
-            for i in range(n):
-                # every pixel (no branch on which): a kept own zexel's row again, and for
-                # one no zexel reached some row (its value does not matter)
-                q = max(oi[i], 0)
-                slot = q >> shift
-                _copy_row(rows[slot], q - (slot << shift), pay_out, base + i)
+            _copy_zexel_rows(out_id[y, x0:x1], rows, shift, pay_out, base)
 
 
 @njit(cache=True, inline="always")

@@ -167,17 +167,7 @@ def _shade_row(y, stencil, use_stencil, tri, m, drawn, corners, uvs, normals, ma
         if use_stencil and not stencil[y, x]:
             continue
         t = tri[y, x]
-        if t < 0:
-            surf[y, x] = -1
-            for c in range(3):
-                rgb[y, x, c] = background[c]
-            continue
-        s = surface[t]
-        surf[y, x] = s
-        if s >= n_objects:
-            k = s - n_objects
-            for c in range(3):
-                rgb[y, x, c] = (1.0 - refl[k, c]) * base[k, c]
+        if not _object_pixel(y, x, t, surface, n_objects, background, refl, base, rgb, surf):
             continue
         if t != last:
             last = t
@@ -260,22 +250,32 @@ def _light_row(g, count, light_f, ambient):
 
 
 @njit(cache=True, inline="always")
-def _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
-                 dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient, background,
-                 refl, base, rgb, surf):
-    """One pixel of a pass with stored barycentrics b1, b2."""
-    t = tri[y, x]
+def _object_pixel(y, x, t, surface, n_objects, background, refl, base, rgb, surf):
+    """Writes the surface id; a background pixel (t < 0) and a mirror pixel (its unreflected
+    part, (1 - reflectance) * base) get their colour here. True for an object's pixel, which
+    the caller shades."""
     if t < 0:
         surf[y, x] = -1
         for c in range(3):
             rgb[y, x, c] = background[c]
-        return
+        return False
     s = surface[t]
     surf[y, x] = s
     if s >= n_objects:
         k = s - n_objects
         for c in range(3):
             rgb[y, x, c] = (1.0 - refl[k, c]) * base[k, c]
+        return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
+                 dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient, background,
+                 refl, base, rgb, surf):
+    """One pixel of a pass with stored barycentrics b1, b2."""
+    t = tri[y, x]
+    if not _object_pixel(y, x, t, surface, n_objects, background, refl, base, rgb, surf):
         return
     c1 = b1[y, x]
     c2 = b2[y, x]
