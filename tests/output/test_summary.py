@@ -42,3 +42,22 @@ def test_timings_summary_warns_on_one_cold_frame():
     assert summary["frame"]["median_ms"] == 500.0
     repeated = timings_summary([{**row, "repeat_seconds": [0.5, 0.2, 0.3, 0.4]}])
     assert repeated["warning"] == "" and repeated["frame"]["median_ms"] == pytest.approx(300)
+
+
+@pytest.mark.parametrize("technique,extra", [
+    ("envmap", ()),
+    ("dprm", ("technique.maps.count=1", "technique.maps.per_frame=1",
+               "technique.maps.resolution=32")),
+    ("distmap", ("technique.resolution=32",)),
+])
+def test_map_capture_is_prepare_work_not_a_frame_stage(tmp_path, technique, extra):
+    """A map technique's one-time capture is timed in prepare and logged apart
+    (`precompute_seconds`): no frame's stages, frame 0's included, carry it."""
+    opened = open_scene("teapot-box", technique, SMALL[:2] + ("camera.path.frames=2",) + extra,
+                        threads=1)
+    result = opened.write_frames(opened.frames(), out=str(tmp_path))
+    rows = read_jsonl(os.path.join(result.folder, "timings.jsonl"))
+    assert [r["frame"] for r in rows] == [0, 1]
+    for row in rows:
+        assert "precompute" not in row["stages"]
+        assert 0.0 < row["precompute_seconds"] <= row["prepare_seconds"]

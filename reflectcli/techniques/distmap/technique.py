@@ -197,10 +197,10 @@ class Distmap(MapTechnique):
         mirror = result.surface >= scene.n_objects
         n_mirror = int(mirror.sum())
         result.extra["holes"] = holes
-        result.timings.update({"capture": t1 - t0, "search": t3 - t2,
-                               "precompute": state.precompute_seconds if frame_index == 0
-                               else 0.0})
+        result.timings.update({"capture": t1 - t0, "search": t3 - t2})
         result.stats.update({
+            # one-time capture, done in prepare (never in a frame's time)
+            "precompute_seconds": state.precompute_seconds,
             "maps": len(state.maps),
             "faces_captured": faces if frame_index else 6 * len(state.maps),
             # raw: rays that crossed nothing, background reflections included (see dprm)

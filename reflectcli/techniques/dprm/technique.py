@@ -214,9 +214,10 @@ class Dprm(MapTechnique):
         mirror_pixels = int(np.count_nonzero(result.surface >= scene.n_objects))
         hole_count = int(np.count_nonzero(holes))
         result.extra["holes"] = holes
-        result.timings.update({"warp": warp_s, "fill": fill_s, "capture": t_capture,
-                               "precompute": state.precompute_seconds if frame_index == 0 else 0.0})
+        result.timings.update({"warp": warp_s, "fill": fill_s, "capture": t_capture})
         result.stats.update({"maps_used": used, "zexels_warped": warped,
+                             # one-time capture, done in prepare (never in a frame's time)
+                             "precompute_seconds": state.precompute_seconds,
                              "maps_captured": captured if frame_index
                              else sum(len(r.maps) for r in state.mirrors),
                              "lod_level": getattr(self, "last_lod_level", 0),

@@ -220,7 +220,8 @@ class Envmap(MapTechnique):
             updated if frame_index else sum(len(r.faces_frame) for r in state.maps))
         result.stats["maps"] = len(state.maps)
         result.stats["maps_captured"] = state.maps_captured
-        result.timings["precompute"] = state.precompute_seconds if frame_index == 0 else 0.0
+        # one-time capture, done in prepare (never in a frame's time)
+        result.stats["precompute_seconds"] = state.precompute_seconds
         return result
 
 
