@@ -276,6 +276,16 @@ def fill_fixed(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top
                 tri[r, c] = t
 
 
+def run_bounds(corners, run):
+    """Twin of raster.bounds.run_bounds: (runs, 6) min xyz, max xyz of each run of `run`
+    triangles (T, 3, 3), by numpy (NaN where a run holds a NaN)."""
+    out = []
+    for t0 in range(0, len(corners), run):
+        pts = corners[t0:t0 + run].reshape(-1, 3)
+        out.append(np.concatenate([pts.min(axis=0), pts.max(axis=0)]))
+    return np.array(out, np.float64).reshape(-1, 6)
+
+
 def add_reflection(rgb, reflected, stencil, reflectance):
     """Twin of raster.shade.add_reflection (over the whole image: the box is an
     optimisation): rgb + reflectance * reflected where the stencil is set, in float32."""

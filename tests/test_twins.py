@@ -37,7 +37,8 @@ PIXELS = [W + "test_pixel_splat_matches_the_reference",
 SPREAD = [W + "test_spread_matches_the_reference"]
 ANALYTIC = [E + "test_analytic_matches_closed_forms"]
 SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
-                 V + "test_cylinder_virtual_vertices_match_twin"]
+                 V + "test_cylinder_virtual_vertices_match_twin",
+                 V + "test_sphere_blocks_do_not_change_answers"]
 PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
 REFINE = [V + "test_screen_refinement_matches_twin"]
 FILL = [V + "test_fill_kernels_match_twin"]
@@ -56,6 +57,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "shading.py:material_albedo": ([SR + "test_material_albedo_matches_twin"], None),
     "shading.py:surface_color": ([SR + "test_surface_color_matches_twin"], None),
     "trace/rays.py:_primary_rays": ([SR + "test_primary_rays_match_pixel_directions"], None),
+    "raster/bounds.py:run_bounds": ([SR + "test_run_bounds_match_twin"], None),
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade"),
@@ -128,10 +130,14 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp.py:_copy_row": ([W + "test_payload_rows_follow_the_ids_over_several_maps"],
                                "_splat_pixels"),
     "maps/warp.py:_copy_zexel_rows": (SPREAD, "_spread_band"),
-    "virtual/direct.py:_circle_law": (SPHERE_METHOD, "_circle_reflection"),
-    "virtual/direct.py:_circle_reflection": (SPHERE_METHOD, "_mirror_on_circle"),
-    "virtual/direct.py:_mirror_on_circle": (SPHERE_METHOD, "_many"),
-    "virtual/direct.py:_many": (SPHERE_METHOD, "sphere/cylinder_virtual_vertices"),
+    "virtual/circle.py:_circle_law": (SPHERE_METHOD, "_newton_step"),
+    "virtual/circle.py:_circle_start": (SPHERE_METHOD, "_block"),
+    "virtual/circle.py:_newton_step": (SPHERE_METHOD, "_block"),
+    "virtual/circle.py:_normal": (SPHERE_METHOD, "_block"),
+    "virtual/circle.py:_circle_newton": (SPHERE_METHOD, "_block"),
+    "virtual/circle.py:_circle_reflection": (SPHERE_METHOD, "_block"),
+    "virtual/circle.py:_block": (SPHERE_METHOD, "_blocks"),
+    "virtual/circle.py:_blocks": (SPHERE_METHOD, "sphere/cylinder_virtual_vertices"),
     "virtual/direct.py:_profile_at": (PROFILE, "_law"),
     "virtual/direct.py:_law": (PROFILE, "_profile_one"),
     "virtual/direct.py:_profile_many": (PROFILE, "profile_virtual_vertices"),

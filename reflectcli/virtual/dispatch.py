@@ -14,7 +14,8 @@ from ..camera import Camera
 from ..geometry import reflect_point
 from ..raster.primary import Primary
 from ..scene.types import CYLINDER, PLANAR, SPHERE, Mirrors, Scene
-from .direct import cylinder_virtual_vertices, profile_virtual_vertices, sphere_virtual_vertices
+from .circle import cylinder_virtual_vertices, sphere_virtual_vertices
+from .direct import profile_virtual_vertices
 from .part import ExplosionPart
 from .shape import ShapeCache, soup_key
 from .view import ViewCache

@@ -26,25 +26,43 @@ from naive import (
 
 from reflectcli.camera import Camera
 from reflectcli.scene import primitives
-from reflectcli.virtual import direct, explosion, refine
+from reflectcli.virtual import circle, direct, explosion, refine
 from reflectcli.virtual.mesh import weld
 from reflectcli.virtual.tiles import PartTiles
 
 
-def circle_cases(rng, n=150):
+def circle_cases(rng, n=600):
     """Points around a unit sphere at the origin seen from an eye at distance ~4: visible,
-    hidden behind it, inside it, on the line through the center and the eye (both sides)."""
+    hidden behind it, inside it, on the line through the center and the eye (both sides),
+    just off that line behind the sphere (a bracket of nearly pi), grazing its silhouette;
+    more than two of circle.BLOCK, so blocks full and partial are both met."""
     eye = np.array([0.5, 0.8, 4.0])
     pts = list(rng.normal(size=(n, 3)) * 2.5)
     pts += [eye * 0.5, -eye, 2.0 * eye, np.array([0.1, 0.2, -0.3]), np.array([0.0, 0.0, -3.0])]
+    side = np.cross(eye, [0.0, 1.0, 0.0])
+    side /= np.linalg.norm(side)
+    pts += [-2.0 * eye + 1e-9 * side, -2.0 * eye + 1e-5 * side]
+    along = eye / np.linalg.norm(eye)
+    pts += [1.0001 * side + t * along for t in (-2.0, -0.5, 0.0, 0.3)]
     return eye, np.array(pts)
+
+
+def test_sphere_blocks_do_not_change_answers():
+    """A point's virtual vertex is the same bytes whichever block (and lane) it is in."""
+    eye, pts = circle_cases(np.random.default_rng(5))
+    got, hidden = circle.sphere_virtual_vertices(pts, eye, np.zeros(3), 1.0)
+    for i in range(0, len(pts), 7):
+        one, one_h = circle.sphere_virtual_vertices(pts[i:i + 1], eye, np.zeros(3), 1.0)
+        assert one.tobytes() == got[i:i + 1].tobytes() and one_h[0] == hidden[i]
+    shifted, _ = circle.sphere_virtual_vertices(pts[3:], eye, np.zeros(3), 1.0)
+    assert shifted.tobytes() == got[3:].tobytes()
 
 
 @pytest.mark.parametrize("seed", range(2))
 def test_sphere_virtual_vertices_match_twin(seed):
     eye, pts = circle_cases(np.random.default_rng(seed))
     center, radius = np.array([0.0, 0.0, 0.0]), 1.0
-    got, hidden = direct.sphere_virtual_vertices(pts, eye, center, radius)
+    got, hidden = circle.sphere_virtual_vertices(pts, eye, center, radius)
     for p, g, h in zip(pts, got, hidden, strict=True):
         want, want_h = mirror_on_circle(eye, p, center, radius)
         assert h == want_h, p
@@ -57,7 +75,7 @@ def test_cylinder_virtual_vertices_match_twin(seed):
     rng = np.random.default_rng(seed)
     eye, pts = circle_cases(rng)
     origin, axis = np.array([0.1, -1.0, 0.0]), np.array([0.2, 1.0, 0.1])
-    got, hidden = direct.cylinder_virtual_vertices(pts, eye, origin, axis, 0.7)
+    got, hidden = circle.cylinder_virtual_vertices(pts, eye, origin, axis, 0.7)
     a = axis / np.linalg.norm(axis)
     for p, g, h in zip(pts, got, hidden, strict=True):
         want, want_h = mirror_on_circle(eye, p, origin, 0.7, a)
