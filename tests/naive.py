@@ -979,6 +979,47 @@ def profile_one(q3, e3, profile, normals):
     return np.array([qq[0], q3[1], qq[1]]), hidden
 
 
+def mirror_boxes(surface, n_objects, n_mirrors):
+    """Twin of virtual.compose.mirror_boxes: per mirror its pixel count and the box (y0, y1,
+    x0, x1) of its pixels, (0, 0, 0, 0) if none."""
+    counts = np.zeros(n_mirrors, np.int64)
+    boxes = np.zeros((n_mirrors, 4), np.int64)
+    for k in range(n_mirrors):
+        ys, xs = np.nonzero(surface == n_objects + k)
+        counts[k] = ys.size
+        if ys.size:
+            boxes[k] = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+    return counts, boxes
+
+
+def gather_corners(virtual, hidden, corner_index, surface, n_objects):
+    """Twin of virtual.compose.gather_corners: (corners (T, 3, 3) float32, flags (T,))."""
+    corners = virtual[corner_index].astype(np.float32)
+    flags = np.where(surface >= n_objects, FLAG_MIRROR, 0).astype(np.uint8)
+    flags[hidden[corner_index].all(axis=1)] |= FLAG_SKIP
+    return corners, flags
+
+
+def fill_cracks(colors, covered, stencil):
+    """Twin of virtual.compose.fill_cracks (the whole image: the box is an optimisation), in
+    place: a stencil pixel no fragment covered, with both neighbours across it covered
+    (above and below, or left and right), takes their mean, summed in float64 in the order
+    above, below, left, right."""
+    h, w = covered.shape
+    ys, xs = np.nonzero(stencil & ~covered)
+    total = np.zeros((ys.size, 3), np.float64)
+    count = np.zeros(ys.size, np.int64)
+    for dy, dx in ((1, 0), (0, 1)):
+        pair = (ys >= dy) & (xs >= dx) & (ys + dy < h) & (xs + dx < w)
+        k = np.flatnonzero(pair)
+        k = k[covered[ys[k] - dy, xs[k] - dx] & covered[ys[k] + dy, xs[k] + dx]]
+        total[k] += colors[ys[k] - dy, xs[k] - dx].astype(np.float64)
+        total[k] += colors[ys[k] + dy, xs[k] + dx].astype(np.float64)
+        count[k] += 2
+    filled = count > 0
+    colors[ys[filled], xs[filled]] = (total[filled] / count[filled][:, None]).astype(np.float32)
+
+
 def reflector_grid(triangle, b1, b2, corners, normals, eye):
     """Twin of virtual.refine._grid: per covered pixel the interpolated point Q and the eye
     ray's direction reflected about the interpolated unit normal; NaN elsewhere."""

@@ -23,6 +23,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ..raster.rasterize import recover_barycentrics
+
 
 def reflector_grid(triangle: np.ndarray, b1: np.ndarray, b2: np.ndarray, corners: np.ndarray,
                    normals: np.ndarray, eye: np.ndarray,
@@ -43,33 +45,74 @@ def reflector_grid(triangle: np.ndarray, b1: np.ndarray, b2: np.ndarray, corners
     want_q = q is not None
     if not want_q:
         q = np.empty((0, 0, 3))
-    _grid(triangle, b1, b2, corners.astype(np.float64), normals.astype(np.float64),
-          np.asarray(eye, np.float64), q, r)
+    _grid(triangle, b1, b2, corners, normals, np.asarray(eye, np.float64), q, r)
     return (q if want_q else None), r
 
 
 @njit(cache=True, parallel=True)
 def _grid(triangle, b1, b2, corners, normals, eye, q, r):
     h, w = triangle.shape
+    want_q = q.shape[0] > 0  # (0, 0, 3): R only
     for y in prange(h):
         for x in range(w):
             t = triangle[y, x]
             if t < 0:
                 continue
-            c1 = b1[y, x]
-            c2 = b2[y, x]
-            c0 = 1.0 - c1 - c2
-            p = c0 * corners[t, 0] + c1 * corners[t, 1] + c2 * corners[t, 2]
-            n = c0 * normals[t, 0] + c1 * normals[t, 1] + c2 * normals[t, 2]
-            n = n / max(math.sqrt(n[0] ** 2 + n[1] ** 2 + n[2] ** 2), 1e-30)
-            d = p - eye
-            d = d / math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
-            dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2]
-            for i in range(3):
-                r[y, x, i] = d[i] - 2.0 * dn * n[i]
-            if q.shape[0]:  # (0, 0, 3): R only
-                for i in range(3):
-                    q[y, x, i] = p[i]
+            _ray_at(t, b1[y, x], b2[y, x], corners, normals, eye, y, x, q, want_q, r)
+
+
+@njit(cache=True, inline="always")
+def _ray_at(t, c1, c2, corners, normals, eye, y, x, q, want_q, r):
+    """R (and Q if want_q) at pixel (y, x) of triangle t at barycentrics c1, c2 (float32):
+    the point, the interpolated normal (unit) and the eye ray reflected about it, worked in
+    float64 component by component (the same values as whole-vector numpy arithmetic)."""
+    c1, c2 = np.float64(c1), np.float64(c2)
+    c0 = 1.0 - c1 - c2
+    p0 = c0 * corners[t, 0, 0] + c1 * corners[t, 1, 0] + c2 * corners[t, 2, 0]
+    p1 = c0 * corners[t, 0, 1] + c1 * corners[t, 1, 1] + c2 * corners[t, 2, 1]
+    p2 = c0 * corners[t, 0, 2] + c1 * corners[t, 1, 2] + c2 * corners[t, 2, 2]
+    n0 = c0 * normals[t, 0, 0] + c1 * normals[t, 1, 0] + c2 * normals[t, 2, 0]
+    n1 = c0 * normals[t, 0, 1] + c1 * normals[t, 1, 1] + c2 * normals[t, 2, 1]
+    n2 = c0 * normals[t, 0, 2] + c1 * normals[t, 1, 2] + c2 * normals[t, 2, 2]
+    length = max(math.sqrt(n0 ** 2 + n1 ** 2 + n2 ** 2), 1e-30)
+    n0, n1, n2 = n0 / length, n1 / length, n2 / length
+    d0, d1, d2 = p0 - eye[0], p1 - eye[1], p2 - eye[2]
+    length = math.sqrt(d0 ** 2 + d1 ** 2 + d2 ** 2)
+    d0, d1, d2 = d0 / length, d1 / length, d2 / length
+    dn = d0 * n0 + d1 * n1 + d2 * n2
+    r[y, x, 0] = d0 - 2.0 * dn * n0
+    r[y, x, 1] = d1 - 2.0 * dn * n1
+    r[y, x, 2] = d2 - 2.0 * dn * n2
+    if want_q:
+        q[y, x, 0] = p0
+        q[y, x, 1] = p1
+        q[y, x, 2] = p2
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def mirror_rays(triangle, mirror, drawn, clip_from_world, corners, normals, eye, y0, y1, x0,
+                x1, r):
+    """R of reflector_grid for the pixels of the box rows y0..y1-1, columns x0..x1-1 where
+    `mirror` (H, W) is set and a triangle of `corners`, `normals` (T, 3, 3 world) is under
+    it; the box's other pixels get NaN, the rest of r is left as it is. Each pixel's
+    barycentrics are recovered from the clip-space corners of the triangle as drawn
+    (`drawn`, float32 world; `clip_from_world`), as RasterBuffers.b1 and b2 would hold them
+    (float32), so the primary pass need not make them for the whole image."""
+    h, w = triangle.shape
+    empty = np.empty((0, 0, 3))
+    for y in prange(y0, y1):
+        ny = 1.0 - (y + 0.5) * (2.0 / h)
+        for x in range(x0, x1):
+            t = triangle[y, x]
+            if t < 0 or not mirror[y, x]:
+                r[y, x, 0] = np.nan
+                r[y, x, 1] = np.nan
+                r[y, x, 2] = np.nan
+                continue
+            c1, c2 = recover_barycentrics(drawn, t, clip_from_world,
+                                          (x + 0.5) * (2.0 / w) - 1.0, ny)
+            _ray_at(t, np.float32(c1), np.float32(c2), corners, normals, eye, y, x, empty,
+                    False, r)
 
 
 NONE, EXACT, BOUNDARY = 0, 1, 2

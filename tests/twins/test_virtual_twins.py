@@ -23,10 +23,14 @@ from naive import (
     screen_plane,
     vertex_coords,
 )
+from naive import fill_cracks as naive_fill_cracks
+from naive import gather_corners as naive_gather_corners
+from naive import mirror_boxes as naive_mirror_boxes
 
 from reflectcli.camera import Camera
+from reflectcli.raster.rasterize import FLAG_MIRROR, FLAG_SKIP
 from reflectcli.scene import primitives
-from reflectcli.virtual import circle, direct, explosion, refine
+from reflectcli.virtual import circle, compose, direct, explosion, refine
 from reflectcli.virtual.mesh import weld
 from reflectcli.virtual.tiles import PartTiles
 
@@ -335,3 +339,74 @@ def test_nearest_filled_matches_twin():
         assert not empty[rows, cols].any()
         got = np.hypot(rows - np.arange(h)[:, None], cols - np.arange(w)[None, :])
         np.testing.assert_allclose(got, nearest_filled_distance(empty), rtol=0, atol=1e-12)
+
+
+def test_mirror_boxes_match_twin():
+    rng = np.random.default_rng(3)
+    surface = rng.integers(-1, 4, (23, 31)).astype(np.int32)
+    surface[surface == 5] = 0
+    surface[:, :] = np.where(surface == 4, 1, surface)  # mirror 2 (surface 4) absent
+    got = compose.mirror_boxes(surface, 2, 3)
+    want = naive_mirror_boxes(surface, 2, 3)
+    for g, x in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, x)
+    assert got[0][2] == 0 and got[0][0] > 0
+
+
+def test_gather_corners_match_twin():
+    rng = np.random.default_rng(4)
+    virtual = rng.normal(size=(40, 3)) * 5
+    hidden = rng.random(40) < 0.6
+    corner_index = rng.integers(0, 40, (70, 3))
+    surface = rng.integers(0, 6, 70)
+    corners = np.empty((70, 3, 3), np.float32)
+    flags = np.empty(70, np.uint8)
+    compose.gather_corners(virtual, hidden, corner_index, surface, 4, corners, flags)
+    want_corners, want_flags = naive_gather_corners(virtual, hidden, corner_index, surface, 4)
+    assert corners.tobytes() == want_corners.tobytes()
+    np.testing.assert_array_equal(flags, want_flags)
+    assert (flags & FLAG_SKIP).any() and (flags & FLAG_MIRROR).any()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_fill_cracks_match_twin(seed):
+    rng = np.random.default_rng(seed)
+    h, w = 19, 23
+    covered = rng.random((h, w)) < 0.8
+    stencil = covered | (rng.random((h, w)) < 0.7)
+    stencil[:2] = False  # a box that is not the whole image
+    covered &= stencil
+    colors = rng.random((h, w, 3)).astype(np.float32)
+    want = colors.copy()
+    naive_fill_cracks(want, covered, stencil)
+    ys, xs = np.nonzero(stencil)
+    compose.fill_cracks(colors, covered, stencil, ys.min(), ys.max() + 1, xs.min(),
+                        xs.max() + 1)
+    assert colors.tobytes() == want.tobytes()
+
+
+@compiled_only
+def test_mirror_rays_match_reflector_grid():
+    """R at mirror pixels from barycentrics recovered in the kernel: the very bytes of
+    reflector_grid from the buffers' own b1, b2; NaN at the box's other pixels."""
+    from reflectcli.raster.rasterize import rasterize as fast_rasterize
+
+    cam = Camera(np.array([0.0, 0.4, 3.0]), np.zeros(3), np.array([0.0, 1.0, 0.0]), 50.0, 40,
+                 30, 0.1, 100.0)
+    sphere = primitives.uv_sphere(1.0, 12)
+    corners = sphere.corners.astype(np.float32)
+    normals = sphere.normals.astype(np.float32)
+    m = cam.clip_from_world()
+    buffers = fast_rasterize(corners, np.zeros(len(corners), np.uint8), m, 40, 30)
+    mirror = np.zeros((30, 40), bool)
+    mirror[:, 12:] = True  # a part of the sphere only
+    tri = buffers.triangle
+    masked = np.where(mirror, tri, -1).astype(np.int32)
+    _, want = refine.reflector_grid(masked, buffers.b1, buffers.b2, corners, normals, cam.eye)
+    r = np.full((30, 40, 3), 7.0)
+    refine.mirror_rays(tri, mirror, corners, m, corners, normals, np.asarray(cam.eye, float),
+                       3, 27, 5, 38, r)
+    box = (slice(3, 27), slice(5, 38))
+    assert r[box].tobytes() == want[box].tobytes()
+    assert (r[:3] == 7.0).all() and (r[:, 38:] == 7.0).all()
+    assert np.isfinite(r[box]).sum() > 300

@@ -35,7 +35,9 @@ from ...camera import Camera
 from ...frame import Frame
 from ...raster.primary import render_primary
 from ...raster.rasterize import RasterWorkspace
+from ...raster.shade import add_reflection
 from ...scene.types import PLANAR, Scene
+from ...virtual.compose import gather_corners, mirror_boxes
 from ...virtual.dispatch import choose_method, facing_plane, reflector_parts
 from ...virtual.raster import draw_virtual, reflected_rays
 from ...virtual.reflected import ReflectedCache
@@ -106,12 +108,19 @@ class Virtual(Technique):
         stats = {"virtual_vertices": 0, "virtual_triangles": 0, "reflector_parts": 0}
         seconds = dict.fromkeys(("tessellate", "maps", "virtual_vertices", "virtual_raster"),
                                 0.0)
+        t_start = time.perf_counter()
+        # which mirrors are in view, and the box of each one's pixels
+        counts, boxes = mirror_boxes(result.surface, scene.n_objects, scene.mirrors.count)
+        seen = np.flatnonzero(counts)
         incoming = None  # per pixel, the reflected ray shading sees its fragment along
-        for k in range(scene.mirrors.count):
-            if not (result.surface == scene.n_objects + k).any():
-                continue  # not in view
-            if incoming is None:
-                incoming = reflected_rays(primary, camera.eye, state.virtual_raster)
+        if seen.size:
+            box = (int(boxes[seen, 0].min()), int(boxes[seen, 1].max()),
+                   int(boxes[seen, 2].min()), int(boxes[seen, 3].max()))
+            incoming = reflected_rays(primary, camera.eye, box, state.virtual_raster)
+        seconds["virtual_raster"] += time.perf_counter() - t_start
+        ws = state.virtual_raster
+        for k in (int(k) for k in seen):
+            box = tuple(int(v) for v in boxes[k])
             t_start = time.perf_counter()
             tess = state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation)
             seconds["tessellate"] += time.perf_counter() - t_start
@@ -129,22 +138,23 @@ class Virtual(Technique):
                 stencil, vertices_of = item
                 t0 = time.perf_counter()
                 virtual, hidden = vertices_of(tess.points, tess.corner_index)
+                t1 = time.perf_counter()
+                # corners gathered in float32 (what the rasterizer takes): half the bytes;
                 # polygons wholly in the hidden region are not reflected (the paper drops
                 # them); mixed ones keep their doubly virtual vertices
-                dropped = hidden[tess.corner_index].all(axis=1)
-                t1 = time.perf_counter()
-                # corners gathered in float32 (what the rasterizer takes): half the bytes
-                corners = virtual.astype(np.float32)[tess.corner_index]
+                count = tess.triangles.count
+                corners = ws.get("virtual_corners", (count, 3, 3), np.float32)
+                flags = ws.get("virtual_flags", (count,), np.uint8)
+                gather_corners(virtual, hidden, tess.corner_index, tess.triangles.surface,
+                               scene.n_objects, corners, flags)
                 colors = draw_virtual(scene, primary, camera, clip_from_world, tess.triangles,
-                                      corners, dropped, stencil,
-                                      scene.n_objects + k, mirror_plane,
-                                      self.params.reflector_test, incoming,
-                                      state.virtual_raster)
-                result.rgb[stencil] += scene.mirrors.reflectance[k] * colors[stencil]
+                                      corners, flags, stencil, box, scene.n_objects + k,
+                                      mirror_plane, self.params.reflector_test, incoming, ws)
+                add_reflection(result.rgb, colors, stencil, scene.mirrors.reflectance[k], *box)
                 seconds["virtual_vertices"] += t1 - t0
                 seconds["virtual_raster"] += time.perf_counter() - t1
                 stats["virtual_vertices"] += tess.points.shape[0]
-                stats["virtual_triangles"] += tess.triangles.count
+                stats["virtual_triangles"] += count
                 stats["reflector_parts"] += 1
         result.timings.update(seconds)
         result.stats.update(stats)
