@@ -1083,6 +1083,31 @@ def refine_point(p, seed, inside, q, r, eye):
     return eye + e / np.linalg.norm(e) * (np.linalg.norm(e) + np.linalg.norm(p - qq))
 
 
+def tile_bounds(inside, q, r, size):
+    """Twin of virtual.tiles._tile_bounds: per tile of `size` pixels holding part pixels
+    (in tile-id order), over its part pixels grown by the row above and the column left:
+    (center, radius) of Q, (unit axis, half-angle) of R, and the seed pixel (its own pixel
+    whose Q is nearest the center, + 0.5)."""
+    h, w = inside.shape
+    ys, xs = np.nonzero(inside)
+    out = []
+    for t in np.unique((ys // size) * (w // size + 1) + xs // size):
+        ty, tx = divmod(int(t), w // size + 1)
+        y0, x0 = ty * size, tx * size
+        ey, ex = max(y0 - 1, 0), max(x0 - 1, 0)
+        by, bx = np.nonzero(inside[ey:y0 + size, ex:x0 + size])
+        pts, dirs = q[by + ey, bx + ex], r[by + ey, bx + ex]
+        c = pts.mean(axis=0)
+        a = dirs.sum(axis=0)
+        a /= max(float(np.linalg.norm(a)), 1e-30)
+        dist = np.linalg.norm(pts - c, axis=1)
+        own = (by + ey >= y0) & (bx + ex >= x0)
+        mid = np.flatnonzero(own)[np.argmin(dist[own])]
+        out.append((c, dist.max(), a, np.arccos(np.clip(dirs @ a, -1.0, 1.0)).max(),
+                    (bx[mid] + ex + 0.5, by[mid] + ey + 0.5)))
+    return [np.array([o[i] for o in out], np.float64) for i in range(5)]
+
+
 def scan(points, center, radius, axis, half, pixel, margin, q, r):
     """Twin of virtual.tiles._scan: a point is reached by tile j if it lies in the tile's
     ball (1.001 of the radius) or within half + margin + asin(radius / dist) of the axis

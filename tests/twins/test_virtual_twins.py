@@ -21,6 +21,7 @@ from naive import (
     reflector_grid,
     scan,
     screen_plane,
+    tile_bounds,
     vertex_coords,
 )
 from naive import fill_cracks as naive_fill_cracks
@@ -184,6 +185,33 @@ def test_screen_refinement_matches_twin():
         want = refine_point(pts[k], seeds[k], inside, q, r, cam.eye)
         assert want is not None
         np.testing.assert_allclose(got[k], want, atol=1e-4)
+
+
+@pytest.mark.parametrize("size", [4, 8, 12])
+def test_tile_bounds_match_twin(size):
+    _, inside, q, r = sphere_grid()
+    inside = inside.copy()
+    inside[5:9, 10:30] = False  # holes: tiles with few pixels, grown blocks straddling them
+    tiles = PartTiles(inside, q, r, size=size)
+    center, radius, axis, half, pixel = tile_bounds(inside, q, r, size)
+    for got, want in ((tiles.center, center), (tiles.radius, radius), (tiles.axis, axis),
+                      (tiles.half, half)):
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(tiles.pixel, pixel)
+
+
+def test_tile_scan_with_a_wide_cone_matches_twin():
+    """A tile whose cone is at least a right angle wide takes the arcsine branch."""
+    rng = np.random.default_rng(8)
+    _, inside, q, r = sphere_grid()
+    tiles = PartTiles(inside, q, r, size=8)
+    tiles.half[::3] = 1.7
+    pts = rng.normal(size=(300, 3)) * 3.0
+    reach, seeds = tiles.scan(pts, q, r)
+    want_reach, want_seeds = scan(pts, tiles.center, tiles.radius, tiles.axis, tiles.half,
+                                  tiles.pixel, tiles.margin, q, r)
+    np.testing.assert_array_equal(reach, want_reach)
+    np.testing.assert_array_equal(seeds, want_seeds)
 
 
 def test_tile_scan_matches_twin():
