@@ -143,26 +143,67 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     extensions = np.concatenate([np.array(ext, np.int64).reshape(-1, 3), open_edges])
     frame = map_frame(center, eye)
     s = res - 2.0
-    maps = []
-    for radius in np.geomspace(near_radius, far_radius, max(layers, 2)):
-        coords = np.full((len(v), 2), np.nan)
-        _vertex_coords(v, fixed, used, eye, center, radius, frame, res, s, coords)
-        ids = np.full((res, res), -1, np.int32)
-        _fill_faces(ids, coords, f, np.flatnonzero(drawn))
-        core = ids >= 0
-        inside = _inside_circle(res, s)
-        filled = int(np.count_nonzero((ids >= 0) & inside))
-        _fill_extensions(ids, coords, extensions, len(f), res / 2.0, EXTENSION_REACH * s)
-        empty = int(np.count_nonzero((ids < 0) & inside))
-        _fill_nearest(ids)
-        maps.append(ExplosionMap(ids, coords, radius, filled, empty, core))
+    radii = np.geomspace(near_radius, far_radius, max(layers, 2))
+    count = len(radii)
+    coords = np.empty((count, len(v), 2))
+    ids = np.empty((count, res, res), np.int32)
+    core = np.empty((count, res, res), np.bool_)
+    tally = np.zeros((count, 2), np.int64)
+    _build_layers(v, fixed, used, np.asarray(eye, np.float64), np.asarray(center, np.float64),
+                  radii, frame, res, s, f, np.flatnonzero(drawn), extensions, len(f),
+                  EXTENSION_REACH * s, coords, ids, core, tally)
+    maps = [ExplosionMap(ids[k], coords[k], radius, int(tally[k, 0]), int(tally[k, 1]),
+                         core[k]) for k, radius in enumerate(radii)]
     return ExplosionMaps(mesh, fixed, front, frame, np.asarray(center, float), maps,
                          extensions, res, s)
 
 
-def _inside_circle(res: int, s: float) -> np.ndarray:
-    c = np.arange(res) + 0.5 - res / 2.0
-    return (c[None, :] ** 2 + c[:, None] ** 2) <= (s / 2.0) ** 2
+@njit(cache=True, parallel=True)
+def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, extensions,
+                  n_faces, reach, coords, ids, core, tally):
+    """Every layer's map at once, one layer per thread (each layer is work of its own):
+    vertex coordinates, faces, extension quads where still empty, then the nearest filled
+    id in the texels left empty. coords[k] (V, 2), ids[k], core[k] (res, res): layer k's;
+    tally[k]: texels inside the map's circle filled by faces alone, and left empty after
+    the extensions."""
+    half = s / 2.0
+    for k in prange(radii.shape[0]):
+        for i in range(coords.shape[1]):
+            coords[k, i, 0] = np.nan
+            coords[k, i, 1] = np.nan
+        _vertex_coords(v, n, used, eye, center, radii[k], frame, res, s, coords[k])
+        layer = ids[k]
+        layer[:, :] = -1
+        _fill_faces(layer, coords[k], faces, drawn)
+        filled = 0
+        for y in range(res):
+            cy = y + 0.5 - res / 2.0
+            for x in range(res):
+                cx = x + 0.5 - res / 2.0
+                core[k, y, x] = layer[y, x] >= 0
+                filled += core[k, y, x] and cx ** 2 + cy ** 2 <= half ** 2
+        _fill_extensions(layer, coords[k], extensions, n_faces, res / 2.0, reach)
+        empty = np.empty((res, res), np.bool_)
+        left = 0
+        holes = 0
+        for y in range(res):
+            cy = y + 0.5 - res / 2.0
+            for x in range(res):
+                cx = x + 0.5 - res / 2.0
+                empty[y, x] = layer[y, x] < 0
+                holes += empty[y, x]
+                left += empty[y, x] and cx ** 2 + cy ** 2 <= half ** 2
+        tally[k, 0] = filled
+        tally[k, 1] = left
+        if holes == 0 or holes == res * res:
+            continue
+        rows = np.empty((res, res), np.int32)
+        cols = np.empty((res, res), np.int32)
+        _nearest_filled(empty, rows, cols)
+        for y in range(res):
+            for x in range(res):
+                if empty[y, x]:
+                    layer[y, x] = layer[rows[y, x], cols[y, x]]
 
 
 def boundary_edges(faces: np.ndarray) -> np.ndarray:
@@ -173,19 +214,6 @@ def boundary_edges(faces: np.ndarray) -> np.ndarray:
             seen.setdefault((min(i, j), max(i, j)), []).append((fi, int(i), int(j)))
     return np.array([uses[0] for uses in seen.values() if len(uses) == 1],
                     np.int64).reshape(-1, 3)
-
-
-def _fill_nearest(ids: np.ndarray) -> None:
-    """Give every empty texel the id of the nearest filled one (Euclidean distance between
-    texel centers; among equally near ones, the one _nearest_filled meets first), in place."""
-    empty = ids < 0
-    if not empty.any() or empty.all():
-        return
-    h, w = ids.shape
-    rows = np.empty((h, w), np.int32)
-    cols = np.empty((h, w), np.int32)
-    _nearest_filled(empty, rows, cols)
-    ids[empty] = ids[rows[empty], cols[empty]]
 
 
 _FAR = 1e20  # squared distance standing for "no filled texel in this column"

@@ -255,6 +255,43 @@ def sphere_maps():
                                                      layers=3)
 
 
+@pytest.mark.parametrize("layers", [2, 5])
+def test_explosion_layers_match_twin(layers):
+    """_build_layers (every layer at once, a layer per thread) against the twins of its
+    steps layer by layer: vertex coordinates, faces, the tally inside the circle, the
+    extensions, and for each texel left empty an id of a filled texel at the nearest
+    distance (ties between equally near ones are the transform's to break)."""
+    m = primitives.uv_sphere(1.0, 10)
+    mesh = weld(m.corners[:150], m.normals[:150])  # open: boundary edges give extensions
+    eye = np.array([0.4, 1.0, 6.0])
+    maps = explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 40, layers)
+    assert len(maps.extensions)
+    res, s = maps.res, maps.s
+    c = np.arange(res) + 0.5 - res / 2.0
+    circle_in = (c[None, :] ** 2 + c[:, None] ** 2) <= (s / 2.0) ** 2
+    used = ~np.isnan(maps.layers[0].coords[:, 0])
+    drawn = np.flatnonzero(used[mesh.faces].all(axis=1)
+                           & (maps.front[mesh.faces].any(axis=1)))
+    for layer in maps.layers:
+        coords = vertex_coords(mesh.vertices, maps.normals, used, eye, maps.center,
+                               layer.radius, maps.frame, res, s)
+        np.testing.assert_allclose(layer.coords, coords, rtol=1e-12, atol=1e-9)
+        ids = np.full((res, res), -1, np.int32)
+        fill_faces(ids, layer.coords, mesh.faces, drawn)
+        np.testing.assert_array_equal(layer.core, ids >= 0)
+        assert layer.filled_before_extension == int(((ids >= 0) & circle_in).sum())
+        fill_extensions(ids, layer.coords, maps.extensions, len(mesh.faces), res / 2.0,
+                        explosion.EXTENSION_REACH * s)
+        empty = ids < 0
+        assert layer.empty_after_extension == int((empty & circle_in).sum())
+        np.testing.assert_array_equal(layer.ids[~empty], ids[~empty])
+        dist = nearest_filled_distance(empty)
+        fy, fx = np.nonzero(~empty)
+        for y, x in zip(*np.nonzero(empty), strict=True):
+            near = (fy - y) ** 2 + (fx - x) ** 2 == round(dist[y, x] ** 2)
+            assert layer.ids[y, x] in set(ids[fy[near], fx[near]]), (y, x)
+
+
 def test_map_coords_and_vertex_coords_match_twin(sphere_maps):
     mesh, eye, maps = sphere_maps
     rng = np.random.default_rng(4)
