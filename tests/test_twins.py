@@ -40,7 +40,8 @@ SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
                  V + "test_cylinder_virtual_vertices_match_twin",
                  V + "test_sphere_blocks_do_not_change_answers"]
 PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
-REFINE = [V + "test_screen_refinement_matches_twin"]
+REFINE = [V + "test_screen_refinement_matches_twin",
+          V + "test_refinement_skips_only_retries_that_cannot_matter"]
 FILL = [V + "test_fill_kernels_match_twin"]
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
 LOOKUP = [V + "test_explosion_lookup_matches_twin"]

@@ -120,11 +120,17 @@ NONE, EXACT, BOUNDARY = 0, 1, 2
 
 def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q: np.ndarray,
                    r: np.ndarray, eye: np.ndarray, retry_seeds: np.ndarray | None = None,
-                   iterations: int = 20) -> tuple[np.ndarray, np.ndarray]:
+                   iterations: int = 20, reach: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """Virtual vertices of `points` (N, 3) by the search above, from screen positions `seeds`
     (N, 2, pixels; NaN: no seed) within the pixels where `inside` (H, W) holds. A point whose
     seed does not lead to its reflection (outside the part, or a walk blocked by a hole in
     it) tries again from `retry_seeds` (N, 2; see tiles.PartTiles.scan).
+    `reach` (N,) bool, if given: the tiles' verdict (PartTiles.scan) that some ray of the
+    part may pass the point. A point no ray reaches has no reflection in the part (an EXACT
+    end lies within 0.6 degrees of a ray of the part, inside the tiles' 1 degree margin), so
+    a retry could only end at the boundary too, which would not replace a first walk's
+    boundary answer: it is skipped, with the same result.
     Returns (virtual points (N, 3), status (N,) int8): EXACT where the reflection was found,
     BOUNDARY where the search left the part (see _walk), NONE (rows NaN) where it never
     sampled the part."""
@@ -132,9 +138,12 @@ def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q:
     ok = np.zeros(points.shape[0], np.int8)
     if retry_seeds is None:
         retry_seeds = np.full(points.shape[:1] + (2,), np.nan)
+    if reach is None:
+        reach = np.ones(points.shape[0], np.bool_)
     _refine(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(seeds, np.float64),
             inside, q, r, np.asarray(eye, np.float64), iterations,
-            np.ascontiguousarray(retry_seeds, np.float64), out, ok)
+            np.ascontiguousarray(retry_seeds, np.float64), np.ascontiguousarray(reach, np.bool_),
+            out, ok)
     return out, ok
 
 
@@ -271,7 +280,7 @@ def _walk(p, inside, q, r, sx, sy, iterations, q_ext, rr, work):
 
 
 @njit(cache=True, parallel=True)
-def _refine(points, seeds, inside, q, r, eye, iterations, retry, out, ok):
+def _refine(points, seeds, inside, q, r, eye, iterations, retry, reach, out, ok):
     for k in prange(points.shape[0]):
         p = points[k]
         buf = np.empty(33)  # one allocation per point: the walks' vectors are views of it
@@ -282,7 +291,7 @@ def _refine(points, seeds, inside, q, r, eye, iterations, retry, out, ok):
         if np.isfinite(seeds[k, 0]) and np.isfinite(seeds[k, 1]):
             status = _walk(p, inside, q, r, seeds[k, 0], seeds[k, 1], iterations, q_ext, rr,
                            work)
-        if status != EXACT and np.isfinite(retry[k, 0]):
+        if (status == NONE or (status == BOUNDARY and reach[k])) and np.isfinite(retry[k, 0]):
             q2 = buf[6:9]
             r2 = buf[9:12]
             again = _walk(p, inside, q, r, retry[k, 0], retry[k, 1], iterations, q2, r2, work)

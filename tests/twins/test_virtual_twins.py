@@ -187,6 +187,32 @@ def test_screen_refinement_matches_twin():
         np.testing.assert_allclose(got[k], want, atol=1e-4)
 
 
+def test_refinement_skips_only_retries_that_cannot_matter():
+    """With the tiles' reach, a point no tile reaches walks once from its seed: the retry
+    it skips could not have found an exact reflection. Same bytes as retrying everyone."""
+    rng = np.random.default_rng(9)
+    cam, inside, q, r = sphere_grid()
+    patch = np.zeros_like(inside)  # a part: a patch of the sphere, so most points miss it
+    ys, xs = np.nonzero(inside)
+    y0, x0 = ys[len(ys) // 2] - 6, xs[len(xs) // 2] - 6
+    patch[y0:y0 + 12, x0:x0 + 12] = inside[y0:y0 + 12, x0:x0 + 12]
+    tiles = PartTiles(patch, q, r, size=4)
+    py, px = np.nonzero(patch)
+    pick = rng.choice(len(py), 60)
+    near = q[py[pick], px[pick]] + r[py[pick], px[pick]] * rng.uniform(0.5, 3.0, (60, 1))
+    pts = np.concatenate([near, rng.normal(size=(300, 3)) * 3.0])
+    reach, retry = tiles.scan(pts, q, r)
+    seeds = np.stack([px[rng.choice(len(px), len(pts))],
+                      py[rng.choice(len(py), len(pts))]], 1) + 0.5
+    seeds += rng.uniform(-6, 6, seeds.shape)
+    got, status = refine.refine_virtual(pts, seeds, patch, q, r, cam.eye, retry, reach=reach)
+    want, want_status = refine.refine_virtual(pts, seeds, patch, q, r, cam.eye, retry)
+    assert got.tobytes() == want.tobytes() and status.tobytes() == want_status.tobytes()
+    assert (~reach & (status == refine.BOUNDARY)).sum() > 50  # retries skipped
+    assert not (~reach & (status == refine.EXACT)).any()
+    assert (status == refine.EXACT).sum() > 20
+
+
 @pytest.mark.parametrize("size", [4, 8, 12])
 def test_tile_bounds_match_twin(size):
     _, inside, q, r = sphere_grid()
