@@ -178,6 +178,10 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
         [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
     "virtual/explosion.py:_screen_plane": (
         [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
+    "virtual/explosion.py:_blend3": (
+        [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, "_plane_from_map"),
+    "virtual/explosion.py:_unit_or_zero": (
+        [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, "_plane_from_map"),
     "virtual/explosion.py:_mirror": (LOOKUP, "_virtual"),
     "virtual/explosion.py:_virtual": (LOOKUP, "virtual_vertices"),
     "maps/distance_search.py:search_ray": (SEARCH, "_search_pixels"),

@@ -399,17 +399,34 @@ def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.nd
     return out, (hidden_face >= 0) | unreflected
 
 
+@njit(cache=True, inline="always")
+def _blend3(arr, a, b, c, wa, wb, wc):
+    """wa arr[a] + wb arr[b] + wc arr[c] (rows of 3), as a tuple (no array per call)."""
+    return (wa * arr[a, 0] + wb * arr[b, 0] + wc * arr[c, 0],
+            wa * arr[a, 1] + wb * arr[b, 1] + wc * arr[c, 1],
+            wa * arr[a, 2] + wb * arr[b, 2] + wc * arr[c, 2])
+
+
+@njit(cache=True, inline="always")
+def _unit_or_zero(nn, always):
+    """nn / |nn| (if `always` or |nn| > 0; else nn as it is)."""
+    length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
+    if always or length > 0.0:
+        return nn[0] / length, nn[1] / length, nn[2] / length
+    return nn
+
+
 @njit(cache=True)
 def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
-    """(plane point, unit normal) for map point T, or a zero normal if the texel is empty."""
+    """(plane point, unit normal) for map point T, or a zero normal if the texel is empty
+    (tuples: the lookup runs per point and map, and arrays made per call cost more than
+    the arithmetic)."""
     res = ids.shape[0]
     x = min(max(int(math.floor(tx)), 0), res - 1)
     y = min(max(int(math.floor(ty)), 0), res - 1)
     ident = ids[y, x]
-    p = np.zeros(3)
-    nn = np.zeros(3)
     if ident < 0:
-        return p, nn
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     nf = faces.shape[0]
     if ident < nf:
         a, b, c = faces[ident, 0], faces[ident, 1], faces[ident, 2]
@@ -423,9 +440,8 @@ def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
             wb = ((tx - ax) * (cy - ay) - (cx - ax) * (ty - ay)) / area
             wc = ((bx - ax) * (ty - ay) - (tx - ax) * (by - ay)) / area
         wa = 1.0 - wb - wc  # negative weights are fine (the paper says so)
-        for k in range(3):
-            p[k] = wa * v[a, k] + wb * v[b, k] + wc * v[c, k]
-            nn[k] = wa * n[a, k] + wb * n[b, k] + wc * n[c, k]
+        p = _blend3(v, a, b, c, wa, wb, wc)
+        nn = _blend3(n, a, b, c, wa, wb, wc)
     else:
         e = ident - nf
         i, j = extensions[e, 1], extensions[e, 2]
@@ -433,14 +449,11 @@ def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
         ll = ex * ex + ey * ey
         u = 0.5 if ll == 0.0 else ((tx - coords[i, 0]) * ex + (ty - coords[i, 1]) * ey) / ll
         u = min(max(u, 0.0), 1.0)
-        for k in range(3):
-            p[k] = (1.0 - u) * v[i, k] + u * v[j, k]
-            nn[k] = (1.0 - u) * n[i, k] + u * n[j, k]
-    length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
-    if length > 0.0:
-        for k in range(3):
-            nn[k] /= length
-    return p, nn
+        p = ((1.0 - u) * v[i, 0] + u * v[j, 0], (1.0 - u) * v[i, 1] + u * v[j, 1],
+             (1.0 - u) * v[i, 2] + u * v[j, 2])
+        nn = ((1.0 - u) * n[i, 0] + u * n[j, 0], (1.0 - u) * n[i, 1] + u * n[j, 1],
+              (1.0 - u) * n[i, 2] + u * n[j, 2])
+    return p, _unit_or_zero(nn, False)
 
 
 @njit(cache=True)
@@ -450,21 +463,14 @@ def _screen_plane(faces, f, screen, v, n, sx, sy):
     a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
     ax, ay, bx, by = screen[a, 0], screen[a, 1], screen[b, 0], screen[b, 1]
     cx, cy = screen[c, 0], screen[c, 1]
-    p = np.zeros(3)
-    nn = np.zeros(3)
     area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
     if area == 0.0:
-        return p, nn
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     wb = ((sx - ax) * (cy - ay) - (cx - ax) * (sy - ay)) / area
     wc = ((bx - ax) * (sy - ay) - (sx - ax) * (by - ay)) / area
     wa = 1.0 - wb - wc
-    for k in range(3):
-        p[k] = wa * v[a, k] + wb * v[b, k] + wc * v[c, k]
-        nn[k] = wa * n[a, k] + wb * n[b, k] + wc * n[c, k]
-    length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
-    for k in range(3):
-        nn[k] /= length
-    return p, nn
+    return _blend3(v, a, b, c, wa, wb, wc), _unit_or_zero(_blend3(n, a, b, c, wa, wb, wc),
+                                                          True)
 
 
 @njit(cache=True)
