@@ -992,6 +992,14 @@ def mirror_boxes(surface, n_objects, n_mirrors):
     return counts, boxes
 
 
+def part_stencil(triangle, surface, sid, first, faces, count):
+    """Twin of virtual.compose.part_stencil: pixels of surface sid whose triangle is one of
+    the reflector's faces (first .. first + count - 1) listed in `faces` (face indices)."""
+    face = triangle.astype(np.int64) - first
+    ok = (face >= 0) & (face < count)
+    return (surface == sid) & ok & np.isin(np.where(ok, face, -1), faces)
+
+
 def gather_corners(virtual, hidden, corner_index, surface, n_objects):
     """Twin of virtual.compose.gather_corners: (corners (T, 3, 3) float32, flags (T,))."""
     corners = virtual[corner_index].astype(np.float32)

@@ -144,6 +144,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/direct.py:_profile_many": (PROFILE, "profile_virtual_vertices"),
     "virtual/direct.py:_profile_one": (PROFILE, "_profile_many"),
     "virtual/compose.py:mirror_boxes": ([V + "test_mirror_boxes_match_twin"], None),
+    "virtual/compose.py:part_stencil": ([V + "test_part_stencil_matches_twin"], None),
     "virtual/compose.py:gather_corners": ([V + "test_gather_corners_match_twin"], None),
     "virtual/compose.py:fill_cracks": ([V + "test_fill_cracks_match_twin"], None),
     "virtual/refine.py:_ray_at": ([V + "test_reflector_grid_matches_twin",

@@ -37,6 +37,20 @@ def mirror_boxes(surface, n_objects, n_mirrors):
 
 
 @njit(cache=True, parallel=True)
+def part_stencil(triangle, surface, sid, first, in_part, out):
+    """out (H, W) bool: the pixels of surface `sid` whose triangle (an index of the soup,
+    `triangle`) is reflector face f = triangle - first with in_part[f] (in_part holds the
+    reflector's count faces and one more, False, for any other triangle)."""
+    h, w = triangle.shape
+    count = in_part.shape[0] - 1
+    for y in prange(h):
+        for x in range(w):
+            f = triangle[y, x] - first
+            f = f if 0 <= f < count else count
+            out[y, x] = surface[y, x] == sid and in_part[f]
+
+
+@njit(cache=True, parallel=True)
 def gather_corners(virtual, hidden, corner_index, surface, n_objects, corners, flags):
     """corners[t, i] = virtual[corner_index[t, i]] in float32 (what the rasterizer takes),
     and the rasterizer's flags[t]: FLAG_MIRROR for a mirror's triangle (surface[t] >=

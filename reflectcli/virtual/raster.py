@@ -42,9 +42,12 @@ def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world
         planes = np.vstack([planes, mirror_clip_plane(mirror_plane, camera.eye,
                                                       clip_from_world)])
     elif reflector_test == "zbuffer":
+        # read only under the stencil: set within its box alone
         floor = ws.get("virtual_floor", (h, w), np.float32)
-        floor.fill(0.0)
-        np.copyto(floor, primary.buffers.depth, where=stencil)
+        rows, cols = slice(box[0], box[1]), slice(box[2], box[3])
+        floor[rows, cols] = 0.0
+        np.copyto(floor[rows, cols], primary.buffers.depth[rows, cols],
+                  where=stencil[rows, cols])
     elif reflector_test == "clip_planes":
         pts = primary.triangles.corners[primary.triangles.surface == sid].reshape(-1, 3)
         planes = np.vstack([planes, box_planes(pts, camera.eye, clip_from_world)])

@@ -413,9 +413,10 @@ def test_part_tiles_never_cull_a_reflected_point(scene, size):
     pick = rng.choice(len(ys), 20000)
     positions = np.stack([xs[pick], ys[pick]], 1) + rng.uniform(0.0, 1.5, (20000, 2))
     points = []
-    qq, rr = np.empty(3), np.empty(3)
     for sx, sy in positions:
-        if _sample(inside, q, r, sx, sy, qq, rr):
+        ok, *sample = _sample(inside, q, r, sx, sy)
+        if ok:
+            qq, rr = np.array(sample[:3]), np.array(sample[3:])
             points.append(qq + rng.uniform(0.05, 5.0) * rr)
     assert len(points) > 15000
     reach, seeds = tiles.scan(np.array(points), q, r)

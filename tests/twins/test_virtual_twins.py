@@ -27,6 +27,7 @@ from naive import (
 from naive import fill_cracks as naive_fill_cracks
 from naive import gather_corners as naive_gather_corners
 from naive import mirror_boxes as naive_mirror_boxes
+from naive import part_stencil as naive_part_stencil
 
 from reflectcli.camera import Camera
 from reflectcli.raster.rasterize import FLAG_MIRROR, FLAG_SKIP
@@ -500,3 +501,17 @@ def test_mirror_rays_match_reflector_grid():
     assert r[box].tobytes() == want[box].tobytes()
     assert (r[:3] == 7.0).all() and (r[:, 38:] == 7.0).all()
     assert np.isfinite(r[box]).sum() > 300
+
+
+def test_part_stencil_matches_twin():
+    rng = np.random.default_rng(11)
+    triangle = rng.integers(-1, 60, (21, 27)).astype(np.int32)
+    surface = rng.integers(-1, 5, (21, 27)).astype(np.int32)
+    faces = np.array([0, 3, 4, 9, 29])  # of the reflector's 30 faces, triangles 20 .. 49
+    in_part = np.zeros(31, bool)
+    in_part[faces] = True
+    out = np.empty((21, 27), np.bool_)
+    compose.part_stencil(triangle, surface, 3, 20, in_part, out)
+    want = naive_part_stencil(triangle, surface, 3, 20, faces, 30)
+    np.testing.assert_array_equal(out, want)
+    assert want.sum() > 5

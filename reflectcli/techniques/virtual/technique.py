@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from ...camera import Camera
 from ...frame import Frame
@@ -64,8 +65,14 @@ class VirtualState:
 
     @cached_property
     def scene_points(self) -> np.ndarray:
-        """(N, 3) world: every corner at frame 0, which the far explosion map bounds."""
-        return self.scene.geometry(0).all_triangles().corners.reshape(-1, 3)
+        """(N, 3) world: the corners at frame 0 the far explosion map must bound, reduced to
+        their convex hull's vertices (one-time work: a part measured its distance to every
+        corner per frame, and the farthest corner from any point is a hull vertex)."""
+        points = self.scene.geometry(0).all_triangles().corners.reshape(-1, 3)
+        try:
+            return points[ConvexHull(points).vertices]
+        except (QhullError, ValueError):  # flat or too few points: all of them
+            return points
 
 
 class Virtual(Technique):
@@ -94,6 +101,7 @@ class Virtual(Technique):
             mode = self.params.decompose_overrides.get(scene.mirrors.names[k],
                                                        self.params.decompose)
             state.shapes.get(soup_key(corners, normals), corners, normals, mode == "auto")
+            _ = state.scene_points  # the far maps' bound, made here rather than in frame 0
         return state
 
     def forget_view(self, state: VirtualState) -> None:
