@@ -24,7 +24,8 @@ import numpy as np
 from reflectcli import api
 
 ROOT = Path(__file__).resolve().parents[1]
-SPLIT = ("rasterize", "shade", "tessellate", "maps", "virtual_vertices", "virtual_raster")
+SPLIT = ("rasterize", "shade", "tessellate", "maps", "virtual_vertices", "virtual_raster",
+         "glue")
 
 
 def opened(scene: str, technique: str, overrides: list[str], threads: int):

@@ -108,6 +108,12 @@ class Virtual(Technique):
         state.views.entries.clear()  # hidden maps, ray grids and tiles belong to one view
 
     def render(self, state: VirtualState, frame_index: int, camera: Camera) -> Frame:
+        """Stages (seconds in the frame's timings): the primary pass (`rasterize`, `shade`),
+        `tessellate` (cached lookups), `maps` (a part's explosion maps, and the reflector's
+        view when first needed), `virtual_vertices`, `virtual_raster` (reflected rays,
+        virtual passes, blending) and `glue`: the rest of the frame (geometry lookup, the
+        primary frame's masks, loop overhead), so that the stages add up to the frame."""
+        t_frame = time.perf_counter()
         scene = state.scene
         primary = render_primary(scene, frame_index, camera, workspace=state.primary_raster)
         result = primary.frame
@@ -165,5 +171,7 @@ class Virtual(Technique):
                 stats["virtual_triangles"] += count
                 stats["reflector_parts"] += 1
         result.timings.update(seconds)
+        result.timings["glue"] = max(
+            time.perf_counter() - t_frame - sum(result.timings.values()), 0.0)
         result.stats.update(stats)
         return result
