@@ -163,10 +163,12 @@ def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, e
                   n_faces, reach, coords, ids, core, tally):
     """Every layer's map at once, one layer per thread (each layer is work of its own):
     vertex coordinates, faces, extension quads where still empty, then the nearest filled
-    id in the texels left empty. coords[k] (V, 2), ids[k], core[k] (res, res): layer k's;
-    tally[k]: texels inside the map's circle filled by faces alone, and left empty after
-    the extensions."""
+    id in the texels left empty (skipped where no texel a lookup can reach is empty: the
+    texels outside the map's disk then stay -1). coords[k] (V, 2), ids[k], core[k]
+    (res, res): layer k's; tally[k]: texels inside the map's circle filled by faces alone,
+    and left empty after the extensions."""
     half = s / 2.0
+    reachable = (half + 1e-6) ** 2  # the disk of map points, with rounding to spare
     for k in prange(radii.shape[0]):
         for i in range(coords.shape[1]):
             coords[k, i, 0] = np.nan
@@ -186,16 +188,23 @@ def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, e
         empty = np.empty((res, res), np.bool_)
         left = 0
         holes = 0
+        seen = 0  # empty texels a lookup can land in
         for y in range(res):
             cy = y + 0.5 - res / 2.0
+            gy = max(abs(cy) - 0.5, 0.0)  # the texel square's nearest point to the center
             for x in range(res):
                 cx = x + 0.5 - res / 2.0
+                gx = max(abs(cx) - 0.5, 0.0)
                 empty[y, x] = layer[y, x] < 0
                 holes += empty[y, x]
                 left += empty[y, x] and cx ** 2 + cy ** 2 <= half ** 2
+                seen += empty[y, x] and gx * gx + gy * gy <= reachable
         tally[k, 0] = filled
         tally[k, 1] = left
-        if holes == 0 or holes == res * res:
+        # every direction's map point lies in the disk of radius s / 2 (map_coords), so only
+        # texels meeting it are ever looked up: with none of them empty, the fill (most of
+        # a layer's time where the extensions closed the circle) would change no lookup
+        if seen == 0 or holes == res * res:
             continue
         rows = np.empty((res, res), np.int32)
         cols = np.empty((res, res), np.int32)

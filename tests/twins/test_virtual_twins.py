@@ -286,7 +286,8 @@ def test_explosion_layers_match_twin(layers):
     """_build_layers (every layer at once, a layer per thread) against the twins of its
     steps layer by layer: vertex coordinates, faces, the tally inside the circle, the
     extensions, and for each texel left empty an id of a filled texel at the nearest
-    distance (ties between equally near ones are the transform's to break)."""
+    distance (ties between equally near ones are the transform's to break), unless no
+    texel a lookup can reach was left empty (then the fill is skipped)."""
     m = primitives.uv_sphere(1.0, 10)
     mesh = weld(m.corners[:150], m.normals[:150])  # open: boundary edges give extensions
     eye = np.array([0.4, 1.0, 6.0])
@@ -311,6 +312,11 @@ def test_explosion_layers_match_twin(layers):
         empty = ids < 0
         assert layer.empty_after_extension == int((empty & circle_in).sum())
         np.testing.assert_array_equal(layer.ids[~empty], ids[~empty])
+        # texels a lookup can land in: their squares meet the disk of radius s / 2
+        g = np.maximum(np.abs(c) - 0.5, 0.0)
+        reachable = (g[None, :] ** 2 + g[:, None] ** 2) <= (s / 2.0 + 1e-6) ** 2
+        if not (empty & reachable).any():
+            continue  # nothing a lookup reaches is empty: the fill is skipped
         dist = nearest_filled_distance(empty)
         fy, fx = np.nonzero(~empty)
         for y, x in zip(*np.nonzero(empty), strict=True):
