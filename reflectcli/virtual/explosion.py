@@ -344,12 +344,20 @@ def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty):
         if not lo <= hi:
             continue
         for x in range(int(math.ceil(lo)), int(math.floor(hi)) + 1):
+            if only_empty and ids[y, x] >= 0:
+                continue  # taken: no test needed
             px = x + 0.5
-            w0 = ((bx - px) * (cy - py) - (cx - px) * (by - py)) / area
-            w1 = ((cx - px) * (ay - py) - (ax - px) * (cy - py)) / area
-            w2 = 1.0 - w0 - w1
-            inside = w0 >= 0.0 and w1 >= 0.0 and w2 >= 0.0
-            if inside and (not only_empty or ids[y, x] < 0):
+            # w0 = n0 / area < 0 exactly when sign * n0 < 0 (a quotient keeps the signs'
+            # product): the divisions are made only for texels both first tests pass
+            n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
+            if sign * n0 < 0.0:
+                continue
+            n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
+            if sign * n1 < 0.0:
+                continue
+            w0 = n0 / area
+            w1 = n1 / area
+            if 1.0 - w0 - w1 >= 0.0:
                 ids[y, x] = value
 
 
