@@ -160,7 +160,7 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
 
 @njit(cache=True, parallel=True)
 def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, extensions,
-                  n_faces, reach, coords, ids, core, tally):
+                  n_faces, reach_out, coords, ids, core, tally):
     """Every layer's map at once, one layer per thread (each layer is work of its own):
     vertex coordinates, faces, extension quads where still empty, then the nearest filled
     id in the texels left empty (skipped where no texel a lookup can reach is empty: the
@@ -168,7 +168,18 @@ def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, e
     (res, res): layer k's; tally[k]: texels inside the map's circle filled by faces alone,
     and left empty after the extensions."""
     half = s / 2.0
-    reachable = (half + 1e-6) ** 2  # the disk of map points, with rounding to spare
+    # per texel, once for every layer: its center inside the map's circle, and its square
+    # meeting the disk of map points (with rounding to spare: only those are looked up)
+    circle = np.empty((res, res), np.bool_)
+    reach = np.empty((res, res), np.bool_)
+    for y in range(res):
+        cy = y + 0.5 - res / 2.0
+        gy = max(abs(cy) - 0.5, 0.0)  # the texel square's nearest point to the center
+        for x in range(res):
+            cx = x + 0.5 - res / 2.0
+            gx = max(abs(cx) - 0.5, 0.0)
+            circle[y, x] = cx ** 2 + cy ** 2 <= half ** 2
+            reach[y, x] = gx * gx + gy * gy <= (half + 1e-6) ** 2
     for k in prange(radii.shape[0]):
         for i in range(coords.shape[1]):
             coords[k, i, 0] = np.nan
@@ -179,26 +190,20 @@ def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, e
         _fill_faces(layer, coords[k], faces, drawn)
         filled = 0
         for y in range(res):
-            cy = y + 0.5 - res / 2.0
             for x in range(res):
-                cx = x + 0.5 - res / 2.0
                 core[k, y, x] = layer[y, x] >= 0
-                filled += core[k, y, x] and cx ** 2 + cy ** 2 <= half ** 2
-        _fill_extensions(layer, coords[k], extensions, n_faces, res / 2.0, reach)
+                filled += core[k, y, x] and circle[y, x]
+        _fill_extensions(layer, coords[k], extensions, n_faces, res / 2.0, reach_out)
         empty = np.empty((res, res), np.bool_)
         left = 0
         holes = 0
         seen = 0  # empty texels a lookup can land in
         for y in range(res):
-            cy = y + 0.5 - res / 2.0
-            gy = max(abs(cy) - 0.5, 0.0)  # the texel square's nearest point to the center
             for x in range(res):
-                cx = x + 0.5 - res / 2.0
-                gx = max(abs(cx) - 0.5, 0.0)
                 empty[y, x] = layer[y, x] < 0
                 holes += empty[y, x]
-                left += empty[y, x] and cx ** 2 + cy ** 2 <= half ** 2
-                seen += empty[y, x] and gx * gx + gy * gy <= reachable
+                left += empty[y, x] and circle[y, x]
+                seen += empty[y, x] and reach[y, x]
         tally[k, 0] = filled
         tally[k, 1] = left
         # every direction's map point lies in the disk of radius s / 2 (map_coords), so only
