@@ -18,7 +18,7 @@ from .circle import cylinder_virtual_vertices, sphere_virtual_vertices
 from .compose import part_stencil
 from .direct import profile_virtual_vertices
 from .part import ExplosionPart
-from .shape import ShapeCache, soup_key
+from .shape import ShapeCache
 from .view import ViewCache
 
 Method = Literal["planar", "sphere", "extrusion", "explosion"]
@@ -113,7 +113,7 @@ def explosion_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, ca
     corners = tris.corners[first:first + count]
     normals = tris.normals[first:first + count]
     mode = rule.decompose_overrides.get(scene.mirrors.names[k], rule.decompose)
-    soup = soup_key(corners, normals)
+    soup = shapes.soup_key(tris.corners, tris.normals, first, count)
     shape = shapes.get(soup, corners, normals, mode == "auto")
     clip_from_world = camera.clip_from_world()
     params = rule.explosion

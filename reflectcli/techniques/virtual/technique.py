@@ -42,7 +42,7 @@ from ...virtual.compose import gather_corners, mirror_boxes
 from ...virtual.dispatch import choose_method, facing_plane, reflector_parts
 from ...virtual.raster import draw_virtual, reflected_rays
 from ...virtual.reflected import ReflectedCache
-from ...virtual.shape import ShapeCache, soup_key
+from ...virtual.shape import ShapeCache
 from ...virtual.view import ViewCache
 from ..base import Technique
 from . import Params
@@ -100,7 +100,8 @@ class Virtual(Technique):
             normals = tris.normals[first:first + count]
             mode = self.params.decompose_overrides.get(scene.mirrors.names[k],
                                                        self.params.decompose)
-            state.shapes.get(soup_key(corners, normals), corners, normals, mode == "auto")
+            soup = state.shapes.soup_key(tris.corners, tris.normals, first, count)
+            state.shapes.get(soup, corners, normals, mode == "auto")
             _ = state.scene_points  # the far maps' bound, made here rather than in frame 0
         return state
 
