@@ -1000,6 +1000,19 @@ def part_stencil(triangle, surface, sid, first, faces, count):
     return (surface == sid) & ok & np.isin(np.where(ok, face, -1), faces)
 
 
+def part_views(triangle, local, size):
+    """Twin of virtual.view.part_views: per part p, (its face under each pixel, local[p]
+    indexed by the item buffer (-1 reads the last entry), those >= 0, and the ids
+    ty * (W // size + 1) + tx of the tiles holding its pixels, ascending)."""
+    w = triangle.shape[1]
+    out = []
+    for p in range(local.shape[0]):
+        hidden = local[p][triangle]
+        ys, xs = np.nonzero(hidden >= 0)
+        out.append((hidden, hidden >= 0, np.unique((ys // size) * (w // size + 1) + xs // size)))
+    return out
+
+
 def gather_corners(virtual, hidden, corner_index, surface, n_objects):
     """Twin of virtual.compose.gather_corners: (corners (T, 3, 3) float32, flags (T,))."""
     corners = virtual[corner_index].astype(np.float32)

@@ -161,6 +161,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/tiles.py:_scan_tile": ([V + "test_tile_scan_matches_twin",
                                      V + "test_tile_scan_with_a_wide_cone_matches_twin"],
                                     "_scan"),
+    "virtual/view.py:part_views": ([V + "test_part_views_match_twin"], "reflector_view"),
     "virtual/tiles.py:_tile_bounds": ([V + "test_tile_bounds_match_twin"], "PartTiles"),
     "virtual/explosion.py:map_coords": ([V + "test_map_coords_and_vertex_coords_match_twin"],
                                         None),

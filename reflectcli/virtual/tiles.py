@@ -21,10 +21,13 @@ class PartTiles:
     and cone, being convex, hold the block's blends); the margin covers rounding."""
 
     def __init__(self, inside: np.ndarray, q: np.ndarray, r: np.ndarray, size: int = 12,
-                 margin_degrees: float = 1.0) -> None:
+                 margin_degrees: float = 1.0, tiles: np.ndarray | None = None) -> None:
+        """`tiles`: the ids ty * (W // size + 1) + tx of the tiles holding a pixel of
+        `inside`, ascending, if already known (view.part_views marks them in its pass)."""
         h, w = inside.shape
-        ys, xs = np.nonzero(inside)
-        tiles = np.unique((ys // size) * (w // size + 1) + xs // size)
+        if tiles is None:
+            ys, xs = np.nonzero(inside)
+            tiles = np.unique((ys // size) * (w // size + 1) + xs // size)
         n = tiles.size
         self.center = np.empty((n, 3))
         self.radius = np.empty(n)

@@ -28,6 +28,7 @@ from naive import fill_cracks as naive_fill_cracks
 from naive import gather_corners as naive_gather_corners
 from naive import mirror_boxes as naive_mirror_boxes
 from naive import part_stencil as naive_part_stencil
+from naive import part_views as naive_part_views
 
 from reflectcli.camera import Camera
 from reflectcli.raster.rasterize import FLAG_MIRROR, FLAG_SKIP
@@ -521,3 +522,27 @@ def test_part_stencil_matches_twin():
     want = naive_part_stencil(triangle, surface, 3, 20, faces, 30)
     np.testing.assert_array_equal(out, want)
     assert want.sum() > 5
+
+
+def test_part_views_match_twin():
+    """view.part_views (one pass, every part) against its twin part by part: each part's
+    face under each pixel, its pixels, and its tiles as np.unique of the pixels' tile ids."""
+    from reflectcli.virtual.view import part_views
+
+    rng = np.random.default_rng(12)
+    h, w, count, size = 37, 50, 40, 12
+    triangle = rng.integers(-1, count, (h, w)).astype(np.int32)
+    triangle[:, :20] = -1  # tiles with no pixel of any part
+    faces = [np.array([0, 5, 7]), np.arange(10, 30), np.array([39])]
+    local = np.full((len(faces), count + 1), -1, np.int32)
+    for p, f in enumerate(faces):
+        local[p, f] = np.arange(len(f))
+    hidden = np.empty((len(faces), h, w), np.int32)
+    inside = np.empty((len(faces), h, w), np.bool_)
+    marks = np.zeros((len(faces), h // size + 1, w // size + 1), np.bool_)
+    part_views(triangle, local, size, hidden, inside, marks)
+    for p, (want, want_inside, want_tiles) in enumerate(naive_part_views(triangle, local,
+                                                                          size)):
+        np.testing.assert_array_equal(hidden[p], want)
+        np.testing.assert_array_equal(inside[p], want_inside)
+        np.testing.assert_array_equal(np.flatnonzero(marks[p]), want_tiles)
