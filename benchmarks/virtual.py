@@ -2,6 +2,7 @@
 map building, virtual vertices and rasterization.
 
     .venv/bin/python benchmarks/virtual.py [--repeats 9] [--threads 2] [--scenes four-spheres,mask]
+        [--floor]
 
 Frames of the two techniques alternate (one of each per round, after a warm-up round), so a
 busy machine slows both alike; medians per frame, with the ratio of the minima beside (the
@@ -24,7 +25,8 @@ import numpy as np
 from reflectcli import api
 
 ROOT = Path(__file__).resolve().parents[1]
-SPLIT = ("rasterize", "shade", "tessellate", "maps", "virtual_vertices", "virtual_raster")
+SPLIT = ("rasterize", "shade", "tessellate", "maps", "virtual_vertices", "virtual_raster",
+         "glue")
 
 
 def opened(scene: str, technique: str, overrides: list[str], threads: int):
@@ -52,13 +54,19 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=9)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--scenes", default="four-spheres,mask")
+    ap.add_argument("--floor", action="store_true",
+                    help="also alternate the raster technique: the primary pass (and the "
+                    "mirrors' base colour) that every virtual frame starts with, as a "
+                    "ratio of raytrace's frame")
     args = ap.parse_args()
     numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     for scene in args.scenes.split(","):
-        runs = alternate({"raytrace": opened(scene, "raytrace", ["technique.max_depth=1"],
-                                             args.threads),
-                          "virtual": opened(scene, "virtual", [], args.threads)},
-                         args.repeats)
+        techniques = {"raytrace": opened(scene, "raytrace", ["technique.max_depth=1"],
+                                         args.threads),
+                      "virtual": opened(scene, "virtual", [], args.threads)}
+        if args.floor:
+            techniques["raster"] = opened(scene, "raster", [], args.threads)
+        runs = alternate(techniques, args.repeats)
         ref = np.array([t for t, _ in runs["raytrace"]])
         mine = np.array([t for t, _ in runs["virtual"]])
         split = {k: 1e3 * statistics.median(f.timings.get(k, 0.0) for _, f in runs["virtual"])
@@ -67,6 +75,11 @@ def main() -> None:
               f"{1e3 * np.median(ref):.0f} ms, ratio {np.median(mine) / np.median(ref):.2f} "
               f"(minima {mine.min() / ref.min():.2f}); split (ms): "
               + ", ".join(f"{k} {v:.1f}" for k, v in split.items()), flush=True)
+        if args.floor:
+            first = np.array([t for t, _ in runs["raster"]])
+            print(f"{scene}: raster (the primary pass alone) {1e3 * np.median(first):.1f} ms, "
+                  f"{np.median(first) / np.median(ref):.2f} of raytrace's frame (minima "
+                  f"{first.min() / ref.min():.2f})", flush=True)
 
 
 if __name__ == "__main__":

@@ -276,6 +276,16 @@ def fill_fixed(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top
                 tri[r, c] = t
 
 
+def run_bounds(corners, run):
+    """Twin of raster.bounds.run_bounds: (runs, 6) min xyz, max xyz of each run of `run`
+    triangles (T, 3, 3), by numpy (NaN where a run holds a NaN)."""
+    out = []
+    for t0 in range(0, len(corners), run):
+        pts = corners[t0:t0 + run].reshape(-1, 3)
+        out.append(np.concatenate([pts.min(axis=0), pts.max(axis=0)]))
+    return np.array(out, np.float64).reshape(-1, 6)
+
+
 def add_reflection(rgb, reflected, stencil, reflectance):
     """Twin of raster.shade.add_reflection (over the whole image: the box is an
     optimisation): rgb + reflectance * reflected where the stencil is set, in float32."""
@@ -969,6 +979,68 @@ def profile_one(q3, e3, profile, normals):
     return np.array([qq[0], q3[1], qq[1]]), hidden
 
 
+def mirror_boxes(surface, n_objects, n_mirrors):
+    """Twin of virtual.compose.mirror_boxes: per mirror its pixel count and the box (y0, y1,
+    x0, x1) of its pixels, (0, 0, 0, 0) if none."""
+    counts = np.zeros(n_mirrors, np.int64)
+    boxes = np.zeros((n_mirrors, 4), np.int64)
+    for k in range(n_mirrors):
+        ys, xs = np.nonzero(surface == n_objects + k)
+        counts[k] = ys.size
+        if ys.size:
+            boxes[k] = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+    return counts, boxes
+
+
+def part_stencil(triangle, surface, sid, first, faces, count):
+    """Twin of virtual.compose.part_stencil: pixels of surface sid whose triangle is one of
+    the reflector's faces (first .. first + count - 1) listed in `faces` (face indices)."""
+    face = triangle.astype(np.int64) - first
+    ok = (face >= 0) & (face < count)
+    return (surface == sid) & ok & np.isin(np.where(ok, face, -1), faces)
+
+
+def part_views(triangle, local, size):
+    """Twin of virtual.view.part_views: per part p, (its face under each pixel, local[p]
+    indexed by the item buffer (-1 reads the last entry), those >= 0, and the ids
+    ty * (W // size + 1) + tx of the tiles holding its pixels, ascending)."""
+    w = triangle.shape[1]
+    out = []
+    for p in range(local.shape[0]):
+        hidden = local[p][triangle]
+        ys, xs = np.nonzero(hidden >= 0)
+        out.append((hidden, hidden >= 0, np.unique((ys // size) * (w // size + 1) + xs // size)))
+    return out
+
+
+def gather_corners(virtual, hidden, corner_index, surface, n_objects):
+    """Twin of virtual.compose.gather_corners: (corners (T, 3, 3) float32, flags (T,))."""
+    corners = virtual[corner_index].astype(np.float32)
+    flags = np.where(surface >= n_objects, FLAG_MIRROR, 0).astype(np.uint8)
+    flags[hidden[corner_index].all(axis=1)] |= FLAG_SKIP
+    return corners, flags
+
+
+def fill_cracks(colors, covered, stencil):
+    """Twin of virtual.compose.fill_cracks (the whole image: the box is an optimisation), in
+    place: a stencil pixel no fragment covered, with both neighbours across it covered
+    (above and below, or left and right), takes their mean, summed in float64 in the order
+    above, below, left, right."""
+    h, w = covered.shape
+    ys, xs = np.nonzero(stencil & ~covered)
+    total = np.zeros((ys.size, 3), np.float64)
+    count = np.zeros(ys.size, np.int64)
+    for dy, dx in ((1, 0), (0, 1)):
+        pair = (ys >= dy) & (xs >= dx) & (ys + dy < h) & (xs + dx < w)
+        k = np.flatnonzero(pair)
+        k = k[covered[ys[k] - dy, xs[k] - dx] & covered[ys[k] + dy, xs[k] + dx]]
+        total[k] += colors[ys[k] - dy, xs[k] - dx].astype(np.float64)
+        total[k] += colors[ys[k] + dy, xs[k] + dx].astype(np.float64)
+        count[k] += 2
+    filled = count > 0
+    colors[ys[filled], xs[filled]] = (total[filled] / count[filled][:, None]).astype(np.float32)
+
+
 def reflector_grid(triangle, b1, b2, corners, normals, eye):
     """Twin of virtual.refine._grid: per covered pixel the interpolated point Q and the eye
     ray's direction reflected about the interpolated unit normal; NaN elsewhere."""
@@ -1030,6 +1102,31 @@ def refine_point(p, seed, inside, q, r, eye):
     qq, _ = grid_sample(inside, q, r, *sol.x)
     e = qq - eye
     return eye + e / np.linalg.norm(e) * (np.linalg.norm(e) + np.linalg.norm(p - qq))
+
+
+def tile_bounds(inside, q, r, size):
+    """Twin of virtual.tiles._tile_bounds: per tile of `size` pixels holding part pixels
+    (in tile-id order), over its part pixels grown by the row above and the column left:
+    (center, radius) of Q, (unit axis, half-angle) of R, and the seed pixel (its own pixel
+    whose Q is nearest the center, + 0.5)."""
+    h, w = inside.shape
+    ys, xs = np.nonzero(inside)
+    out = []
+    for t in np.unique((ys // size) * (w // size + 1) + xs // size):
+        ty, tx = divmod(int(t), w // size + 1)
+        y0, x0 = ty * size, tx * size
+        ey, ex = max(y0 - 1, 0), max(x0 - 1, 0)
+        by, bx = np.nonzero(inside[ey:y0 + size, ex:x0 + size])
+        pts, dirs = q[by + ey, bx + ex], r[by + ey, bx + ex]
+        c = pts.mean(axis=0)
+        a = dirs.sum(axis=0)
+        a /= max(float(np.linalg.norm(a)), 1e-30)
+        dist = np.linalg.norm(pts - c, axis=1)
+        own = (by + ey >= y0) & (bx + ex >= x0)
+        mid = np.flatnonzero(own)[np.argmin(dist[own])]
+        out.append((c, dist.max(), a, np.arccos(np.clip(dirs @ a, -1.0, 1.0)).max(),
+                    (bx[mid] + ex + 0.5, by[mid] + ey + 0.5)))
+    return [np.array([o[i] for o in out], np.float64) for i in range(5)]
 
 
 def scan(points, center, radius, axis, half, pixel, margin, q, r):

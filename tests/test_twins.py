@@ -37,9 +37,11 @@ PIXELS = [W + "test_pixel_splat_matches_the_reference",
 SPREAD = [W + "test_spread_matches_the_reference"]
 ANALYTIC = [E + "test_analytic_matches_closed_forms"]
 SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
-                 V + "test_cylinder_virtual_vertices_match_twin"]
+                 V + "test_cylinder_virtual_vertices_match_twin",
+                 V + "test_sphere_blocks_do_not_change_answers"]
 PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
-REFINE = [V + "test_screen_refinement_matches_twin"]
+REFINE = [V + "test_screen_refinement_matches_twin",
+          V + "test_refinement_skips_only_retries_that_cannot_matter"]
 FILL = [V + "test_fill_kernels_match_twin"]
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
 LOOKUP = [V + "test_explosion_lookup_matches_twin"]
@@ -56,6 +58,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "shading.py:material_albedo": ([SR + "test_material_albedo_matches_twin"], None),
     "shading.py:surface_color": ([SR + "test_surface_color_matches_twin"], None),
     "trace/rays.py:_primary_rays": ([SR + "test_primary_rays_match_pixel_directions"], None),
+    "raster/bounds.py:run_bounds": ([SR + "test_run_bounds_match_twin"], None),
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade"),
@@ -128,27 +131,47 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp.py:_copy_row": ([W + "test_payload_rows_follow_the_ids_over_several_maps"],
                                "_splat_pixels"),
     "maps/warp.py:_copy_zexel_rows": (SPREAD, "_spread_band"),
-    "virtual/direct.py:_circle_law": (SPHERE_METHOD, "_circle_reflection"),
-    "virtual/direct.py:_circle_reflection": (SPHERE_METHOD, "_mirror_on_circle"),
-    "virtual/direct.py:_mirror_on_circle": (SPHERE_METHOD, "_many"),
-    "virtual/direct.py:_many": (SPHERE_METHOD, "sphere/cylinder_virtual_vertices"),
+    "virtual/circle.py:_circle_law": (SPHERE_METHOD, "_newton_step"),
+    "virtual/circle.py:_circle_start": (SPHERE_METHOD, "_block"),
+    "virtual/circle.py:_newton_step": (SPHERE_METHOD, "_block"),
+    "virtual/circle.py:_normal": (SPHERE_METHOD, "_block"),
+    "virtual/circle.py:_circle_newton": (SPHERE_METHOD, "_block"),
+    "virtual/circle.py:_circle_reflection": (SPHERE_METHOD, "_block"),
+    "virtual/circle.py:_block": (SPHERE_METHOD, "_blocks"),
+    "virtual/circle.py:_blocks": (SPHERE_METHOD, "sphere/cylinder_virtual_vertices"),
     "virtual/direct.py:_profile_at": (PROFILE, "_law"),
     "virtual/direct.py:_law": (PROFILE, "_profile_one"),
     "virtual/direct.py:_profile_many": (PROFILE, "profile_virtual_vertices"),
     "virtual/direct.py:_profile_one": (PROFILE, "_profile_many"),
+    "virtual/compose.py:mirror_boxes": ([V + "test_mirror_boxes_match_twin"], None),
+    "virtual/compose.py:part_stencil": ([V + "test_part_stencil_matches_twin"], None),
+    "virtual/compose.py:gather_corners": ([V + "test_gather_corners_match_twin"], None),
+    "virtual/compose.py:fill_cracks": ([V + "test_fill_cracks_match_twin"], None),
+    "virtual/refine.py:_ray_at": ([V + "test_reflector_grid_matches_twin",
+                                   V + "test_mirror_rays_match_reflector_grid"], "_grid"),
+    "virtual/refine.py:mirror_rays": ([V + "test_mirror_rays_match_reflector_grid"], None),
     "virtual/refine.py:_grid": ([V + "test_reflector_grid_matches_twin"], "reflector_grid"),
     "virtual/refine.py:_sample": ([V + "test_grid_sample_matches_twin"] + REFINE, None),
     "virtual/refine.py:_residual": (REFINE, "_walk"),
     "virtual/refine.py:_walk": (REFINE, "_refine"),
     "virtual/refine.py:_refine": (REFINE, "refine_virtual"),
-    "virtual/tiles.py:_scan": ([V + "test_tile_scan_matches_twin"], "PartTiles.scan"),
+    "virtual/tiles.py:_scan": ([V + "test_tile_scan_matches_twin",
+                                V + "test_tile_scan_with_a_wide_cone_matches_twin"],
+                               "PartTiles.scan"),
+    "virtual/tiles.py:_scan_tile": ([V + "test_tile_scan_matches_twin",
+                                     V + "test_tile_scan_with_a_wide_cone_matches_twin"],
+                                    "_scan"),
+    "virtual/view.py:part_views": ([V + "test_part_views_match_twin"], "reflector_view"),
+    "virtual/tiles.py:_tile_bounds": ([V + "test_tile_bounds_match_twin"], "PartTiles"),
     "virtual/explosion.py:map_coords": ([V + "test_map_coords_and_vertex_coords_match_twin"],
                                         None),
     "virtual/explosion.py:_vertex_coords": (
         [V + "test_map_coords_and_vertex_coords_match_twin"], "build_explosion_maps"),
     "virtual/explosion.py:_span": (FILL, "_fill_triangle"),
     "virtual/explosion.py:_nearest_filled": ([V + "test_nearest_filled_matches_twin"],
-                                             "_fill_nearest"),
+                                             "_build_layers"),
+    "virtual/explosion.py:_build_layers": ([V + "test_explosion_layers_match_twin"],
+                                           "build_explosion_maps"),
     "virtual/explosion.py:_fill_triangle": (FILL, None),
     "virtual/explosion.py:_fill_faces": (FILL, None),
     "virtual/explosion.py:_extend": (FILL, "_fill_extensions"),
@@ -157,6 +180,10 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
         [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
     "virtual/explosion.py:_screen_plane": (
         [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
+    "virtual/explosion.py:_blend3": (
+        [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, "_plane_from_map"),
+    "virtual/explosion.py:_unit_or_zero": (
+        [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, "_plane_from_map"),
     "virtual/explosion.py:_mirror": (LOOKUP, "_virtual"),
     "virtual/explosion.py:_virtual": (LOOKUP, "virtual_vertices"),
     "maps/distance_search.py:search_ray": (SEARCH, "_search_pixels"),

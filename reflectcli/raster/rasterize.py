@@ -36,6 +36,7 @@ from numba import njit, prange
 from ..camera import screen_from_ndc as _screen_from_ndc
 from ..camera import standard_planes
 from ..scene.types import MIRROR_TIE
+from .bounds import run_bounds
 
 _MAX_PLANES = 8
 _GUARD_PLANES = 4
@@ -140,18 +141,10 @@ class RasterWorkspace:
         kept = self._arrays.get("bounds_of")
         if kept is not None and kept[0] is corners:
             return kept[1]
-        n = corners.shape[0]
-        full = n // _CHUNK
-        chunks = (n + _CHUNK - 1) // _CHUNK
+        chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
         bounds = np.empty((chunks, 6))
-        if full:
-            runs = corners[:full * _CHUNK].reshape(full, _CHUNK * 3, 3)
-            bounds[:full, :3] = runs.min(axis=1)
-            bounds[:full, 3:] = runs.max(axis=1)
-        if chunks > full:
-            rest = corners[full * _CHUNK:].reshape(-1, 3)
-            bounds[full, :3] = rest.min(axis=0)
-            bounds[full, 3:] = rest.max(axis=0)
+        if chunks:
+            run_bounds(corners, _CHUNK, bounds)
         self._arrays["bounds_of"] = (corners, bounds)
         return bounds
 

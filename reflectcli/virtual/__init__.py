@@ -5,7 +5,8 @@ One idea per module, in the order a frame uses them (reflectcli/techniques/virtu
     reflected     what a reflector reflects, tessellated (cached per geometry state)
     tessellation  splitting triangles on a shared barycentric grid
     dispatch      the method per reflector, and its parts with their vertex functions
-    direct        exact methods: sphere, cylinder, extrusion profile
+    circle        exact method for spheres and cylinders, blocks of points side by side
+    direct        exact method for extrusions of a profile
     mesh          a reflector's triangle soup welded into an indexed mesh
     convexity     convex / concave / crease parts of a mesh reflector
     shape         per reflector shape, once: mesh, parts, boundary edges (cached)

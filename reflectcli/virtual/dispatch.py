@@ -14,9 +14,11 @@ from ..camera import Camera
 from ..geometry import reflect_point
 from ..raster.primary import Primary
 from ..scene.types import CYLINDER, PLANAR, SPHERE, Mirrors, Scene
-from .direct import cylinder_virtual_vertices, profile_virtual_vertices, sphere_virtual_vertices
+from .circle import cylinder_virtual_vertices, sphere_virtual_vertices
+from .compose import part_stencil
+from .direct import profile_virtual_vertices
 from .part import ExplosionPart
-from .shape import ShapeCache, soup_key
+from .shape import ShapeCache
 from .view import ViewCache
 
 Method = Literal["planar", "sphere", "extrusion", "explosion"]
@@ -111,21 +113,19 @@ def explosion_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, ca
     corners = tris.corners[first:first + count]
     normals = tris.normals[first:first + count]
     mode = rule.decompose_overrides.get(scene.mirrors.names[k], rule.decompose)
-    soup = soup_key(corners, normals)
+    soup = shapes.soup_key(tris.corners, tris.normals, first, count)
     shape = shapes.get(soup, corners, normals, mode == "auto")
     clip_from_world = camera.clip_from_world()
     params = rule.explosion
     view = views.get((soup, mode == "auto"), corners, normals, shape, camera, clip_from_world,
                      params.refine == "screen")
-    # reflector face under each pixel of the scene's item buffer (-1: another surface)
-    buffer_face = np.where(primary.buffers.triangle >= first,
-                           primary.buffers.triangle - first, -1)
-    buffer_face[buffer_face >= count] = -1
-    stencil_all = primary.frame.surface == sid
     for part, part_view in zip(shape.parts, view.parts, strict=True):
+        # the part's pixels: the reflector's, with a face of the part under them
         in_part = np.zeros(count + 1, bool)
         in_part[part.faces] = True
-        stencil = stencil_all & in_part[buffer_face]
+        stencil = np.empty(primary.frame.surface.shape, np.bool_)
+        part_stencil(primary.buffers.triangle, primary.frame.surface, sid, first, in_part,
+                     stencil)
         if not stencil.any():
             continue
         yield stencil, ExplosionPart(part, part_view, view.depth, view.grid, camera,

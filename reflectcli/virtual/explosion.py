@@ -143,26 +143,81 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     extensions = np.concatenate([np.array(ext, np.int64).reshape(-1, 3), open_edges])
     frame = map_frame(center, eye)
     s = res - 2.0
-    maps = []
-    for radius in np.geomspace(near_radius, far_radius, max(layers, 2)):
-        coords = np.full((len(v), 2), np.nan)
-        _vertex_coords(v, fixed, used, eye, center, radius, frame, res, s, coords)
-        ids = np.full((res, res), -1, np.int32)
-        _fill_faces(ids, coords, f, np.flatnonzero(drawn))
-        core = ids >= 0
-        inside = _inside_circle(res, s)
-        filled = int(np.count_nonzero((ids >= 0) & inside))
-        _fill_extensions(ids, coords, extensions, len(f), res / 2.0, EXTENSION_REACH * s)
-        empty = int(np.count_nonzero((ids < 0) & inside))
-        _fill_nearest(ids)
-        maps.append(ExplosionMap(ids, coords, radius, filled, empty, core))
+    radii = np.geomspace(near_radius, far_radius, max(layers, 2))
+    count = len(radii)
+    coords = np.empty((count, len(v), 2))
+    ids = np.empty((count, res, res), np.int32)
+    core = np.empty((count, res, res), np.bool_)
+    tally = np.zeros((count, 2), np.int64)
+    _build_layers(v, fixed, used, np.asarray(eye, np.float64), np.asarray(center, np.float64),
+                  radii, frame, res, s, f, np.flatnonzero(drawn), extensions, len(f),
+                  EXTENSION_REACH * s, coords, ids, core, tally)
+    maps = [ExplosionMap(ids[k], coords[k], radius, int(tally[k, 0]), int(tally[k, 1]),
+                         core[k]) for k, radius in enumerate(radii)]
     return ExplosionMaps(mesh, fixed, front, frame, np.asarray(center, float), maps,
                          extensions, res, s)
 
 
-def _inside_circle(res: int, s: float) -> np.ndarray:
-    c = np.arange(res) + 0.5 - res / 2.0
-    return (c[None, :] ** 2 + c[:, None] ** 2) <= (s / 2.0) ** 2
+@njit(cache=True, parallel=True)
+def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, extensions,
+                  n_faces, reach_out, coords, ids, core, tally):
+    """Every layer's map at once, one layer per thread (each layer is work of its own):
+    vertex coordinates, faces, extension quads where still empty, then the nearest filled
+    id in the texels left empty (skipped where no texel a lookup can reach is empty: the
+    texels outside the map's disk then stay -1). coords[k] (V, 2), ids[k], core[k]
+    (res, res): layer k's; tally[k]: texels inside the map's circle filled by faces alone,
+    and left empty after the extensions."""
+    half = s / 2.0
+    # per texel, once for every layer: its center inside the map's circle, and its square
+    # meeting the disk of map points (with rounding to spare: only those are looked up)
+    circle = np.empty((res, res), np.bool_)
+    reach = np.empty((res, res), np.bool_)
+    for y in range(res):
+        cy = y + 0.5 - res / 2.0
+        gy = max(abs(cy) - 0.5, 0.0)  # the texel square's nearest point to the center
+        for x in range(res):
+            cx = x + 0.5 - res / 2.0
+            gx = max(abs(cx) - 0.5, 0.0)
+            circle[y, x] = cx ** 2 + cy ** 2 <= half ** 2
+            reach[y, x] = gx * gx + gy * gy <= (half + 1e-6) ** 2
+    for k in prange(radii.shape[0]):
+        for i in range(coords.shape[1]):
+            coords[k, i, 0] = np.nan
+            coords[k, i, 1] = np.nan
+        _vertex_coords(v, n, used, eye, center, radii[k], frame, res, s, coords[k])
+        layer = ids[k]
+        layer[:, :] = -1
+        _fill_faces(layer, coords[k], faces, drawn)
+        filled = 0
+        for y in range(res):
+            for x in range(res):
+                core[k, y, x] = layer[y, x] >= 0
+                filled += core[k, y, x] and circle[y, x]
+        _fill_extensions(layer, coords[k], extensions, n_faces, res / 2.0, reach_out)
+        empty = np.empty((res, res), np.bool_)
+        left = 0
+        holes = 0
+        seen = 0  # empty texels a lookup can land in
+        for y in range(res):
+            for x in range(res):
+                empty[y, x] = layer[y, x] < 0
+                holes += empty[y, x]
+                left += empty[y, x] and circle[y, x]
+                seen += empty[y, x] and reach[y, x]
+        tally[k, 0] = filled
+        tally[k, 1] = left
+        # every direction's map point lies in the disk of radius s / 2 (map_coords), so only
+        # texels meeting it are ever looked up: with none of them empty, the fill (most of
+        # a layer's time where the extensions closed the circle) would change no lookup
+        if seen == 0 or holes == res * res:
+            continue
+        rows = np.empty((res, res), np.int32)
+        cols = np.empty((res, res), np.int32)
+        _nearest_filled(empty, rows, cols)
+        for y in range(res):
+            for x in range(res):
+                if empty[y, x]:
+                    layer[y, x] = layer[rows[y, x], cols[y, x]]
 
 
 def boundary_edges(faces: np.ndarray) -> np.ndarray:
@@ -173,19 +228,6 @@ def boundary_edges(faces: np.ndarray) -> np.ndarray:
             seen.setdefault((min(i, j), max(i, j)), []).append((fi, int(i), int(j)))
     return np.array([uses[0] for uses in seen.values() if len(uses) == 1],
                     np.int64).reshape(-1, 3)
-
-
-def _fill_nearest(ids: np.ndarray) -> None:
-    """Give every empty texel the id of the nearest filled one (Euclidean distance between
-    texel centers; among equally near ones, the one _nearest_filled meets first), in place."""
-    empty = ids < 0
-    if not empty.any() or empty.all():
-        return
-    h, w = ids.shape
-    rows = np.empty((h, w), np.int32)
-    cols = np.empty((h, w), np.int32)
-    _nearest_filled(empty, rows, cols)
-    ids[empty] = ids[rows[empty], cols[empty]]
 
 
 _FAR = 1e20  # squared distance standing for "no filled texel in this column"
@@ -307,12 +349,20 @@ def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty):
         if not lo <= hi:
             continue
         for x in range(int(math.ceil(lo)), int(math.floor(hi)) + 1):
+            if only_empty and ids[y, x] >= 0:
+                continue  # taken: no test needed
             px = x + 0.5
-            w0 = ((bx - px) * (cy - py) - (cx - px) * (by - py)) / area
-            w1 = ((cx - px) * (ay - py) - (ax - px) * (cy - py)) / area
-            w2 = 1.0 - w0 - w1
-            inside = w0 >= 0.0 and w1 >= 0.0 and w2 >= 0.0
-            if inside and (not only_empty or ids[y, x] < 0):
+            # w0 = n0 / area < 0 exactly when sign * n0 < 0 (a quotient keeps the signs'
+            # product): the divisions are made only for texels both first tests pass
+            n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
+            if sign * n0 < 0.0:
+                continue
+            n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
+            if sign * n1 < 0.0:
+                continue
+            w0 = n0 / area
+            w1 = n1 / area
+            if 1.0 - w0 - w1 >= 0.0:
                 ids[y, x] = value
 
 
@@ -371,17 +421,34 @@ def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.nd
     return out, (hidden_face >= 0) | unreflected
 
 
+@njit(cache=True, inline="always")
+def _blend3(arr, a, b, c, wa, wb, wc):
+    """wa arr[a] + wb arr[b] + wc arr[c] (rows of 3), as a tuple (no array per call)."""
+    return (wa * arr[a, 0] + wb * arr[b, 0] + wc * arr[c, 0],
+            wa * arr[a, 1] + wb * arr[b, 1] + wc * arr[c, 1],
+            wa * arr[a, 2] + wb * arr[b, 2] + wc * arr[c, 2])
+
+
+@njit(cache=True, inline="always")
+def _unit_or_zero(nn, always):
+    """nn / |nn| (if `always` or |nn| > 0; else nn as it is)."""
+    length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
+    if always or length > 0.0:
+        return nn[0] / length, nn[1] / length, nn[2] / length
+    return nn
+
+
 @njit(cache=True)
 def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
-    """(plane point, unit normal) for map point T, or a zero normal if the texel is empty."""
+    """(plane point, unit normal) for map point T, or a zero normal if the texel is empty
+    (tuples: the lookup runs per point and map, and arrays made per call cost more than
+    the arithmetic)."""
     res = ids.shape[0]
     x = min(max(int(math.floor(tx)), 0), res - 1)
     y = min(max(int(math.floor(ty)), 0), res - 1)
     ident = ids[y, x]
-    p = np.zeros(3)
-    nn = np.zeros(3)
     if ident < 0:
-        return p, nn
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     nf = faces.shape[0]
     if ident < nf:
         a, b, c = faces[ident, 0], faces[ident, 1], faces[ident, 2]
@@ -395,9 +462,8 @@ def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
             wb = ((tx - ax) * (cy - ay) - (cx - ax) * (ty - ay)) / area
             wc = ((bx - ax) * (ty - ay) - (tx - ax) * (by - ay)) / area
         wa = 1.0 - wb - wc  # negative weights are fine (the paper says so)
-        for k in range(3):
-            p[k] = wa * v[a, k] + wb * v[b, k] + wc * v[c, k]
-            nn[k] = wa * n[a, k] + wb * n[b, k] + wc * n[c, k]
+        p = _blend3(v, a, b, c, wa, wb, wc)
+        nn = _blend3(n, a, b, c, wa, wb, wc)
     else:
         e = ident - nf
         i, j = extensions[e, 1], extensions[e, 2]
@@ -405,14 +471,11 @@ def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
         ll = ex * ex + ey * ey
         u = 0.5 if ll == 0.0 else ((tx - coords[i, 0]) * ex + (ty - coords[i, 1]) * ey) / ll
         u = min(max(u, 0.0), 1.0)
-        for k in range(3):
-            p[k] = (1.0 - u) * v[i, k] + u * v[j, k]
-            nn[k] = (1.0 - u) * n[i, k] + u * n[j, k]
-    length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
-    if length > 0.0:
-        for k in range(3):
-            nn[k] /= length
-    return p, nn
+        p = ((1.0 - u) * v[i, 0] + u * v[j, 0], (1.0 - u) * v[i, 1] + u * v[j, 1],
+             (1.0 - u) * v[i, 2] + u * v[j, 2])
+        nn = ((1.0 - u) * n[i, 0] + u * n[j, 0], (1.0 - u) * n[i, 1] + u * n[j, 1],
+              (1.0 - u) * n[i, 2] + u * n[j, 2])
+    return p, _unit_or_zero(nn, False)
 
 
 @njit(cache=True)
@@ -422,21 +485,14 @@ def _screen_plane(faces, f, screen, v, n, sx, sy):
     a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
     ax, ay, bx, by = screen[a, 0], screen[a, 1], screen[b, 0], screen[b, 1]
     cx, cy = screen[c, 0], screen[c, 1]
-    p = np.zeros(3)
-    nn = np.zeros(3)
     area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
     if area == 0.0:
-        return p, nn
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     wb = ((sx - ax) * (cy - ay) - (cx - ax) * (sy - ay)) / area
     wc = ((bx - ax) * (sy - ay) - (sx - ax) * (by - ay)) / area
     wa = 1.0 - wb - wc
-    for k in range(3):
-        p[k] = wa * v[a, k] + wb * v[b, k] + wc * v[c, k]
-        nn[k] = wa * n[a, k] + wb * n[b, k] + wc * n[c, k]
-    length = math.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
-    for k in range(3):
-        nn[k] /= length
-    return p, nn
+    return _blend3(v, a, b, c, wa, wb, wc), _unit_or_zero(_blend3(n, a, b, c, wa, wb, wc),
+                                                          True)
 
 
 @njit(cache=True)

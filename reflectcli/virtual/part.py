@@ -50,7 +50,7 @@ class ExplosionPart:
         to one it can: most points of a scene miss most parts of a mixed reflector."""
         n = len(points)
         todo = np.ones(n, bool)
-        retry = None
+        retry = reach = None
         tiles = self.view.tiles
         if tiles is not None:
             reach, retry = tiles.scan(points, self.grid[0], self.grid[1], polygons)
@@ -61,10 +61,12 @@ class ExplosionPart:
         flags = np.ones(n, bool)
         if todo.any():
             virtual[todo], flags[todo] = self.vertices(
-                points[todo], None if retry is None else retry[todo])
+                points[todo], None if retry is None else retry[todo],
+                None if reach is None else reach[todo])
         return virtual, flags
 
-    def vertices(self, points: np.ndarray, retry: np.ndarray | None):
+    def vertices(self, points: np.ndarray, retry: np.ndarray | None,
+                 reach: np.ndarray | None = None):
         """Virtual vertices of `points` (world): explosion maps (hidden points through the
         hidden map), then the refinement on the part's pixels from `retry` seeds too."""
         camera = self.camera
@@ -87,7 +89,8 @@ class ExplosionPart:
             seeds = screen_from_world(virtual, self.clip_from_world, camera.width,
                                       camera.height)[:, :2]
             refined, status = refine_virtual(points, seeds, self.view.inside, self.grid[0],
-                                             self.grid[1], camera.eye, retry)
+                                             self.grid[1], camera.eye, retry,
+                                             reach=reach)
             found = status != NONE
             virtual[found] = refined[found]
             flags = (flags & (status != EXACT)) | (status == BOUNDARY)

@@ -30,15 +30,22 @@ class ReflectedCache:
     """Tessellations by (geometry key, reflector, edge lengths)."""
 
     entries: dict = field(default_factory=dict)
+    radii: dict = field(default_factory=dict)  # (geometry key, reflector) -> radius
 
     def get(self, geometry: Geometry, n_objects: int, k: int,
             rule: TessellationRule) -> Tessellation:
         """Everything but reflector k (scene surface id n_objects + k), tessellated for it."""
         sid = n_objects + k
         # the reflector's radius about its corner mean (world units) scales the edge limits
-        pts = geometry.mirror_tris.corners[geometry.mirror_tris.surface == sid]
-        pts = pts.reshape(-1, 3).astype(np.float64)
-        radius = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).max())
+        # (kept per geometry state: the lookup runs every frame)
+        radius = self.radii.get((geometry.key, k))
+        if radius is None:
+            pts = geometry.mirror_tris.corners[geometry.mirror_tris.surface == sid]
+            pts = pts.reshape(-1, 3).astype(np.float64)
+            radius = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).max())
+            if len(self.radii) > CACHE_SIZE:
+                self.radii.clear()
+            self.radii[(geometry.key, k)] = radius
         max_edge = rule.max_edge
         if max_edge is None and rule.max_edge_radii is not None:
             max_edge = rule.max_edge_radii * radius

@@ -56,6 +56,24 @@ class ShapeCache:
     """ReflectorShapes by the content of their triangle soup and the decomposition asked."""
 
     entries: dict = field(default_factory=dict)
+    # soup keys by the identity of the soup's arrays and the slice: a static scene hands
+    # the same arrays every frame (Geometry.all_triangles), and hashing a mesh's soup took
+    # milliseconds a frame; the arrays are held, so their ids are not reused
+    keys: dict = field(default_factory=dict)
+
+    def soup_key(self, all_corners: np.ndarray, all_normals: np.ndarray, first: int,
+                 count: int) -> tuple:
+        """soup_key of all_corners / all_normals [first:first + count], kept while the same
+        arrays come back (scene geometry is not written after it is built)."""
+        ident = (id(all_corners), id(all_normals), first, count)
+        kept = self.keys.get(ident)
+        if kept is None or kept[0] is not all_corners or kept[1] is not all_normals:
+            if len(self.keys) > CACHE_SIZE:
+                self.keys.clear()
+            key = soup_key(all_corners[first:first + count], all_normals[first:first + count])
+            kept = (all_corners, all_normals, key)
+            self.keys[ident] = kept
+        return kept[2]
 
     def get(self, soup: tuple, corners: np.ndarray, normals: np.ndarray,
             decompose: bool) -> ReflectorShape:

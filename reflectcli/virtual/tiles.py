@@ -21,34 +21,21 @@ class PartTiles:
     and cone, being convex, hold the block's blends); the margin covers rounding."""
 
     def __init__(self, inside: np.ndarray, q: np.ndarray, r: np.ndarray, size: int = 12,
-                 margin_degrees: float = 1.0) -> None:
+                 margin_degrees: float = 1.0, tiles: np.ndarray | None = None) -> None:
+        """`tiles`: the ids ty * (W // size + 1) + tx of the tiles holding a pixel of
+        `inside`, ascending, if already known (view.part_views marks them in its pass)."""
         h, w = inside.shape
-        ys, xs = np.nonzero(inside)
-        tiles = np.unique((ys // size) * (w // size + 1) + xs // size)
+        if tiles is None:
+            ys, xs = np.nonzero(inside)
+            tiles = np.unique((ys // size) * (w // size + 1) + xs // size)
         n = tiles.size
         self.center = np.empty((n, 3))
         self.radius = np.empty(n)
         self.axis = np.empty((n, 3))
         self.half = np.empty(n)
         self.pixel = np.empty((n, 2))
-        for j, t in enumerate(tiles):
-            ty, tx = divmod(int(t), w // size + 1)
-            y0, x0 = ty * size, tx * size
-            ey, ex = max(y0 - 1, 0), max(x0 - 1, 0)  # grown up and left by a pixel
-            block = inside[ey:y0 + size, ex:x0 + size]
-            by, bx = np.nonzero(block)
-            pts = q[by + ey, bx + ex]
-            dirs = r[by + ey, bx + ex]
-            c = pts.mean(axis=0)
-            a = dirs.sum(axis=0)
-            a /= max(float(np.linalg.norm(a)), 1e-30)
-            self.center[j] = c
-            self.radius[j] = np.linalg.norm(pts - c, axis=1).max()
-            self.axis[j] = a
-            self.half[j] = np.arccos(np.clip(dirs @ a, -1.0, 1.0)).max()
-            own = (by + ey >= y0) & (bx + ex >= x0)  # the seed: the tile's own middle pixel
-            mid = np.flatnonzero(own)[np.argmin(np.linalg.norm(pts[own] - c, axis=1))]
-            self.pixel[j] = bx[mid] + ex + 0.5, by[mid] + ey + 0.5
+        _tile_bounds(inside, q, r, tiles, size, self.center, self.radius, self.axis,
+                     self.half, self.pixel)
         self.margin = math.radians(margin_degrees)
         # one ball and cone holding every tile's (with their margins): a point outside the
         # part's cone is outside every tile's (see candidates)
@@ -112,48 +99,171 @@ class PartTiles:
 
 
 @njit(cache=True, parallel=True)
+def _tile_bounds(inside, q, r, tiles, size, center, radius, axis, half, pixel):
+    """Per tile (id ty * (W // size + 1) + tx): over its part pixels grown by the row above
+    and the column left, the ball (mean of Q, farthest Q from it), the cone (unit sum of R,
+    widest angle from it) and the seed (its own pixel, not the grown ones, whose Q is
+    nearest the mean; the first in row-major order on ties), as numpy's reductions give
+    them (sums in pixel order)."""
+    w = inside.shape[1]
+    across = w // size + 1
+    for j in prange(tiles.shape[0]):
+        ty, tx = divmod(tiles[j], across)
+        y0, x0 = ty * size, tx * size
+        ey, ex = max(y0 - 1, 0), max(x0 - 1, 0)  # grown up and left by a pixel
+        y1 = min(y0 + size, inside.shape[0])
+        x1 = min(x0 + size, w)
+        count = 0
+        s0 = s1 = s2 = 0.0
+        a0 = a1 = a2 = 0.0
+        for y in range(ey, y1):
+            for x in range(ex, x1):
+                if inside[y, x]:
+                    count += 1
+                    s0 += q[y, x, 0]
+                    s1 += q[y, x, 1]
+                    s2 += q[y, x, 2]
+                    a0 += r[y, x, 0]
+                    a1 += r[y, x, 1]
+                    a2 += r[y, x, 2]
+        c0, c1, c2 = s0 / count, s1 / count, s2 / count
+        length = max(math.sqrt(a0 * a0 + a1 * a1 + a2 * a2), 1e-30)
+        a0, a1, a2 = a0 / length, a1 / length, a2 / length
+        far = 0.0
+        widest = -np.inf
+        best = np.inf
+        bx = by = 0
+        for y in range(ey, y1):
+            for x in range(ex, x1):
+                if not inside[y, x]:
+                    continue
+                d0, d1, d2 = q[y, x, 0] - c0, q[y, x, 1] - c1, q[y, x, 2] - c2
+                dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+                far = max(far, dist)
+                cos = r[y, x, 0] * a0 + r[y, x, 1] * a1 + r[y, x, 2] * a2
+                widest = max(widest, math.acos(min(max(cos, -1.0), 1.0)))
+                if y >= y0 and x >= x0 and dist < best:
+                    best = dist
+                    bx, by = x, y
+        center[j, 0], center[j, 1], center[j, 2] = c0, c1, c2
+        radius[j] = far
+        axis[j, 0], axis[j, 1], axis[j, 2] = a0, a1, a2
+        half[j] = widest
+        pixel[j, 0] = bx + 0.5
+        pixel[j, 1] = by + 0.5
+
+
+_BLOCK = 128  # points tested side by side against each tile
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
 def _scan(points, center, radius, axis, half, pixel, margin, q, r, reach, seeds):
+    """Per point: the tile whose seed pixel's ray passes closest (least |unit(P - Q) - R|^2;
+    the first on ties), among the tiles whose cone holds the point, else among all.
+
+    Points go in blocks of _BLOCK, each block meeting the tiles one after another: the test
+    of one tile against a block's points is a loop without branches, which the compiler
+    vectorises (a point at a time, the tests' square roots and divisions waited on each
+    other). Each point meets the tiles in the same order, with the same arithmetic, as
+    one at a time."""
+    n = points.shape[0]
+    tiles = center.shape[0]
     cos_a = np.cos(half + margin)
     sin_a = np.sin(half + margin)
-    for k in prange(points.shape[0]):
-        p = points[k]
-        best_in = np.inf
-        best_any = np.inf
-        j_in = -1
-        j_any = -1
-        for j in range(center.shape[0]):
-            v0 = p[0] - center[j, 0]
-            v1 = p[1] - center[j, 1]
-            v2 = p[2] - center[j, 2]
+    # the seed pixel's Q and R per tile, and whether its cone is wide (half-angle at least
+    # a right angle: the spread's arcsine decides, a call that does not vectorise)
+    seed = np.empty((tiles, 6))
+    wide = np.zeros(tiles, np.bool_)
+    for j in range(tiles):
+        x = int(pixel[j, 0])
+        y = int(pixel[j, 1])
+        for i in range(3):
+            seed[j, i] = q[y, x, i]
+            seed[j, 3 + i] = r[y, x, i]
+        wide[j] = half[j] + margin >= 0.5 * math.pi
+    blocks = (n + _BLOCK - 1) // _BLOCK
+    for b in prange(blocks):
+        k0 = b * _BLOCK
+        count = min(n, k0 + _BLOCK) - k0
+        s = np.empty((7, _BLOCK))  # x, y, z, best_in, best_any, j_in, j_any
+        for k in range(count):
+            s[0, k] = points[k0 + k, 0]
+            s[1, k] = points[k0 + k, 1]
+            s[2, k] = points[k0 + k, 2]
+            s[3, k] = np.inf
+            s[4, k] = np.inf
+            s[5, k] = -1.0
+            s[6, k] = -1.0
+        for j in range(tiles):
+            _scan_tile(s, count, j, center, radius, axis, half, margin, cos_a, sin_a, seed,
+                       wide[j])
+        for k in range(count):
+            j_in = int(s[5, k])
+            j_any = int(s[6, k])
+            reach[k0 + k] = j_in >= 0
+            jj = j_in if j_in >= 0 else j_any
+            if jj >= 0:
+                seeds[k0 + k, 0] = pixel[jj, 0]
+                seeds[k0 + k, 1] = pixel[jj, 1]
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _scan_tile(s, count, j, center, radius, axis, half, margin, cos_a, sin_a, seed, wide):
+    """Tile j against a block's points (rows of `s`, see _scan), best answers updated."""
+    cx, cy, cz = center[j, 0], center[j, 1], center[j, 2]
+    qx, qy, qz = seed[j, 0], seed[j, 1], seed[j, 2]
+    rx, ry, rz = seed[j, 3], seed[j, 4], seed[j, 5]
+    ax, ay, az = axis[j, 0], axis[j, 1], axis[j, 2]
+    rad = radius[j]
+    ca, sa = cos_a[j], sin_a[j]
+    a = half[j] + margin
+    jf = float(j)
+    if not wide:
+        for k in range(count):
+            v0 = s[0, k] - cx
+            v1 = s[1, k] - cy
+            v2 = s[2, k] - cz
             dist = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-            x = int(pixel[j, 0])
-            y = int(pixel[j, 1])
-            d0 = p[0] - q[y, x, 0]
-            d1 = p[1] - q[y, x, 1]
-            d2 = p[2] - q[y, x, 2]
+            d0 = s[0, k] - qx
+            d1 = s[1, k] - qy
+            d2 = s[2, k] - qz
             inv = 1.0 / max(math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), 1e-30)
-            e = ((d0 * inv - r[y, x, 0]) ** 2 + (d1 * inv - r[y, x, 1]) ** 2
-                 + (d2 * inv - r[y, x, 2]) ** 2)
-            if e < best_any:
-                best_any = e
-                j_any = j
-            inside = dist <= radius[j] * 1.001
-            if not inside:
-                # angle <= half + margin + spread, as cosines (no trigonometry per test):
-                # cos(a + s) = cos a cos s - sin a sin s with sin s = radius / dist
-                a = half[j] + margin
-                sin_s = radius[j] / dist
-                if sin_s >= 1.0 or (a >= 0.5 * math.pi and a + math.asin(sin_s) >= math.pi):
-                    inside = True
-                else:
-                    c = (v0 * axis[j, 0] + v1 * axis[j, 1] + v2 * axis[j, 2]) / dist
-                    bound = (cos_a[j] * math.sqrt(1.0 - sin_s * sin_s) - sin_a[j] * sin_s)
-                    inside = c >= bound
-            if inside and e < best_in:
-                best_in = e
-                j_in = j
-        reach[k] = j_in >= 0
-        j = j_in if j_in >= 0 else j_any
-        if j >= 0:
-            seeds[k, 0] = pixel[j, 0]
-            seeds[k, 1] = pixel[j, 1]
+            e = (d0 * inv - rx) ** 2 + (d1 * inv - ry) ** 2 + (d2 * inv - rz) ** 2
+            better = e < s[4, k]
+            s[4, k] = e if better else s[4, k]
+            s[6, k] = jf if better else s[6, k]
+            # angle <= half + margin + spread, as cosines (no trigonometry per test):
+            # cos(a + s) = cos a cos s - sin a sin s with sin s = radius / dist
+            sin_s = rad / dist
+            c = (v0 * ax + v1 * ay + v2 * az) / dist
+            bound = ca * math.sqrt(1.0 - sin_s * sin_s) - sa * sin_s
+            inside = (dist <= rad * 1.001) | (sin_s >= 1.0) | (c >= bound)
+            better = inside & (e < s[3, k])
+            s[3, k] = e if better else s[3, k]
+            s[5, k] = jf if better else s[5, k]
+        return
+    for k in range(count):  # a wide cone: as above, with the arcsine where it decides
+        v0 = s[0, k] - cx
+        v1 = s[1, k] - cy
+        v2 = s[2, k] - cz
+        dist = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        d0 = s[0, k] - qx
+        d1 = s[1, k] - qy
+        d2 = s[2, k] - qz
+        inv = 1.0 / max(math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), 1e-30)
+        e = (d0 * inv - rx) ** 2 + (d1 * inv - ry) ** 2 + (d2 * inv - rz) ** 2
+        if e < s[4, k]:
+            s[4, k] = e
+            s[6, k] = jf
+        inside = dist <= rad * 1.001
+        if not inside:
+            sin_s = rad / dist
+            if sin_s >= 1.0 or a + math.asin(sin_s) >= math.pi:
+                inside = True
+            else:
+                c = (v0 * ax + v1 * ay + v2 * az) / dist
+                bound = ca * math.sqrt(1.0 - sin_s * sin_s) - sa * sin_s
+                inside = c >= bound
+        if inside and e < s[3, k]:
+            s[3, k] = e
+            s[5, k] = jf

@@ -8,7 +8,7 @@ from conftest import psnr, render_frame
 
 from reflectcli.geometry import reflect_point
 from reflectcli.scene import primitives
-from reflectcli.virtual.direct import cylinder_virtual_vertices, sphere_virtual_vertices
+from reflectcli.virtual.circle import cylinder_virtual_vertices, sphere_virtual_vertices
 from reflectcli.virtual.explosion import build_explosion_maps, virtual_vertices
 from reflectcli.virtual.mesh import weld
 from reflectcli.virtual.tessellation import subdivide
@@ -317,7 +317,7 @@ def test_screen_refinement_finds_the_exact_reflection_points():
     from reflectcli.raster.primary import render_primary
     from reflectcli.scene.build import build_scene
     from reflectcli.techniques.virtual.technique import Virtual
-    from reflectcli.virtual.direct import sphere_virtual_vertices
+    from reflectcli.virtual.circle import sphere_virtual_vertices
     from reflectcli.virtual.dispatch import reflector_parts
 
     path = str(SCENES / "four-spheres.toml")
@@ -413,9 +413,10 @@ def test_part_tiles_never_cull_a_reflected_point(scene, size):
     pick = rng.choice(len(ys), 20000)
     positions = np.stack([xs[pick], ys[pick]], 1) + rng.uniform(0.0, 1.5, (20000, 2))
     points = []
-    qq, rr = np.empty(3), np.empty(3)
     for sx, sy in positions:
-        if _sample(inside, q, r, sx, sy, qq, rr):
+        ok, *sample = _sample(inside, q, r, sx, sy)
+        if ok:
+            qq, rr = np.array(sample[:3]), np.array(sample[3:])
             points.append(qq + rng.uniform(0.05, 5.0) * rr)
     assert len(points) > 15000
     reach, seeds = tiles.scan(np.array(points), q, r)
@@ -483,7 +484,7 @@ def test_no_pinholes_along_the_reflected_wall_floor_seam():
 
 
 def test_fill_cracks_closes_one_pixel_gaps_only():
-    from reflectcli.virtual.raster import fill_cracks
+    from reflectcli.virtual.compose import fill_cracks
 
     covered = np.ones((5, 7), bool)
     covered[2, 3] = False  # a pinhole
@@ -492,7 +493,7 @@ def test_fill_cracks_closes_one_pixel_gaps_only():
     colors = np.arange(5 * 7 * 3, dtype=np.float32).reshape(5, 7, 3)
     colors[~covered] = -1.0
     stencil = np.ones((5, 7), bool)
-    fill_cracks(colors, covered, stencil)
+    fill_cracks(colors, covered, stencil, 0, 5, 0, 7)
     expected = (colors[2, 2] + colors[2, 4] + colors[1, 3] + colors[3, 3]) / 4
     np.testing.assert_allclose(colors[2, 3], expected)
     np.testing.assert_allclose(colors[3, 5], (colors[3, 4] + colors[3, 6]) / 2)

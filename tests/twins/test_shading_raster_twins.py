@@ -15,8 +15,10 @@ from naive import (
     shade_stencil,
     surface_color,
 )
+from naive import run_bounds as naive_run_bounds
 
 from reflectcli.camera import Camera
+from reflectcli.raster.bounds import run_bounds
 from reflectcli.raster.rasterize import (
     CULL_BACK,
     CULL_FRONT,
@@ -373,3 +375,15 @@ def test_add_reflection_matches_twin(seed):
     got = rgb.copy()
     add_reflection(got, reflected, stencil, reflectance, 3, 9, 2, 12)
     np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("count", [1, 255, 256, 257, 1000])
+def test_run_bounds_match_twin(count):
+    rng = np.random.default_rng(count)
+    corners = (rng.normal(size=(count, 3, 3)) * 10).astype(np.float32)
+    if count > 300:
+        corners[300, 1, 2] = np.nan  # a NaN corner poisons its run's axis, as numpy's min
+    runs = (count + 255) // 256
+    got = np.empty((runs, 6))
+    run_bounds(corners, 256, got)
+    np.testing.assert_array_equal(got, naive_run_bounds(corners, 256))

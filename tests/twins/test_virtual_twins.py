@@ -21,30 +21,55 @@ from naive import (
     reflector_grid,
     scan,
     screen_plane,
+    tile_bounds,
     vertex_coords,
 )
+from naive import fill_cracks as naive_fill_cracks
+from naive import gather_corners as naive_gather_corners
+from naive import mirror_boxes as naive_mirror_boxes
+from naive import part_stencil as naive_part_stencil
+from naive import part_views as naive_part_views
 
 from reflectcli.camera import Camera
+from reflectcli.raster.rasterize import FLAG_MIRROR, FLAG_SKIP
 from reflectcli.scene import primitives
-from reflectcli.virtual import direct, explosion, refine
+from reflectcli.virtual import circle, compose, direct, explosion, refine
 from reflectcli.virtual.mesh import weld
 from reflectcli.virtual.tiles import PartTiles
 
 
-def circle_cases(rng, n=150):
+def circle_cases(rng, n=600):
     """Points around a unit sphere at the origin seen from an eye at distance ~4: visible,
-    hidden behind it, inside it, on the line through the center and the eye (both sides)."""
+    hidden behind it, inside it, on the line through the center and the eye (both sides),
+    just off that line behind the sphere (a bracket of nearly pi), grazing its silhouette;
+    more than two of circle.BLOCK, so blocks full and partial are both met."""
     eye = np.array([0.5, 0.8, 4.0])
     pts = list(rng.normal(size=(n, 3)) * 2.5)
     pts += [eye * 0.5, -eye, 2.0 * eye, np.array([0.1, 0.2, -0.3]), np.array([0.0, 0.0, -3.0])]
+    side = np.cross(eye, [0.0, 1.0, 0.0])
+    side /= np.linalg.norm(side)
+    pts += [-2.0 * eye + 1e-9 * side, -2.0 * eye + 1e-5 * side]
+    along = eye / np.linalg.norm(eye)
+    pts += [1.0001 * side + t * along for t in (-2.0, -0.5, 0.0, 0.3)]
     return eye, np.array(pts)
+
+
+def test_sphere_blocks_do_not_change_answers():
+    """A point's virtual vertex is the same bytes whichever block (and lane) it is in."""
+    eye, pts = circle_cases(np.random.default_rng(5))
+    got, hidden = circle.sphere_virtual_vertices(pts, eye, np.zeros(3), 1.0)
+    for i in range(0, len(pts), 7):
+        one, one_h = circle.sphere_virtual_vertices(pts[i:i + 1], eye, np.zeros(3), 1.0)
+        assert one.tobytes() == got[i:i + 1].tobytes() and one_h[0] == hidden[i]
+    shifted, _ = circle.sphere_virtual_vertices(pts[3:], eye, np.zeros(3), 1.0)
+    assert shifted.tobytes() == got[3:].tobytes()
 
 
 @pytest.mark.parametrize("seed", range(2))
 def test_sphere_virtual_vertices_match_twin(seed):
     eye, pts = circle_cases(np.random.default_rng(seed))
     center, radius = np.array([0.0, 0.0, 0.0]), 1.0
-    got, hidden = direct.sphere_virtual_vertices(pts, eye, center, radius)
+    got, hidden = circle.sphere_virtual_vertices(pts, eye, center, radius)
     for p, g, h in zip(pts, got, hidden, strict=True):
         want, want_h = mirror_on_circle(eye, p, center, radius)
         assert h == want_h, p
@@ -57,7 +82,7 @@ def test_cylinder_virtual_vertices_match_twin(seed):
     rng = np.random.default_rng(seed)
     eye, pts = circle_cases(rng)
     origin, axis = np.array([0.1, -1.0, 0.0]), np.array([0.2, 1.0, 0.1])
-    got, hidden = direct.cylinder_virtual_vertices(pts, eye, origin, axis, 0.7)
+    got, hidden = circle.cylinder_virtual_vertices(pts, eye, origin, axis, 0.7)
     a = axis / np.linalg.norm(axis)
     for p, g, h in zip(pts, got, hidden, strict=True):
         want, want_h = mirror_on_circle(eye, p, origin, 0.7, a)
@@ -133,15 +158,14 @@ def test_reflector_grid_matches_twin():
 def test_grid_sample_matches_twin():
     rng = np.random.default_rng(1)
     _, inside, q, r = sphere_grid(16, 12)
-    out_q, out_r = np.empty(3), np.empty(3)
     pts = list(rng.uniform(-1, 17, (300, 2))) + [(0.5, 0.5), (8.0, 6.0), (16.0, 12.0)]
     for sx, sy in pts:
-        ok = refine._sample(inside, q, r, sx, sy, out_q, out_r)
+        ok, *got = refine._sample(inside, q, r, sx, sy)
         want = grid_sample(inside, q, r, sx, sy)
         assert ok == (want is not None), (sx, sy)
         if ok:
-            np.testing.assert_allclose(out_q, want[0], atol=1e-12)
-            np.testing.assert_allclose(out_r, want[1], atol=1e-12)
+            np.testing.assert_allclose(got[:3], want[0], atol=1e-12)
+            np.testing.assert_allclose(got[3:], want[1], atol=1e-12)
 
 
 def test_screen_refinement_matches_twin():
@@ -162,6 +186,59 @@ def test_screen_refinement_matches_twin():
         want = refine_point(pts[k], seeds[k], inside, q, r, cam.eye)
         assert want is not None
         np.testing.assert_allclose(got[k], want, atol=1e-4)
+
+
+def test_refinement_skips_only_retries_that_cannot_matter():
+    """With the tiles' reach, a point no tile reaches walks once from its seed: the retry
+    it skips could not have found an exact reflection. Same bytes as retrying everyone."""
+    rng = np.random.default_rng(9)
+    cam, inside, q, r = sphere_grid()
+    patch = np.zeros_like(inside)  # a part: a patch of the sphere, so most points miss it
+    ys, xs = np.nonzero(inside)
+    y0, x0 = ys[len(ys) // 2] - 6, xs[len(xs) // 2] - 6
+    patch[y0:y0 + 12, x0:x0 + 12] = inside[y0:y0 + 12, x0:x0 + 12]
+    tiles = PartTiles(patch, q, r, size=4)
+    py, px = np.nonzero(patch)
+    pick = rng.choice(len(py), 60)
+    near = q[py[pick], px[pick]] + r[py[pick], px[pick]] * rng.uniform(0.5, 3.0, (60, 1))
+    pts = np.concatenate([near, rng.normal(size=(300, 3)) * 3.0])
+    reach, retry = tiles.scan(pts, q, r)
+    seeds = np.stack([px[rng.choice(len(px), len(pts))],
+                      py[rng.choice(len(py), len(pts))]], 1) + 0.5
+    seeds += rng.uniform(-6, 6, seeds.shape)
+    got, status = refine.refine_virtual(pts, seeds, patch, q, r, cam.eye, retry, reach=reach)
+    want, want_status = refine.refine_virtual(pts, seeds, patch, q, r, cam.eye, retry)
+    assert got.tobytes() == want.tobytes() and status.tobytes() == want_status.tobytes()
+    assert (~reach & (status == refine.BOUNDARY)).sum() > 50  # retries skipped
+    assert not (~reach & (status == refine.EXACT)).any()
+    assert (status == refine.EXACT).sum() > 20
+
+
+@pytest.mark.parametrize("size", [4, 8, 12])
+def test_tile_bounds_match_twin(size):
+    _, inside, q, r = sphere_grid()
+    inside = inside.copy()
+    inside[5:9, 10:30] = False  # holes: tiles with few pixels, grown blocks straddling them
+    tiles = PartTiles(inside, q, r, size=size)
+    center, radius, axis, half, pixel = tile_bounds(inside, q, r, size)
+    for got, want in ((tiles.center, center), (tiles.radius, radius), (tiles.axis, axis),
+                      (tiles.half, half)):
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(tiles.pixel, pixel)
+
+
+def test_tile_scan_with_a_wide_cone_matches_twin():
+    """A tile whose cone is at least a right angle wide takes the arcsine branch."""
+    rng = np.random.default_rng(8)
+    _, inside, q, r = sphere_grid()
+    tiles = PartTiles(inside, q, r, size=8)
+    tiles.half[::3] = 1.7
+    pts = rng.normal(size=(300, 3)) * 3.0
+    reach, seeds = tiles.scan(pts, q, r)
+    want_reach, want_seeds = scan(pts, tiles.center, tiles.radius, tiles.axis, tiles.half,
+                                  tiles.pixel, tiles.margin, q, r)
+    np.testing.assert_array_equal(reach, want_reach)
+    np.testing.assert_array_equal(seeds, want_seeds)
 
 
 def test_tile_scan_matches_twin():
@@ -203,6 +280,49 @@ def sphere_maps():
     eye = np.array([0.4, 1.0, 6.0])
     return mesh, eye, explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 48,
                                                      layers=3)
+
+
+@pytest.mark.parametrize("layers", [2, 5])
+def test_explosion_layers_match_twin(layers):
+    """_build_layers (every layer at once, a layer per thread) against the twins of its
+    steps layer by layer: vertex coordinates, faces, the tally inside the circle, the
+    extensions, and for each texel left empty an id of a filled texel at the nearest
+    distance (ties between equally near ones are the transform's to break), unless no
+    texel a lookup can reach was left empty (then the fill is skipped)."""
+    m = primitives.uv_sphere(1.0, 10)
+    mesh = weld(m.corners[:150], m.normals[:150])  # open: boundary edges give extensions
+    eye = np.array([0.4, 1.0, 6.0])
+    maps = explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 40, layers)
+    assert len(maps.extensions)
+    res, s = maps.res, maps.s
+    c = np.arange(res) + 0.5 - res / 2.0
+    circle_in = (c[None, :] ** 2 + c[:, None] ** 2) <= (s / 2.0) ** 2
+    used = ~np.isnan(maps.layers[0].coords[:, 0])
+    drawn = np.flatnonzero(used[mesh.faces].all(axis=1)
+                           & (maps.front[mesh.faces].any(axis=1)))
+    for layer in maps.layers:
+        coords = vertex_coords(mesh.vertices, maps.normals, used, eye, maps.center,
+                               layer.radius, maps.frame, res, s)
+        np.testing.assert_allclose(layer.coords, coords, rtol=1e-12, atol=1e-9)
+        ids = np.full((res, res), -1, np.int32)
+        fill_faces(ids, layer.coords, mesh.faces, drawn)
+        np.testing.assert_array_equal(layer.core, ids >= 0)
+        assert layer.filled_before_extension == int(((ids >= 0) & circle_in).sum())
+        fill_extensions(ids, layer.coords, maps.extensions, len(mesh.faces), res / 2.0,
+                        explosion.EXTENSION_REACH * s)
+        empty = ids < 0
+        assert layer.empty_after_extension == int((empty & circle_in).sum())
+        np.testing.assert_array_equal(layer.ids[~empty], ids[~empty])
+        # texels a lookup can land in: their squares meet the disk of radius s / 2
+        g = np.maximum(np.abs(c) - 0.5, 0.0)
+        reachable = (g[None, :] ** 2 + g[:, None] ** 2) <= (s / 2.0 + 1e-6) ** 2
+        if not (empty & reachable).any():
+            continue  # nothing a lookup reaches is empty: the fill is skipped
+        dist = nearest_filled_distance(empty)
+        fy, fx = np.nonzero(~empty)
+        for y, x in zip(*np.nonzero(empty), strict=True):
+            near = (fy - y) ** 2 + (fx - x) ** 2 == round(dist[y, x] ** 2)
+            assert layer.ids[y, x] in set(ids[fy[near], fx[near]]), (y, x)
 
 
 def test_map_coords_and_vertex_coords_match_twin(sphere_maps):
@@ -317,3 +437,112 @@ def test_nearest_filled_matches_twin():
         assert not empty[rows, cols].any()
         got = np.hypot(rows - np.arange(h)[:, None], cols - np.arange(w)[None, :])
         np.testing.assert_allclose(got, nearest_filled_distance(empty), rtol=0, atol=1e-12)
+
+
+def test_mirror_boxes_match_twin():
+    rng = np.random.default_rng(3)
+    surface = rng.integers(-1, 4, (23, 31)).astype(np.int32)
+    surface[surface == 5] = 0
+    surface[:, :] = np.where(surface == 4, 1, surface)  # mirror 2 (surface 4) absent
+    got = compose.mirror_boxes(surface, 2, 3)
+    want = naive_mirror_boxes(surface, 2, 3)
+    for g, x in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, x)
+    assert got[0][2] == 0 and got[0][0] > 0
+
+
+def test_gather_corners_match_twin():
+    rng = np.random.default_rng(4)
+    virtual = rng.normal(size=(40, 3)) * 5
+    hidden = rng.random(40) < 0.6
+    corner_index = rng.integers(0, 40, (70, 3))
+    surface = rng.integers(0, 6, 70)
+    corners = np.empty((70, 3, 3), np.float32)
+    flags = np.empty(70, np.uint8)
+    compose.gather_corners(virtual, hidden, corner_index, surface, 4, corners, flags)
+    want_corners, want_flags = naive_gather_corners(virtual, hidden, corner_index, surface, 4)
+    assert corners.tobytes() == want_corners.tobytes()
+    np.testing.assert_array_equal(flags, want_flags)
+    assert (flags & FLAG_SKIP).any() and (flags & FLAG_MIRROR).any()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_fill_cracks_match_twin(seed):
+    rng = np.random.default_rng(seed)
+    h, w = 19, 23
+    covered = rng.random((h, w)) < 0.8
+    stencil = covered | (rng.random((h, w)) < 0.7)
+    stencil[:2] = False  # a box that is not the whole image
+    covered &= stencil
+    colors = rng.random((h, w, 3)).astype(np.float32)
+    want = colors.copy()
+    naive_fill_cracks(want, covered, stencil)
+    ys, xs = np.nonzero(stencil)
+    compose.fill_cracks(colors, covered, stencil, ys.min(), ys.max() + 1, xs.min(),
+                        xs.max() + 1)
+    assert colors.tobytes() == want.tobytes()
+
+
+@compiled_only
+def test_mirror_rays_match_reflector_grid():
+    """R at mirror pixels from barycentrics recovered in the kernel: the very bytes of
+    reflector_grid from the buffers' own b1, b2; NaN at the box's other pixels."""
+    from reflectcli.raster.rasterize import rasterize as fast_rasterize
+
+    cam = Camera(np.array([0.0, 0.4, 3.0]), np.zeros(3), np.array([0.0, 1.0, 0.0]), 50.0, 40,
+                 30, 0.1, 100.0)
+    sphere = primitives.uv_sphere(1.0, 12)
+    corners = sphere.corners.astype(np.float32)
+    normals = sphere.normals.astype(np.float32)
+    m = cam.clip_from_world()
+    buffers = fast_rasterize(corners, np.zeros(len(corners), np.uint8), m, 40, 30)
+    mirror = np.zeros((30, 40), bool)
+    mirror[:, 12:] = True  # a part of the sphere only
+    tri = buffers.triangle
+    masked = np.where(mirror, tri, -1).astype(np.int32)
+    _, want = refine.reflector_grid(masked, buffers.b1, buffers.b2, corners, normals, cam.eye)
+    r = np.full((30, 40, 3), 7.0)
+    refine.mirror_rays(tri, mirror, corners, m, corners, normals, np.asarray(cam.eye, float),
+                       3, 27, 5, 38, r)
+    box = (slice(3, 27), slice(5, 38))
+    assert r[box].tobytes() == want[box].tobytes()
+    assert (r[:3] == 7.0).all() and (r[:, 38:] == 7.0).all()
+    assert np.isfinite(r[box]).sum() > 300
+
+
+def test_part_stencil_matches_twin():
+    rng = np.random.default_rng(11)
+    triangle = rng.integers(-1, 60, (21, 27)).astype(np.int32)
+    surface = rng.integers(-1, 5, (21, 27)).astype(np.int32)
+    faces = np.array([0, 3, 4, 9, 29])  # of the reflector's 30 faces, triangles 20 .. 49
+    in_part = np.zeros(31, bool)
+    in_part[faces] = True
+    out = np.empty((21, 27), np.bool_)
+    compose.part_stencil(triangle, surface, 3, 20, in_part, out)
+    want = naive_part_stencil(triangle, surface, 3, 20, faces, 30)
+    np.testing.assert_array_equal(out, want)
+    assert want.sum() > 5
+
+
+def test_part_views_match_twin():
+    """view.part_views (one pass, every part) against its twin part by part: each part's
+    face under each pixel, its pixels, and its tiles as np.unique of the pixels' tile ids."""
+    from reflectcli.virtual.view import part_views
+
+    rng = np.random.default_rng(12)
+    h, w, count, size = 37, 50, 40, 12
+    triangle = rng.integers(-1, count, (h, w)).astype(np.int32)
+    triangle[:, :20] = -1  # tiles with no pixel of any part
+    faces = [np.array([0, 5, 7]), np.arange(10, 30), np.array([39])]
+    local = np.full((len(faces), count + 1), -1, np.int32)
+    for p, f in enumerate(faces):
+        local[p, f] = np.arange(len(f))
+    hidden = np.empty((len(faces), h, w), np.int32)
+    inside = np.empty((len(faces), h, w), np.bool_)
+    marks = np.zeros((len(faces), h // size + 1, w // size + 1), np.bool_)
+    part_views(triangle, local, size, hidden, inside, marks)
+    for p, (want, want_inside, want_tiles) in enumerate(naive_part_views(triangle, local,
+                                                                          size)):
+        np.testing.assert_array_equal(hidden[p], want)
+        np.testing.assert_array_equal(inside[p], want_inside)
+        np.testing.assert_array_equal(np.flatnonzero(marks[p]), want_tiles)

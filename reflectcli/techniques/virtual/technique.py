@@ -30,16 +30,19 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from ...camera import Camera
 from ...frame import Frame
 from ...raster.primary import render_primary
 from ...raster.rasterize import RasterWorkspace
+from ...raster.shade import add_reflection
 from ...scene.types import PLANAR, Scene
+from ...virtual.compose import gather_corners, mirror_boxes
 from ...virtual.dispatch import choose_method, facing_plane, reflector_parts
 from ...virtual.raster import draw_virtual, reflected_rays
 from ...virtual.reflected import ReflectedCache
-from ...virtual.shape import ShapeCache, soup_key
+from ...virtual.shape import ShapeCache
 from ...virtual.view import ViewCache
 from ..base import Technique
 from . import Params
@@ -62,8 +65,14 @@ class VirtualState:
 
     @cached_property
     def scene_points(self) -> np.ndarray:
-        """(N, 3) world: every corner at frame 0, which the far explosion map bounds."""
-        return self.scene.geometry(0).all_triangles().corners.reshape(-1, 3)
+        """(N, 3) world: the corners at frame 0 the far explosion map must bound, reduced to
+        their convex hull's vertices (one-time work: a part measured its distance to every
+        corner per frame, and the farthest corner from any point is a hull vertex)."""
+        points = self.scene.geometry(0).all_triangles().corners.reshape(-1, 3)
+        try:
+            return points[ConvexHull(points).vertices]
+        except (QhullError, ValueError):  # flat or too few points: all of them
+            return points
 
 
 class Virtual(Technique):
@@ -91,13 +100,21 @@ class Virtual(Technique):
             normals = tris.normals[first:first + count]
             mode = self.params.decompose_overrides.get(scene.mirrors.names[k],
                                                        self.params.decompose)
-            state.shapes.get(soup_key(corners, normals), corners, normals, mode == "auto")
+            soup = state.shapes.soup_key(tris.corners, tris.normals, first, count)
+            state.shapes.get(soup, corners, normals, mode == "auto")
+            _ = state.scene_points  # the far maps' bound, made here rather than in frame 0
         return state
 
     def forget_view(self, state: VirtualState) -> None:
         state.views.entries.clear()  # hidden maps, ray grids and tiles belong to one view
 
     def render(self, state: VirtualState, frame_index: int, camera: Camera) -> Frame:
+        """Stages (seconds in the frame's timings): the primary pass (`rasterize`, `shade`),
+        `tessellate` (cached lookups), `maps` (a part's explosion maps, and the reflector's
+        view when first needed), `virtual_vertices`, `virtual_raster` (reflected rays,
+        virtual passes, blending) and `glue`: the rest of the frame (geometry lookup, the
+        primary frame's masks, loop overhead), so that the stages add up to the frame."""
+        t_frame = time.perf_counter()
         scene = state.scene
         primary = render_primary(scene, frame_index, camera, workspace=state.primary_raster)
         result = primary.frame
@@ -106,12 +123,19 @@ class Virtual(Technique):
         stats = {"virtual_vertices": 0, "virtual_triangles": 0, "reflector_parts": 0}
         seconds = dict.fromkeys(("tessellate", "maps", "virtual_vertices", "virtual_raster"),
                                 0.0)
+        t_start = time.perf_counter()
+        # which mirrors are in view, and the box of each one's pixels
+        counts, boxes = mirror_boxes(result.surface, scene.n_objects, scene.mirrors.count)
+        seen = np.flatnonzero(counts)
         incoming = None  # per pixel, the reflected ray shading sees its fragment along
-        for k in range(scene.mirrors.count):
-            if not (result.surface == scene.n_objects + k).any():
-                continue  # not in view
-            if incoming is None:
-                incoming = reflected_rays(primary, camera.eye, state.virtual_raster)
+        if seen.size:
+            box = (int(boxes[seen, 0].min()), int(boxes[seen, 1].max()),
+                   int(boxes[seen, 2].min()), int(boxes[seen, 3].max()))
+            incoming = reflected_rays(primary, camera.eye, box, state.virtual_raster)
+        seconds["virtual_raster"] += time.perf_counter() - t_start
+        ws = state.virtual_raster
+        for k in (int(k) for k in seen):
+            box = tuple(int(v) for v in boxes[k])
             t_start = time.perf_counter()
             tess = state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation)
             seconds["tessellate"] += time.perf_counter() - t_start
@@ -129,23 +153,26 @@ class Virtual(Technique):
                 stencil, vertices_of = item
                 t0 = time.perf_counter()
                 virtual, hidden = vertices_of(tess.points, tess.corner_index)
+                t1 = time.perf_counter()
+                # corners gathered in float32 (what the rasterizer takes): half the bytes;
                 # polygons wholly in the hidden region are not reflected (the paper drops
                 # them); mixed ones keep their doubly virtual vertices
-                dropped = hidden[tess.corner_index].all(axis=1)
-                t1 = time.perf_counter()
-                # corners gathered in float32 (what the rasterizer takes): half the bytes
-                corners = virtual.astype(np.float32)[tess.corner_index]
+                count = tess.triangles.count
+                corners = ws.get("virtual_corners", (count, 3, 3), np.float32)
+                flags = ws.get("virtual_flags", (count,), np.uint8)
+                gather_corners(virtual, hidden, tess.corner_index, tess.triangles.surface,
+                               scene.n_objects, corners, flags)
                 colors = draw_virtual(scene, primary, camera, clip_from_world, tess.triangles,
-                                      corners, dropped, stencil,
-                                      scene.n_objects + k, mirror_plane,
-                                      self.params.reflector_test, incoming,
-                                      state.virtual_raster)
-                result.rgb[stencil] += scene.mirrors.reflectance[k] * colors[stencil]
+                                      corners, flags, stencil, box, scene.n_objects + k,
+                                      mirror_plane, self.params.reflector_test, incoming, ws)
+                add_reflection(result.rgb, colors, stencil, scene.mirrors.reflectance[k], *box)
                 seconds["virtual_vertices"] += t1 - t0
                 seconds["virtual_raster"] += time.perf_counter() - t1
                 stats["virtual_vertices"] += tess.points.shape[0]
-                stats["virtual_triangles"] += tess.triangles.count
+                stats["virtual_triangles"] += count
                 stats["reflector_parts"] += 1
         result.timings.update(seconds)
+        result.timings["glue"] = max(
+            time.perf_counter() - t_frame - sum(result.timings.values()), 0.0)
         result.stats.update(stats)
         return result

@@ -1,0 +1,111 @@
+"""The per-frame steps around a virtual pass, as kernels over what they touch (numba): which
+mirrors the eye sees and their pixels' boxes, a part's virtual triangles gathered for the
+rasterizer, and one-pixel cracks closed. Done with numpy they made whole-image masks and
+index lists per part, several milliseconds a frame on four small spheres."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP
+
+
+@njit(cache=True)
+def mirror_boxes(surface, n_objects, n_mirrors):
+    """(counts (M,) int64, boxes (M, 4) int64 rows y0, y1, x0, x1 (exclusive ends)) of each
+    mirror's pixels in a surface-id image (H, W) (mirror k is surface n_objects + k); a
+    mirror with no pixel has the box (0, 0, 0, 0)."""
+    h, w = surface.shape
+    counts = np.zeros(n_mirrors, np.int64)
+    boxes = np.zeros((n_mirrors, 4), np.int64)
+    boxes[:, 0] = h
+    boxes[:, 2] = w
+    for y in range(h):
+        for x in range(w):
+            k = surface[y, x] - n_objects
+            if 0 <= k < n_mirrors:
+                counts[k] += 1
+                boxes[k, 0] = min(boxes[k, 0], y)
+                boxes[k, 1] = max(boxes[k, 1], y + 1)
+                boxes[k, 2] = min(boxes[k, 2], x)
+                boxes[k, 3] = max(boxes[k, 3], x + 1)
+    for k in range(n_mirrors):
+        if counts[k] == 0:
+            boxes[k, :] = 0
+    return counts, boxes
+
+
+@njit(cache=True, parallel=True)
+def part_stencil(triangle, surface, sid, first, in_part, out):
+    """out (H, W) bool: the pixels of surface `sid` whose triangle (an index of the soup,
+    `triangle`) is reflector face f = triangle - first with in_part[f] (in_part holds the
+    reflector's count faces and one more, False, for any other triangle)."""
+    h, w = triangle.shape
+    count = in_part.shape[0] - 1
+    for y in prange(h):
+        for x in range(w):
+            f = triangle[y, x] - first
+            f = f if 0 <= f < count else count
+            out[y, x] = surface[y, x] == sid and in_part[f]
+
+
+@njit(cache=True, parallel=True)
+def gather_corners(virtual, hidden, corner_index, surface, n_objects, corners, flags):
+    """corners[t, i] = virtual[corner_index[t, i]] in float32 (what the rasterizer takes),
+    and the rasterizer's flags[t]: FLAG_MIRROR for a mirror's triangle (surface[t] >=
+    n_objects), FLAG_SKIP where all three of its points are hidden (the paper drops polygons
+    wholly in the hidden region; mixed ones keep their doubly virtual vertices)."""
+    for t in prange(corner_index.shape[0]):
+        every = True
+        for i in range(3):
+            p = corner_index[t, i]
+            every &= hidden[p]
+            for q in range(3):
+                corners[t, i, q] = np.float32(virtual[p, q])
+        flags[t] = ((FLAG_MIRROR if surface[t] >= n_objects else 0)
+                    | (FLAG_SKIP if every else 0))
+
+
+@njit(cache=True, parallel=True)
+def fill_cracks(colors, covered, stencil, y0, y1, x0, x1):
+    """Close one-pixel cracks between virtual triangles, in place, within rows y0..y1-1 and
+    columns x0..x1-1 (the stencil's box): a stencil pixel no fragment covered whose two
+    neighbours across it (above and below, or left and right) are covered takes their mean
+    color, summed in float64 in that order (above, below, left, right).
+
+    Curved reflectors only. Reflected triangles are split n x n with n chosen per triangle
+    (by its longest edge), so two neighbours split differently meet in a T-junction; the
+    finer side's extra virtual vertices bend off the coarser side's straight virtual edge,
+    and pixel centers fall through the sliver between them (cylinder: 21 background pixels
+    along the reflected wall/floor seam). A reflection one pixel wide between covered pixels
+    on both sides is not something the tessellated objects can show, so the fill is safe;
+    wider gaps (a reflection of the background) are kept. A crack's neighbours are covered,
+    so never cracks themselves: filling in place reads only unchanged pixels."""
+    h, w = covered.shape
+    for y in prange(y0, y1):
+        for x in range(x0, x1):
+            if not stencil[y, x] or covered[y, x]:
+                continue
+            t0 = t1 = t2 = 0.0
+            count = 0
+            if y >= 1 and y + 1 < h and covered[y - 1, x] and covered[y + 1, x]:
+                t0 += np.float64(colors[y - 1, x, 0])
+                t1 += np.float64(colors[y - 1, x, 1])
+                t2 += np.float64(colors[y - 1, x, 2])
+                t0 += np.float64(colors[y + 1, x, 0])
+                t1 += np.float64(colors[y + 1, x, 1])
+                t2 += np.float64(colors[y + 1, x, 2])
+                count += 2
+            if x >= 1 and x + 1 < w and covered[y, x - 1] and covered[y, x + 1]:
+                t0 += np.float64(colors[y, x - 1, 0])
+                t1 += np.float64(colors[y, x - 1, 1])
+                t2 += np.float64(colors[y, x - 1, 2])
+                t0 += np.float64(colors[y, x + 1, 0])
+                t1 += np.float64(colors[y, x + 1, 1])
+                t2 += np.float64(colors[y, x + 1, 2])
+                count += 2
+            if count:
+                colors[y, x, 0] = np.float32(t0 / count)
+                colors[y, x, 1] = np.float32(t1 / count)
+                colors[y, x, 2] = np.float32(t2 / count)
