@@ -400,14 +400,16 @@ def _rows(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2,
         r = py - top
         f0, f1, f2 = e0, e1, e2
         if plain:  # without branches (a mispredicted one costs more than a pixel)
+            key_row = key[r, c:c + n]
+            tri_row = tri[r, c:c + n]
             for k in range(n):
                 z = np.float32(z_row + dzdx * k)
-                old = key[r, c + k]
-                was = tri[r, c + k]
+                old = key_row[k]
+                was = tri_row[k]
                 win = (((f0 | f1 | f2) >= 0)
                        & ((z > old) | ((z == old) & (t32 < was))))
-                key[r, c + k] = z if win else old
-                tri[r, c + k] = t32 if win else was
+                key_row[k] = z if win else old
+                tri_row[k] = t32 if win else was
                 f0 += sa0
                 f1 += sa1
                 f2 += sa2
