@@ -230,8 +230,10 @@ def rasterize(
     # keys, so the order triangles reach a buffer, and which buffer, never matter
     threads = max(1, numba.get_num_threads())
     box = (max(y1 - y0, 0), max(x1 - x0, 0))
-    own_tri = ws.get("own_tri", (threads, *box), np.int32)
-    own_key = ws.get("own_key", (threads, *box), np.float32)
+    # _BLOCK - 1 columns to spare: `_rows` walks a row in whole blocks of _BLOCK pixels
+    padded = (box[0], box[1] + _BLOCK - 1)
+    own_tri = ws.get("own_tri", (threads, *padded), np.int32)
+    own_key = ws.get("own_key", (threads, *padded), np.float32)
     drew = np.zeros(threads, np.bool_)  # which threads' buffers hold this call's drawing
     if box[0] > 0 and corners.shape[0] > 0:
         chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
@@ -252,6 +254,12 @@ def rasterize(
 
 
 _CHUNK = 256  # triangles per parallel task (and per box of chunk_bounds)
+# A plain row is walked in whole blocks of _BLOCK pixels, those past the triangle's box
+# masked (rewritten unchanged): the compiler's vectorised loop then never falls to its
+# scalar remainder, whose branches on the row's length (1 to 4 pixels on most triangles of
+# a detailed mesh) mispredict. 202k triangles, 1 thread: culled 1.03 -> 0.95x the anchor,
+# unculled 1.41 -> 1.26x (8 was slower than 4)
+_BLOCK = 4
 
 
 @njit(cache=True, inline="always")
@@ -390,23 +398,31 @@ def _setup(x0, y0, w0, x1, y1, w1, x2, y2, w2, key_scale, cull, bits, top, botto
 
 @njit(cache=True, inline="always")
 def _rows(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2, z_ref,
-          dzdx, dzdy, zx0, tie, top, col0, stencil, use_stencil, floor, use_floor, tri, key):
+          dzdx, dzdy, zx0, tie, top, col0, stencil, use_stencil, floor, use_floor, tri, key,
+          blocks):
     """Draw the pixels of rows ys..ye, columns xs..xs+n-1 whose centers are inside (every
-    edge function >= 0) into the box buffers (pixel (py, px) at [py - top, px - col0])."""
+    edge function >= 0) into the box buffers (pixel (py, px) at [py - top, px - col0]).
+
+    `blocks`: the buffers have _BLOCK - 1 columns to spare past the box, so a plain row is
+    walked in whole blocks of _BLOCK. A row's pixels are read through views starting at
+    column xs, indexed from 0: indexed [r, xs - col0 + k], numba's negative-index
+    wraparound kept the plain loop scalar (with spills); this way it vectorises."""
     plain = not use_stencil and not use_floor
     c = xs - col0
+    n4 = (n + _BLOCK - 1) & -_BLOCK if blocks else n
     for py in range(ys, ye + 1):
         z_row = z_ref + dzdy * (py - first_y) + zx0
         r = py - top
         f0, f1, f2 = e0, e1, e2
         if plain:  # without branches (a mispredicted one costs more than a pixel)
-            key_row = key[r, c:c + n]
-            tri_row = tri[r, c:c + n]
-            for k in range(n):
+            # a view from column xs, indexed from 0: no wraparound, so it vectorises
+            key_row = key[r, c:c + n4]
+            tri_row = tri[r, c:c + n4]
+            for k in range(n4):
                 z = np.float32(z_row + dzdx * k)
                 old = key_row[k]
                 was = tri_row[k]
-                win = (((f0 | f1 | f2) >= 0)
+                win = (((f0 | f1 | f2) >= 0) & (k < n)
                        & ((z > old) | ((z == old) & (t32 < was))))
                 key_row[k] = z if win else old
                 tri_row[k] = t32 if win else was
@@ -452,7 +468,8 @@ def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bot
         return
     _rows(np.int32(t), s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], s[10], s[11],
           s[12], s[13], s[14], s[15], s[16], s[17], s[18], 1.0 / key_scale, top, col0,
-          stencil, use_stencil, floor, use_floor, tri, key)
+          stencil, use_stencil, floor, use_floor, tri, key,
+          key.shape[1] >= col1 - col0 + _BLOCK - 1)
 
 
 @njit(cache=True, error_model="numpy")
@@ -551,7 +568,7 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
                   ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
                   floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
                   MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
-                  use_stencil, floor, use_floor, tri, key)
+                  use_stencil, floor, use_floor, tri, key, True)
         if clipped:
             for j in range(count):
                 if st[j] == _CLIPPED:
