@@ -589,6 +589,9 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
     snapped screen x, y (`snapped` rows 2k, 2k + 1) and 1/w (`inv_w` row k), the very
     values (same operations, same order) as a scalar loop per triangle would give.
     `soa`, `clip`: scratch, (9, n) corners and (12, n) clip x, y, z, w per corner."""
+    # the run's flags through a view indexed from 0 (flags[t0 + j] pays numba's
+    # negative-index wraparound in every vectorised loop that reads it: 10% of the setup)
+    run_flags = flags[t0:t0 + count]
     for j in range(count):
         for k in range(3):
             for q in range(3):
@@ -616,7 +619,7 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
         x2, y2, w2 = clip[8, j], clip[9, j], clip[11, j]
         out = (((x0 < -w0) & (x1 < -w1) & (x2 < -w2)) | ((x0 > w0) & (x1 > w1) & (x2 > w2))
                | ((y0 < -w0) & (y1 < -w1) & (y2 < -w2)) | ((y0 > w0) & (y1 > w1) & (y2 > w2))
-               | ((flags[t0 + j] & FLAG_SKIP) != 0))
+               | ((run_flags[j] & FLAG_SKIP) != 0))
         cut = ((abs(x0) > gx * w0) | (abs(x1) > gx * w1) | (abs(x2) > gx * w2)
                | (abs(y0) > gy * w0) | (abs(y1) > gy * w1) | (abs(y2) > gy * w2))
         status[j] = _CULLED if out else (_CLIPPED if cut else _SIMPLE)
@@ -649,7 +652,7 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
     for j in range(count):
         q = _setup(ints[j], ints[c + j], floats[j], ints[2 * c + j], ints[3 * c + j],
                    floats[c + j], ints[4 * c + j], ints[5 * c + j], floats[2 * c + j],
-                   1.0 / MIRROR_TIE if flags[t0 + j] & FLAG_MIRROR else 1.0, cull, bits, top,
+                   1.0 / MIRROR_TIE if run_flags[j] & FLAG_MIRROR else 1.0, cull, bits, top,
                    bottom, col0, col1)
         ints[20 * c + j] = q[0] & (status[j] == _SIMPLE)
         ints[6 * c + j] = q[1]
