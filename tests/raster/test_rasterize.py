@@ -16,7 +16,13 @@ import pytest
 from naive import fill_fixed, ray_triangle, reference
 
 from reflectcli.camera import Camera
-from reflectcli.raster.rasterize import FLAG_MIRROR, _fill, _subpixel_bits, rasterize
+from reflectcli.raster.rasterize import (
+    _BLOCK,
+    FLAG_MIRROR,
+    _fill,
+    _subpixel_bits,
+    rasterize,
+)
 
 W, H = 40, 30
 def camera(w=W, h=H, near=0.5, far=50.0) -> Camera:
@@ -234,6 +240,14 @@ def test_fill_matches_the_exact_pixel_by_pixel_twin(seed):
         fill_fixed(*args, *bufs[1])
         np.testing.assert_array_equal(bufs[0][0], bufs[1][0])
         np.testing.assert_allclose(bufs[0][1], bufs[1][1], rtol=1e-6)
+        # buffers with the columns to spare that _draw gives (rows walked in whole blocks):
+        # the same pixels and keys, the spare columns untouched
+        wide = (box[0], box[1] + _BLOCK - 1)
+        blocked = (np.full(wide, -1, np.int32), np.zeros(wide, np.float32))
+        _fill(*args, *blocked)
+        np.testing.assert_array_equal(blocked[0][:, :box[1]], bufs[0][0])
+        np.testing.assert_array_equal(blocked[1][:, :box[1]], bufs[0][1])
+        assert np.all(blocked[0][:, box[1]:] == -1) and np.all(blocked[1][:, box[1]:] == 0)
         covered += int((bufs[0][0] >= 0).sum())
     assert covered > 3000
 
