@@ -1,0 +1,162 @@
+"""The warp's projection: one float32 4x4 from map pixel (u, v, 1, delta) to homogeneous
+screen point per map and frame, applied row by row in loops written with selects so that
+they vectorize."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+
+from ...camera import Camera
+from ...camera import screen_from_ndc as _screen_from_ndc
+
+
+def pixel_to_eye(camera: Camera) -> np.ndarray:
+    """D: map pixel (u, v, 1, delta) -> homogeneous eye-space point (x/z, y/z, -1, 1/z)."""
+    t = math.tan(math.radians(camera.fov_y) / 2.0)
+    a = camera.aspect
+    w, h = camera.width, camera.height
+    return np.array([
+        [2.0 * t * a / w, 0.0, (1.0 / w - 1.0) * t * a, 0.0],
+        [0.0, -2.0 * t / h, (1.0 - 1.0 / h) * t, 0.0],
+        [0.0, 0.0, -1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ])
+
+
+def warp_matrix(map_camera: Camera, camera: Camera, reflection: np.ndarray) -> np.ndarray:
+    """W = P V R V_map^-1 D (see the module docstring)."""
+    return (camera.clip_from_world() @ reflection
+            @ np.linalg.inv(map_camera.view_matrix()) @ pixel_to_eye(map_camera))
+
+
+def screen_matrix(width: int, height: int) -> np.ndarray:
+    """The 4x4 taking clip coordinates to homogeneous screen ones: (x, y) / w of its result
+    is `camera.screen_from_ndc` of the clip point's (x, y) / w (read off that function)."""
+    ox, oy = _screen_from_ndc(0.0, 0.0, width, height)
+    ax, ay = _screen_from_ndc(1.0, 1.0, width, height)
+    s = np.eye(4)
+    s[0, 0], s[0, 3] = ax - ox, ox
+    s[1, 1], s[1, 3] = ay - oy, oy
+    return s
+
+
+@dataclass
+class Projection:
+    """One map's projected zexels (reused from frame to frame for maps of one size)."""
+
+    sx: np.ndarray  # (n,) float32 screen x, NaN: not warped
+    sy: np.ndarray  # (n,) float32 screen y
+    z: np.ndarray  # (n,) float32 eye depth in the target camera
+    pix: np.ndarray  # (n,) int32 flat screen pixel y * width + x of the zexel, -1: not warped
+    d: np.ndarray  # (n,) float32 squared distance to its pixel's center (positions=False)
+    row_lo: np.ndarray  # (mh,) int64 first screen row a map row reaches
+    row_hi: np.ndarray  # (mh,) int64 last screen row a map row reaches
+    count: np.ndarray  # (mh,) int64 zexels of the map row that were warped
+
+    @classmethod
+    def empty(cls, mh: int, mw: int) -> Projection:
+        n = mh * mw
+        return cls(np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
+                   np.empty(n, np.int32), np.empty(n, np.float32), np.empty(mh, np.int64),
+                   np.empty(mh, np.int64), np.empty(mh, np.int64))
+
+
+def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near: float,
+                box: tuple[int, int, int, int] | None = None, margin: int = 3,
+                out: Projection | None = None, positions: bool = True):
+    """Screen positions (float32, pixels) and eye depths of every zexel, and per map row the
+    first and last screen row its zexels reach (row_lo > row_hi if none). Zexels behind the
+    eye or outside `box` = (x0, x1, y0, y1) grown by `margin` pixels get sx = NaN; pix is
+    -1 for those and for zexels off the screen. Float32 arithmetic throughout (one 4x4 from
+    map pixel to homogeneous screen point). `out`: arrays to write into (kept across
+    frames), returned filled. `positions=False`: instead of sx and sy (left as they were),
+    only each zexel's squared distance to its pixel's center (out.d), all a one-pixel
+    splat needs."""
+    if out is None:
+        out = Projection.empty(*depth.shape)
+    x0, x1, y0, y1 = box if box is not None else (0, width, 0, height)
+    m = np.ascontiguousarray(screen_matrix(width, height) @ w, np.float32)
+    _project(np.ascontiguousarray(depth, np.float32), m, near, x0 - margin, x1 + margin,
+             y0 - margin, y1 + margin, width, height, positions, out.sx, out.sy, out.z, out.pix,
+             out.d, out.row_lo, out.row_hi, out.count)
+    return out.sx, out.sy, out.z, out.row_lo, out.row_hi
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _project(depth, m, near, xmin, xmax, ymin, ymax, width, height, positions, sx, sy, z, pix,
+             dist, row_lo, row_hi, count):
+    mh, mw = depth.shape
+    for v in prange(mh):
+        a = v * mw
+        lo, hi, warped = _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width,
+                                      height, positions, sx[a:a + mw], sy[a:a + mw],
+                                      z[a:a + mw], pix[a:a + mw], dist[a:a + mw])
+        row_lo[v] = lo if warped > 0 else 1 << 40
+        row_hi[v] = hi if warped > 0 else -1
+        count[v] = warped
+
+
+@njit(cache=True, inline="always")
+def _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width, height, positions, sx, sy, z,
+                 pix, dist):
+    """Map row v into the row arrays (sx, sy: with `positions`, else dist); returns (first
+    row, last row, count) of its warped zexels. The homogeneous screen point (hx, hy, hw) = M
+    (u, v, 1, delta), scaled by the depth d (the same point for d > 0, without dividing by
+    d): hw is then the eye depth in the target camera. Written without branches (selects)
+    so that the loop vectorizes."""
+    mw = depth.shape[1]
+    one = np.float32(1.0)
+    zero = np.float32(0.0)
+    inf = np.float32(np.inf)
+    nan = np.float32(np.nan)
+    half = np.float32(0.5)
+    near32 = np.float32(near)
+    fx0, fx1 = np.float32(xmin), np.float32(xmax)
+    fy0, fy1 = np.float32(ymin), np.float32(ymax)
+    wid = np.int32(width)
+    fw, fh = np.float32(width), np.float32(height)
+    vf = np.float32(v)
+    r0 = m[0, 1] * vf + m[0, 2]
+    r1 = m[1, 1] * vf + m[1, 2]
+    r3 = m[3, 1] * vf + m[3, 2]
+    a0, a1, a3 = m[0, 0], m[1, 0], m[3, 0]
+    t0, t1, t3 = m[0, 3], m[1, 3], m[3, 3]
+    lo = np.int32(1 << 30)
+    hi = np.int32(-(1 << 30))
+    warped = 0
+    for u in range(mw):
+        uf = np.float32(u)
+        d = depth[v, u]
+        finite = d < inf  # False for inf (a direction: delta = 0) and NaN
+        s = d if finite else one
+        t = one if finite else zero
+        hx = (a0 * uf + r0) * s + t0 * t
+        hy = (a1 * uf + r1) * s + t1 * t
+        hw = (a3 * uf + r3) * s + t3 * t
+        inv = one / hw
+        x = hx * inv
+        y = hy * inv
+        ok = ((finite & (d > zero) & (hw > near32)) | ((d == inf) & (hw > zero))) & (
+            x >= fx0) & (x < fx1) & (y >= fy0) & (y < fy1)
+        xs = x if ok else zero
+        ys = y if ok else zero
+        px = np.int32(np.floor(xs))
+        py = np.int32(np.floor(ys))
+        if positions:
+            sx[u] = x if ok else nan
+            sy[u] = ys
+        else:
+            ex = xs - np.floor(xs) - half
+            ey = ys - np.floor(ys) - half
+            dist[u] = ex * ex + ey * ey
+        z[u] = hw if finite else inf
+        on_screen = ok & (xs >= zero) & (xs < fw) & (ys >= zero) & (ys < fh)
+        pix[u] = py * wid + px if on_screen else np.int32(-1)
+        lo = min(lo, py if ok else np.int32(1 << 30))
+        hi = max(hi, py if ok else np.int32(-(1 << 30)))
+        warped += 1 if ok else 0
+    return lo, hi, warped
