@@ -114,6 +114,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp/projection.py:_project_row": ([M + "test_warp_projection_matches_twin",
                                    M + "test_splat_projecting_inside_matches_project_then_splat"],
                                   "_project"),
+    "maps/warp/projection.py:_row_reach": (
+        [M + "test_row_reach_bounds_the_twin_projection",
+         M + "test_splat_projecting_inside_matches_project_then_splat"], "_splat_pixels"),
     "maps/warp/squares.py:_adaptive": ([M + "test_adaptive_radii_match_twin"], "splat_radii"),
     "maps/warp/squares.py:_splat": (SPLAT, "splat"),
     "maps/warp/squares.py:_write": (SPLAT, "_splat"),

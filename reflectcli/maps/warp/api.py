@@ -82,14 +82,13 @@ def warp_depths(items, near: float, stencil: np.ndarray, splat_mode, ordered: bo
             if runs is None:
                 runs = buffers.raster_runs(mh, mw)
             # projected inside the splat: zexels beyond the region cannot reach the box
-            splat_pixels(proj, runs, mw, slot * stride, stencil, buffers.best_zd,
-                         buffers.best_id, ordered, region, slot == 0, use_stencil,
-                         # a spread copies every pixel's row itself
-                         payload=None if payloads is None or radius > 0 else payloads[slot],
-                         payload_out=out,
-                         source=(depth, wm, near, (x0 - radius, x1 + radius, y0 - radius,
-                                                   y1 + radius)))
-            zexels += int(proj.count.sum())
+            zexels += splat_pixels(
+                proj, runs, mw, slot * stride, stencil, buffers.best_zd, buffers.best_id,
+                ordered, region, slot == 0, use_stencil,
+                # a spread copies every pixel's row itself
+                payload=None if payloads is None or radius > 0 else payloads[slot],
+                payload_out=out,
+                source=(depth, wm, near, (x0 - radius, x1 + radius, y0 - radius, y1 + radius)))
         if radius == 0:
             return buffers.best_zd[:, :, 0], buffers.best_id, stride, zexels
         buffers.claim_out(box)

@@ -11,13 +11,13 @@ import numpy as np
 from numba import njit, prange
 
 from .payload import _copy_row, _payload_args
-from .projection import Projection, _project_row, screen_matrix
+from .projection import Projection, _project_row, _row_reach, screen_matrix
 from .visibility import SAME_SURFACE
 
 
 def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, ordered: bool,
                  region, clear: bool, use_stencil: bool, bands: int | None = None,
-                 payload=None, payload_out=None, source=None) -> None:
+                 payload=None, payload_out=None, source=None) -> int:
     """The one-pixel splat: each zexel of `proj` (visited run by run) at the pixel it lands
     in, by the visibility rule of `_write`, into best_zd (H, W, 2) float32 (depth, squared
     distance of the zexel to the pixel center) and best_id (ids base + zexel index), only
@@ -33,7 +33,10 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
     pixels are left alone). `source` = (depth (mh, mw), W, near, (x0, x1, y0, y1) the grown
     box): project the map inside the kernel instead (each task the rows that reach its band,
     into buffers it keeps in cache; the same arithmetic and results as `project_map` with
-    that box and `positions=False`), and fill only proj's row spans and counts."""
+    that box and `positions=False`); proj's arrays then serve as scratch: row_lo / row_hi
+    receive bounds of the screen rows each map row can reach (from its depths' range,
+    without projecting it), count its zexels of usable depth. Returns how many zexels
+    landed in the region (on the stencil or not)."""
     x0, x1, y0, y1 = region
     if bands is None:
         bands = max(1, numba.get_num_threads()) * 2
@@ -47,12 +50,12 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
         from_depth = True
         depth = np.ascontiguousarray(depth, np.float32)
         m = np.ascontiguousarray(screen_matrix(w, h) @ wm, np.float32)
-    _splat_pixels(proj.pix, proj.d, proj.z, runs, mw, proj.row_lo, proj.row_hi, proj.count,
-                  base, ordered, stencil.reshape(-1), use_stencil, x0, x1, y0, y1, w, clear,
-                  bands, best_zd.reshape(-1), best_id.reshape(-1), payload is not None, pay,
-                  pay_out, from_depth, depth, m, near, grown[0], grown[1], grown[2], grown[3],
-                  h)
-
+    return _splat_pixels(proj.pix, proj.d, proj.z, runs, mw, proj.row_lo, proj.row_hi, proj.count,
+                         base, ordered, stencil.reshape(-1), use_stencil, x0, x1, y0, y1, w,
+                         clear, bands, best_zd.reshape(-1), best_id.reshape(-1),
+                         payload is not None, pay,
+                         pay_out, from_depth, depth, m, near, grown[0], grown[1], grown[2],
+                         grown[3], h)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -61,19 +64,17 @@ def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, 
                   pay_out, from_depth, depth, m, near, xmin, xmax, ymin, ymax, height):
     # zd: (depth, squared distance) per pixel, one 8-byte record.
     # from_depth: project the map (depth, m: as `_project` with positions=False) here, row by
-    # row into buffers each task keeps in cache, instead of reading pix, dist, z: first
-    # every row's screen span (into row_lo, row_hi, count), then each band projects again
-    # the rows that reach it (the same arithmetic: the same results)
-    if from_depth:
+    # row into buffers each task keeps in cache, instead of reading pix, dist, z: each band
+    # projects the rows that can reach it, by bounds on each row's screen rows (into row_lo,
+    # row_hi; count: its zexels of usable depth, the bands' weights) taken from its depths.
+    # Returns how many zexels landed in the region (stencil or not).
+    depth_bits = depth.view(np.int32)
+    if from_depth:  # each map row's reach, bounded from its depths without projecting it
         for v in prange(row_lo.shape[0]):
-            rp = np.empty(mw, np.int32)
-            rz = np.empty(mw, np.float32)
-            rd = np.empty(mw, np.float32)
-            lo, hi, warped = _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width,
-                                          height, False, rd, rd, rz, rp, rd)
-            row_lo[v] = lo if warped > 0 else 1 << 40
-            row_hi[v] = hi if warped > 0 else -1
-            count[v] = warped
+            lo, hi, usable = _row_reach(depth_bits, m, v, ymin, ymax)
+            row_lo[v] = lo if usable > 0 else 1 << 40
+            row_hi[v] = hi if usable > 0 else -1
+            count[v] = usable
     # band edges over rows [y0, y1): each map row's zexels counted at its middle row
     hist = np.zeros(y1 - y0 + 1, np.int64)
     total = 0
@@ -96,11 +97,13 @@ def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, 
         edges[b] = y1
         b += 1
     inf = np.float32(np.inf)
+    landed = np.zeros(bands, np.int64)
     for b in prange(bands):
         r0 = edges[b]
         r1 = edges[b + 1]
         if r1 <= r0:
             continue
+        n_landed = 0
         if clear:
             for y in range(r0, r1):
                 for p in range(y * width + x0, y * width + x1):
@@ -131,6 +134,7 @@ def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, 
                 p = rp[u]
                 if p < p0 or p >= p1:  # also p = -1: not warped
                     continue
+                n_landed += 1
                 if use_stencil and not stencil[p]:
                     continue
                 dk = rd[u]
@@ -154,5 +158,7 @@ def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, 
                     ids[p] = ident
                     if with_payload:
                         _copy_row(pay, k, pay_out, p)
+        landed[b] = n_landed
+    return landed.sum()
 
 

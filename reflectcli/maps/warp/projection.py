@@ -160,3 +160,64 @@ def _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width, height, posit
         hi = max(hi, py if ok else np.int32(-(1 << 30)))
         warped += 1 if ok else 0
     return lo, hi, warped
+
+
+@njit(cache=True, inline="always")
+def _row_reach(depth_bits, m, v, ymin, ymax):
+    """(first, last, count): screen rows [ymin, ymax) that map row v's zexels can reach, and
+    how many have a usable depth (positive: finite or infinite), bounded without projecting
+    them (a superset of `_project_row`'s rows, for skipping rows a band cannot receive).
+    `depth_bits`: the depths' float32 bits as int32 (positive floats order as their bits
+    do: integer minima vectorize, float ones do not).
+
+    With delta = 1 / depth (0 at infinity), screen y = (a1 u + r1 + t1 delta) / (a3 u + r3 +
+    t3 delta): where the denominator stays positive over the box u in [0, mw - 1], delta in
+    the row's [delta_lo, delta_hi], y is monotonic in u and in delta apart, so its extremes
+    are at the box's corners. Else (the row crosses the eye plane) every row may be reached.
+    Corners in float64, one row of margin each side for the kernel's float32 rounding."""
+    mw = depth_bits.shape[1]
+    inf_bits = np.int32(0x7F800000)
+    no_min = np.int32(0x7FFFFFFF)
+    zero = np.int32(0)
+    b_min = no_min
+    b_max = zero
+    n_inf = np.int32(0)
+    n_finite = np.int32(0)
+    for u in range(mw):
+        b = depth_bits[v, u]
+        finite = (b > zero) & (b < inf_bits)  # positive and finite (NaN bits lie above inf's)
+        b_min = min(b_min, b if finite else no_min)
+        b_max = max(b_max, b if finite else zero)
+        n_finite += np.int32(finite)
+        n_inf += np.int32(b == inf_bits)
+    usable = np.int64(n_finite) + np.int64(n_inf)
+    lo, hi = ymin, ymax - 1
+    if usable == 0:
+        return lo, hi, 0
+    # the float32 values of those bits, exactly: 2^(e - 150) (2^23 + mantissa), subnormal: e 1
+    e_min, e_max = max(b_min >> 23, 1), max(b_max >> 23, 1)
+    d_min = math.ldexp(np.float64((b_min & 0x7FFFFF) | (0x800000 if b_min >> 23 else 0)),
+                       e_min - 150)
+    d_max = math.ldexp(np.float64((b_max & 0x7FFFFF) | (0x800000 if b_max >> 23 else 0)),
+                       e_max - 150)
+    delta_hi = 1.0 / d_min if n_finite > 0 else 0.0
+    delta_lo = 0.0 if n_inf > 0 else 1.0 / d_max
+    vf = np.float64(v)
+    r1 = np.float64(m[1, 1]) * vf + np.float64(m[1, 2])
+    r3 = np.float64(m[3, 1]) * vf + np.float64(m[3, 2])
+    y_min = np.inf
+    y_max = -np.inf
+    positive = True
+    for corner in range(4):
+        uf = 0.0 if corner < 2 else np.float64(mw - 1)
+        delta = delta_lo if corner % 2 == 0 else delta_hi
+        num = np.float64(m[1, 0]) * uf + r1 + np.float64(m[1, 3]) * delta
+        den = np.float64(m[3, 0]) * uf + r3 + np.float64(m[3, 3]) * delta
+        positive = positive and den > 0.0
+        y = num / den if den > 0.0 else 0.0
+        y_min = min(y_min, y)
+        y_max = max(y_max, y)
+    if positive and np.isfinite(y_min) and np.isfinite(y_max) and y_min > -1e9 and y_max < 1e9:
+        lo = max(lo, np.int64(math.floor(y_min)) - 1)
+        hi = min(hi, np.int64(math.floor(y_max)) + 1)
+    return lo, hi, usable
