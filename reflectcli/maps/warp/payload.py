@@ -9,13 +9,23 @@ from numba import njit, prange
 
 @njit(cache=True, inline="always")
 def _copy_zexel_rows(ids, rows, shift, dst, base):
-    """dst[base + i] = the row of zexel ids[i] from its map, for every pixel of a row (no
-    branch on which: a kept own zexel's row again, and for a pixel no zexel reached some
-    row, whose value does not matter)."""
-    for i in range(ids.shape[0]):
-        q = max(ids[i], 0)
-        slot = q >> shift
-        _copy_row(rows[slot], q - (slot << shift), dst, base + i)
+    """dst[base + i] = the row of zexel ids[i] from its map (ids slot << shift | index), for
+    the pixels of a row a zexel reached. One pass a map, each taking its map's array once:
+    a tuple indexed per pixel copies the array's handle (with its reference count) each
+    time, which cost more than the copy. With one map, every pixel gets a row, without a
+    branch (a pixel no zexel reached gets the first row, whose value does not matter)."""
+    n = ids.shape[0]
+    if len(rows) == 1:
+        src = rows[0]
+        for i in range(n):
+            _copy_row(src, max(ids[i], 0), dst, base + i)
+        return
+    for slot in range(len(rows)):
+        src = rows[slot]
+        for i in range(n):
+            q = ids[i]
+            if q >= 0 and q >> shift == slot:
+                _copy_row(src, q - (slot << shift), dst, base + i)
 
 
 @njit(cache=True, inline="always")
