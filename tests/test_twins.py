@@ -121,6 +121,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp/squares.py:_splat": (SPLAT, "splat"),
     "maps/warp/squares.py:_write": (SPLAT, "_splat"),
     "maps/warp/pixels.py:_splat_pixels": (PIXELS, "splat_pixels"),
+    "maps/warp/pixels.py:_scatter_run": (PIXELS, "_splat_pixels"),
     "maps/warp/spread.py:_spread": (SPREAD, "spread"),
     "maps/warp/spread.py:_spread_band": (SPREAD, "_spread"),
     "maps/warp/spread.py:_key_row": (SPREAD, "_spread_band"),

@@ -130,35 +130,52 @@ def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, 
                 rp = pix[v * mw:(v + 1) * mw]
                 rz = z[v * mw:(v + 1) * mw]
                 rd = dist[v * mw:(v + 1) * mw]
-            for u in range(runs[run, 1], runs[run, 2], runs[run, 3]):
-                p = rp[u]
-                if p < p0 or p >= p1:  # also p = -1: not warped
-                    continue
-                n_landed += 1
-                if use_stencil and not stencil[p]:
-                    continue
-                dk = rd[u]
-                zk = rz[u]
-                k = v * mw + u
-                ident = base + k
-                cz = zd[2 * p]
-                # an empty pixel (inf, inf): a finite zk is nearer, an infinite one lands
-                # nearer the center; its id is read only for an exact tie or in ordered mode
-                take = zk < cz * (1.0 - SAME_SURFACE)
-                if not take and ordered:
-                    take = ids[p] >= base
-                if not take and (zk <= cz * (1.0 + SAME_SURFACE) or zk == cz):
-                    cd = zd[2 * p + 1]
-                    take = dk < cd
-                    if dk == cd:
-                        take = ident < ids[p]
-                if take:
-                    zd[2 * p] = zk
-                    zd[2 * p + 1] = dk
-                    ids[p] = ident
-                    if with_payload:
-                        _copy_row(pay, k, pay_out, p)
+            n_landed += _scatter_run(rp, rz, rd, runs[run, 1], runs[run, 2], runs[run, 3],
+                                     v * mw, base, p0, p1, ordered, use_stencil, stencil, zd,
+                                     ids, with_payload, pay, pay_out)
         landed[b] = n_landed
     return landed.sum()
 
 
+
+
+@njit(cache=True, error_model="numpy")
+def _scatter_run(rp, rz, rd, first, stop, step, k0, base, p0, p1, ordered, use_stencil, stencil,
+                 zd, ids, with_payload, pay, pay_out):
+    """One run of a projected map row (pixel, depth, squared distance per column: rp, rz,
+    rd; zexel index k0 + column) into the pixels [p0, p1) by the visibility rule; returns
+    how many landed there. A function of its own (not inlined into the band loop): in the
+    band loop's body the rule's values did not fit the registers and spilled. Pixel
+    indices are unsigned once checked (no negative-index wraparound)."""
+    landed = 0
+    span = np.uint64(p1 - p0)
+    for u in range(first, stop, step):
+        p = np.uint64(np.int64(rp[u]) - p0)
+        if p >= span:  # also rp = -1: not warped
+            continue
+        p += np.uint64(p0)
+        landed += 1
+        if use_stencil and not stencil[p]:
+            continue
+        dk = rd[u]
+        zk = rz[u]
+        k = k0 + u
+        ident = base + k
+        cz = zd[2 * p]
+        # an empty pixel (inf, inf): a finite zk is nearer, an infinite one lands nearer
+        # the center; its id is read only for an exact tie or in ordered mode
+        take = zk < cz * (1.0 - SAME_SURFACE)
+        if not take and ordered:
+            take = ids[p] >= base
+        if not take and (zk <= cz * (1.0 + SAME_SURFACE) or zk == cz):
+            cd = zd[2 * p + 1]
+            take = dk < cd
+            if dk == cd:
+                take = ident < ids[p]
+        if take:
+            zd[2 * p] = zk
+            zd[2 * p + 1] = dk
+            ids[p] = ident
+            if with_payload:
+                _copy_row(pay, k, pay_out, p)
+    return landed
