@@ -22,9 +22,9 @@ def warp_maps(maps, camera: Camera, reflection: np.ndarray, mirrored_eye: np.nda
     """Warp several zexel maps (ZexelMap) into the pixels of `stencil` seen from `camera`.
 
     Returns (depth (H, W) float32, id (H, W) int64: map index * stride + zexel index, or -1
-    where no zexel landed, stride, zexels projected into the stencil's box). With `buffers`
-    the results are views of its arrays, valid until its next use. `box`, `payloads`, `out`:
-    as for warp_depths."""
+    where no zexel landed, stride, zexels that landed in the stencil's box grown by the
+    splat's reach, on the screen). With `buffers` the results are views of its arrays, valid
+    until its next use. `box`, `payloads`, `out`: as for warp_depths."""
     items = []
     for zmap in maps:
         wm = warp_matrix(zmap.camera, camera, reflection)

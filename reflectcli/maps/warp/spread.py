@@ -32,8 +32,8 @@ def spread(best_zd, best_id, radius: int, stencil, box, out_z, out_id, payloads=
     rows, then its columns). Writes out_z / out_id over the box
     (inf / -1 off the stencil). `payloads`: per map (n, c) rows, ids slot * stride + index
     (stride a power of two); each pixel of the box gets its zexel's row in `payload_out`
-    (H, W, c) (copied for every pixel, without a branch: pixels no zexel reached, or off the
-    stencil, receive some row), so the one-pixel splat need not write rows."""
+    (H, W, c), so the one-pixel splat need not write rows (with one map every pixel gets
+    one, without a branch: pixels no zexel reached, or off the stencil, receive some row)."""
     x0, x1, y0, y1 = box
     if payloads is None:
         rows = (np.empty((0, 1), np.float32),)
