@@ -17,6 +17,16 @@ def _copy_zexel_rows(ids, rows, shift, dst, base):
     n = ids.shape[0]
     if len(rows) == 1:
         src = rows[0]
+        if src.shape[1] == 3:  # colour: flat, constant offsets
+            s = src.reshape(-1)
+            d = dst.reshape(-1)
+            for i in range(n):
+                k = 3 * max(ids[i], 0)
+                q = 3 * (base + i)
+                d[q] = s[k]
+                d[q + 1] = s[k + 1]
+                d[q + 2] = s[k + 2]
+            return
         for i in range(n):
             _copy_row(src, max(ids[i], 0), dst, base + i)
         return
