@@ -125,6 +125,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp/spread.py:_spread": (SPREAD, "spread"),
     "maps/warp/spread.py:_spread_band": (SPREAD, "_spread"),
     "maps/warp/spread.py:_key_row": (SPREAD, "_spread_band"),
+    "maps/warp/spread.py:_own_depths": (SPREAD, "_spread_band"),
     "maps/warp/spread.py:_min_into": (SPREAD, "_spread_band"),
     "maps/warp/spread.py:_spread_pick": (SPREAD, "_spread_band"),
     "maps/warp/spread.py:_spread_band_rings": (SPREAD, "_spread"),
