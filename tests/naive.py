@@ -1480,7 +1480,7 @@ def reflected_ray(tri, b1, b2, corners, normals, kind, p, eye):
     return point, 2.0 * (n @ v) * n - v
 
 
-# --- dprm's colour gather and fill (maps/warp.py)
+# --- dprm's colour gather and fill (maps/warp/)
 
 
 def gather_rows(best_id, stride, per_map, box, out):

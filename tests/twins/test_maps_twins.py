@@ -321,8 +321,11 @@ def test_pixel_splat_both_modes_match_sequential_twin(seed, ordered):
 @pytest.mark.parametrize("seed", range(3))
 def test_splat_projecting_inside_matches_project_then_splat(seed, ordered):
     """warp_depths' one-pixel splat projects the map itself (row by row, per band): its
-    result (ids, depths, distances, payload rows, row spans) equals `project_map` followed by
-    the splat reading that projection, which the tests above hold to their twins."""
+    result (ids, depths, distances, payload rows, the count of zexels landed in the region)
+    equals `project_map` followed by the splat reading that projection, which the tests
+    above hold to their twins. Projecting inside, the kernel bounds each map row's screen
+    rows from its depths instead of projecting it twice, so its row spans need only contain
+    the projection's (`test_row_reach_bounds_the_twin_projection` holds them to the twin)."""
     rng = np.random.default_rng(seed + 40)
     mh, mw, width, height, near = 30, 37, 20, 16, 0.2
     depth = rng.uniform(0.5, 6.0, (mh, mw)).astype(np.float32)
@@ -350,11 +353,71 @@ def test_splat_projecting_inside_matches_project_then_splat(seed, ordered):
             if not inside:
                 warp.project_map(depth, wm, width, height, near, box, radius, proj,
                                  positions=False)
-            warp.splat_pixels(proj, runs, mw, 0, stencil, buffers.best_zd, buffers.best_id,
-                              ordered, region, True, True, 3, payload, out,
-                              source=(depth, wm, near, grown) if inside else None)
-            results.append((buffers.best_zd.copy(), buffers.best_id.copy(), out,
-                            proj.row_lo.copy(), proj.row_hi.copy(), proj.count.copy()))
+                exact = proj.row_lo.copy(), proj.row_hi.copy(), proj.count.copy()
+                rx, ry = proj.pix % width, proj.pix // width
+                in_region = ((proj.pix >= 0) & (rx >= region[0]) & (rx < region[1])
+                             & (ry >= region[2]) & (ry < region[3]))
+            landed = warp.splat_pixels(proj, runs, mw, 0, stencil, buffers.best_zd,
+                                       buffers.best_id, ordered, region, True, True, 3,
+                                       payload, out,
+                                       source=(depth, wm, near, grown) if inside else None)
+            results.append((buffers.best_zd.copy(), buffers.best_id.copy(), out, landed))
         for a, b in zip(*results, strict=True):
             np.testing.assert_array_equal(a, b)
+        assert results[1][3] == in_region.sum()
+        warped = exact[2] > 0
+        assert warped.sum() > 5
+        assert (proj.row_lo[warped] <= exact[0][warped]).all()
+        assert (proj.row_hi[warped] >= exact[1][warped]).all()
         assert (results[0][1] >= 0).sum() > 20
+
+
+@pytest.mark.parametrize("wide", [False, True])
+@pytest.mark.parametrize("seed", range(4))
+def test_row_reach_bounds_the_twin_projection(seed, wide):
+    """The one-pixel splat skips, per band, the map rows that cannot reach it by bounds on
+    each row's screen rows taken from its depths' range alone (`_row_reach`): every row a
+    zexel of the map row lands in (by the twin's projection, and by the kernel's float32
+    one) lies within them. Narrow depth ranges give tight bounds; `wide`: depths span 1e-3
+    to 1e4 with infinite, subnormal, zero, negative and NaN ones, and wide, turned map
+    cameras put rows across the eye plane (their bounds are every row)."""
+    rng = np.random.default_rng(seed + 70)
+    mh, mw, width, height, near = 24, 29, 40, 30, 0.05
+    if wide:
+        depth = np.exp(rng.uniform(np.log(1e-3), np.log(1e4), (mh, mw))).astype(np.float32)
+        depth[rng.random((mh, mw)) < 0.1] = np.inf
+        depth[rng.random((mh, mw)) < 0.05] = rng.choice([np.nan, 0.0, -1.0, 1e-40])
+        depth[3] = np.inf  # a row of directions only
+    else:
+        depth = rng.uniform(1.0, 3.0, (mh, mw)).astype(np.float32)
+        depth[5, ::4] = np.inf
+        depth[6, ::3] = np.nan
+    depth[4] = rng.uniform(2.0, 2.1, mw)  # a narrow depth range
+    cam = Camera(np.array([0.0, 1.0, 3.0]), np.array([0.0, 1.0, 0.0]), np.array([0, 1.0, 0]),
+                 60.0, width, height, near, 50.0)
+    if wide:
+        map_cam = Camera(rng.uniform(-2, 2, 3) + [0.0, 1.0, 3.0], rng.uniform(-3, 3, 3),
+                         np.array([0, 1.0, 0]), rng.uniform(60.0, 150.0), mw, mh, 0.1, 50.0)
+    else:
+        map_cam = Camera(rng.uniform(-0.3, 0.3, 3) + [0.0, 1.0, 3.0],
+                         rng.uniform(-0.3, 0.3, 3) + [0.0, 1.0, 0.0], np.array([0, 1.0, 0]),
+                         50.0, mw, mh, 0.1, 50.0)
+    wm = warp.warp_matrix(map_cam, cam, np.eye(4))
+    box = (0, width, 0, height)
+    proj = warp.Projection.empty(mh, mw)
+    buffers = warp.WarpBuffers(height, width)
+    warp.splat_pixels(proj, warp.raster_runs(mh, mw), mw, 0, np.ones((height, width), bool),
+                      buffers.best_zd, buffers.best_id, False, box, True, False, 3,
+                      source=(depth, wm, near, box))
+    lo, hi = proj.row_lo.copy(), proj.row_hi.copy()
+    _, sy, _, _, _ = project(depth, wm, near, box, width, height)
+    rows = np.floor(sy.reshape(mh, mw))
+    kernel = warp.Projection.empty(mh, mw)
+    warp.project_map(depth, wm, width, height, near, box, 0, kernel, positions=False)
+    kernel_rows = np.where(kernel.pix >= 0, kernel.pix // width, -1).reshape(mh, mw)
+    for v in range(mh):
+        for row in list(rows[v][~np.isnan(rows[v])]) + list(kernel_rows[v][kernel_rows[v] >= 0]):
+            assert lo[v] <= row <= hi[v], (v, row, lo[v], hi[v])
+    assert (~np.isnan(rows)).sum() > 20
+    if not wide:  # the bounds skip rows: most spans are well under the screen's height
+        assert np.median(hi - lo) < height / 2

@@ -19,7 +19,7 @@ planar mirror, forward-warped into the mirror's pixels every frame.
 Per frame and visible planar mirror: the eye is reflected across the mirror (equations 1
 and 2: M = E - 2 (N.E + d) N; the reflected view direction R_d = E_d - 2 (N.E_d) N, which is
 the paper's 2 (N.E_d) N - E_d with E_d pointing toward the eye), the `per_frame` maps whose
-viewpoints are nearest M are warped (reflectcli/maps/warp.py), holes are filled as asked, and
+viewpoints are nearest M are warped (reflectcli/maps/warp/), holes are filled as asked, and
 the mirror pixels get (1 - r) * base + r * reflected. The warp's cost depends on the zexels,
 not on the scene's polygons. Maps are captured at frame 0: objects that move later are not
 in them (a warning says so), unless `update` recaptures them every N frames or every frame
