@@ -16,7 +16,7 @@ The package, one idea a module:
     visibility   the visibility rule's constant (and the rule, in its docstring)
     order        the zexels' traversal order: row-major, or McMillan's occlusion-compatible
     pixels       the one-pixel splat (z-buffer or ordered), payload rows written as it goes
-    spread       wider fixed splats as a spread of the one-pixel result
+    spreading    wider fixed splats as a spread of the one-pixel result
     squares      adaptive splats and ordered wide ones: each zexel over its square
     payload      copying zexels' rows (colour, triangle) to pixels; the gather pass
     fill         dprm's fill of holes and blend into the frame
@@ -37,7 +37,7 @@ from .projection import (
     screen_matrix,
     warp_matrix,
 )
-from .spread import spread
+from .spreading import spread
 from .squares import splat, splat_radii
 from .visibility import SAME_SURFACE
 

@@ -12,7 +12,7 @@ from .order import ordered_runs
 from .payload import gather_colors
 from .pixels import splat_pixels
 from .projection import project_map, warp_matrix
-from .spread import spread
+from .spreading import spread
 from .squares import splat, splat_radii
 
 
