@@ -1061,6 +1061,35 @@ def reflector_grid(triangle, b1, b2, corners, normals, eye):
     return q, r
 
 
+def mirror_rays(triangle, mirror, drawn, clip_from_world, corners, normals, eye, box):
+    """Twin of virtual.refine.mirror_rays: over the screen box (y0, y1, x0, x1), at each
+    mirror pixel with a triangle, the perspective-correct barycentrics of its center among
+    the triangle's drawn corners (float64: clip space, screen edge functions, then through
+    1/w), and R as reflector_grid makes it; NaN at the box's other pixels, the rest NaN."""
+    h, w = triangle.shape
+    y0, y1, x0, x1 = box
+    r = np.full((h, w, 3), np.nan)
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            t = triangle[y, x]
+            if t < 0 or not mirror[y, x]:
+                continue
+            clip = np.c_[drawn[t].astype(np.float64), np.ones(3)] @ clip_from_world.T
+            sx = (clip[:, 0] / clip[:, 3] + 1) * 0.5 * w  # screen
+            sy = (1 - clip[:, 1] / clip[:, 3]) * 0.5 * h
+            cx, cy = x + 0.5, y + 0.5
+            lam = np.array([(sx[b] - sx[a]) * (cy - sy[a]) - (sy[b] - sy[a]) * (cx - sx[a])
+                            for a, b in ((1, 2), (2, 0), (0, 1))])
+            bary = lam / clip[:, 3]
+            bary = bary / bary.sum()
+            p = bary @ corners[t]
+            n = bary @ normals[t]
+            n = n / max(np.linalg.norm(n), 1e-30)
+            d = (p - eye) / np.linalg.norm(p - eye)
+            r[y, x] = d - 2.0 * (d @ n) * n
+    return r
+
+
 def grid_sample(inside, q, r, sx, sy):
     """Twin of virtual.refine._sample: bilinear Q and R at screen point (sx, sy) over the
     pixel centers inside the part, the missing corners' weight given to the others

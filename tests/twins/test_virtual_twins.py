@@ -27,6 +27,7 @@ from naive import (
 from naive import fill_cracks as naive_fill_cracks
 from naive import gather_corners as naive_gather_corners
 from naive import mirror_boxes as naive_mirror_boxes
+from naive import mirror_rays as naive_mirror_rays
 from naive import part_stencil as naive_part_stencil
 from naive import part_views as naive_part_views
 
@@ -508,6 +509,11 @@ def test_mirror_rays_match_reflector_grid():
     assert r[box].tobytes() == want[box].tobytes()
     assert (r[:3] == 7.0).all() and (r[:, 38:] == 7.0).all()
     assert np.isfinite(r[box]).sum() > 300
+    # and the slow twin, barycentrics worked in float64 from the pixel centers
+    slow = naive_mirror_rays(tri, mirror, corners, m, corners, normals, np.asarray(cam.eye),
+                             (3, 27, 5, 38))
+    assert np.array_equal(np.isnan(r[box]), np.isnan(slow[box]))
+    np.testing.assert_allclose(r[box], slow[box], atol=2e-5)  # float32 barycentrics
 
 
 def test_part_stencil_matches_twin():
