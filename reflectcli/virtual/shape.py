@@ -56,24 +56,25 @@ class ShapeCache:
     """ReflectorShapes by the content of their triangle soup and the decomposition asked."""
 
     entries: dict = field(default_factory=dict)
-    # soup keys by the identity of the soup's arrays and the slice: a static scene hands
-    # the same arrays every frame (Geometry.all_triangles), and hashing a mesh's soup took
-    # milliseconds a frame; the arrays are held, so their ids are not reused
+    # soup keys of one frame's soup arrays by slice: a static scene hands the same arrays
+    # every frame (Geometry.all_triangles), and hashing a mesh's soup took milliseconds a
+    # frame. Only the latest arrays are held (an animated scene's earlier frames are let go).
     keys: dict = field(default_factory=dict)
+    arrays: tuple = ()
 
     def soup_key(self, all_corners: np.ndarray, all_normals: np.ndarray, first: int,
                  count: int) -> tuple:
         """soup_key of all_corners / all_normals [first:first + count], kept while the same
         arrays come back (scene geometry is not written after it is built)."""
-        ident = (id(all_corners), id(all_normals), first, count)
-        kept = self.keys.get(ident)
-        if kept is None or kept[0] is not all_corners or kept[1] is not all_normals:
-            if len(self.keys) > CACHE_SIZE:
-                self.keys.clear()
+        if (len(self.arrays) != 2 or self.arrays[0] is not all_corners
+                or self.arrays[1] is not all_normals):
+            self.arrays = (all_corners, all_normals)
+            self.keys.clear()
+        key = self.keys.get((first, count))
+        if key is None:
             key = soup_key(all_corners[first:first + count], all_normals[first:first + count])
-            kept = (all_corners, all_normals, key)
-            self.keys[ident] = kept
-        return kept[2]
+            self.keys[(first, count)] = key
+        return key
 
     def get(self, soup: tuple, corners: np.ndarray, normals: np.ndarray,
             decompose: bool) -> ReflectorShape:

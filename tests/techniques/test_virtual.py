@@ -539,3 +539,20 @@ def test_frames_do_not_depend_on_the_thread_count(scene):
         for a, b in zip(frames[0], other, strict=True):
             np.testing.assert_array_equal(a.rgb, b.rgb)
             np.testing.assert_array_equal(a.surface, b.surface)
+
+
+def test_shape_cache_holds_only_the_latest_soup_arrays():
+    """Soup keys are kept while the same arrays come back; an animated scene's new arrays
+    let the earlier frames' go (they were pinned before, about a frame of geometry each)."""
+    from reflectcli.virtual.shape import ShapeCache
+
+    cache = ShapeCache()
+    rng = np.random.default_rng(3)
+    a_corners, a_normals = rng.random((10, 3, 3)), rng.random((10, 3, 3))
+    key = cache.soup_key(a_corners, a_normals, 2, 5)
+    assert cache.soup_key(a_corners, a_normals, 2, 5) == key
+    b_corners, b_normals = a_corners.copy(), a_normals.copy()
+    assert cache.soup_key(b_corners, b_normals, 2, 5) == key  # same content, same key
+    assert cache.arrays[0] is b_corners and list(cache.keys) == [(2, 5)]
+    b_corners[3] += 1.0
+    assert cache.soup_key(b_corners.copy(), b_normals, 2, 5) != key

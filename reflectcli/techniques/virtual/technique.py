@@ -86,6 +86,7 @@ class Virtual(Technique):
         state = VirtualState(scene)
         geometry = scene.geometry(0)
         tris = geometry.all_triangles()
+        explosion = False
         for k in range(scene.mirrors.count):
             mine = np.flatnonzero(tris.surface == scene.n_objects + k)
             if not mine.size:
@@ -102,6 +103,8 @@ class Virtual(Technique):
                                                        self.params.decompose)
             soup = state.shapes.soup_key(tris.corners, tris.normals, first, count)
             state.shapes.get(soup, corners, normals, mode == "auto")
+            explosion = True
+        if explosion:
             _ = state.scene_points  # the far maps' bound, made here rather than in frame 0
         return state
 
