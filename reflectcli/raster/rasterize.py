@@ -137,7 +137,8 @@ class RasterWorkspace:
     def chunk_bounds(self, corners: np.ndarray) -> np.ndarray:
         """(chunks, 6) world-space boxes (min xyz, max xyz) of `corners` (T, 3, 3) in runs
         of _CHUNK triangles, kept while the same array comes back (a scene's geometry is
-        built once; its arrays are not written after)."""
+        built once; its arrays are not written after). Corners held in one of this
+        workspace's own buffers (rewritten between calls) are never kept."""
         kept = self._arrays.get("bounds_of")
         if kept is not None and kept[0] is corners:
             return kept[1]
@@ -145,7 +146,8 @@ class RasterWorkspace:
         bounds = np.empty((chunks, 6))
         if chunks:
             run_bounds(corners, _CHUNK, bounds)
-        self._arrays["bounds_of"] = (corners, bounds)
+        if not any(corners.base is a for a in self._arrays.values()):
+            self._arrays["bounds_of"] = (corners, bounds)
         return bounds
 
     def constant(self, name: str, shape: tuple[int, int], dtype, value) -> np.ndarray:

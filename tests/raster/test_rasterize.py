@@ -318,3 +318,20 @@ def test_skipping_chunks_by_their_boxes_changes_nothing(masked):
     skipped = [_box_misses(bounds, c, m, all_planes, 3, 80, 60, xs.min(), xs.max() + 1,
                            ys.min(), ys.max() + 1) for c in range(len(bounds))]
     assert 0 < sum(skipped) < len(bounds)
+
+
+def test_chunk_bounds_not_kept_for_the_workspace_own_buffers():
+    """A scene's corners keep their run boxes across calls; corners in one of the
+    workspace's own buffers (rewritten between calls, e.g. virtual's per-part corners) do
+    not, so a rewritten buffer never meets stale boxes."""
+    from reflectcli.raster.rasterize import RasterWorkspace
+
+    ws = RasterWorkspace()
+    scene_corners = np.ones((300, 3, 3), np.float32)
+    assert ws.chunk_bounds(scene_corners) is ws.chunk_bounds(scene_corners)
+    own = ws.get("virtual_corners", (300, 3, 3), np.float32)
+    own[:] = 1.0
+    first = ws.chunk_bounds(own).copy()
+    own[:] = 5.0
+    again = ws.chunk_bounds(own)  # the same view, rewritten
+    assert (first == 1.0).all() and (again == 5.0).all()
