@@ -173,7 +173,8 @@ def bench_warp(anchors: Path, reps: int) -> None:
                 depth, col4, a_, e_, cst, b.zd, b.cd, b.zt, b.ct, b.pix, b.zmap, b.rlo, b.rhi,
                 b.rcnt, s, numba.get_num_threads(), b.vzs, b.vqs))
         # one thread: CPU time, so a shared machine's waits do not enter the ratio
-        one = numba.get_num_threads() == 1
+        # (numba's workqueue layer would run parallel loops on a worker thread: wall time)
+        one = numba.get_num_threads() == 1 and numba.threading_layer() != "workqueue"
         t = round_robin(fns, reps, clock=time.thread_time if one else time.perf_counter)
         anchor = ms(t["anchor"]) if "anchor" in t else f"(none; numpy copy {ms(t['copy'])})"
         base = t.get("anchor", t["copy"])

@@ -17,4 +17,6 @@ One idea per module, in the order a frame uses them (reflectcli/techniques/virtu
     tiles         tile culling and seeds for the refinement (numba)
     screen        world points to screen pixels
     raster        drawing virtual polygons over the reflector's pixels
+    compose       a frame's glue as kernels: mirrors in view and their screen boxes, part
+                  stencils, corners gathered with flags, cracks closed over a box
 """

@@ -79,6 +79,8 @@ def reflected_rays(primary: Primary, eye: np.ndarray, box: tuple[int, int, int, 
     drawn = buffers.corners if buffers.recover else None
     if drawn is None:  # a pass that kept them: recovering gives the same
         drawn = np.ascontiguousarray(primary.triangles.corners, np.float32)
+    # the primary pass is drawn by rasterize, which always records its projection
+    assert buffers.clip_from_world is not None, "reflected_rays needs the primary's projection"
     mirror_rays(tri, primary.frame.mirror_mask, drawn,
                 np.ascontiguousarray(buffers.clip_from_world, np.float64),
                 primary.triangles.corners, primary.triangles.normals,

@@ -80,6 +80,8 @@ def part_views(triangle, local, size, hidden, inside, marks):
             hidden[p, y, x] = f
             inside[p, y, x] = f >= 0
             if f >= 0:
+                # rows of one tile row may be on two threads: both store the same True
+                # (a benign race; no value depends on which store lands)
                 marks[p, y // size, x // size] = True
 
 
