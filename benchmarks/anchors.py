@@ -72,6 +72,14 @@ def load_anchor(folder: Path, name: str):
         return None
 
 
+def _threading_layer() -> str:
+    """numba's threading layer, once a parallel loop has run (else 'unknown')."""
+    try:
+        return numba.threading_layer()
+    except ValueError:
+        return "unknown"
+
+
 def round_robin(fns: dict, reps: int, warm: int = 2,
                 clock=time.perf_counter) -> dict[str, np.ndarray]:
     """name -> seconds per call; each round calls every function once. `clock`:
@@ -174,7 +182,7 @@ def bench_warp(anchors: Path, reps: int) -> None:
                 b.rcnt, s, numba.get_num_threads(), b.vzs, b.vqs))
         # one thread: CPU time, so a shared machine's waits do not enter the ratio
         # (numba's workqueue layer would run parallel loops on a worker thread: wall time)
-        one = numba.get_num_threads() == 1 and numba.threading_layer() != "workqueue"
+        one = numba.get_num_threads() == 1 and _threading_layer() != "workqueue"
         t = round_robin(fns, reps, clock=time.thread_time if one else time.perf_counter)
         anchor = ms(t["anchor"]) if "anchor" in t else f"(none; numpy copy {ms(t['copy'])})"
         base = t.get("anchor", t["copy"])
