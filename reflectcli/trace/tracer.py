@@ -197,17 +197,17 @@ class _Waves:
             generate = 0
         tfar = np.array([cam.far - cam.near], np.float32)
         return self._run(0, counts, generate, camera_rays(cam, samples), "a", tfar, follow,
-                         color, depth, surface, reflected_hit)
+                         color, (depth, surface), reflected_hit)
 
     def bounce(self, bounce: int, counts: np.ndarray, name: str, color, reflected_hit,
                follow: bool) -> tuple[np.ndarray, str]:
         """Wave `bounce` on the rays the last wave emitted into buffer `name`."""
-        nothing = (np.empty(0, np.float32), np.empty(0, np.int32))
+        b, n = self.accel.buffers, self.n
+        hits = (b.get("hit_t", n, np.float32), b.get("hit_surface", n, np.int32))
         return self._run(bounce, counts, 0, camera_rays(self.camera, 1), name,
-                         np.array([_FAR_AWAY], np.float32), follow, color, *nothing,
-                         reflected_hit)
+                         np.array([_FAR_AWAY], np.float32), follow, color, hits, reflected_hit)
 
-    def _run(self, bounce, counts, generate, cam, name, tfar, follow, color, depth, surface,
+    def _run(self, bounce, counts, generate, cam, name, tfar, follow, color, hits,
              reflected_hit) -> tuple[np.ndarray, str]:
         t0 = time.perf_counter()
         b, n = self.accel.buffers, self.n
@@ -219,14 +219,12 @@ class _Waves:
         mirrors = (self.accel.mirrors.handle, bool(self.accel.mirrors.count), *hits_m)
         analytic = (*self.analytic, b.get("analytic_t", n, np.float32),
                     b.get("analytic_k", n, np.int32))
-        hits = (b.get("hit_t", n, np.float32), b.get("hit_surface", n, np.int32))
         out_name = "b" if name == "a" else "a"
         out_counts = np.empty(counts.shape[0], np.int64)
         with numba.parallel_chunksize(1):
             trace_wave(self.seg_len, counts, generate, cam, rays, tfar, objects, mirrors,
                        analytic, self.surfaces, follow, bounce, hits, color,
-                       b.rays(out_name, n), out_counts, self.near, depth, surface,
-                       reflected_hit)
+                       b.rays(out_name, n), out_counts, self.near, reflected_hit)
         self.seconds += time.perf_counter() - t0
         return out_counts, out_name
 

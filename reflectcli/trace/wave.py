@@ -25,8 +25,8 @@ from .resolve import resolve_range
 
 @njit(cache=True, parallel=True)
 def trace_wave(seg_len, counts, rows_per_seg, cam, rays, tfar, objects, mirrors, analytic,
-               surfaces, follow, bounce, hits, color, out_rays, out_counts, near, depth,
-               surface_ids, reflected_hit):
+               surfaces, follow, bounce, hits, color, out_rays, out_counts, near,
+               reflected_hit):
     """Wave `bounce` (0: primary) over segments k = 0 .. len(counts) - 1: rays
     k * seg_len .. k * seg_len + counts[k] - 1 of `rays` (origins, dirs, weights, slots).
 
@@ -36,11 +36,11 @@ def trace_wave(seg_len, counts, rows_per_seg, cam, rays, tfar, objects, mirrors,
     a nonzero handle is traced here; with none, the hit arrays are either given (the embreex
     fallback fills them first) or all misses. `analytic`: (any analytic mirror, kind,
     params, quad edges, t, index). `surfaces`: resolve_range's scene arrays, from the
-    objects' corners to the background. `hits`: (hit_t, hit_surface) per ray.
+    objects' corners to the background. `hits`: (hit_t, hit_surface) per ray; the primary
+    wave's are the frame's depth (t + near, inf on a miss) and surface ids.
 
     Writes color (rows of the rays' slots), the reflected rays to out_rays with their number
-    per segment in out_counts; the primary wave writes depth (t + near, inf on a miss) and
-    surface_ids per ray, and the first bounce marks reflected_hit[slot] of its rays that
+    per segment in out_counts; the first bounce marks reflected_hit[slot] of its rays that
     hit anything."""
     origins, dirs, weight, slot = rays
     obj_scene, obj_given, t_o, p_o, u_o, v_o = objects
@@ -77,11 +77,9 @@ def trace_wave(seg_len, counts, rows_per_seg, cam, rays, tfar, objects, mirrors,
         out_counts[k] = resolve_range(
             lo, hi, rays, (t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m), (t_a, k_a), surfaces,
             follow, color, hits, out_rays, lo, first)
-        if first:
+        if first:  # depth: t + near (a miss's inf stays inf)
             for i in range(lo, hi):
-                hit = hit_surface[i] >= 0
-                depth[i] = np.float32(hit_t[i]) + near if hit else np.float32(np.inf)
-                surface_ids[i] = hit_surface[i]
+                hit_t[i] += near
         elif bounce == 1:
             for i in range(lo, hi):
                 if hit_surface[i] >= 0:
