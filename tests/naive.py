@@ -570,8 +570,9 @@ def embreex_hits(corners, o, d, tfar):
 
 def wave(counts, seg_len, rays, tfar, obj_corners, mirror_corners, kind, params, surfaces,
          follow, bounce, near, color):
-    """Twin of trace.wave.trace_wave on given rays: segment k holds rays k * seg_len ..
-    k * seg_len + counts[k] - 1 of rays (origins, dirs, weights, slots). Hits: Embree's
+    """Twin of one wave of trace.wave.trace_segments (its _wave on every segment) on given
+    rays: segment k holds rays k * seg_len .. k * seg_len + counts[k] - 1 of rays (origins,
+    dirs, weights, slots). Hits: Embree's
     reference (embreex) for object and mirror triangles, the closed forms for analytic
     mirrors; shading: `resolve`; each segment's reflected rays in order. Returns (rows,
     color, hit_t, hit_surface, alive, emitted per segment (origins, dirs, weights, slots),

@@ -50,6 +50,10 @@ HIZ = [S + "test_hiz_equals_pixel_walk_on_random_buffers",
 DDA = [S + "test_dda_equals_listing"]
 RESOLVE = [S + "test_resolve_and_confidence_match_twins"]
 WAVE = [T + "test_wave_matches_twin", T + "test_primary_wave_matches_twin"]
+# whole frames, every wave of a segment in one call against one wave a call (the embreex
+# fallback), and any thread count
+FRAMES = ["tests/trace/test_tracer_frames.py::test_embreex_fallback_gives_the_same_frames",
+          "tests/trace/test_tracer_frames.py::test_frames_do_not_depend_on_the_thread_count"]
 
 # kernel -> (tests comparing it with its twin, the kernel it is reached through or None)
 KERNELS: dict[str, tuple[list[str], str | None]] = {
@@ -104,12 +108,13 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "trace/analytic.py:_intersect": (
         ANALYTIC + [E + "test_analytic_property_cases_are_mostly_clear"], "intersect_analytic"),
     "trace/analytic.py:_nearest_into": (ANALYTIC, "_intersect"),
-    "trace/analytic.py:intersect_range": (WAVE, "trace_wave"),
+    "trace/analytic.py:intersect_range": (WAVE, "_wave"),
     "trace/resolve.py:_pick": ([T + "test_pick_matches_twin_on_ties_and_misses",
                                T + "test_resolve_matches_twin"], None),
     "trace/resolve.py:resolve_range": ([T + "test_resolve_matches_twin"] + WAVE, None),
-    "trace/wave.py:trace_wave": (WAVE, None),
-    "trace/wave.py:_misses": (WAVE, "trace_wave"),
+    "trace/wave.py:trace_segments": (WAVE + FRAMES, None),
+    "trace/wave.py:_wave": (WAVE + FRAMES, "trace_segments"),
+    "trace/wave.py:_misses": (WAVE, "_wave"),
     "trace/resolve.py:_add": ([T + "test_resolve_matches_twin"], "resolve_range"),
     "trace/resolve.py:_ray": ([T + "test_resolve_matches_twin"], "resolve_range"),
     "trace/resolve.py:_reflect": ([T + "test_resolve_matches_twin"] + WAVE, "resolve_range"),

@@ -1,5 +1,5 @@
-"""Wavefront Whitted tracing of one frame: primary rays, then one wave per mirror bounce
-(`wave.trace_wave`: one parallel loop over segments of rays each).
+"""Wavefront Whitted tracing of one frame: primary rays, then one wave per mirror bounce, all
+in one parallel loop over segments of rays (`wave.trace_segments`).
 
 A ray's color accumulates along its path: at an object, weight * shade; at a mirror,
 weight * (1 - r) * base, and the weight becomes weight * r for the reflected ray; on a miss,
@@ -21,7 +21,7 @@ from ..scene.types import Geometry, Scene
 from .analytic import has_analytic, quad_edges
 from .embree import TriangleScene
 from .rays import camera_rays, primary_rays
-from .wave import trace_wave
+from .wave import trace_segments
 
 _FAR_AWAY = np.float32(1e30)  # tfar of reflected rays
 SEGMENT_RAYS = 4096  # about this many rays per segment (whole image rows): one work item
@@ -105,12 +105,12 @@ def trace_frame(
 ) -> Frame:
     """Ray trace one frame; `samples` x `samples` rays per pixel on a regular grid.
 
-    Each wave's segments (a few image rows of rays each) are handed out one at a time to
-    whichever thread is free (not one fixed share per thread): on a busy machine a thread
-    that loses its core no longer holds the others up. Every ray writes only its own
-    outputs, so results do not depend on who traced what."""
+    The frame's segments (a few image rows of rays each, `wave.trace_segments`) are handed
+    out one at a time to whichever thread is free (not one fixed share per thread): on a
+    busy machine a thread that loses its core no longer holds the others up. Every ray
+    writes only its own outputs, so results do not depend on who traced what."""
     start = time.perf_counter()
-    tracer = _Waves(scene, geometry, accel, camera, threads)
+    tracer = _Segments(scene, geometry, accel, camera, threads)
     h, w = camera.height, camera.width
     spp = samples * samples
     n = h * w * spp
@@ -118,16 +118,7 @@ def trace_frame(
     depth = np.empty(n, np.float32)
     surface = np.empty(n, np.int32)
     reflected_hit = np.zeros(n, np.float32)  # first reflected ray hit geometry
-    counts, name = tracer.primary(samples, color, depth, surface, reflected_hit,
-                                  follow=max_depth > 0)
-    traced = n
-    for bounce in range(1, max_depth + 1):
-        emitted = int(counts.sum())
-        if emitted == 0:
-            break
-        traced += emitted
-        counts, name = tracer.bounce(bounce, counts, name, color, reflected_hit,
-                                     follow=bounce < max_depth)
+    traced = tracer.run(samples, max_depth, color, depth, surface, reflected_hit)
     if spp == 1:  # the mean of one sample is the sample (bit for bit): no float64 pass
         rgb = color.reshape(h, w, 3)
         reflected_hit = reflected_hit.reshape(h, w)
@@ -138,9 +129,8 @@ def trace_frame(
         depth = np.empty(h * w, np.float32)
         surface = np.empty(h * w, np.int32)
         scratch = accel.buffers.get("center_color", h * w, np.float32, 3)
-        tracer.primary(1, scratch, depth, surface, reflected_hit, follow=False)
-        traced += h * w
-    timings = {"waves": tracer.seconds, "trace": time.perf_counter() - start}
+        traced += tracer.run(1, 0, scratch, depth, surface, reflected_hit)
+    timings = {"segments": tracer.seconds, "trace": time.perf_counter() - start}
     return Frame(
         rgb=rgb,
         depth=depth.reshape(h, w),
@@ -155,10 +145,10 @@ def trace_frame(
     )
 
 
-class _Waves:
-    """The waves of one frame: the arguments of trace_wave that stay the same, and its calls.
-    Rays alternate between the kept ray buffers "a" and "b"; every wave's arrays span the
-    primary wave's n rays (a segment's reflected rays stay in its part of that range)."""
+class _Segments:
+    """trace_segments' arguments that stay the same over a frame, and its calls. Rays
+    alternate between the kept ray buffers "a" and "b", each spanning the primary rays
+    (a segment's reflected rays stay in its part of that range)."""
 
     def __init__(self, scene: Scene, geometry: Geometry, accel: Accelerators, camera: Camera,
                  threads: int) -> None:
@@ -176,66 +166,54 @@ class _Waves:
                          accel.buffers.quad_edges(m.kind, m.params))
         # embreex traces outside the kernel (no Embree library for it, or numba's JIT off)
         self.fallback = any(s.count and not s.handle for s in (accel.objects, accel.mirrors))
-        self.near = np.float32(camera.near)
-        self.n = self.seg_len = 0
 
-    def primary(self, samples: int, color, depth, surface, reflected_hit, follow: bool
-                ) -> tuple[np.ndarray, str]:
-        """Wave 0: the camera's rays, in buffer "a"; returns (rays emitted per segment, the
-        buffer they are in)."""
-        cam = self.camera
+    def run(self, samples: int, max_depth: int, color, depth, surface, reflected_hit) -> int:
+        """The camera's rays and max_depth bounces; returns how many rays were traced."""
+        t0 = time.perf_counter()
+        cam, b = self.camera, self.accel.buffers
         per_row = cam.width * samples * samples
         rows = max(1, round(SEGMENT_RAYS / per_row))
-        self.seg_len = rows * per_row
-        self.n = n = cam.height * per_row
+        seg_len = rows * per_row
+        n = cam.height * per_row
         segments = -(-cam.height // rows)
-        counts = np.full(segments, self.seg_len, np.int64)
-        counts[-1] = n - (segments - 1) * self.seg_len
-        generate = rows
-        if self.fallback:  # the rays are made first, for embreex
-            primary_rays(cam, samples, out=self.accel.buffers.rays("a", n)[:2])
-            generate = 0
-        tfar = np.array([cam.far - cam.near], np.float32)
-        return self._run(0, counts, generate, camera_rays(cam, samples), "a", tfar, follow,
-                         color, (depth, surface), reflected_hit)
-
-    def bounce(self, bounce: int, counts: np.ndarray, name: str, color, reflected_hit,
-               follow: bool) -> tuple[np.ndarray, str]:
-        """Wave `bounce` on the rays the last wave emitted into buffer `name`."""
-        b, n = self.accel.buffers, self.n
-        hits = (b.get("hit_t", n, np.float32), b.get("hit_surface", n, np.int32))
-        return self._run(bounce, counts, 0, camera_rays(self.camera, 1), name,
-                         np.array([_FAR_AWAY], np.float32), follow, color, hits, reflected_hit)
-
-    def _run(self, bounce, counts, generate, cam, name, tfar, follow, color, hits,
-             reflected_hit) -> tuple[np.ndarray, str]:
-        t0 = time.perf_counter()
-        b, n = self.accel.buffers, self.n
-        rays = b.rays(name, n)
+        counts = np.full(segments, seg_len, np.int64)
+        counts[-1] = n - (segments - 1) * seg_len
+        traced = np.zeros((segments, max_depth + 1), np.int64)
+        buffers = (b.rays("a", n), b.rays("b", n))
         hits_o, hits_m = b.hits("objects", n), b.hits("mirrors", n)
-        if self.fallback:
-            self._embreex(counts, rays, tfar, hits_o, hits_m)
-        objects = (self.accel.objects.handle, bool(self.accel.objects.count), *hits_o)
-        mirrors = (self.accel.mirrors.handle, bool(self.accel.mirrors.count), *hits_m)
-        analytic = (*self.analytic, b.get("analytic_t", n, np.float32),
-                    b.get("analytic_k", n, np.int32))
-        out_name = "b" if name == "a" else "a"
-        out_counts = np.empty(counts.shape[0], np.int64)
-        with numba.parallel_chunksize(1):
-            trace_wave(self.seg_len, counts, generate, cam, rays, tfar, objects, mirrors,
-                       analytic, self.surfaces, follow, bounce, hits, color,
-                       b.rays(out_name, n), out_counts, self.near, reflected_hit)
+        args = [seg_len, counts, rows, camera_rays(cam, samples), buffers,
+                np.array([cam.far - cam.near, _FAR_AWAY], np.float32),
+                (self.accel.objects.handle, bool(self.accel.objects.count), *hits_o),
+                (self.accel.mirrors.handle, bool(self.accel.mirrors.count), *hits_m),
+                (*self.analytic, b.get("analytic_t", n, np.float32),
+                 b.get("analytic_k", n, np.int32)),
+                self.surfaces, (0, max_depth), max_depth,
+                ((depth, surface), (b.get("hit_t", n, np.float32),
+                                    b.get("hit_surface", n, np.int32))),
+                color, np.float32(cam.near), reflected_hit, traced]
+        if not self.fallback:
+            with numba.parallel_chunksize(1):
+                trace_segments(*args)
+        else:  # one wave a call, embreex tracing its rays first
+            primary_rays(cam, samples, out=buffers[0][:2])
+            args[2] = 0
+            for bounce in range(max_depth + 1):
+                if not counts.any():
+                    break
+                self._embreex(seg_len, counts, buffers[bounce % 2], args[5][min(bounce, 1)],
+                              hits_o, hits_m)
+                args[10] = (bounce, bounce)
+                trace_segments(*args)
         self.seconds += time.perf_counter() - t0
-        return out_counts, out_name
+        return int(traced.sum())
 
-    def _embreex(self, counts, rays, tfar, hits_o, hits_m) -> None:
-        """The hits of the wave's rays by the embreex binding, into the hit arrays."""
-        rows = np.concatenate([np.arange(k * self.seg_len, k * self.seg_len + c)
+    def _embreex(self, seg_len, counts, rays, tfar, hits_o, hits_m) -> None:
+        """The hits of a wave's rays by the embreex binding, into the hit arrays."""
+        rows = np.concatenate([np.arange(k * seg_len, k * seg_len + c)
                                for k, c in enumerate(counts)])
         for scene, out in ((self.accel.objects, hits_o), (self.accel.mirrors, hits_m)):
             if scene.count:
                 got = scene.intersect(rays[0][rows], rays[1][rows],
-                                      np.full(rows.shape[0], tfar[0], np.float32),
-                                      self.threads)
+                                      np.full(rows.shape[0], tfar, np.float32), self.threads)
                 for a, g in zip(out, got, strict=True):
                     a[rows] = g

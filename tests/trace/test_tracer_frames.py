@@ -34,10 +34,11 @@ def test_frames_do_not_depend_on_the_thread_count(scene, extra):
 
 
 @compiled_only
-@pytest.mark.parametrize(("scene", "extra"), CASES[:2])
+@pytest.mark.parametrize(("scene", "extra"), CASES)
 def test_embreex_fallback_gives_the_same_frames(scene, extra, monkeypatch):
     """Without the library file for the kernels the embreex binding traces each wave's rays
-    before the wave: the same bytes (Embree's hits are the same to the bit either way)."""
+    before the wave, one wave a call, where the kernels take each segment through all its
+    waves in one call: the same bytes (Embree's hits are the same to the bit either way)."""
     import reflectcli.trace.embree as embree
 
     want = frame_arrays(open_scene(scene, "raytrace", (*SMALL, *extra)).render_frame(0))

@@ -12,7 +12,7 @@ from reflectcli.scene.types import CYLINDER, LAMBERT, MESH, MIRROR_PARAMS, PLANA
 from reflectcli.trace.analytic import quad_edges
 from reflectcli.trace.rays import camera_rays
 from reflectcli.trace.resolve import _pick, resolve_range
-from reflectcli.trace.wave import trace_wave
+from reflectcli.trace.wave import trace_segments
 
 
 @compiled_only
@@ -141,7 +141,7 @@ def test_resolve_matches_twin(seed, follow, shading):
 
 
 def wave_scene(rng, shading):
-    """A small scene for trace_wave: 40 object triangles, a mesh mirror of 6 triangles, and
+    """A small scene for trace_segments: 40 object triangles, a mesh mirror of 6 triangles, and
     planar, sphere and cylinder mirrors: (object corners, mirror corners, kind, params,
     resolve_range's surfaces)."""
     mat_i, mat_f, texels = materials(rng)
@@ -176,7 +176,7 @@ def wave_scene(rng, shading):
 
 def run_wave(scenes, kind, params, surfaces, counts, seg_len, rows_per_seg, cam, rays, tfar,
              follow, bounce, near, color, given=None):
-    """trace_wave with fresh outputs: (hit_t (depth: t + near on the primary wave),
+    """One wave of trace_segments, fresh outputs: (hit_t (depth: t + near on the primary wave),
     hit_surface, out rays, out counts, reflected_hit). `given`: the objects' and mirrors'
     hits, filled before (the embreex fallback), instead of the scenes' handles."""
     n = seg_len * len(counts)
@@ -194,16 +194,21 @@ def run_wave(scenes, kind, params, surfaces, counts, seg_len, rows_per_seg, cam,
     out_hits = (np.full(n, -5.0, np.float32), np.full(n, -5, np.int32))
     out_rays = (np.full((n, 3), np.nan, np.float32), np.full((n, 3), np.nan, np.float32),
                 np.full((n, 3), np.nan, np.float32), np.full(n, -9, np.int64))
-    out_counts = np.full(len(counts), -1, np.int64)
+    out_counts = counts.copy()
     reflected_hit = np.zeros(color.shape[0], np.float32)
-    trace_wave(seg_len, counts, rows_per_seg, cam, rays, np.array([tfar], np.float32),
-               *sides, analytic, surfaces, follow, bounce, out_hits, color, out_rays,
-               out_counts, np.float32(near), reflected_hit)
+    traced = np.full((len(counts), bounce + 2), -1, np.int64)
+    buffers = (rays, out_rays) if bounce % 2 == 0 else (out_rays, rays)
+    trace_segments(seg_len, out_counts, rows_per_seg, cam, buffers,
+                   np.array([tfar, tfar], np.float32), *sides, analytic, surfaces,
+                   (bounce, bounce), bounce + 1 if follow else bounce, (out_hits, out_hits),
+                   color, np.float32(near), reflected_hit, traced)
+    np.testing.assert_array_equal(traced[:, bounce], counts)
+    assert (traced[:, :bounce] == -1).all() and (traced[:, bounce + 1:] == -1).all()
     return (*out_hits, out_rays, out_counts, reflected_hit)
 
 
 def check_wave(got, want, counts, seg_len, n_colors, color, want_color, primary=False):
-    """trace_wave's outputs against the wave twin's, on the rays the twin calls clear (the
+    """A wave's outputs against the wave twin's, on the rays the twin calls clear (the
     primary wave's t is depth)."""
     rows, _, hit_t, hit_surface, alive, emitted, depth, marginal = want
     g_t, g_surface, g_rays, g_counts, _ = got
