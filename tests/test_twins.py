@@ -117,7 +117,6 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "trace/wave.py:_misses": (WAVE, "_wave"),
     "trace/resolve.py:_add": ([T + "test_resolve_matches_twin"], "resolve_range"),
     "trace/resolve.py:_ray": ([T + "test_resolve_matches_twin"], "resolve_range"),
-    "trace/resolve.py:_reflect": ([T + "test_resolve_matches_twin"] + WAVE, "resolve_range"),
     "maps/cube.py:cube_face_coords": ([M + "test_cube_lookup_matches_twin"], None),
     "maps/cube.py:cube_sample": ([M + "test_cube_lookup_matches_twin"], None),
     "maps/cube.py:image_sample": ([M + "test_image_sample_matches_twin"], None),

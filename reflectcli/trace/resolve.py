@@ -85,12 +85,6 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
     hit_t, hit_surface = hits
     out_o, out_d, out_w, out_slot = out_rays
     j = out_start
-    # mirror hits whose reflected ray is still to be worked out: point, geometric normal,
-    # shading normal, incoming direction, |geometric normal|; weight; slot
-    pend = np.empty((13, _PENDING))
-    pend_w = np.empty((_PENDING, 3), np.float32)
-    pend_slot = np.empty(_PENDING, np.int64)
-    m = 0
     for i in range(lo, hi):
         if first:
             s = np.int64(i)
@@ -172,62 +166,29 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
             _add(color, s, c, w[c] * (1.0 - m_refl[k, c]) * m_base[k, c], first)
         if not follow:
             continue
-        w0, w1, w2 = w[0] * m_refl[k, 0], w[1] * m_refl[k, 1], w[2] * m_refl[k, 2]
-        if not (w0 > 0.0 or w1 > 0.0 or w2 > 0.0):
-            continue
-        # the reflected ray is worked out later, with others (_reflect); the geometric
-        # normal's length here, in its own type (float32 for a mesh mirror's)
-        g_len = np.sqrt(gx * gx + gy * gy + gz * gz)
-        pend[0, m], pend[1, m], pend[2, m] = px, py, pz
-        pend[3, m], pend[4, m], pend[5, m] = gx, gy, gz
-        pend[6, m], pend[7, m], pend[8, m] = nx, ny, nz
-        pend[9, m], pend[10, m], pend[11, m] = dx, dy, dz
-        pend[12, m] = g_len
-        pend_w[m, 0], pend_w[m, 1], pend_w[m, 2] = w0, w1, w2
-        pend_slot[m] = s
-        m += 1
-        if m == _PENDING:
-            j = _reflect(pend, pend_w, pend_slot, m, out_o, out_d, out_w, out_slot, j)
-            m = 0
-    j = _reflect(pend, pend_w, pend_slot, m, out_o, out_d, out_w, out_slot, j)
-    return j - out_start
-
-
-_PENDING = 256  # reflected rays worked out together
-
-
-@njit(cache=True, inline="always")
-def _reflect(pend, pend_w, pend_slot, m, out_o, out_d, out_w, out_slot, j):
-    """The reflected rays of the first m pending mirror hits into the out arrays from j on;
-    returns j + m. Both normals are faced toward the incoming ray (mirrors are two-sided)
-    and made unit, the direction reflected about the shading normal, and the ray started a
-    little off the surface (eps, scaled to the coordinates' magnitude), moving along the ray
-    itself so that it stays on the exact reflected line. A loop without branches over the
-    hits' columns, so that the square roots and divisions vectorise."""
-    for q in range(m):
-        px, py, pz = pend[0, q], pend[1, q], pend[2, q]
-        gx, gy, gz = pend[3, q], pend[4, q], pend[5, q]
-        nx, ny, nz = pend[6, q], pend[7, q], pend[8, q]
-        dx, dy, dz = pend[9, q], pend[10, q], pend[11, q]
-        flip = gx * dx + gy * dy + gz * dz > 0.0
-        gx, gy, gz = (-gx if flip else gx), (-gy if flip else gy), (-gz if flip else gz)
-        flip = nx * dx + ny * dy + nz * dz > 0.0
-        nx, ny, nz = (-nx if flip else nx), (-ny if flip else ny), (-nz if flip else nz)
+        # face both normals toward the incoming ray (mirrors are two-sided)
+        if gx * dx + gy * dy + gz * dz > 0.0:
+            gx, gy, gz = -gx, -gy, -gz
+        if nx * dx + ny * dy + nz * dz > 0.0:
+            nx, ny, nz = -nx, -ny, -nz
         inv = 1.0 / np.sqrt(nx * nx + ny * ny + nz * nz)
         nx, ny, nz = nx * inv, ny * inv, nz * inv
-        inv = 1.0 / pend[12, q]
+        inv = 1.0 / np.sqrt(gx * gx + gy * gy + gz * gz)
         gx, gy, gz = gx * inv, gy * inv, gz * inv
         dn = dx * nx + dy * ny + dz * nz
         rx, ry, rz = dx - 2.0 * dn * nx, dy - 2.0 * dn * ny, dz - 2.0 * dn * nz
         inv = 1.0 / np.sqrt(rx * rx + ry * ry + rz * rz)
         rx, ry, rz = rx * inv, ry * inv, rz * inv
+        # start the reflected ray a little off the surface (eps, scaled to the coordinates'
+        # magnitude), moving along the ray itself so that it stays on the exact reflected line
         eps = 1e-4 * (1.0 + max(abs(px), abs(py), abs(pz)))
         step = eps / max(rx * gx + ry * gy + rz * gz, 1e-2)
-        out_o[j + q, 0] = px + step * rx
-        out_o[j + q, 1] = py + step * ry
-        out_o[j + q, 2] = pz + step * rz
-        out_d[j + q, 0], out_d[j + q, 1], out_d[j + q, 2] = rx, ry, rz
-        out_w[j + q, 0], out_w[j + q, 1], out_w[j + q, 2] = (
-            pend_w[q, 0], pend_w[q, 1], pend_w[q, 2])
-        out_slot[j + q] = pend_slot[q]
-    return j + m
+        w0, w1, w2 = w[0] * m_refl[k, 0], w[1] * m_refl[k, 1], w[2] * m_refl[k, 2]
+        if not (w0 > 0.0 or w1 > 0.0 or w2 > 0.0):
+            continue
+        out_o[j, 0], out_o[j, 1], out_o[j, 2] = px + step * rx, py + step * ry, pz + step * rz
+        out_d[j, 0], out_d[j, 1], out_d[j, 2] = rx, ry, rz
+        out_w[j, 0], out_w[j, 1], out_w[j, 2] = w0, w1, w2
+        out_slot[j] = s
+        j += 1
+    return j - out_start

@@ -44,7 +44,6 @@ def test_resolve_matches_twin(seed, follow, shading):
     rng = np.random.default_rng(seed)
     mat_i, mat_f, texels = materials(rng)
     light_f = lights(rng)
-    # more mirror hits than resolve_range works out at once (_PENDING)
     n, n_obj_tri, n_mirror_tri, n_objects = 700, 7, 5, 3
     kind, params = mirror_params(rng)
     origins = rng.uniform(-3, 3, (n, 3)).astype(np.float32)
