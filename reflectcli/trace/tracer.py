@@ -190,7 +190,7 @@ class _Segments:
                 self.surfaces, (0, max_depth), max_depth,
                 ((depth, surface), (b.get("hit_t", n, np.float32),
                                     b.get("hit_surface", n, np.int32))),
-                color, np.float32(cam.near), reflected_hit, traced]
+                color, np.float32(cam.near), reflected_hit, traced, numba.get_num_threads()]
         if not self.fallback:
             with numba.parallel_chunksize(1):
                 trace_segments(*args)

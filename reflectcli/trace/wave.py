@@ -14,8 +14,11 @@ on which thread traced what.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from .analytic import intersect_range as analytic_range
 from .embree import intersect_range as embree_range
@@ -27,13 +30,13 @@ from .resolve import resolve_range
 @njit(cache=True, parallel=True)
 def trace_segments(seg_len, counts, rows_per_seg, cam, buffers, tfars, objects, mirrors,
                    analytic, surfaces, bounces, max_depth, hits, color, near, reflected_hit,
-                   traced):
+                   traced, threads):
     """Waves bounces[0] .. bounces[1] (0: the primary rays) of segments k = 0 ..
     len(counts) - 1, each segment through all of them in turn: wave b traces rays
     k * seg_len .. k * seg_len + counts[k] - 1 of ray buffer buffers[b % 2] (origins,
     dirs, weights, slots) and emits the reflected rays into buffers[(b + 1) % 2] (while
     b < max_depth). counts[k] becomes the number the last wave emitted; traced[k, b] is the
-    number wave b traced.
+    number wave b traced. `threads`: numba's thread count.
 
     `rows_per_seg` > 0: the primary wave makes its rays here, image rows k * rows_per_seg
     onward of `cam` (rays.camera_rays) (0: they are given). `tfars`: the primary rays' and
@@ -47,19 +50,66 @@ def trace_segments(seg_len, counts, rows_per_seg, cam, buffers, tfars, objects, 
     reflected_hit[slot] of its rays that hit anything."""
     rays_a, rays_b = buffers  # (tuples of tuples do not enter the parallel loop)
     first_hits, hits = hits
-    for k in prange(counts.shape[0]):
-        count = counts[k]
-        for bounce in range(bounces[0], bounces[1] + 1):
-            traced[k, bounce] = count
-            if count == 0:
+    # numba's OpenMP loop gives each thread a fixed share of its items: one item per thread
+    # here, each claiming the next segment until none is left, so that a thread that lost
+    # its core, or met the costly rows, leaves the rest to the others
+    claimed = np.zeros(1, np.int64)
+    for _ in prange(threads):
+        while True:
+            k = _claim(claimed)
+            if k >= counts.shape[0]:
                 break
-            even = bounce % 2 == 0
-            count = _wave(k * seg_len, k * seg_len + count, k, rows_per_seg, cam,
-                          rays_a if even else rays_b, tfars[min(bounce, 1):min(bounce, 1) + 1],
-                          objects, mirrors, analytic, surfaces, bounce < max_depth, bounce,
-                          first_hits if bounce == 0 else hits, color,
-                          rays_b if even else rays_a, near, reflected_hit)
-        counts[k] = count
+            _segment(k, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, objects,
+                     mirrors, analytic, surfaces, bounces, max_depth, first_hits, hits, color,
+                     near, reflected_hit, traced)
+
+
+@njit(cache=True, inline="always")
+def _segment(k, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, objects, mirrors,
+             analytic, surfaces, bounces, max_depth, first_hits, hits, color, near,
+             reflected_hit, traced):
+    """Segment k through waves bounces[0] .. bounces[1]."""
+    count = counts[k]
+    for bounce in range(bounces[0], bounces[1] + 1):
+        traced[k, bounce] = count
+        if count == 0:
+            break
+        even = bounce % 2 == 0
+        count = _wave(k * seg_len, k * seg_len + count, k, rows_per_seg, cam,
+                      rays_a if even else rays_b, tfars[min(bounce, 1):min(bounce, 1) + 1],
+                      objects, mirrors, analytic, surfaces, bounce < max_depth, bounce,
+                      first_hits if bounce == 0 else hits, color, rays_b if even else rays_a,
+                      near, reflected_hit)
+    counts[k] = count
+
+
+_INTERPRETED = bool(numba.config.DISABLE_JIT)
+
+
+@intrinsic
+def _fetch_add_one(typingctx, counter):
+    """counter[0] += 1 as one atomic step (an int64 array); the value before."""
+    sig = types.int64(counter)
+
+    def codegen(context, builder, signature, args):
+        aryty = signature.args[0]
+        ary = context.make_array(aryty)(context, builder, args[0])
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary,
+                                       [context.get_constant(types.intp, 0)])
+        return builder.atomic_rmw("add", ptr, context.get_constant(types.int64, 1), "seq_cst")
+
+    return sig, codegen
+
+
+@njit(cache=True, inline="always")
+def _claim(counter):
+    """The next segment: counter[0], then one more (atomic across the threads; with numba's
+    JIT off, plain Python on one thread)."""
+    if _INTERPRETED:
+        k = counter[0]
+        counter[0] = k + 1
+        return k
+    return _fetch_add_one(counter)
 
 
 @njit(cache=True, inline="always")
