@@ -91,8 +91,9 @@ def surface_color(mat, u, v, p, n, d, mat_i, mat_f, texels, light_f, shading, am
 
 
 def primary_rays(camera, samples):
-    """Twin of trace.rays._primary_rays: the camera's own numpy pixel directions
-    (Camera.pixel_directions, row-major, s x s samples per pixel), rays from the near plane."""
+    """Twin of trace.rays._primary_rays (and rows_of_rays): the camera's own numpy pixel
+    directions (Camera.pixel_directions, row-major, s x s samples per pixel), rays from the
+    near plane."""
     d = camera.pixel_directions(samples).reshape(-1, 3)
     return np.asarray(camera.eye, np.float64) + camera.near * d, d
 
@@ -330,8 +331,9 @@ def moller_trumbore(corners: np.ndarray, o: np.ndarray, d: np.ndarray):
 
 
 def brute_force(corners, o, d, tfar):
-    """Twin of trace.embree.TriangleScene.intersect (Embree, not numba): the nearest hit per
-    ray over every triangle, and whether the ray is too close to call (grazing or a tie)."""
+    """Twin of trace.embree.TriangleScene.intersect (Embree's packets: intersect_range in a
+    packet_buffer; not numba): the nearest hit per ray over every triangle, and whether the
+    ray is too close to call (grazing or a tie)."""
     with np.errstate(invalid="ignore", divide="ignore"):  # inf - inf on misses
         return _brute_force(corners, o, d, tfar)
 
@@ -429,12 +431,13 @@ def quad_closed_form(o, d, n, c00, e1, e2, tmin):
 
 
 def compact(alive, *arrays):
-    """Twin of trace.tracer._compact: each array's rows where `alive` is set, in order."""
+    """Each array's rows where `alive` is set, in order (the reflected rays
+    trace.resolve.resolve_range emits)."""
     return [np.compress(alive, a, axis=0) for a in arrays]
 
 
 def pick(t_o, t_m, t_a):
-    """Twin of trace.tracer._pick: of the finite candidates (object t, mirror triangle t and
+    """Twin of trace.resolve._pick: of the finite candidates (object t, mirror triangle t and
     analytic mirror t, mirrors' t scaled by MIRROR_TIE), the nearest; ties go to the analytic
     mirror, then the mirror triangle. 0 object, 1 mirror triangle, 2 analytic, -1 miss."""
     cands = [(float(t_a) * MIRROR_TIE, 0, 2), (float(t_m) * MIRROR_TIE, 1, 1),
@@ -447,7 +450,7 @@ def resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m,
             corners, uvs, normals, material, surface, m_corners, m_normals, m_surface, m_kind,
             m_params, m_refl, m_base, n_objects, mat_i, mat_f, texels, light_f, shading,
             ambient, background, follow, color):
-    """Twin of trace.tracer._resolve: one wave of Whitted tracing, ray by ray in float64.
+    """Twin of trace.resolve.resolve_range: one wave of Whitted tracing, ray by ray in float64.
 
     A miss adds weight * background; an object adds weight * its surface color; a mirror
     adds weight * (1 - r) * base and, if `follow`, emits the reflected ray
@@ -517,6 +520,99 @@ def resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m,
         next_w[i] = weight[i] * m_refl[k]
         alive[i] = bool(np.any(next_w[i] > 0))
     return color, hit_t, hit_surface, alive, next_o, next_d, next_w
+
+
+def analytic_nearest(o, d, tfar, kind, params, tmin):
+    """The closed forms of every analytic mirror together (the twin of
+    trace.analytic.intersect_range, which a wave uses): (t, mirror or -1, marginal), marginal
+    where the closed forms' own ambiguity (tangents, rims, edges, near ties) allows either
+    answer."""
+    o64, d64, p = o.astype(np.float64), d.astype(np.float64), params
+    n, k = len(o), len(kind)
+    all_t = np.full((n, k), np.inf)
+    marginal = np.zeros(n, bool)
+    for i in range(k):
+        if kind[i] == SPHERE:
+            ti, disc, roots = sphere_closed_form(o64, d64, p[i, :3], p[i, 3], tmin)
+            scale = p[i, 3] ** 2 / np.einsum("rk,rk->r", d64, d64)
+            marginal |= (disc >= 0) & (disc < 1e-8 * scale)
+            marginal |= (np.abs(roots - tmin) < 1e-6).any(axis=1)
+        elif kind[i] == CYLINDER:
+            ti, m = cylinder_closed_form(o64, d64, p[i, :3], p[i, 3:6], p[i, 6], p[i, 7], tmin)
+            marginal |= m
+        elif kind[i] == PLANAR:
+            c = p[i, 4:16].reshape(4, 3)
+            ti, m = quad_closed_form(o64, d64, p[i, :3], c[0], c[1] - c[0], c[3] - c[0], tmin)
+            marginal |= m
+        else:
+            continue
+        all_t[:, i] = ti
+    far = tfar.astype(np.float64)[:, None]
+    marginal |= (np.abs(all_t - far) < 1e-6 * far).any(axis=1)
+    all_t[all_t >= far] = np.inf
+    best = all_t.min(axis=1) if k else np.full(n, np.inf)
+    which = np.where(np.isfinite(best), all_t.argmin(axis=1), -1) if k else np.full(n, -1)
+    if k > 1:
+        srt = np.sort(all_t, axis=1)
+        with np.errstate(invalid="ignore"):
+            gap = np.where(np.isfinite(srt[:, 1]), srt[:, 1] - srt[:, 0], np.inf)
+        marginal |= gap < 1e-6 * np.abs(srt[:, 1])
+    return best, which, marginal
+
+
+def embreex_hits(corners, o, d, tfar):
+    """Nearest triangle hits by the embreex binding, Embree's reference (the kernels' hits
+    equal its to the bit: test_embree_bruteforce.py): (t (inf on a miss), prim, u, v)."""
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    n = len(o)
+    if len(corners) == 0 or n == 0:
+        return np.full(n, np.inf), np.full(n, -1), np.zeros(n), np.zeros(n)
+    scene = rtcore_scene.EmbreeScene()
+    TriangleMesh(scene, np.ascontiguousarray(corners, np.float32))
+    res = scene.run(np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32),
+                    dists=np.ascontiguousarray(tfar, np.float32).copy(), output=1)
+    hit = res["primID"] >= 0
+    return (np.where(hit, res["tfar"], np.inf).astype(np.float32), res["primID"],
+            res["u"], res["v"])
+
+
+def wave(counts, seg_len, rays, tfar, obj_corners, mirror_corners, kind, params, surfaces,
+         follow, bounce, near, color):
+    """Twin of one wave of trace.wave.trace_segments (its _wave on every segment) on given
+    rays: segment k holds rays k * seg_len .. k * seg_len + counts[k] - 1 of rays (origins,
+    dirs, weights, slots). Hits: Embree's
+    reference (embreex) for object and mirror triangles, the closed forms for analytic
+    mirrors; shading: `resolve`; each segment's reflected rays in order. Returns (rows,
+    color, hit_t, hit_surface, alive, emitted per segment (origins, dirs, weights, slots),
+    depth (hit_t + near in float32, inf on a miss; bounce 0), marginal)."""
+    origins, dirs, weight, slot = rays
+    rows = np.concatenate([np.arange(k * seg_len, k * seg_len + c) for k, c in enumerate(counts)])
+    o, d = origins[rows], dirs[rows]
+    far = np.full(len(rows), tfar, np.float32)
+    t_o, p_o, u_o, v_o = embreex_hits(obj_corners, o, d, far)
+    t_m, p_m, u_m, v_m = embreex_hits(mirror_corners, o, d, far)
+    t_a, k_a, marginal = analytic_nearest(o, d, far, kind, params, 0.0)
+    t_a = t_a.astype(np.float32)  # the kernels keep t in float32 between the steps
+    # a mirror's t (scaled by MIRROR_TIE) within the closed forms' error of another's t:
+    # either may win
+    for a, b in ((t_o, t_a), (t_m, t_a)):
+        with np.errstate(invalid="ignore"):
+            marginal |= np.isfinite(b) & (np.abs(a.astype(float) - MIRROR_TIE * b)
+                                          <= 1e-5 * np.abs(b))
+    color, hit_t, hit_surface, alive, next_o, next_d, next_w = resolve(
+        o, d, weight[rows], slot[rows], t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m, t_a, k_a,
+        *surfaces, follow, color)
+    emitted, start = [], 0
+    for c in counts:
+        part = slice(start, start + c)
+        emitted.append(compact(alive[part], next_o[part], next_d[part], next_w[part],
+                               slot[rows][part]))
+        start += c
+    with np.errstate(invalid="ignore"):
+        depth = np.where(hit_surface >= 0, hit_t.astype(np.float32) + np.float32(near), np.inf)
+    return rows, color, hit_t, hit_surface, alive, emitted, depth, marginal
 
 
 # ==================================================================================== maps

@@ -52,6 +52,11 @@ HIZ = [S + "test_hiz_equals_pixel_walk_on_random_buffers",
        S + "test_hiz_equals_pixel_walk_on_frames"]
 DDA = [S + "test_dda_equals_listing"]
 RESOLVE = [S + "test_resolve_and_confidence_match_twins"]
+WAVE = [T + "test_wave_matches_twin", T + "test_primary_wave_matches_twin"]
+# whole frames, every wave of a segment in one call against one wave a call (the embreex
+# fallback), and any thread count
+FRAMES = ["tests/trace/test_tracer_frames.py::test_embreex_fallback_gives_the_same_frames",
+          "tests/trace/test_tracer_frames.py::test_frames_do_not_depend_on_the_thread_count"]
 
 # kernel -> (tests comparing it with its twin, the kernel it is reached through or None)
 KERNELS: dict[str, tuple[list[str], str | None]] = {
@@ -60,6 +65,10 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "shading.py:surface_color": ([SR + "test_surface_color_matches_twin"], None),
     "trace/rays.py:_primary_rays": ([SR + "test_primary_rays_match_pixel_directions"], None),
     "raster/bounds.py:run_bounds": ([SR + "test_run_bounds_match_twin"], None),
+    "trace/rays.py:rows_of_rays": ([SR + "test_primary_rays_match_pixel_directions",
+                                    T + "test_primary_wave_matches_twin"], "_primary_rays"),
+    "trace/rays.py:_row": ([SR + "test_primary_rays_match_pixel_directions",
+                            T + "test_primary_wave_matches_twin"], "rows_of_rays"),
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade"),
@@ -93,18 +102,28 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                     E + "test_embree_kernel_equals_embreex_bit_for_bit",
                                     E + "test_embreex_fallback_gives_the_same_hits"],
                                    "TriangleScene.intersect"),
+    "trace/embree.py:intersect_range": ([E + "test_embree_kernel_equals_embreex_bit_for_bit"]
+                                        + WAVE, "_intersect"),
+    "trace/embree.py:packet_buffer": ([E + "test_embree_kernel_equals_embreex_bit_for_bit"]
+                                      + WAVE, "_intersect"),
     "trace/analytic.py:_sphere": (ANALYTIC, "_intersect"),
     "trace/analytic.py:_cylinder": (ANALYTIC, "_intersect"),
     "trace/analytic.py:_inner": (ANALYTIC, "_quad"),
     "trace/analytic.py:_quad": (ANALYTIC, "_intersect"),
     "trace/analytic.py:_intersect": (
         ANALYTIC + [E + "test_analytic_property_cases_are_mostly_clear"], "intersect_analytic"),
-    "trace/tracer.py:_pick": ([T + "test_pick_matches_twin_on_ties_and_misses",
+    "trace/analytic.py:_nearest_into": (ANALYTIC, "_intersect"),
+    "trace/analytic.py:intersect_range": (WAVE, "_wave"),
+    "trace/resolve.py:_pick": ([T + "test_pick_matches_twin_on_ties_and_misses",
                                T + "test_resolve_matches_twin"], None),
-    "trace/tracer.py:_resolve": ([T + "test_resolve_matches_twin"], None),
-    "trace/tracer.py:_compact": ([T + "test_compact_matches_twin"], None),
-    "trace/tracer.py:_add": ([T + "test_resolve_matches_twin"], "_resolve"),
-    "trace/tracer.py:_ray": ([T + "test_resolve_matches_twin"], "_resolve"),
+    "trace/resolve.py:resolve_range": ([T + "test_resolve_matches_twin"] + WAVE, None),
+    "trace/wave.py:trace_segments": (WAVE + FRAMES, None),
+    "trace/wave.py:_segment": (WAVE + FRAMES, "trace_segments"),
+    "trace/wave.py:_claim": (WAVE + FRAMES, "trace_segments"),
+    "trace/wave.py:_wave": (WAVE + FRAMES, "_segment"),
+    "trace/wave.py:_misses": (WAVE, "_wave"),
+    "trace/resolve.py:_add": ([T + "test_resolve_matches_twin"], "resolve_range"),
+    "trace/resolve.py:_ray": ([T + "test_resolve_matches_twin"], "resolve_range"),
     "maps/cube.py:cube_face_coords": ([M + "test_cube_lookup_matches_twin"], None),
     "maps/cube.py:cube_sample": ([M + "test_cube_lookup_matches_twin"], None),
     "maps/cube.py:image_sample": ([M + "test_image_sample_matches_twin"], None),

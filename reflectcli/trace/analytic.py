@@ -44,14 +44,20 @@ def intersect_analytic(
         idx = np.full(n, -1, np.int32)
     else:
         t, idx = out
-        t.fill(np.inf)
-        idx.fill(-1)
-    if np.any((kind == SPHERE) | (kind == CYLINDER) | (kind == PLANAR)):
+    if has_analytic(kind):
         params = np.ascontiguousarray(params, dtype=np.float64)
         if edges is None:
             edges = quad_edges(kind, params)
         _intersect(origins, directions, tfar, kind, params, edges, tmin, t, idx)
+    elif out is not None:
+        t.fill(np.inf)
+        idx.fill(-1)
     return t, idx
+
+
+def has_analytic(kind: np.ndarray) -> bool:
+    """Is any mirror one the analytic intersector traces (not a triangle mesh)?"""
+    return bool(np.any((kind == SPHERE) | (kind == CYLINDER) | (kind == PLANAR)))
 
 
 QUAD_TRIANGLES = ((PLANE_P00, PLANE_P10, PLANE_P11), (PLANE_P00, PLANE_P11, PLANE_P01))
@@ -168,26 +174,45 @@ def _inner(edges, k, e, px, py, pz):
 @njit(cache=True, parallel=True)
 def _intersect(origins, directions, tfar, kind, params, edges, tmin, t_out, idx_out):
     for i in prange(origins.shape[0]):
-        # np.float64, not float(): numba's float() keeps a float32 a float32
-        f64 = np.float64
-        ox, oy, oz = f64(origins[i, 0]), f64(origins[i, 1]), f64(origins[i, 2])
-        dx, dy, dz = f64(directions[i, 0]), f64(directions[i, 1]), f64(directions[i, 2])
-        best = f64(tfar[i])
-        found = -1
-        for k in range(kind.shape[0]):
-            if kind[k] == SPHERE:
-                t = _sphere(ox, oy, oz, dx, dy, dz, params[k, SPHERE_CENTER],
-                            params[k, SPHERE_CENTER + 1], params[k, SPHERE_CENTER + 2],
-                            params[k, SPHERE_RADIUS], tmin)
-            elif kind[k] == CYLINDER:
-                t = _cylinder(ox, oy, oz, dx, dy, dz, params, k, tmin)
-            elif kind[k] == PLANAR:
-                t = _quad(ox, oy, oz, dx, dy, dz, params, edges, k, tmin)
-            else:
-                continue
-            if t < best:
-                best = t
-                found = k
-        if found >= 0:
-            t_out[i] = best
-            idx_out[i] = found
+        _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out, idx_out)
+
+
+@njit(cache=True, inline="always")
+def intersect_range(a, b, origins, directions, tfar, kind, params, edges, tmin, t_out,
+                    idx_out):
+    """intersect_analytic for rays a .. b - 1 (tfar[i], or tfar[0] for all when it has one
+    entry), written at their indices: t or inf, mirror index or -1."""
+    for i in range(a, b):
+        _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out, idx_out)
+
+
+@njit(cache=True, inline="always")
+def _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out, idx_out):
+    """Ray i's nearest analytic mirror in (tmin, tfar), worked in float64, into t_out[i]
+    (float32; inf on a miss) and idx_out[i] (-1 on a miss)."""
+    # np.float64, not float(): numba's float() keeps a float32 a float32
+    f64 = np.float64
+    ox, oy, oz = f64(origins[i, 0]), f64(origins[i, 1]), f64(origins[i, 2])
+    dx, dy, dz = f64(directions[i, 0]), f64(directions[i, 1]), f64(directions[i, 2])
+    best = f64(tfar[0] if tfar.shape[0] == 1 else tfar[i])
+    found = -1
+    for k in range(kind.shape[0]):
+        if kind[k] == SPHERE:
+            t = _sphere(ox, oy, oz, dx, dy, dz, params[k, SPHERE_CENTER],
+                        params[k, SPHERE_CENTER + 1], params[k, SPHERE_CENTER + 2],
+                        params[k, SPHERE_RADIUS], tmin)
+        elif kind[k] == CYLINDER:
+            t = _cylinder(ox, oy, oz, dx, dy, dz, params, k, tmin)
+        elif kind[k] == PLANAR:
+            t = _quad(ox, oy, oz, dx, dy, dz, params, edges, k, tmin)
+        else:
+            continue
+        if t < best:
+            best = t
+            found = k
+    if found >= 0:
+        t_out[i] = best
+        idx_out[i] = found
+    else:
+        t_out[i] = np.inf
+        idx_out[i] = -1

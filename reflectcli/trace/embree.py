@@ -1,5 +1,5 @@
 """Triangle intersection through Embree 4: the library shipped inside the embreex wheel,
-called straight from a numba kernel (`rtcIntersect16` on packets of 16 rays, packets split
+called straight from numba kernels (`rtcIntersect8` on packets of 8 rays, packets split
 over numba's threads), no Python loop and no per-call array copies.
 
 The scene is built as embreex builds it (one triangle geometry of unshared float3 vertices,
@@ -20,15 +20,15 @@ import numpy as np
 from numba import njit, prange, types
 
 _POOL: ThreadPoolExecutor | None = None
-_LANES = 16
-# RTCRayHit16: 12 ray + 10 hit fields (Ng xyz, u, v, primID, geomID, instID, instPrimID of
-# Embree 4 with one instance level) of 16 lanes each
+_LANES = 8
+# RTCRayHit8: 12 ray + 10 hit fields (Ng xyz, u, v, primID, geomID, instID, instPrimID of
+# Embree 4 with one instance level) of 8 lanes each
 _PACKET_FLOATS = 22 * _LANES
 _ROBUST = 1 << 2  # RTC_SCENE_FLAG_ROBUST (embreex's default)
 _TRIANGLE, _INDEX, _VERTEX, _UINT3, _FLOAT3 = 0, 0, 1, 0x5003, 0x9003
 
-_rtc_intersect16 = types.ExternalFunction(
-    "rtcIntersect16", types.void(types.intp, types.intp, types.intp, types.intp))
+_rtc_intersect8 = types.ExternalFunction(
+    "rtcIntersect8", types.void(types.intp, types.intp, types.intp, types.intp))
 
 
 class _Embree:
@@ -37,7 +37,7 @@ class _Embree:
     def __init__(self, path: str) -> None:
         import llvmlite.binding as llvm
 
-        llvm.load_library_permanently(path)  # numba's cached kernels resolve rtcIntersect16
+        llvm.load_library_permanently(path)  # numba's cached kernels resolve rtcIntersect8
         lib = self.lib = ctypes.CDLL(path)
         p, u, i, z = ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_size_t
         for name, res, args in [
@@ -107,57 +107,76 @@ def _pool() -> ThreadPoolExecutor:
 
 @njit(cache=True, parallel=True, nogil=True)
 def _intersect(scene, origins, directions, tfar, chunks, t, prim, u, v):
-    """Nearest hit of each ray through rtcIntersect16: packets of 16 consecutive rays (image
-    rows: coherent primary rays), packets split into `chunks` contiguous runs. Each run fills
-    one RTCRayHit16 (structure of arrays, 64-byte aligned, the valid mask after it) as
-    embreex fills its single rays (tnear 0, mask all ones, ids invalid) and writes t,
-    primitive id, u, v (inf, -1, 0, 0 on a miss). Embree's packet and single-ray paths give
-    the same hits to the bit (tests/trace/test_embree_bruteforce.py)."""
+    """Nearest hit of each ray (`intersect_range`), the rays split into `chunks` contiguous
+    runs of whole packets."""
     n = origins.shape[0]
     packets = (n + _LANES - 1) // _LANES
     for c in prange(chunks):
-        buf = np.empty(_PACKET_FLOATS + _LANES + 16, np.float32)
-        ints = buf.view(np.int32)
-        base = buf.ctypes.data
-        off = ((64 - base % 64) % 64) // 4
-        address = base + 4 * off
-        valid = off + _PACKET_FLOATS  # the valid mask: 16 ints, 64-byte aligned too
-        for pk in range(c * packets // chunks, (c + 1) * packets // chunks):
-            first = pk * _LANES
-            for lane in range(_LANES):
-                i = first + lane
-                if i >= n:
-                    ints[valid + lane] = 0
-                    continue
-                ints[valid + lane] = -1
-                buf[off + 0 * _LANES + lane] = origins[i, 0]
-                buf[off + 1 * _LANES + lane] = origins[i, 1]
-                buf[off + 2 * _LANES + lane] = origins[i, 2]
-                buf[off + 3 * _LANES + lane] = 0.0  # tnear
-                buf[off + 4 * _LANES + lane] = directions[i, 0]
-                buf[off + 5 * _LANES + lane] = directions[i, 1]
-                buf[off + 6 * _LANES + lane] = directions[i, 2]
-                buf[off + 7 * _LANES + lane] = 0.0  # time
-                buf[off + 8 * _LANES + lane] = tfar[i]
-                ints[off + 9 * _LANES + lane] = -1  # mask: every geometry
-                ints[off + 10 * _LANES + lane] = 0  # id
-                ints[off + 11 * _LANES + lane] = 0  # flags
-                ints[off + 17 * _LANES + lane] = -1  # primID
-                ints[off + 18 * _LANES + lane] = -1  # geomID
-                ints[off + 19 * _LANES + lane] = -1  # instID
-            _rtc_intersect16(base + 4 * valid, scene, address, 0)
-            for lane in range(min(_LANES, n - first)):
-                i = first + lane
-                p = ints[off + 17 * _LANES + lane]
-                prim[i] = p
-                if p >= 0:
-                    t[i] = buf[off + 8 * _LANES + lane]
-                    u[i] = buf[off + 15 * _LANES + lane]
-                    v[i] = buf[off + 16 * _LANES + lane]
-                else:
-                    t[i] = np.inf
-                    u[i] = 0.0
-                    v[i] = 0.0
+        buf, off = packet_buffer()
+        a = min(n, c * packets // chunks * _LANES)
+        b = min(n, (c + 1) * packets // chunks * _LANES)
+        intersect_range(scene, origins, directions, tfar, a, b, t, prim, u, v, buf, off)
+
+
+@njit(cache=True)
+def packet_buffer():
+    """(buf, off): an RTCRayHit8 (structure of arrays, 22 fields of 8 lanes) at buf[off:],
+    64-byte aligned, its valid mask (8 ints) after it; the fields Embree only reads and that
+    are the same for every ray are set here once, as embreex sets them: tnear 0, time 0,
+    mask all ones (every geometry), id 0, flags 0."""
+    buf = np.empty(_PACKET_FLOATS + _LANES + 16, np.float32)
+    ints = buf.view(np.int32)
+    off = ((64 - buf.ctypes.data % 64) % 64) // 4
+    for lane in range(_LANES):
+        buf[off + 3 * _LANES + lane] = 0.0  # tnear
+        buf[off + 7 * _LANES + lane] = 0.0  # time
+        ints[off + 9 * _LANES + lane] = -1  # mask
+        ints[off + 10 * _LANES + lane] = 0  # id
+        ints[off + 11 * _LANES + lane] = 0  # flags
+    return buf, off
+
+
+@njit(cache=True, inline="always")
+def intersect_range(scene, origins, directions, tfar, a, b, t, prim, u, v, buf, off):
+    """Nearest hit of rays a .. b - 1 through rtcIntersect8, on packets of 8 consecutive
+    rays (image rows: coherent primary rays) in `packet_buffer`'s (buf, off). Each packet
+    gets its rays' origins, directions and tfar (tfar[i], or tfar[0] for every ray when tfar
+    has one entry) and invalid hit ids; t, primitive id, u, v (inf, -1, 0, 0 on a miss) are
+    written at the rays' indices. Embree's packet and single-ray paths give the same hits to
+    the bit, so the packets' make-up does not matter (test_embree_bruteforce.py)."""
+    ints = buf.view(np.int32)
+    address = buf.ctypes.data + 4 * off
+    valid = off + _PACKET_FLOATS
+    one_tfar = tfar.shape[0] == 1
+    for first in range(a, b, _LANES):
+        lanes = min(_LANES, b - first)
+        for lane in range(_LANES):
+            ints[valid + lane] = -1 if lane < lanes else 0
+        for lane in range(lanes):
+            i = first + lane
+            buf[off + 0 * _LANES + lane] = origins[i, 0]
+            buf[off + 1 * _LANES + lane] = origins[i, 1]
+            buf[off + 2 * _LANES + lane] = origins[i, 2]
+            buf[off + 4 * _LANES + lane] = directions[i, 0]
+            buf[off + 5 * _LANES + lane] = directions[i, 1]
+            buf[off + 6 * _LANES + lane] = directions[i, 2]
+            buf[off + 8 * _LANES + lane] = tfar[0] if one_tfar else tfar[i]
+            ints[off + 17 * _LANES + lane] = -1  # primID
+            ints[off + 18 * _LANES + lane] = -1  # geomID
+            ints[off + 19 * _LANES + lane] = -1  # instID
+        _rtc_intersect8(address + 4 * _PACKET_FLOATS, scene, address, 0)
+        for lane in range(lanes):
+            i = first + lane
+            p = ints[off + 17 * _LANES + lane]
+            prim[i] = p
+            if p >= 0:
+                t[i] = buf[off + 8 * _LANES + lane]
+                u[i] = buf[off + 15 * _LANES + lane]
+                v[i] = buf[off + 16 * _LANES + lane]
+            else:
+                t[i] = np.inf
+                u[i] = 0.0
+                v[i] = 0.0
 
 
 class TriangleScene:
@@ -183,6 +202,12 @@ class TriangleScene:
                 self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32),
                                 output=1)
         self.build_seconds = time.perf_counter() - start
+
+    @property
+    def handle(self) -> int:
+        """The scene's Embree handle for the kernels (`intersect_range`); 0 when it is empty
+        or the embreex binding traces it."""
+        return self._handle
 
     def __del__(self) -> None:
         if getattr(self, "_handle", 0) and self._embree is not None:

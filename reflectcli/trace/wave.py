@@ -1,0 +1,159 @@
+"""A frame's rays, traced and shaded in one parallel loop over segments of rays.
+
+The rays of a frame are cut into segments: a few image rows of primary rays each. A
+segment is one work item, handed to whichever thread is free, and goes through every wave
+(the primary rays, then each mirror bounce of the rays its own rays reflected) and every step
+of a wave while its arrays are still in the core's cache: (primary rays of its rows,)
+Embree on the objects and on the mesh mirrors (`embree.intersect_range`), the analytic
+mirrors (`analytic.intersect_range`), hit resolution (`resolve.resolve_range`), whose
+reflected rays it writes, in order, to the start of its part of the other ray buffer. No
+wave waits for another segment's, so a frame is one parallel region. A pixel's rays all
+belong to one segment and every ray writes only its own outputs, so the bytes do not depend
+on which thread traced what.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numba import njit, prange, types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from .analytic import intersect_range as analytic_range
+from .embree import intersect_range as embree_range
+from .embree import packet_buffer
+from .rays import rows_of_rays
+from .resolve import resolve_range
+
+
+@njit(cache=True, parallel=True)
+def trace_segments(seg_len, counts, rows_per_seg, cam, buffers, tfars, objects, mirrors,
+                   analytic, surfaces, bounces, max_depth, hits, color, near, reflected_hit,
+                   traced, threads):
+    """Waves bounces[0] .. bounces[1] (0: the primary rays) of segments k = 0 ..
+    len(counts) - 1, each segment through all of them in turn: wave b traces rays
+    k * seg_len .. k * seg_len + counts[k] - 1 of ray buffer buffers[b % 2] (origins,
+    dirs, weights, slots) and emits the reflected rays into buffers[(b + 1) % 2] (while
+    b < max_depth). counts[k] becomes the number the last wave emitted; traced[k, b] is the
+    number wave b traced. `threads`: numba's thread count.
+
+    `rows_per_seg` > 0: the primary wave makes its rays here, image rows k * rows_per_seg
+    onward of `cam` (rays.camera_rays) (0: they are given). `tfars`: the primary rays' and
+    the reflected rays' tfar. `objects`, `mirrors`: (Embree scene handle, hits given, t,
+    primitive, u, v): a nonzero handle is traced here; with none, the hit arrays are either
+    given (the embreex fallback fills them first, one wave a call) or all misses.
+    `analytic`: (any analytic mirror, kind, params, quad edges, t, index). `surfaces`:
+    resolve_range's scene arrays, from the objects' corners to the background. `hits`:
+    ((depth, surface ids) of the primary wave: t + near, inf on a miss; (t, surface) of the
+    others) per ray. Writes color (rows of the rays' slots); the first bounce marks
+    reflected_hit[slot] of its rays that hit anything."""
+    rays_a, rays_b = buffers  # (tuples of tuples do not enter the parallel loop)
+    first_hits, hits = hits
+    # numba's OpenMP loop gives each thread a fixed share of its items: one item per thread
+    # here, each claiming the next segment until none is left, so that a thread that lost
+    # its core, or met the costly rows, leaves the rest to the others
+    claimed = np.zeros(1, np.int64)
+    for _ in prange(threads):
+        while True:
+            k = _claim(claimed)
+            if k >= counts.shape[0]:
+                break
+            _segment(k, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, objects,
+                     mirrors, analytic, surfaces, bounces, max_depth, first_hits, hits, color,
+                     near, reflected_hit, traced)
+
+
+@njit(cache=True, inline="always")
+def _segment(k, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, objects, mirrors,
+             analytic, surfaces, bounces, max_depth, first_hits, hits, color, near,
+             reflected_hit, traced):
+    """Segment k through waves bounces[0] .. bounces[1]."""
+    count = counts[k]
+    for bounce in range(bounces[0], bounces[1] + 1):
+        traced[k, bounce] = count
+        if count == 0:
+            break
+        even = bounce % 2 == 0
+        count = _wave(k * seg_len, k * seg_len + count, k, rows_per_seg, cam,
+                      rays_a if even else rays_b, tfars[min(bounce, 1):min(bounce, 1) + 1],
+                      objects, mirrors, analytic, surfaces, bounce < max_depth, bounce,
+                      first_hits if bounce == 0 else hits, color, rays_b if even else rays_a,
+                      near, reflected_hit)
+    counts[k] = count
+
+
+_INTERPRETED = bool(numba.config.DISABLE_JIT)
+
+
+@intrinsic
+def _fetch_add_one(typingctx, counter):
+    """counter[0] += 1 as one atomic step (an int64 array); the value before."""
+    sig = types.int64(counter)
+
+    def codegen(context, builder, signature, args):
+        aryty = signature.args[0]
+        ary = context.make_array(aryty)(context, builder, args[0])
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary,
+                                       [context.get_constant(types.intp, 0)])
+        return builder.atomic_rmw("add", ptr, context.get_constant(types.int64, 1), "seq_cst")
+
+    return sig, codegen
+
+
+@njit(cache=True, inline="always")
+def _claim(counter):
+    """The next segment: counter[0], then one more (atomic across the threads; with numba's
+    JIT off, plain Python on one thread)."""
+    if _INTERPRETED:
+        k = counter[0]
+        counter[0] = k + 1
+        return k
+    return _fetch_add_one(counter)
+
+
+@njit(cache=True, inline="always")
+def _wave(lo, hi, k, rows_per_seg, cam, rays, tfar, objects, mirrors, analytic, surfaces,
+          follow, bounce, hits, color, out_rays, near, reflected_hit):
+    """Wave `bounce` of segment k: rays lo .. hi - 1; returns how many it emitted."""
+    origins, dirs, weight, slot = rays
+    obj_scene, obj_given, t_o, p_o, u_o, v_o = objects
+    mir_scene, mir_given, t_m, p_m, u_m, v_m = mirrors
+    any_analytic, kind, params, edges, t_a, k_a = analytic
+    hit_t, hit_surface = hits
+    first = bounce == 0
+    if first and rows_per_seg > 0:
+        j0 = k * rows_per_seg
+        rows_of_rays(j0, min(cam[6], j0 + rows_per_seg), cam, origins, dirs)
+    if obj_scene != 0 or mir_scene != 0:
+        buf, off = packet_buffer()
+        if obj_scene != 0:
+            embree_range(obj_scene, origins, dirs, tfar, lo, hi, t_o, p_o, u_o, v_o, buf, off)
+        if mir_scene != 0:
+            embree_range(mir_scene, origins, dirs, tfar, lo, hi, t_m, p_m, u_m, v_m, buf, off)
+    if obj_scene == 0 and not obj_given:
+        _misses(lo, hi, t_o, p_o)
+    if mir_scene == 0 and not mir_given:
+        _misses(lo, hi, t_m, p_m)
+    if any_analytic:
+        analytic_range(lo, hi, origins, dirs, tfar, kind, params, edges, 0.0, t_a, k_a)
+    else:
+        _misses(lo, hi, t_a, k_a)
+    emitted = resolve_range(lo, hi, rays, (t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m),
+                            (t_a, k_a), surfaces, follow, color, hits, out_rays, lo, first)
+    if first:  # depth: t + near (a miss's inf stays inf)
+        for i in range(lo, hi):
+            hit_t[i] += near
+    elif bounce == 1:
+        for i in range(lo, hi):
+            if hit_surface[i] >= 0:
+                reflected_hit[slot[i]] = 1.0
+    return emitted
+
+
+@njit(cache=True, inline="always")
+def _misses(lo, hi, t, index):
+    """No hit for rays lo .. hi - 1: t inf, index -1."""
+    for i in range(lo, hi):
+        t[i] = np.inf
+        index[i] = -1
