@@ -98,6 +98,17 @@ def primary_rays(camera, samples):
     return np.asarray(camera.eye, np.float64) + camera.near * d, d
 
 
+# ================================================================================ parallel
+
+
+def claim(counter):
+    """Twin of parallel.claim on one thread: counter[0], then one more. The fast one is held
+    to it by the frames' byte-identity across thread counts (rasterizer, ray tracer)."""
+    k = int(counter[0])
+    counter[0] = k + 1
+    return k
+
+
 # ================================================================================== raster
 
 EDGE_PX = 1e-6

@@ -18,8 +18,9 @@ clip-space corners and the pixel center's NDC (`recover_barycentrics`: perspecti
 construction, the same for clipped triangles), by the shading kernels as they shade, or for
 the whole buffer on first use of `RasterBuffers.b1` / `b2`. Eye depth is 1 / key.
 
-Sort-last: triangles go in runs of _CHUNK to whichever thread is free, each thread drawing
-into its own buffers (the stencil's box), merged per pixel at the end. The depth test and
+Sort-last: triangles go in runs of _CHUNK, claimed by whichever thread is free
+(parallel.py), each drawing into its own buffers (the stencil's box, plus _BLOCK - 1 spare
+columns), merged per pixel at the end. The depth test and
 the merge both pick the greatest key, then the lowest index, and every key depends only on
 the triangle and the pixel, so the bytes are the same for any thread count and any order
 the runs are drawn in. Within a run, the per-corner work (clip space, classification,
@@ -35,6 +36,7 @@ from numba import njit, prange
 
 from ..camera import screen_from_ndc as _screen_from_ndc
 from ..camera import standard_planes
+from ..parallel import claim
 from ..scene.types import MIRROR_TIE
 from .bounds import run_bounds
 
@@ -235,12 +237,11 @@ def rasterize(
         # with a workspace, chunks whose box cannot reach the stencil's box are skipped
         bounds = (ws.chunk_bounds(corners) if workspace is not None
                   else np.empty((0, 6)))
-        # chunks handed out one at a time to whichever thread is free (their work differs,
+        # chunks claimed one at a time by whichever thread is free (their work differs,
         # and on a busy machine a thread may lose its core)
-        with numba.parallel_chunksize(1):
-            _draw(corners, flags, m, all_planes, planes.shape[0], width, height, bits, cull,
-                  chunks, bounds, stencil, mask is not None, floor, depth_floor is not None,
-                  x0, x1, y0, y1, own_tri, own_key, drew)
+        _draw(corners, flags, m, all_planes, planes.shape[0], width, height, bits, cull,
+              chunks, bounds, stencil, mask is not None, floor, depth_floor is not None,
+              x0, x1, y0, y1, own_tri, own_key, drew)
     else:
         own_tri = ws.get("own_tri", (0, *box), np.int32)
         own_key = ws.get("own_key", (0, *box), np.float32)
@@ -524,54 +525,60 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     status = np.empty((threads, _CHUNK), np.uint8)
     chosen = np.empty((threads, _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
-    for chunk in prange(chunks):
-        if bounds.shape[0] > 0 and _box_misses(bounds, chunk, m, planes, n_cut, width,
-                                                height, col0, col1, top, bottom):
-            continue
-        me = numba.get_thread_id()
-        tri = own_tri[me]
-        key = own_key[me]
-        if not drew[me]:
-            drew[me] = True
-            for r in range(tri.shape[0]):
-                for c in range(tri.shape[1]):
-                    tri[r, c] = -1
-                    key[r, c] = 0.0
-        t0 = chunk * _CHUNK
-        count = min(n, t0 + _CHUNK) - t0
-        _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
-                   bottom, col0, col1, t0, count, soa[me], clip[me], work_i[me], work_f[me],
-                   status[me])
-        ints = work_i[me]
-        floats = work_f[me]
-        st = status[me]
-        sel = chosen[me]
-        c = _CHUNK
-        # the triangles to fill, listed without a branch per triangle
-        k = 0
-        clipped = 0
-        for j in range(count):
-            sel[k] = j
-            k += ints[20 * c + j]
-            clipped += st[j] == _CLIPPED
-        for i in range(k):
-            j = sel[i]
-            t = t0 + j
-            _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
-                  ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
-                  ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
-                  ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
-                  floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
-                  MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
-                  use_stencil, floor, use_floor, tri, key, True)
-        if clipped:
+    # one item per thread, each claiming the next chunk until none is left (parallel.py);
+    # a worker draws into its own buffers, merged by key: who drew what never matters
+    claimed = np.zeros(1, np.int64)
+    for me in prange(threads):
+        while True:
+            chunk = claim(claimed)
+            if chunk >= chunks:
+                break
+            if bounds.shape[0] > 0 and _box_misses(bounds, chunk, m, planes, n_cut, width,
+                                                    height, col0, col1, top, bottom):
+                continue
+            tri = own_tri[me]
+            key = own_key[me]
+            if not drew[me]:
+                drew[me] = True
+                for r in range(tri.shape[0]):
+                    for c in range(tri.shape[1]):
+                        tri[r, c] = -1
+                        key[r, c] = 0.0
+            t0 = chunk * _CHUNK
+            count = min(n, t0 + _CHUNK) - t0
+            _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
+                       bottom, col0, col1, t0, count, soa[me], clip[me], work_i[me], work_f[me],
+                       status[me])
+            ints = work_i[me]
+            floats = work_f[me]
+            st = status[me]
+            sel = chosen[me]
+            c = _CHUNK
+            # the triangles to fill, listed without a branch per triangle
+            k = 0
+            clipped = 0
             for j in range(count):
-                if st[j] == _CLIPPED:
-                    t = t0 + j
-                    _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
-                                  else 1.0, m, planes, width, height, bits, cull, scale,
-                                  xyw[me], top, bottom, col0, col1, stencil, use_stencil,
-                                  floor, use_floor, tri, key)
+                sel[k] = j
+                k += ints[20 * c + j]
+                clipped += st[j] == _CLIPPED
+            for i in range(k):
+                j = sel[i]
+                t = t0 + j
+                _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+                      ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+                      ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+                      ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+                      floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
+                      MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
+                      use_stencil, floor, use_floor, tri, key, True)
+            if clipped:
+                for j in range(count):
+                    if st[j] == _CLIPPED:
+                        t = t0 + j
+                        _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
+                                      else 1.0, m, planes, width, height, bits, cull, scale,
+                                      xyw[me], top, bottom, col0, col1, stencil, use_stencil,
+                                      floor, use_floor, tri, key)
 
 
 @njit(cache=True, error_model="numpy")

@@ -56,8 +56,8 @@ def shade_buffers(
             scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
             scene.lights.light_f, scene.shading, scene.ambient, scene.background,
             scene.mirrors.reflectance, scene.mirrors.base, rgb, surf)
-    # rows handed out a few at a time to whichever thread is free (rows cost differently:
-    # background, mirrors and lit surfaces); each pixel is written once: same result
+    # rows in chunks of 4 (numba's OpenMP layer still gives each thread a fixed share of
+    # them, interleaving nothing: parallel.py); each pixel is written once: same result
     with numba.parallel_chunksize(4):
         if stencil is None:
             _shade(*args)

@@ -239,8 +239,8 @@ class TriangleScene:
                 v = np.empty(n, np.float32)
             else:
                 t, prim, u, v = out
-            # runs of 64 packets handed out one at a time to whichever thread is free: on a
-            # busy machine a thread that loses its core does not hold the others up
+            # runs of 64 packets, in chunks of one (numba's OpenMP layer still gives each
+            # thread a fixed share of them: see parallel.py)
             chunks = max(1, n // (64 * _LANES))
             with numba.parallel_chunksize(1):
                 _intersect(self._handle, origins, directions, tfar, chunks, t, prim, u, v)

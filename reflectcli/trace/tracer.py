@@ -192,8 +192,7 @@ class _Segments:
                                     b.get("hit_surface", n, np.int32))),
                 color, np.float32(cam.near), reflected_hit, traced, numba.get_num_threads()]
         if not self.fallback:
-            with numba.parallel_chunksize(1):
-                trace_segments(*args)
+            trace_segments(*args)  # one item per thread, segments claimed (parallel.py)
         else:  # one wave a call, embreex tracing its rays first
             primary_rays(cam, samples, out=buffers[0][:2])
             args[2] = 0

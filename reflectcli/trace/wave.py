@@ -14,12 +14,10 @@ on which thread traced what.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
-from numba import njit, prange, types
-from numba.core import cgutils
-from numba.extending import intrinsic
+from numba import njit, prange
 
+from ..parallel import claim
 from .analytic import intersect_range as analytic_range
 from .embree import intersect_range as embree_range
 from .embree import packet_buffer
@@ -50,13 +48,11 @@ def trace_segments(seg_len, counts, rows_per_seg, cam, buffers, tfars, objects, 
     reflected_hit[slot] of its rays that hit anything."""
     rays_a, rays_b = buffers  # (tuples of tuples do not enter the parallel loop)
     first_hits, hits = hits
-    # numba's OpenMP loop gives each thread a fixed share of its items: one item per thread
-    # here, each claiming the next segment until none is left, so that a thread that lost
-    # its core, or met the costly rows, leaves the rest to the others
+    # one item per thread, each claiming the next segment until none is left (parallel.py)
     claimed = np.zeros(1, np.int64)
     for _ in prange(threads):
         while True:
-            k = _claim(claimed)
+            k = claim(claimed)
             if k >= counts.shape[0]:
                 break
             _segment(k, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, objects,
@@ -81,35 +77,6 @@ def _segment(k, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, objec
                       first_hits if bounce == 0 else hits, color, rays_b if even else rays_a,
                       near, reflected_hit)
     counts[k] = count
-
-
-_INTERPRETED = bool(numba.config.DISABLE_JIT)
-
-
-@intrinsic
-def _fetch_add_one(typingctx, counter):
-    """counter[0] += 1 as one atomic step (an int64 array); the value before."""
-    sig = types.int64(counter)
-
-    def codegen(context, builder, signature, args):
-        aryty = signature.args[0]
-        ary = context.make_array(aryty)(context, builder, args[0])
-        ptr = cgutils.get_item_pointer(context, builder, aryty, ary,
-                                       [context.get_constant(types.intp, 0)])
-        return builder.atomic_rmw("add", ptr, context.get_constant(types.int64, 1), "seq_cst")
-
-    return sig, codegen
-
-
-@njit(cache=True, inline="always")
-def _claim(counter):
-    """The next segment: counter[0], then one more (atomic across the threads; with numba's
-    JIT off, plain Python on one thread)."""
-    if _INTERPRETED:
-        k = counter[0]
-        counter[0] = k + 1
-        return k
-    return _fetch_add_one(counter)
 
 
 @njit(cache=True, inline="always")

@@ -335,3 +335,36 @@ def test_chunk_bounds_not_kept_for_the_workspace_own_buffers():
     own[:] = 5.0
     again = ws.chunk_bounds(own)  # the same view, rewritten
     assert (first == 1.0).all() and (again == 5.0).all()
+
+
+def test_claim_hands_out_each_piece_once():
+    """parallel.claim against its twin: on one thread the same sequence; over two threads
+    every piece is claimed exactly once (each worker records what it claimed)."""
+    from naive import claim as naive_claim
+    from numba import njit, prange
+
+    from reflectcli.parallel import claim
+
+    @njit(parallel=True)
+    def claims(pieces, workers, out, counter):
+        for w in prange(workers):
+            while True:
+                k = claim(counter)
+                if k >= pieces:
+                    break
+                s = 0.0
+                for i in range(2000):  # some work, so both workers take part
+                    s += i * 1e-9
+                out[k] += w + 1 + (s < -1.0)
+
+    out, counter = np.zeros(1000, np.int64), np.zeros(1, np.int64)
+    claims(1000, 2, out, counter)
+    # one failed claim per worker past the end; no piece done twice (that would be 3)
+    assert counter[0] == 1002 and np.isin(out, (1, 2)).all()
+    fast, slow = np.zeros(1, np.int64), np.zeros(1, np.int64)
+
+    @njit
+    def three(counter):
+        return claim(counter), claim(counter), claim(counter)
+
+    assert three(fast) == tuple(naive_claim(slow) for _ in range(3))
