@@ -559,7 +559,8 @@ def analytic_nearest(o, d, tfar, kind, params, tmin):
             continue
         all_t[:, i] = ti
     far = tfar.astype(np.float64)[:, None]
-    marginal |= (np.abs(all_t - far) < 1e-6 * far).any(axis=1)
+    with np.errstate(invalid="ignore"):  # inf - inf where nothing is hit and tfar is inf
+        marginal |= (np.abs(all_t - far) < 1e-6 * far).any(axis=1)
     all_t[all_t >= far] = np.inf
     best = all_t.min(axis=1) if k else np.full(n, np.inf)
     which = np.where(np.isfinite(best), all_t.argmin(axis=1), -1) if k else np.full(n, -1)

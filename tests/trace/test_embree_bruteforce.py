@@ -8,7 +8,13 @@ from conftest import compiled_only
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
-from naive import T_REL, brute_force, cylinder_closed_form, quad_closed_form, sphere_closed_form
+from naive import (
+    T_REL,
+    analytic_nearest,
+    brute_force,
+    cylinder_closed_form,
+    sphere_closed_form,
+)
 
 from reflectcli.scene.types import CYLINDER, MESH, MIRROR_PARAMS, PLANAR, SPHERE
 from reflectcli.trace.analytic import intersect_analytic
@@ -156,36 +162,9 @@ def test_analytic_matches_closed_forms(shape_list, seed, tmin, far):
     tfar = np.full(n, far, np.float32)
     t, idx = intersect_analytic(origins, d, tfar, kind, params, tmin)
 
-    p = params
-    o64, d64 = origins.astype(np.float64), d.astype(np.float64)
-    all_t = np.full((n, k), np.inf)
-    marginal = np.zeros(n, bool)
-    for i in range(k):
-        if kind[i] == SPHERE:
-            ti, disc, roots = sphere_closed_form(o64, d64, p[i, :3], p[i, 3], tmin)
-            scale = p[i, 3] ** 2 / np.einsum("rk,rk->r", d64, d64)
-            marginal |= (disc >= 0) & (disc < 1e-8 * scale)  # tangent rays
-            marginal |= (np.abs(roots - tmin) < 1e-6).any(axis=1)
-        elif kind[i] == CYLINDER:
-            ti, m = cylinder_closed_form(o64, d64, p[i, :3], p[i, 3:6], p[i, 6], p[i, 7], tmin)
-            marginal |= m
-        elif kind[i] == PLANAR:
-            c = p[i, 4:16].reshape(4, 3)
-            ti, m = quad_closed_form(o64, d64, p[i, :3], c[0], c[1] - c[0], c[3] - c[0], tmin)
-            marginal |= m
-        else:
-            continue
-        all_t[:, i] = ti
-    all_t[all_t >= far] = np.inf
-    if np.isfinite(far):
-        marginal |= (np.abs(all_t - far) < 1e-6 * far).any(axis=1)
-    best = all_t.min(axis=1)
-    which = np.where(np.isfinite(best), all_t.argmin(axis=1), -1)
-    if k > 1:  # two shapes met at (nearly) the same t: either may win
-        srt = np.sort(all_t, axis=1)
-        with np.errstate(invalid="ignore"):
-            gap = np.where(np.isfinite(srt[:, 1]), srt[:, 1] - srt[:, 0], np.inf)
-        marginal |= gap < 1e-6 * np.abs(srt[:, 1])
+    # the closed forms of every shape together, and where their own ambiguity (tangents,
+    # rims, edges, near ties) allows either answer
+    best, which, marginal = analytic_nearest(origins, d, tfar, kind, params, tmin)
     clear = ~marginal
     np.testing.assert_array_equal(idx[clear], which[clear])
     hit = clear & (which >= 0)
