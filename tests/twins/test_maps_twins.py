@@ -188,18 +188,25 @@ def test_surface_reconstruction_matches_twin(seed):
     np.testing.assert_allclose(got[3][hit], want[3][hit], rtol=1e-5)
 
 
-@pytest.mark.parametrize("seed", range(3))
-def test_warp_projection_matches_twin(seed):
-    rng = np.random.default_rng(seed)
-    mh, mw, width, height, near = 9, 11, 20, 16, 0.2
+def _map_beside_camera(rng, mh, mw, width, height, near):
+    """A random (mh, mw) depth map (some empty, NaN, zero and negative zexels), a screen
+    camera, and the map's camera beside it, wider and turned: some zexels land off screen,
+    some behind."""
     depth = rng.uniform(0.5, 6.0, (mh, mw)).astype(np.float32)
     depth[rng.random((mh, mw)) < 0.1] = np.inf
     depth[0, :3] = (np.nan, 0.0, -1.0)
     cam = Camera(np.array([0.0, 1.0, 3.0]), np.array([0.0, 1.0, 0.0]), np.array([0, 1.0, 0]),
                  50.0, width, height, near, 50.0)
-    # the map camera beside it, wider and turned: some zexels land off screen, some behind
     map_cam = Camera(np.array([1.5, 1.2, 2.5]), rng.uniform(-2, 2, 3) + [0.0, 1.0, 0.0],
                      np.array([0, 1.0, 0]), 100.0, mw, mh, 0.1, 50.0)
+    return depth, cam, map_cam
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_warp_projection_matches_twin(seed):
+    rng = np.random.default_rng(seed)
+    mh, mw, width, height, near = 9, 11, 20, 16, 0.2
+    depth, cam, map_cam = _map_beside_camera(rng, mh, mw, width, height, near)
     w = warp.warp_matrix(map_cam, cam, np.eye(4))
     for box in ((0, width, 0, height), (4, 12, 3, 10)):
         got = warp.project_map(depth, w, width, height, near, box, margin=2)
@@ -328,13 +335,7 @@ def test_splat_projecting_inside_matches_project_then_splat(seed, ordered):
     the projection's (`test_row_reach_bounds_the_twin_projection` holds them to the twin)."""
     rng = np.random.default_rng(seed + 40)
     mh, mw, width, height, near = 30, 37, 20, 16, 0.2
-    depth = rng.uniform(0.5, 6.0, (mh, mw)).astype(np.float32)
-    depth[rng.random((mh, mw)) < 0.1] = np.inf
-    depth[0, :3] = (np.nan, 0.0, -1.0)
-    cam = Camera(np.array([0.0, 1.0, 3.0]), np.array([0.0, 1.0, 0.0]), np.array([0, 1.0, 0]),
-                 50.0, width, height, near, 50.0)
-    map_cam = Camera(np.array([1.5, 1.2, 2.5]), rng.uniform(-2, 2, 3) + [0.0, 1.0, 0.0],
-                     np.array([0, 1.0, 0]), 100.0, mw, mh, 0.1, 50.0)
+    depth, cam, map_cam = _map_beside_camera(rng, mh, mw, width, height, near)
     wm = warp.warp_matrix(map_cam, cam, np.eye(4))
     stencil = rng.random((height, width)) < 0.85
     payload = rng.random((mh * mw, 3)).astype(np.float32)
