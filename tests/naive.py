@@ -116,8 +116,9 @@ TIE_REL = 1e-6
 
 
 def rasterize(corners, flags, m, w, h, mask=None, depth_floor=None, cull=0):
-    """Twin of raster.rasterize (its kernels _draw, _run_setup, _fill, _resolve, and the
-    barycentrics of raster.rasterize.recover_barycentrics, clip_corners and
+    """Twin of raster.rasterize (its kernels draw._draw, setup._run_setup, rows._fill,
+    resolve._resolve, the viewport of raster.rasterize.clip.screen_from_ndc, and the
+    barycentrics of raster.rasterize.barycentrics.recover_barycentrics, clip_corners and
     barycentrics_at): a slow float64 z-buffer of triangles wholly inside near..far.
 
     Every pixel center against every triangle: clip-space transform, screen positions,
@@ -205,7 +206,7 @@ reference = rasterize
 
 def ray_triangle(o: np.ndarray, d: np.ndarray, c: np.ndarray):
     """float64 Moller-Trumbore of rays (P, 3) against one triangle: t, u, v (the ray casting
-    twin of the rasterizer's near-plane clipping, raster.rasterize._clip_polygon)."""
+    twin of the rasterizer's near-plane clipping, raster.rasterize.clip._clip_polygon)."""
     e1, e2 = c[1] - c[0], c[2] - c[0]
     p = np.cross(d, e2)
     det = p @ e1
@@ -250,7 +251,7 @@ def shade(tri, b1, b2, corners, uvs, normals, material, surface, n_objects, eye,
 
 def fill_fixed(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bottom,
                col0, col1, stencil, use_stencil, floor, use_floor, tri, key):
-    """Twin of raster.rasterize._fill: every pixel of the box [top, bottom) x [col0, col1)
+    """Twin of raster.rasterize.rows._fill: every pixel of the box [top, bottom) x [col0, col1)
     (not the triangle's bounding box), Python integers for the edge functions (exact, no
     stepping), the top-left rule written as "a center on an edge belongs to the triangle
     on the side its inward normal points to: right, or down for a horizontal edge", and

@@ -77,23 +77,24 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/shade.py:_run_setup": (RECOVER, "_shade_row"),
     "raster/shade.py:_light_row": (RECOVER, "_shade_row"),
     "raster/shade.py:add_reflection": ([SR + "test_add_reflection_matches_twin"], None),
-    "raster/rasterize.py:_draw": (RASTER, "rasterize"),
-    "raster/rasterize.py:_snap": (RASTER, "_draw"),
-    "raster/rasterize.py:_clip_xyzw": (RASTER, "_draw"),
-    "raster/rasterize.py:_outside": (RASTER, "_box_misses"),
-    "raster/rasterize.py:_run_setup": (RASTER, "_draw"),
-    "raster/rasterize.py:_fill": (RASTER, "_draw"),
-    "raster/rasterize.py:_setup": (RASTER, "_fill"),
-    "raster/rasterize.py:_rows": (RASTER, "_fill"),
-    "raster/rasterize.py:_draw_clipped": (CLIP, "_draw"),
-    "raster/rasterize.py:_clip_polygon": (CLIP, "_draw_clipped"),
-    "raster/rasterize.py:_resolve": (RASTER, "rasterize"),
-    "raster/rasterize.py:_box_misses": ([R + "test_skipping_chunks_by_their_boxes_changes_nothing"],
-                                        "_draw"),
-    "raster/rasterize.py:recover_barycentrics": (RECOVER, None),
-    "raster/rasterize.py:clip_corners": (RECOVER, "recover_barycentrics"),
-    "raster/rasterize.py:barycentrics_at": (RECOVER, "recover_barycentrics"),
-    "raster/rasterize.py:_barycentrics": (RECOVER, "RasterBuffers.b1"),
+    "raster/rasterize/draw.py:_draw": (RASTER, "rasterize"),
+    "raster/rasterize/fixed.py:_snap": (RASTER, "_draw"),
+    "raster/rasterize/clip.py:screen_from_ndc": (RASTER, "_run_setup"),
+    "raster/rasterize/clip.py:_clip_xyzw": (RASTER, "_draw"),
+    "raster/rasterize/clip.py:_outside": (RASTER, "_box_misses"),
+    "raster/rasterize/setup.py:_run_setup": (RASTER, "_draw"),
+    "raster/rasterize/rows.py:_fill": (RASTER, "_draw"),
+    "raster/rasterize/setup.py:_setup": (RASTER, "_fill"),
+    "raster/rasterize/rows.py:_rows": (RASTER, "_fill"),
+    "raster/rasterize/draw.py:_draw_clipped": (CLIP, "_draw"),
+    "raster/rasterize/clip.py:_clip_polygon": (CLIP, "_draw_clipped"),
+    "raster/rasterize/resolve.py:_resolve": (RASTER, "rasterize"),
+    "raster/rasterize/clip.py:_box_misses": (
+        [R + "test_skipping_chunks_by_their_boxes_changes_nothing"], "_draw"),
+    "raster/rasterize/barycentrics.py:recover_barycentrics": (RECOVER, None),
+    "raster/rasterize/barycentrics.py:clip_corners": (RECOVER, "recover_barycentrics"),
+    "raster/rasterize/barycentrics.py:barycentrics_at": (RECOVER, "recover_barycentrics"),
+    "raster/rasterize/barycentrics.py:_barycentrics": (RECOVER, "RasterBuffers.b1"),
     "maps/warp/payload.py:_gather4": ([W + "test_gather_and_fill_blend_match_twins"],
                                       "gather_colors"),
     "maps/warp/fill.py:fill_blend": ([W + "test_gather_and_fill_blend_match_twins"], None),
@@ -253,16 +254,27 @@ def _is_njit(decorator: ast.expr) -> bool:
     return name in ("njit", "jit")
 
 
+def _compiled_names(node: ast.AST) -> list[str]:
+    """The names a statement compiles: a function decorated with @njit / @jit, or an
+    assignment `name = njit(...)(function)` (a compiled copy of a plain function)."""
+    if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+        return [node.name] if any(_is_njit(d) for d in node.decorator_list) else []
+    if (isinstance(node, ast.Assign) and isinstance(node.value, ast.Call)
+            and isinstance(node.value.func, ast.Call) and _is_njit(node.value.func)):
+        return [t.id for t in node.targets if isinstance(t, ast.Name)]
+    return []
+
+
 def njit_kernels() -> set[str]:
-    """Every @njit / @jit function in reflectcli, as 'path under reflectcli:name'."""
+    """Every @njit / @jit function in reflectcli (and every `njit(...)(f)` copy), as
+    'path under reflectcli:name'."""
     found = set()
     package = ROOT / "reflectcli"
     for path in sorted(package.rglob("*.py")):
         tree = ast.parse(path.read_text(), str(path))
         for node in ast.walk(tree):
-            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and any(
-                    _is_njit(d) for d in node.decorator_list):
-                found.add(f"{path.relative_to(package).as_posix()}:{node.name}")
+            for name in _compiled_names(node):
+                found.add(f"{path.relative_to(package).as_posix()}:{name}")
     return found
 
 

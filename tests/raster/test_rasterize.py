@@ -16,13 +16,10 @@ import pytest
 from naive import fill_fixed, ray_triangle, reference
 
 from reflectcli.camera import Camera
-from reflectcli.raster.rasterize import (
-    _BLOCK,
-    FLAG_MIRROR,
-    _fill,
-    _subpixel_bits,
-    rasterize,
-)
+from reflectcli.raster.rasterize import FLAG_MIRROR, rasterize
+from reflectcli.raster.rasterize.constants import _BLOCK
+from reflectcli.raster.rasterize.fixed import _subpixel_bits
+from reflectcli.raster.rasterize.rows import _fill
 
 W, H = 40, 30
 def camera(w=W, h=H, near=0.5, far=50.0) -> Camera:
@@ -288,7 +285,9 @@ def test_skipping_chunks_by_their_boxes_changes_nothing(masked):
     box, or an extra plane's side) are skipped: the buffers are byte-identical to drawing
     every triangle, and some runs were in fact skipped."""
     from reflectcli.camera import standard_planes
-    from reflectcli.raster.rasterize import _CHUNK, RasterWorkspace, _box_misses
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.raster.rasterize.clip import _box_misses
+    from reflectcli.raster.rasterize.constants import _CHUNK
 
     rng = np.random.default_rng(3)
     cam = camera(w=80, h=60)

@@ -1,0 +1,101 @@
+"""`rasterize`: world-space triangles to the triangle id and eye depth of every pixel."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from ...camera import standard_planes
+from .buffers import RasterBuffers, RasterWorkspace
+from .constants import _BLOCK, _CHUNK, _MAX_PLANES, CULL_NONE
+from .draw import _draw
+from .fixed import _subpixel_bits
+from .resolve import _resolve
+
+
+def rasterize(
+    corners: np.ndarray,
+    flags: np.ndarray,
+    world_to_clip: np.ndarray,
+    width: int,
+    height: int,
+    planes: np.ndarray | None = None,
+    cull: int = CULL_NONE,
+    mask: np.ndarray | None = None,
+    depth_floor: np.ndarray | None = None,
+    workspace: RasterWorkspace | None = None,
+) -> RasterBuffers:
+    """Rasterize world-space triangles (T, 3, 3) with an OpenGL-style world->clip matrix.
+
+    `flags` per triangle: bit 0 (FLAG_MIRROR, or a bool array) marks mirrors, which win
+    depth ties; bit 1 (FLAG_SKIP) leaves the triangle out of this pass.
+    `planes` are clip-space half-spaces (P, 4), near and far first; default near + far.
+    `cull`: CULL_BACK drops triangles whose screen winding is clockwise (seen from behind),
+    CULL_FRONT the opposite (for a mirrored camera, whose handedness is flipped).
+    `mask` (H, W) bool is a stencil: only its pixels are drawn, and only rows and columns
+    of its bounding box are visited. `depth_floor` (H, W) eye-space depths: fragments at or
+    in front of it are dropped (a second z-buffer, e.g. a curved reflector's own depth).
+    `workspace`: scratch arrays to reuse (see RasterWorkspace).
+    """
+    ws = workspace if workspace is not None else RasterWorkspace()
+    if planes is None:
+        planes = standard_planes()
+    planes = np.asarray(planes, dtype=np.float64)
+    assert planes.shape[0] <= _MAX_PLANES
+    bits, guard = _subpixel_bits(width, height)
+    gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
+    # the guard band: x_ndc in [-gx, gx], y_ndc in [-gy, gy] (clip x + gx w >= 0, ...)
+    guard_planes = np.array([[1.0, 0, 0, gx], [-1.0, 0, 0, gx], [0, 1.0, 0, gy],
+                             [0, -1.0, 0, gy]])
+    all_planes = np.ascontiguousarray(np.vstack([planes, guard_planes]))
+    corners = np.ascontiguousarray(corners, dtype=np.float32)
+    flags = np.ascontiguousarray(flags, dtype=np.uint8)
+    m = np.ascontiguousarray(world_to_clip, dtype=np.float64)
+    if ws.outputs:
+        tri = ws.get("tri", (height, width), np.int32)
+        depth = ws.get("depth", (height, width), np.float32)
+        out = (ws.get("b1", (height, width), np.float32),
+               ws.get("b2", (height, width), np.float32))
+    else:
+        tri = np.empty((height, width), np.int32)
+        depth = np.empty((height, width), np.float32)
+        out = None
+    if mask is None:
+        stencil = ws.constant("stencil", (1, 1), np.uint8, 1)
+        x0, x1, y0, y1 = 0, width, 0, height
+    else:
+        stencil = np.ascontiguousarray(mask, dtype=np.uint8)
+        ys = np.flatnonzero(stencil.any(axis=1))
+        xs = np.flatnonzero(stencil.any(axis=0))
+        if ys.size == 0:
+            x0 = x1 = y0 = y1 = 0
+        else:
+            x0, x1, y0, y1 = int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1
+    floor = (ws.constant("floor", (1, 1), np.float32, 0.0) if depth_floor is None
+             else np.ascontiguousarray(depth_floor, dtype=np.float32))
+    # sort-last: each thread draws whole triangles into its own buffers (the stencil's box),
+    # merged per pixel at the end; the depth test prefers the lower triangle index on equal
+    # keys, so the order triangles reach a buffer, and which buffer, never matter
+    threads = max(1, numba.get_num_threads())
+    box = (max(y1 - y0, 0), max(x1 - x0, 0))
+    # _BLOCK - 1 columns to spare: `_rows` walks a row in whole blocks of _BLOCK pixels
+    padded = (box[0], box[1] + _BLOCK - 1)
+    own_tri = ws.get("own_tri", (threads, *padded), np.int32)
+    own_key = ws.get("own_key", (threads, *padded), np.float32)
+    drew = np.zeros(threads, np.bool_)  # which threads' buffers hold this call's drawing
+    if box[0] > 0 and corners.shape[0] > 0:
+        chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
+        # with a workspace, chunks whose box cannot reach the stencil's box are skipped
+        bounds = (ws.chunk_bounds(corners) if workspace is not None
+                  else np.empty((0, 6)))
+        # chunks claimed one at a time by whichever thread is free (their work differs,
+        # and on a busy machine a thread may lose its core)
+        _draw(corners, flags, m, all_planes, planes.shape[0], width, height, bits, cull,
+              chunks, bounds, stencil, mask is not None, floor, depth_floor is not None,
+              x0, x1, y0, y1, own_tri, own_key, drew)
+    else:
+        own_tri = ws.get("own_tri", (0, *box), np.int32)
+        own_key = ws.get("own_key", (0, *box), np.float32)
+    _resolve(flags, x0, x1, y0, y1, own_tri, own_key, drew, tri, depth)
+    return RasterBuffers(tri, None, None, depth, corners, m, out)
+

@@ -1,0 +1,104 @@
+"""What a pass leaves (`RasterBuffers`) and the scratch kept from call to call
+(`RasterWorkspace`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..bounds import run_bounds
+from .barycentrics import _barycentrics
+from .constants import _CHUNK
+
+
+class RasterBuffers:
+    """What a pass left visible: per pixel the triangle id (int32, -1 where nothing was
+    drawn), its barycentric weights of corners 1 and 2 (float32) and its eye-space depth
+    (float32, +inf where nothing was drawn), all (H, W).
+
+    The rasterizer gives ids and depths; `b1` and `b2` are recovered from the triangles'
+    clip-space corners on first use (`recover`), so a pass whose consumer recovers them
+    itself (the shading kernels) never writes them."""
+
+    def __init__(self, triangle: np.ndarray, b1: np.ndarray | None, b2: np.ndarray | None,
+                 depth: np.ndarray, corners: np.ndarray | None = None,
+                 clip_from_world: np.ndarray | None = None,
+                 out: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        assert (b1 is None) == (b2 is None)
+        assert b1 is not None or (corners is not None and clip_from_world is not None)
+        self.triangle = triangle
+        self.depth = depth
+        self._b1, self._b2 = b1, b2
+        self.corners = corners  # (T, 3, 3) world, float32: what `recover` reads
+        self.clip_from_world = clip_from_world  # (4, 4) float64
+        self._out = out
+
+    @property
+    def recover(self) -> bool:
+        """True while b1 and b2 have not been made: a consumer may recover them itself."""
+        return self._b1 is None
+
+    def _barycentrics(self) -> None:
+        h, w = self.triangle.shape
+        if self._out is not None:
+            b1, b2 = self._out
+        else:
+            b1, b2 = np.empty((h, w), np.float32), np.empty((h, w), np.float32)
+        _barycentrics(self.triangle, self.corners, self.clip_from_world, b1, b2)
+        self._b1, self._b2 = b1, b2
+
+    @property
+    def b1(self) -> np.ndarray:
+        if self._b1 is None:
+            self._barycentrics()
+        return self._b1
+
+    @property
+    def b2(self) -> np.ndarray:
+        if self._b2 is None:
+            self._barycentrics()
+        return self._b2
+
+
+class RasterWorkspace:
+    """Scratch arrays of `rasterize` kept from call to call (grown, never shrunk): fresh
+    arrays of tens of megabytes a frame cost more in page faults than the work in them.
+    With `outputs=True` the returned buffers are the workspace's too (valid until the next
+    call): for passes whose buffers are consumed at once."""
+
+    def __init__(self, outputs: bool = False) -> None:
+        self.outputs = outputs
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def get(self, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+        size = int(np.prod(shape))
+        a = self._arrays.get(name)
+        if a is None or a.dtype != np.dtype(dtype) or a.size < size:
+            a = np.empty(max(size, 1), dtype)
+            self._arrays[name] = a
+        return a[:size].reshape(shape)
+
+    def chunk_bounds(self, corners: np.ndarray) -> np.ndarray:
+        """(chunks, 6) world-space boxes (min xyz, max xyz) of `corners` (T, 3, 3) in runs
+        of _CHUNK triangles, kept while the same array comes back (a scene's geometry is
+        built once; its arrays are not written after). Corners held in one of this
+        workspace's own buffers (rewritten between calls) are never kept."""
+        kept = self._arrays.get("bounds_of")
+        if kept is not None and kept[0] is corners:
+            return kept[1]
+        chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
+        bounds = np.empty((chunks, 6))
+        if chunks:
+            run_bounds(corners, _CHUNK, bounds)
+        if not any(corners.base is a for a in self._arrays.values()):
+            self._arrays["bounds_of"] = (corners, bounds)
+        return bounds
+
+    def constant(self, name: str, shape: tuple[int, int], dtype, value) -> np.ndarray:
+        """A (H, W) array holding `value` (filled once; callers must not write it)."""
+        key = f"{name}:{value}"
+        a = self._arrays.get(key)
+        if a is None or a.shape != shape:
+            a = np.full(shape, value, dtype)
+            self._arrays[key] = a
+        return a
+

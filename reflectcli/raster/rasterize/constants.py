@@ -1,0 +1,23 @@
+"""The rasterizer's constants: culling modes, triangle flags and statuses, plane limits, and
+the sizes of its runs and blocks."""
+
+_MAX_PLANES = 8
+_GUARD_PLANES = 4
+_MAX_POLY = 3 + _MAX_PLANES + _GUARD_PLANES
+
+# culling modes
+CULL_NONE, CULL_BACK, CULL_FRONT = 0, 1, 2
+
+# per-triangle flags
+FLAG_MIRROR, FLAG_SKIP = 1, 2
+
+# triangle status after setup
+_CULLED, _SIMPLE, _CLIPPED = 0, 1, 2
+
+_CHUNK = 256  # triangles per parallel task (and per box of chunk_bounds)
+# A plain row is walked in whole blocks of _BLOCK pixels, those past the triangle's box
+# masked (rewritten unchanged): the compiler's vectorised loop then never falls to its
+# scalar remainder, whose branches on the row's length (1 to 4 pixels on most triangles of
+# a detailed mesh) mispredict. 202k triangles, 1 thread: culled 1.03 -> 0.95x the anchor,
+# unculled 1.41 -> 1.26x (8 was slower than 4)
+_BLOCK = 4

@@ -1,0 +1,117 @@
+"""The parallel draw: runs of triangles claimed by whichever thread is free, each drawn
+into that thread's own buffers (`_draw`); triangles a plane cuts go as fans of their clipped
+polygon (`_draw_clipped`)."""
+
+import numpy as np
+from numba import njit, prange
+
+from ...parallel import claim
+from ...scene.types import MIRROR_TIE
+from .clip import _box_misses, _clip_polygon
+from .constants import _CHUNK, _CLIPPED, _MAX_POLY, CULL_BACK, CULL_FRONT, CULL_NONE, FLAG_MIRROR
+from .fixed import _snap
+from .rows import _fill, _rows
+from .setup import _run_setup
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, bounds, stencil,
+          use_stencil, floor, use_floor, col0, col1, top, bottom, own_tri, own_key, drew):
+    """Every triangle, in chunks of _CHUNK, into the buffers of the thread drawing it;
+    chunks whose world box (`bounds`, if given) misses the view or the box are skipped. A
+    thread clears its buffers before its first chunk and marks them in `drew` (one parallel
+    region less: on a busy machine each costs a wake-up of the other threads).
+
+    A chunk goes in two phases: `_run_setup` (clip space, classification, projection and
+    snapping: loops without branches over the run, which the compiler vectorises, into
+    small per-thread arrays), then per triangle `_fill` (culling, box, edge functions, key
+    plane, pixels) or `_draw_clipped`."""
+    n = corners.shape[0]
+    scale = float(1 << bits)
+    threads = own_tri.shape[0]
+    soa = np.empty((threads, 9, _CHUNK), np.float32)
+    clip = np.empty((threads, 12, _CHUNK))
+    work_i = np.empty((threads, 21 * _CHUNK), np.int64)
+    work_f = np.empty((threads, 7 * _CHUNK))
+    status = np.empty((threads, _CHUNK), np.uint8)
+    chosen = np.empty((threads, _CHUNK), np.int64)
+    xyw = np.empty((threads, _MAX_POLY, 3))
+    # one item per thread, each claiming the next chunk until none is left (parallel.py);
+    # a worker draws into its own buffers, merged by key: who drew what never matters
+    claimed = np.zeros(1, np.int64)
+    for me in prange(threads):
+        while True:
+            chunk = claim(claimed)
+            if chunk >= chunks:
+                break
+            if bounds.shape[0] > 0 and _box_misses(bounds, chunk, m, planes, n_cut, width,
+                                                    height, col0, col1, top, bottom):
+                continue
+            tri = own_tri[me]
+            key = own_key[me]
+            if not drew[me]:
+                drew[me] = True
+                for r in range(tri.shape[0]):
+                    for c in range(tri.shape[1]):
+                        tri[r, c] = -1
+                        key[r, c] = 0.0
+            t0 = chunk * _CHUNK
+            count = min(n, t0 + _CHUNK) - t0
+            _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
+                       bottom, col0, col1, t0, count, soa[me], clip[me], work_i[me], work_f[me],
+                       status[me])
+            ints = work_i[me]
+            floats = work_f[me]
+            st = status[me]
+            sel = chosen[me]
+            c = _CHUNK
+            # the triangles to fill, listed without a branch per triangle
+            k = 0
+            clipped = 0
+            for j in range(count):
+                sel[k] = j
+                k += ints[20 * c + j]
+                clipped += st[j] == _CLIPPED
+            for i in range(k):
+                j = sel[i]
+                t = t0 + j
+                _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+                      ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+                      ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+                      ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+                      floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
+                      MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
+                      use_stencil, floor, use_floor, tri, key, True)
+            if clipped:
+                for j in range(count):
+                    if st[j] == _CLIPPED:
+                        t = t0 + j
+                        _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
+                                      else 1.0, m, planes, width, height, bits, cull, scale,
+                                      xyw[me], top, bottom, col0, col1, stencil, use_stencil,
+                                      floor, use_floor, tri, key)
+
+
+
+@njit(cache=True, error_model="numpy")
+def _draw_clipped(corners, t, key_scale, m, planes, width, height, bits, cull, scale, xyw,
+                  row0, row1, col0, col1, stencil, use_stencil, floor, use_floor, tri, zbuf):
+    """A triangle some plane cuts: its clipped polygon, culled by its winding, drawn as a
+    fan of snapped triangles (sharing snapped corners: no cracks between them)."""
+    n = _clip_polygon(corners, t, m, planes, width, height, xyw)
+    if n < 3:
+        return
+    if cull != CULL_NONE:
+        a = 0.0
+        for i in range(1, n - 1):
+            a += ((xyw[i, 0] - xyw[0, 0]) * (xyw[i + 1, 1] - xyw[0, 1])
+                  - (xyw[i + 1, 0] - xyw[0, 0]) * (xyw[i, 1] - xyw[0, 1]))
+        if (cull == CULL_BACK and a > 0.0) or (cull == CULL_FRONT and a < 0.0):
+            return
+    for i in range(1, n - 1):
+        _fill(t, key_scale, CULL_NONE, _snap(xyw[0, 0], scale), _snap(xyw[0, 1], scale),
+              xyw[0, 2], _snap(xyw[i, 0], scale), _snap(xyw[i, 1], scale), xyw[i, 2],
+              _snap(xyw[i + 1, 0], scale), _snap(xyw[i + 1, 1], scale), xyw[i + 1, 2],
+              bits, row0, row1, col0, col1, stencil, use_stencil, floor, use_floor,
+              tri, zbuf)
+

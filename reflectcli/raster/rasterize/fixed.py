@@ -1,0 +1,25 @@
+"""The fixed-point screen grid: corners snapped to 2^-S pixel, so edge functions are exact
+int64 (no rounding decides coverage)."""
+
+import numpy as np
+from numba import njit
+
+# fixed-point corners stay within +-2^_FIXED_BITS: edge functions (products of two corner
+# differences, summed) then stay below 2^62 in int64
+_FIXED_BITS = 29
+
+
+def _subpixel_bits(width: int, height: int) -> tuple[int, float]:
+    """(S, guard): corners are snapped to 2^-S pixel and kept (by clipping) within `guard`
+    pixels beyond each side of the screen, so every snapped coordinate is below
+    2^_FIXED_BITS in magnitude."""
+    span = 1 << int(np.ceil(np.log2(2 * max(width, height, 2))))  # >= 2 * the screen
+    bits = _FIXED_BITS - int(np.log2(span))
+    return bits, 0.45 * span
+
+
+
+@njit(cache=True, inline="always")
+def _snap(v, scale):
+    """A screen coordinate in units of 1/scale pixel, rounded to nearest (halves up)."""
+    return np.int64(np.floor(v * scale + 0.5))

@@ -1,0 +1,85 @@
+"""Drawing a set-up triangle's pixels: the row walk (`_rows`) with the depth test, and
+`_fill` (setup then rows) for one triangle."""
+
+import numpy as np
+from numba import njit
+
+from .constants import _BLOCK
+from .setup import _setup
+
+
+@njit(cache=True, inline="always")
+def _rows(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2, z_ref,
+          dzdx, dzdy, zx0, tie, top, col0, stencil, use_stencil, floor, use_floor, tri, key,
+          blocks):
+    """Draw the pixels of rows ys..ye, columns xs..xs+n-1 whose centers are inside (every
+    edge function >= 0) into the box buffers (pixel (py, px) at [py - top, px - col0]).
+
+    `blocks`: the buffers have _BLOCK - 1 columns to spare past the box, so a plain row is
+    walked in whole blocks of _BLOCK. A row's pixels are read through views starting at
+    column xs, indexed from 0: indexed [r, xs - col0 + k], numba's negative-index
+    wraparound kept the plain loop scalar (with spills); this way it vectorises."""
+    plain = not use_stencil and not use_floor
+    c = xs - col0
+    n4 = (n + _BLOCK - 1) & -_BLOCK if blocks else n
+    for py in range(ys, ye + 1):
+        z_row = z_ref + dzdy * (py - first_y) + zx0
+        r = py - top
+        f0, f1, f2 = e0, e1, e2
+        if plain:  # without branches (a mispredicted one costs more than a pixel)
+            # a view from column xs, indexed from 0: no wraparound, so it vectorises
+            key_row = key[r, c:c + n4]
+            tri_row = tri[r, c:c + n4]
+            for k in range(n4):
+                z = np.float32(z_row + dzdx * k)
+                old = key_row[k]
+                was = tri_row[k]
+                win = (((f0 | f1 | f2) >= 0) & (k < n)
+                       & ((z > old) | ((z == old) & (t32 < was))))
+                key_row[k] = z if win else old
+                tri_row[k] = t32 if win else was
+                f0 += sa0
+                f1 += sa1
+                f2 += sa2
+            e0 += sb0
+            e1 += sb1
+            e2 += sb2
+            continue
+        for k in range(n):
+            if (f0 | f1 | f2) >= 0:
+                zf = z_row + dzdx * k
+                z = np.float32(zf)
+                old = key[r, c + k]
+                if (z > old or (z == old and t32 < tri[r, c + k])) and (
+                        plain or ((not use_stencil or stencil[py, xs + k] != 0)
+                                  and (not use_floor or zf * tie * floor[py, xs + k] < 1.0))):
+                    key[r, c + k] = z
+                    tri[r, c + k] = t32
+            f0 += sa0
+            f1 += sa1
+            f2 += sa2
+        e0 += sb0
+        e1 += sb1
+        e2 += sb2
+
+
+@njit(cache=True, error_model="numpy")
+def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bottom, col0,
+          col1, stencil, use_stencil, floor, use_floor, tri, key):
+    """Draw one snapped screen triangle into the box [top, bottom) x [col0, col1) (`tri`
+    and `key` hold the box: pixel (py, px) at [py - top, px - col0]): `_setup` then `_rows`.
+
+    (x, y): corners in units of 2^-bits pixel (int64); w0..w2 their 1/w. A pixel is drawn
+    where its center is inside (top-left rule), its stencil is set (`use_stencil`), its
+    depth w is beyond floor's (`use_floor`), and its key 1/w * key_scale is greater than
+    the stored one, or equal to it with a lower triangle index. `cull` as in rasterize."""
+    s = _setup(np.int64(x0), np.int64(y0), np.float64(w0), np.int64(x1), np.int64(y1),
+               np.float64(w1), np.int64(x2), np.int64(y2), np.float64(w2),
+               np.float64(key_scale), cull, bits, top, bottom, col0, col1)
+    if not s[0]:
+        return
+    _rows(np.int32(t), s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], s[10], s[11],
+          s[12], s[13], s[14], s[15], s[16], s[17], s[18], 1.0 / key_scale, top, col0,
+          stencil, use_stencil, floor, use_floor, tri, key,
+          key.shape[1] >= col1 - col0 + _BLOCK - 1)
+
