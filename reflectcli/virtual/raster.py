@@ -57,7 +57,7 @@ def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world
     # shaded where the stencil is: fragments (and the pixels fill_cracks reads) lie there
     colors, _ = shade_buffers(buffers, reflected, scene, camera.eye, incoming, stencil=stencil,
                               out=(ws.get("virtual_rgb", (h, w, 3), np.float32),
-                                   ws.get("virtual_surface", (h, w), np.int32)))
+                                   ws.get("virtual_surface", (h, w), np.int32)), box=box)
     if mirror_plane is None:
         fill_cracks(colors, buffers.triangle >= 0, stencil, *box)
     return colors
