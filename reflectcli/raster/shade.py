@@ -9,6 +9,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..parallel import claim
+from ..prefetch import prefetch
 from ..scene.types import POINT, UNLIT, Scene, Triangles
 from ..shading import material_albedo, surface_color
 from .rasterize import RasterBuffers, clip_corners
@@ -73,6 +74,7 @@ def shade_buffers(
 
 
 _ROWS = 4  # rows a thread claims at a time
+_AHEAD = 8  # pixels between a triangle's prefetch and its use (_shade_row)
 
 
 @njit(cache=True, parallel=True)
@@ -197,7 +199,18 @@ def _shade_row(y, x0, x1, stencil, use_stencil, g, xs, tri, m, drawn, corners, u
     count = 0
     last = -1  # the triangle whose run setup `co` holds (kept along the row)
     co = (0.0,) * 18
+    ahead = -1  # the triangle last prefetched
     for x in range(x0, x1):
+        # the triangle _AHEAD pixels on: its attributes asked for now (memory-bound passes
+        # of tiny triangles, each pixel's its own, otherwise wait for one row at a time)
+        t_ahead = tri[y, min(x + _AHEAD, x1 - 1)]
+        if t_ahead != ahead:
+            ahead = t_ahead
+            prefetch(corners, t_ahead)
+            prefetch(uvs, t_ahead)
+            prefetch(normals, t_ahead)
+            prefetch(drawn, t_ahead)
+            prefetch(surface, t_ahead)
         if use_stencil and not stencil[y, x]:
             continue
         t = tri[y, x]

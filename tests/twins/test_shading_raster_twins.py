@@ -406,3 +406,26 @@ def test_run_bounds_match_twin(count):
     got = np.empty((runs, 6))
     run_bounds(corners, 256, got)
     np.testing.assert_array_equal(got, naive_run_bounds(corners, 256))
+
+
+def test_prefetch_changes_no_value():
+    """prefetch is a hint: a gather with it reads the same values, and ids outside the
+    array (-1 for no triangle, past its end) are no error."""
+    from numba import njit
+
+    from reflectcli.prefetch import prefetch
+
+    @njit
+    def gather(a, ids, ahead):
+        out = np.empty(ids.shape[0], np.float32)
+        for i in range(ids.shape[0]):
+            prefetch(a, ids[min(i + ahead, ids.shape[0] - 1)])
+            prefetch(a, np.int32(-1))
+            prefetch(a, a.shape[0] + 5)
+            out[i] = a[ids[i], 1, 2]
+        return out
+
+    rng = np.random.default_rng(0)
+    a = rng.random((500, 3, 3)).astype(np.float32)
+    ids = rng.integers(0, 500, 300).astype(np.int32)
+    np.testing.assert_array_equal(gather(a, ids, 8), a[ids, 1, 2])
