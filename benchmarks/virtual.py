@@ -45,15 +45,19 @@ def opened(scene: str, technique: str, overrides: list[str], threads: int):
 
 
 def alternate(runs: dict, repeats: int) -> dict:
-    """name -> list of (seconds, frame); each round renders frame 0 once per technique."""
+    """name -> list of (seconds, the frame's timings); each round renders frame 0 once per
+    technique. Frames are dropped as a render drops them once written: kept, each new
+    frame's buffers were fresh pages to fault in (about 1,000 a frame at 512x512)."""
     out = {k: [] for k in runs}
     for rep in range(repeats + 1):
         for name, o in runs.items():
             o.technique.forget_view(o.prepare())
             t = time.perf_counter()
             f = o.render_frame(0)
+            seconds = time.perf_counter() - t
             if rep:  # round 0 warms up
-                out[name].append((time.perf_counter() - t, f))
+                out[name].append((seconds, f.timings))
+            del f
     return out
 
 
@@ -190,7 +194,7 @@ def main() -> None:
         runs = alternate(techniques, args.repeats)
         ref = np.array([t for t, _ in runs["raytrace"]])
         mine = np.array([t for t, _ in runs["virtual"]])
-        split = {k: 1e3 * statistics.median(f.timings.get(k, 0.0) for _, f in runs["virtual"])
+        split = {k: 1e3 * statistics.median(timings.get(k, 0.0) for _, timings in runs["virtual"])
                  for k in SPLIT}
         print(f"{scene}: virtual {1e3 * np.median(mine):.0f} ms, raytrace (max_depth 1) "
               f"{1e3 * np.median(ref):.0f} ms, ratio {np.median(mine) / np.median(ref):.2f} "
