@@ -109,6 +109,12 @@ def claim(counter):
     return k
 
 
+def prefetch(ary, index):
+    """Twin of prefetch.prefetch: nothing, a hint to the memory system changes no value (the
+    fast one is held to that by a gather with and without it, and by the shading passes)."""
+    del ary, index
+
+
 # ================================================================================== raster
 
 EDGE_PX = 1e-6

@@ -69,6 +69,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                     T + "test_primary_wave_matches_twin"], "_primary_rays"),
     "trace/rays.py:_row": ([SR + "test_primary_rays_match_pixel_directions",
                             T + "test_primary_wave_matches_twin"], "rows_of_rays"),
+    "prefetch.py:prefetch": (RECOVER + [SR + "test_prefetch_changes_no_value"], "_shade_row"),
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade"),

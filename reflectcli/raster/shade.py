@@ -8,6 +8,8 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from ..parallel import claim
+from ..prefetch import prefetch
 from ..scene.types import POINT, UNLIT, Scene, Triangles
 from ..shading import material_albedo, surface_color
 from .rasterize import RasterBuffers, clip_corners
@@ -17,6 +19,7 @@ def shade_buffers(
     buffers: RasterBuffers, tris: Triangles, scene: Scene, eye: np.ndarray,
     incoming: np.ndarray | None = None, stencil: np.ndarray | None = None,
     out: tuple[np.ndarray, np.ndarray] | None = None,
+    box: tuple[int, int, int, int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(rgb (H, W, 3) float32, surface id (H, W) int32).
 
@@ -28,7 +31,9 @@ def shade_buffers(
     reflected ray of a curved mirror's pixel, whose viewpoint differs per pixel); shading
     uses it only for its side (two-sided normals), as the ray tracer uses its ray.
     With `stencil` (H, W) bool only its pixels are shaded: the others keep whatever `out`
-    (rgb, surface arrays to write into, e.g. kept from the last frame) held.
+    (rgb, surface arrays to write into, e.g. kept from the last frame) held. `box` (rows
+    y0..y1-1, columns x0..x1-1, screen) must hold every stencil pixel: only it is visited
+    (a small reflector's pass then scans its box, not the image).
     """
     h, w = buffers.triangle.shape
     if out is None:
@@ -56,53 +61,89 @@ def shade_buffers(
             scene.materials.mat_i, scene.materials.mat_f, scene.materials.texels,
             scene.lights.light_f, scene.shading, scene.ambient, scene.background,
             scene.mirrors.reflectance, scene.mirrors.base, rgb, surf)
-    # rows in chunks of 4 (numba's OpenMP layer still gives each thread a fixed share of
-    # them, interleaving nothing: parallel.py); each pixel is written once: same result
-    with numba.parallel_chunksize(4):
-        if stencil is None:
-            _shade(*args)
-        else:
-            _shade_stencil(np.ascontiguousarray(stencil, dtype=np.bool_), *args)
+    # each pixel is written once, from its row alone: which thread shades a row (claimed
+    # in pieces of _ROWS, parallel.py) never changes the result
+    threads = max(1, numba.get_num_threads())  # workers, each with its own scratch
+    if stencil is None:
+        _shade(*args, threads)
+    else:
+        y0, y1, x0, x1 = (0, h, 0, w) if box is None else box
+        _shade_stencil(np.ascontiguousarray(stencil, dtype=np.bool_), *args, y0, y1, x0, x1,
+                       threads)
     return rgb, surf
+
+
+_ROWS = 4  # rows a thread claims at a time
+_AHEAD = 8  # pixels between a triangle's prefetch and its use (_shade_row)
 
 
 @njit(cache=True, parallel=True)
 def _shade(tri, b1, b2, recover, m, drawn, corners, uvs, normals, material, surface,
            n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, ambient,
-           background, refl, base, rgb, surf):
+           background, refl, base, rgb, surf, threads):
     """Every pixel shaded. `recover`: barycentrics from the clip-space corners of the
-    triangles drawn (`drawn`, world; clip from world `m`) instead of b1, b2."""
+    triangles drawn (`drawn`, world; clip from world `m`) instead of b1, b2; `threads`:
+    how many workers (each its own scratch).
+
+    Rows are claimed _ROWS at a time by whichever thread is free (parallel.py): with a
+    fixed share per thread, one thread could get the rows of every object while the other
+    shaded background. (The row loop is written out in each kernel: called as a function
+    instead of inlined it ran at half the speed.)"""
     h, w = tri.shape
     no_stencil = np.zeros((1, 1), np.bool_)
-    for y in prange(h):
-        if recover:
-            _shade_row(y, no_stencil, False, tri, m, drawn, corners, uvs, normals, material,
-                       surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
-                       shading, ambient, background, refl, base, rgb, surf)
-            continue
-        for x in range(w):
-            _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
-                         n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
-                         shading, ambient, background, refl, base, rgb, surf)
+    g = np.empty((threads, 12, w))
+    xs = np.empty((threads, w), np.int64)
+    claimed = np.zeros(1, np.int64)
+    pieces = (h + _ROWS - 1) // _ROWS
+    for me in prange(threads):
+        while True:
+            k = claim(claimed)
+            if k >= pieces:
+                break
+            for y in range(k * _ROWS, min(h, (k + 1) * _ROWS)):
+                if recover:
+                    _shade_row(y, 0, w, no_stencil, False, g[me], xs[me], tri, m, drawn,
+                               corners, uvs, normals, material, surface, n_objects, eye, dirs,
+                               per_pixel, mat_i, mat_f, texels, light_f, shading, ambient,
+                               background, refl, base, rgb, surf)
+                    continue
+                for x in range(w):
+                    _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
+                                 n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
+                                 shading, ambient, background, refl, base, rgb, surf)
 
 
 @njit(cache=True, parallel=True)
 def _shade_stencil(stencil, tri, b1, b2, recover, m, drawn, corners, uvs, normals, material,
                    surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
-                   shading, ambient, background, refl, base, rgb, surf):
-    """_shade of the pixels where `stencil` is set; the others are left as they are."""
-    h, w = tri.shape
-    for y in prange(h):
-        if recover:
-            _shade_row(y, stencil, True, tri, m, drawn, corners, uvs, normals, material,
-                       surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
-                       shading, ambient, background, refl, base, rgb, surf)
-            continue
-        for x in range(w):
-            if stencil[y, x]:
-                _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material, surface,
-                             n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
-                             shading, ambient, background, refl, base, rgb, surf)
+                   shading, ambient, background, refl, base, rgb, surf, y0, y1, x0, x1,
+                   threads):
+    """_shade of the pixels where `stencil` is set, all inside rows y0..y1-1 and columns
+    x0..x1-1 (only they are visited); the others are left as they are."""
+    w = tri.shape[1]
+    g = np.empty((threads, 12, w))
+    xs = np.empty((threads, w), np.int64)
+    claimed = np.zeros(1, np.int64)
+    pieces = (max(y1 - y0, 0) + _ROWS - 1) // _ROWS
+    for me in prange(threads):
+        while True:
+            k = claim(claimed)
+            if k >= pieces:
+                break
+            for y in range(y0 + k * _ROWS, min(y1, y0 + (k + 1) * _ROWS)):
+                if recover:
+                    _shade_row(y, x0, x1, stencil, True, g[me], xs[me], tri, m, drawn,
+                               corners, uvs, normals, material, surface, n_objects, eye, dirs,
+                               per_pixel, mat_i, mat_f, texels, light_f, shading, ambient,
+                               background, refl, base, rgb, surf)
+                    continue
+                for x in range(x0, x1):
+                    if stencil[y, x]:
+                        _shade_pixel(y, x, tri, b1, b2, corners, uvs, normals, material,
+                                     surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
+                                     texels, light_f, shading, ambient, background, refl, base,
+                                     rgb, surf)
+
 
 @njit(cache=True, inline="always")
 def _run_setup(drawn, t, m, ny, corners, uvs, normals):
@@ -140,30 +181,36 @@ def _run_setup(drawn, t, m, ny, corners, uvs, normals):
 
 
 @njit(cache=True, inline="always")
-def _shade_row(y, stencil, use_stencil, tri, m, drawn, corners, uvs, normals, material,
-               surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f,
-               shading, ambient, background, refl, base, rgb, surf):
-    """Row y of a pass whose barycentrics are recovered (see _run_setup); with use_stencil
-    only the pixels where `stencil` is set.
+def _shade_row(y, x0, x1, stencil, use_stencil, g, xs, tri, m, drawn, corners, uvs, normals,
+               material, surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels,
+               light_f, shading, ambient, background, refl, base, rgb, surf):
+    """Columns x0..x1-1 of row y of a pass whose barycentrics are recovered (see
+    _run_setup); with use_stencil only the pixels where `stencil` is set.
 
     Lit rows go in two steps: each object pixel's albedo, point, normal and view direction
-    are gathered into columns of a scratch array, then `_light_row` lights the columns
-    (loops without branches over contiguous arrays: the compiler vectorizes their square
-    roots and divisions) in surface_color's order of operations: the same numbers."""
+    are gathered into columns of the scratch `g` (12, W), their columns in `xs` (W,), then
+    `_light_row` lights the columns (loops without branches over contiguous arrays: the
+    compiler vectorizes their square roots and divisions) in surface_color's order of
+    operations: the same numbers."""
     h, w = tri.shape
     ny = 1.0 - (y + 0.5) * (2.0 / h)
     sx = 2.0 / w
     lit = shading != UNLIT
-    if lit:
-        g = np.empty((12, w))  # albedo rgb, point xyz, normal xyz, view direction xyz
-        xs = np.empty(w, np.int64)
-    else:
-        g = np.empty((12, 0))
-        xs = np.empty(0, np.int64)
     count = 0
     last = -1  # the triangle whose run setup `co` holds (kept along the row)
     co = (0.0,) * 18
-    for x in range(w):
+    ahead = -1  # the triangle last prefetched
+    for x in range(x0, x1):
+        # the triangle _AHEAD pixels on: its attributes asked for now (memory-bound passes
+        # of tiny triangles, each pixel's its own, otherwise wait for one row at a time)
+        t_ahead = tri[y, min(x + _AHEAD, x1 - 1)]
+        if t_ahead != ahead:
+            ahead = t_ahead
+            prefetch(corners, t_ahead)
+            prefetch(uvs, t_ahead)
+            prefetch(normals, t_ahead)
+            prefetch(drawn, t_ahead)
+            prefetch(surface, t_ahead)
         if use_stencil and not stencil[y, x]:
             continue
         t = tri[y, x]

@@ -35,6 +35,8 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from ..parallel import claim
+
 BLOCK = 256  # points set side by side
 VECTOR_STEPS = 5  # Newton steps taken side by side (about 4 evaluations converge a point)
 
@@ -209,14 +211,21 @@ _ROWS = 21
 @njit(cache=True, parallel=True, error_model="numpy")
 def _blocks(points, eye, center, r, axis, use_axis, out, hidden, scratch):
     """(Q', hidden) of every point, BLOCK points at a time (see the module docstring);
-    `scratch` (threads, _ROWS, BLOCK): per-thread scratch."""
+    `scratch` (workers, _ROWS, BLOCK): per-worker scratch. Blocks are claimed one at a time
+    by whichever worker is free (parallel.py): a block's cost varies with how many of its
+    points fall back to the one-at-a-time search, and on a shared machine a worker may lose
+    its core. A point's answer never depends on its block or worker."""
     n = points.shape[0]
     blocks = (n + BLOCK - 1) // BLOCK
-    for b in prange(blocks):
-        me = numba.get_thread_id()
-        i0 = b * BLOCK
-        count = min(n, i0 + BLOCK) - i0
-        _block(points, i0, count, eye, center, r, axis, use_axis, scratch[me], out, hidden)
+    claimed = np.zeros(1, np.int64)
+    for me in prange(scratch.shape[0]):
+        while True:
+            b = claim(claimed)
+            if b >= blocks:
+                break
+            i0 = b * BLOCK
+            count = min(n, i0 + BLOCK) - i0
+            _block(points, i0, count, eye, center, r, axis, use_axis, scratch[me], out, hidden)
 
 
 @njit(cache=True, error_model="numpy")

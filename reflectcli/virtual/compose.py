@@ -67,7 +67,7 @@ def gather_corners(virtual, hidden, corner_index, surface, n_objects, corners, f
                     | (FLAG_SKIP if every else 0))
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def fill_cracks(colors, covered, stencil, y0, y1, x0, x1):
     """Close one-pixel cracks between virtual triangles, in place, within rows y0..y1-1 and
     columns x0..x1-1 (the stencil's box): a stencil pixel no fragment covered whose two
@@ -81,9 +81,12 @@ def fill_cracks(colors, covered, stencil, y0, y1, x0, x1):
     along the reflected wall/floor seam). A reflection one pixel wide between covered pixels
     on both sides is not something the tessellated objects can show, so the fill is safe;
     wider gaps (a reflection of the background) are kept. A crack's neighbours are covered,
-    so never cracks themselves: filling in place reads only unchanged pixels."""
+    so never cracks themselves: filling in place reads only unchanged pixels.
+
+    One thread: a box's few thousand pixels take microseconds, less than a parallel region
+    costs when the machine's other work holds a core (its barrier then waits for it)."""
     h, w = covered.shape
-    for y in prange(y0, y1):
+    for y in range(y0, y1):
         for x in range(x0, x1):
             if not stencil[y, x] or covered[y, x]:
                 continue

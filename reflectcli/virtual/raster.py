@@ -51,13 +51,15 @@ def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world
     elif reflector_test == "clip_planes":
         pts = primary.triangles.corners[primary.triangles.surface == sid].reshape(-1, 3)
         planes = np.vstack([planes, box_planes(pts, camera.eye, clip_from_world)])
+    # the stencil as the uint8 the rasterizer takes, a view: not a copy of the image a pass
+    mask = stencil.view(np.uint8) if stencil.dtype == np.bool_ else stencil
     buffers = rasterize(np.ascontiguousarray(virtual, np.float32), flags, clip_from_world,
-                        camera.width, camera.height, planes, mask=stencil, depth_floor=floor,
+                        camera.width, camera.height, planes, mask=mask, depth_floor=floor,
                         workspace=ws)
     # shaded where the stencil is: fragments (and the pixels fill_cracks reads) lie there
     colors, _ = shade_buffers(buffers, reflected, scene, camera.eye, incoming, stencil=stencil,
                               out=(ws.get("virtual_rgb", (h, w, 3), np.float32),
-                                   ws.get("virtual_surface", (h, w), np.int32)))
+                                   ws.get("virtual_surface", (h, w), np.int32)), box=box)
     if mirror_plane is None:
         fill_cracks(colors, buffers.triangle >= 0, stencil, *box)
     return colors

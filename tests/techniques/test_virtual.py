@@ -556,3 +556,43 @@ def test_shape_cache_holds_only_the_latest_soup_arrays():
     assert cache.arrays[0] is b_corners and list(cache.keys) == [(2, 5)]
     b_corners[3] += 1.0
     assert cache.soup_key(b_corners.copy(), b_normals, 2, 5) != key
+
+
+def test_welded_tessellation_gives_the_same_virtual_corners():
+    """prepare welds the reflected objects' equal points for the sphere method (a grid point
+    on a shared edge was searched once per triangle that made it): fewer searches, the
+    same virtual corners bit for bit. Only equal bits are merged (0.0 and -0.0 stay two),
+    and explosion reflectors, whose parts read the polygons, keep their points."""
+    from reflectcli.techniques.virtual.technique import Virtual
+    from reflectcli.virtual.reflected import reflected_objects, welded
+    from reflectcli.virtual.tessellation import Tessellation
+
+    opened = open_scene("four-spheres", "virtual", ())
+    scene, state = opened.scene, opened.prepare()
+    geometry = scene.geometry(0)
+    rule = opened.technique.params.tessellation
+    tess = state.reflected.get(geometry, scene.n_objects, 0, rule)
+    key = next(k for k in state.reflected.entries if k[1] == 0)
+    plain = reflected_objects(geometry, scene.n_objects, scene.n_objects, rule.subdivisions,
+                              *key[3:])
+    assert len(tess.points) < len(plain.points) / 2
+    assert len(np.unique(tess.points, axis=0)) == len(tess.points)
+    np.testing.assert_array_equal(tess.points[tess.corner_index],
+                                  plain.points[plain.corner_index])
+    p = scene.mirrors.params[0]
+    eye = opened.camera(0).eye
+    got, got_hidden = sphere_virtual_vertices(tess.points, eye, p[:3], p[3])
+    want, want_hidden = sphere_virtual_vertices(plain.points, eye, p[:3], p[3])
+    assert got[tess.corner_index].tobytes() == want[plain.corner_index].tobytes()
+    assert (got_hidden[tess.corner_index] == want_hidden[plain.corner_index]).all()
+    # bits, not values: 0.0 and -0.0 are two points
+    signed = Tessellation(plain.triangles, np.array([[0.0, 1, 2], [-0.0, 1, 2], [0.0, 1, 2]]),
+                          np.array([[0, 1, 2]]))
+    merged = welded(signed)
+    assert len(merged.points) == 2 and merged.corner_index.tolist() == [[0, 1, 0]]
+    # an explosion reflector keeps the tessellation as made
+    explosion = open_scene("four-spheres", "virtual", ('technique.method="explosion"',))
+    state = explosion.prepare()
+    assert isinstance(explosion.technique, Virtual)
+    kept = state.reflected.get(explosion.scene.geometry(0), scene.n_objects, 0, rule)
+    assert len(kept.points) == len(plain.points)

@@ -184,7 +184,7 @@ def test_shade_pass_matches_twin(seed, shading, per_pixel):
     dirs = incoming if per_pixel else np.zeros((1, 1, 3))
     _shade(tri, b1, b2, False, np.eye(4), corners, corners, uvs, normals, material, surface,
            n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading, 0.1,
-           background, refl, base, rgb, surf)
+           background, refl, base, rgb, surf, 2)
     want_rgb, want_surf = shade(tri, b1, b2, corners, uvs, normals, material, surface,
                                 n_objects, eye, mat_i, mat_f, texels, light_f, shading, 0.1,
                                 background, refl, base, incoming)
@@ -200,7 +200,7 @@ def test_shade_pass_matches_twin(seed, shading, per_pixel):
     tail = (mat_i, mat_f, texels, light_f, shading, 0.1, background, refl, base)
     want_rgb_s, want_surf_s = shade_stencil(stencil, rgb_s, surf_s, *head, *tail, incoming)
     _shade_stencil(stencil, *head[:3], False, np.eye(4), corners, *head[3:], dirs, per_pixel, *tail,
-                   rgb_s, surf_s)
+                   rgb_s, surf_s, 0, h, 0, w, 2)
     np.testing.assert_array_equal(surf_s, want_surf_s)
     np.testing.assert_allclose(rgb_s, want_rgb_s, rtol=2e-5, atol=1e-6)
     assert (rgb_s[~stencil] == -7.0).all() and (surf_s[~stencil] == -9).all()
@@ -239,7 +239,7 @@ def test_shade_pass_recovering_barycentrics_matches_twin(seed):
     dummy = np.zeros((1, 1), np.float32)
     _shade(got.triangle, dummy, dummy, True, m, corners, corners, uvs, normals, material, surface,
            n_objects, eye, np.zeros((1, 1, 3)), False, mat_i, mat_f, texels, light_f, LAMBERT,
-           0.1, background, none3, none3, rgb, surf)
+           0.1, background, none3, none3, rgb, surf, 2)
     want_rgb, _ = shade(tri_ref, b1_ref, b2_ref, corners, uvs, normals, material, surface,
                         n_objects, eye, mat_i, mat_f, texels, light_f, LAMBERT, 0.1,
                         background, none3, none3, None)
@@ -264,13 +264,32 @@ def test_shade_pass_recovering_barycentrics_matches_twin(seed):
         _shade_stencil(stencil, got.triangle, dummy, dummy, True, m, corners, corners, uvs,
                        normals, material, surface, n_objects, eye,
                        incoming if per_pixel else np.zeros((1, 1, 3)), per_pixel, mat_i, mat_f,
-                       texels, light_f, shading, 0.1, background, none3, none3, rgb_s, surf_s)
+                       texels, light_f, shading, 0.1, background, none3, none3, rgb_s, surf_s,
+                       0, H, 0, W, 2)
         want_rgb, _ = shade(tri_ref, b1_ref, b2_ref, corners, uvs, normals, material, surface,
                             n_objects, eye, mat_i, mat_f, texels, light_f, shading, 0.1,
                             background, none3, none3, incoming if per_pixel else None)
         inside = same & stencil
         np.testing.assert_allclose(rgb_s[inside], want_rgb[inside], rtol=1e-5, atol=1e-6)
         assert (rgb_s[~stencil] == -7.0).all() and (surf_s[~stencil] == -9).all()
+        # a stencil inside a box (a virtual pass's): visiting only the box, on one worker,
+        # gives the bytes of visiting the whole image on two
+        inner = np.zeros_like(stencil)
+        inner[5:17, 7:25] = stencil[5:17, 7:25]
+        runs = []
+        for box, threads in (((0, H, 0, W), 2), ((5, 17, 7, 25), 1)):
+            rgb_b = np.full((H, W, 3), -7.0, np.float32)
+            surf_b = np.full((H, W), -9, np.int32)
+            _shade_stencil(inner, got.triangle, dummy, dummy, True, m, corners, corners, uvs,
+                           normals, material, surface, n_objects, eye,
+                           incoming if per_pixel else np.zeros((1, 1, 3)), per_pixel, mat_i,
+                           mat_f, texels, light_f, shading, 0.1, background, none3, none3,
+                           rgb_b, surf_b, *box, threads)
+            runs.append((rgb_b, surf_b))
+        np.testing.assert_array_equal(runs[0][0], runs[1][0])
+        np.testing.assert_array_equal(runs[0][1], runs[1][1])
+        np.testing.assert_array_equal(runs[0][0][inner], rgb_s[inner])
+        assert (runs[1][0][~inner] == -7.0).all()
 
 
 W, H = 32, 24
@@ -387,3 +406,26 @@ def test_run_bounds_match_twin(count):
     got = np.empty((runs, 6))
     run_bounds(corners, 256, got)
     np.testing.assert_array_equal(got, naive_run_bounds(corners, 256))
+
+
+def test_prefetch_changes_no_value():
+    """prefetch is a hint: a gather with it reads the same values, and ids outside the
+    array (-1 for no triangle, past its end) are no error."""
+    from numba import njit
+
+    from reflectcli.prefetch import prefetch
+
+    @njit
+    def gather(a, ids, ahead):
+        out = np.empty(ids.shape[0], np.float32)
+        for i in range(ids.shape[0]):
+            prefetch(a, ids[min(i + ahead, ids.shape[0] - 1)])
+            prefetch(a, np.int32(-1))
+            prefetch(a, a.shape[0] + 5)
+            out[i] = a[ids[i], 1, 2]
+        return out
+
+    rng = np.random.default_rng(0)
+    a = rng.random((500, 3, 3)).astype(np.float32)
+    ids = rng.integers(0, 500, 300).astype(np.int32)
+    np.testing.assert_array_equal(gather(a, ids, 8), a[ids, 1, 2])

@@ -91,9 +91,12 @@ class Virtual(Technique):
             mine = np.flatnonzero(tris.surface == scene.n_objects + k)
             if not mine.size:
                 continue  # a reflector with no triangles is never seen (render skips it too)
-            state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation)
             method = choose_method(self.params.method, int(scene.mirrors.kind[k]),
                                    k in scene.mirror_profiles)
+            # points welded for the vertex functions of one point at a time (explosion
+            # parts read the polygons: kept as tessellated)
+            state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation,
+                                weld=method != "explosion")
             if method != "explosion":
                 continue
             first, count = int(mine[0]), int(mine.size)  # a reflector's triangles are contiguous
