@@ -308,8 +308,14 @@ def test_skipping_chunks_by_their_boxes_changes_nothing(masked):
     plain = rasterize(corners, flags, m, 80, 60, planes, mask=mask)
     ws = RasterWorkspace()
     fast = rasterize(corners, flags, m, 80, 60, planes, mask=mask, workspace=ws)
+    # the same corners in one of the workspace's own buffers (drawn without run boxes)
+    live_ws = RasterWorkspace()
+    own = live_ws.get("virtual_corners", corners.shape, np.float32)
+    own[:] = corners
+    live = rasterize(own, flags, m, 80, 60, planes, mask=mask, workspace=live_ws)
     for name in ("triangle", "depth", "b1", "b2"):
         assert getattr(plain, name).tobytes() == getattr(fast, name).tobytes(), name
+        assert getattr(plain, name).tobytes() == getattr(live, name).tobytes(), name
     assert (plain.triangle >= 0).sum() > 200
     bounds = ws.chunk_bounds(corners)
     all_planes = np.vstack([planes, np.ones((4, 4))])

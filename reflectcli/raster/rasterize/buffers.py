@@ -89,9 +89,14 @@ class RasterWorkspace:
         bounds = np.empty((chunks, 6))
         if chunks:
             run_bounds(corners, _CHUNK, bounds)
-        if not any(corners.base is a for a in self._arrays.values()):
+        if not self.owns(corners):
             self._arrays["bounds_of"] = (corners, bounds)
         return bounds
+
+    def owns(self, corners: np.ndarray) -> bool:
+        """True for an array held in one of this workspace's own buffers (rewritten
+        between calls: its run boxes cannot be kept)."""
+        return any(corners.base is a for a in self._arrays.values())
 
     def constant(self, name: str, shape: tuple[int, int], dtype, value) -> np.ndarray:
         """A (H, W) array holding `value` (filled once; callers must not write it)."""
