@@ -295,6 +295,16 @@ def fill_fixed(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top
                 tri[r, c] = t
 
 
+def stencil_box(stencil):
+    """Twin of raster.rasterize.stencil.stencil_box: (x0, x1, y0, y1), the columns and rows
+    holding every set pixel, by numpy's any along each axis; (0, 0, 0, 0) when none is set."""
+    ys = np.flatnonzero(np.asarray(stencil).any(axis=1))
+    xs = np.flatnonzero(np.asarray(stencil).any(axis=0))
+    if ys.size == 0:
+        return 0, 0, 0, 0
+    return int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1
+
+
 def run_bounds(corners, run):
     """Twin of raster.bounds.run_bounds: (runs, 6) min xyz, max xyz of each run of `run`
     triangles (T, 3, 3), by numpy (NaN where a run holds a NaN)."""

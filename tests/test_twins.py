@@ -90,6 +90,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize/draw.py:_draw_clipped": (CLIP, "_draw"),
     "raster/rasterize/clip.py:_clip_polygon": (CLIP, "_draw_clipped"),
     "raster/rasterize/resolve.py:_resolve": (RASTER, "rasterize"),
+    "raster/rasterize/stencil.py:stencil_box": ([R + "test_stencil_box_matches_twin"], None),
     "raster/rasterize/clip.py:_box_misses": (
         [R + "test_skipping_chunks_by_their_boxes_changes_nothing"], "_draw"),
     "raster/rasterize/barycentrics.py:recover_barycentrics": (RECOVER, None),

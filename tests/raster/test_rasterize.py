@@ -14,6 +14,7 @@ import numba
 import numpy as np
 import pytest
 from naive import fill_fixed, ray_triangle, reference
+from naive import stencil_box as naive_stencil_box
 
 from reflectcli.camera import Camera
 from reflectcli.raster.rasterize import FLAG_MIRROR, rasterize
@@ -373,3 +374,23 @@ def test_claim_hands_out_each_piece_once():
         return claim(counter), claim(counter), claim(counter)
 
     assert three(fast) == tuple(naive_claim(slow) for _ in range(3))
+
+
+def test_stencil_box_matches_twin():
+    """The masked pass's box against numpy's any along each axis: empty, one pixel at each
+    corner, full, thin lines, random sparse stencils and widths not a multiple of 8."""
+    from reflectcli.raster.rasterize.stencil import stencil_box
+
+    rng = np.random.default_rng(11)
+    cases = [np.zeros((7, 13), np.uint8), np.ones((5, 9), np.uint8)]
+    for y, x in ((0, 0), (0, 12), (6, 0), (6, 12), (3, 5)):
+        s = np.zeros((7, 13), np.uint8)
+        s[y, x] = 1
+        cases.append(s)
+    line = np.zeros((40, 33), np.uint8)
+    line[:, 17] = 1
+    cases.append(line)
+    cases += [(rng.random((rng.integers(1, 60), rng.integers(1, 70))) < p).astype(np.uint8)
+              for p in (0.001, 0.01, 0.2) for _ in range(20)]
+    for s in cases:
+        assert stencil_box(s) == naive_stencil_box(s), s.shape

@@ -36,6 +36,7 @@ The package, one idea a module:
     rows          the row walk with the depth test; one triangle's fill
     draw          the parallel draw into per-thread buffers, clipped fans
     resolve       merging the threads' buffers; keys to eye depths
+    stencil       the stencil's bounding box
     barycentrics  barycentrics recovered from clip-space corners
     buffers       RasterBuffers and RasterWorkspace
     api           rasterize

@@ -11,6 +11,7 @@ from .constants import _BLOCK, _CHUNK, _MAX_PLANES, CULL_NONE
 from .draw import _draw
 from .fixed import _subpixel_bits
 from .resolve import _resolve
+from .stencil import stencil_box
 
 
 def rasterize(
@@ -65,12 +66,7 @@ def rasterize(
         x0, x1, y0, y1 = 0, width, 0, height
     else:
         stencil = np.ascontiguousarray(mask, dtype=np.uint8)
-        ys = np.flatnonzero(stencil.any(axis=1))
-        xs = np.flatnonzero(stencil.any(axis=0))
-        if ys.size == 0:
-            x0 = x1 = y0 = y1 = 0
-        else:
-            x0, x1, y0, y1 = int(xs[0]), int(xs[-1]) + 1, int(ys[0]), int(ys[-1]) + 1
+        x0, x1, y0, y1 = stencil_box(stencil)
     floor = (ws.constant("floor", (1, 1), np.float32, 0.0) if depth_floor is None
              else np.ascontiguousarray(depth_floor, dtype=np.float32))
     # sort-last: each thread draws whole triangles into its own buffers (the stencil's box),

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..bounds import run_bounds
@@ -70,7 +72,7 @@ class RasterWorkspace:
         self._arrays: dict[str, np.ndarray] = {}
 
     def get(self, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
-        size = int(np.prod(shape))
+        size = math.prod(shape)
         a = self._arrays.get(name)
         if a is None or a.dtype != np.dtype(dtype) or a.size < size:
             a = np.empty(max(size, 1), dtype)
