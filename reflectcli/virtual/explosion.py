@@ -25,9 +25,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numba import njit, prange
 
+from ..parallel import claim
 from .mesh import IndexedMesh
 
 EXTENSION_REACH = 0.6  # extension vertices end at this fraction of s from the map center
@@ -151,7 +153,7 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     tally = np.zeros((count, 2), np.int64)
     _build_layers(v, fixed, used, np.asarray(eye, np.float64), np.asarray(center, np.float64),
                   radii, frame, res, s, f, np.flatnonzero(drawn), extensions, len(f),
-                  EXTENSION_REACH * s, coords, ids, core, tally)
+                  EXTENSION_REACH * s, coords, ids, core, tally, numba.get_num_threads())
     maps = [ExplosionMap(ids[k], coords[k], radius, int(tally[k, 0]), int(tally[k, 1]),
                          core[k]) for k, radius in enumerate(radii)]
     return ExplosionMaps(mesh, fixed, front, frame, np.asarray(center, float), maps,
@@ -160,13 +162,15 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
 
 @njit(cache=True, parallel=True)
 def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, extensions,
-                  n_faces, reach_out, coords, ids, core, tally):
-    """Every layer's map at once, one layer per thread (each layer is work of its own):
-    vertex coordinates, faces, extension quads where still empty, then the nearest filled
-    id in the texels left empty (skipped where no texel a lookup can reach is empty: the
-    texels outside the map's disk then stay -1). coords[k] (V, 2), ids[k], core[k]
-    (res, res): layer k's; tally[k]: texels inside the map's circle filled by faces alone,
-    and left empty after the extensions."""
+                  n_faces, reach_out, coords, ids, core, tally, threads):
+    """Every layer's map at once, layers claimed one at a time by whichever thread is free
+    (parallel.py; each layer is work of its own, written to its own planes, so no value
+    depends on which thread built it): vertex coordinates, faces, extension quads where
+    still empty, then the nearest filled id in the texels left empty (skipped where no
+    texel a lookup can reach is empty: the texels outside the map's disk then stay -1).
+    coords[k] (V, 2), ids[k], core[k] (res, res): layer k's; tally[k]: texels inside the
+    map's circle filled by faces alone, and left empty after the extensions. `threads`:
+    numba.get_num_threads() of the caller."""
     half = s / 2.0
     # per texel, once for every layer: its center inside the map's circle, and its square
     # meeting the disk of map points (with rounding to spare: only those are looked up)
@@ -180,44 +184,64 @@ def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, e
             gx = max(abs(cx) - 0.5, 0.0)
             circle[y, x] = cx ** 2 + cy ** 2 <= half ** 2
             reach[y, x] = gx * gx + gy * gy <= (half + 1e-6) ** 2
-    for k in prange(radii.shape[0]):
-        for i in range(coords.shape[1]):
-            coords[k, i, 0] = np.nan
-            coords[k, i, 1] = np.nan
-        _vertex_coords(v, n, used, eye, center, radii[k], frame, res, s, coords[k])
-        layer = ids[k]
-        layer[:, :] = -1
-        _fill_faces(layer, coords[k], faces, drawn)
-        filled = 0
-        for y in range(res):
-            for x in range(res):
-                core[k, y, x] = layer[y, x] >= 0
-                filled += core[k, y, x] and circle[y, x]
-        _fill_extensions(layer, coords[k], extensions, n_faces, res / 2.0, reach_out)
-        empty = np.empty((res, res), np.bool_)
-        left = 0
-        holes = 0
-        seen = 0  # empty texels a lookup can land in
-        for y in range(res):
-            for x in range(res):
-                empty[y, x] = layer[y, x] < 0
-                holes += empty[y, x]
-                left += empty[y, x] and circle[y, x]
-                seen += empty[y, x] and reach[y, x]
-        tally[k, 0] = filled
-        tally[k, 1] = left
-        # every direction's map point lies in the disk of radius s / 2 (map_coords), so only
-        # texels meeting it are ever looked up: with none of them empty, the fill (most of
-        # a layer's time where the extensions closed the circle) would change no lookup
-        if seen == 0 or holes == res * res:
-            continue
-        rows = np.empty((res, res), np.int32)
-        cols = np.empty((res, res), np.int32)
-        _nearest_filled(empty, rows, cols)
-        for y in range(res):
-            for x in range(res):
-                if empty[y, x]:
-                    layer[y, x] = layer[rows[y, x], cols[y, x]]
+    count = radii.shape[0]
+    claimed = np.zeros(1, np.int64)
+    for _worker in prange(min(threads, count)):
+        while True:
+            k = claim(claimed)
+            if k >= count:
+                break
+            _build_layer(k, v, n, used, eye, center, radii[k], frame, res, s, faces, drawn,
+                         extensions, n_faces, reach_out, circle, reach, coords[k], ids[k],
+                         core[k], tally)
+
+
+@njit(cache=True)
+def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn, extensions,
+                 n_faces, reach_out, circle, reach, coords, layer, core, tally):
+    """Layer k of _build_layers into coords, layer (ids) and core, its counts into
+    tally[k]. The texel passes are branch-free (counts as sums of booleans) so that they
+    vectorise; the nearest fill runs only where a lookup could land in an empty texel."""
+    for i in range(coords.shape[0]):
+        coords[i, 0] = np.nan
+        coords[i, 1] = np.nan
+    _vertex_coords(v, n, used, eye, center, radius, frame, res, s, coords)
+    layer[:, :] = -1
+    _fill_faces(layer, coords, faces, drawn)
+    filled = 0
+    for y in range(res):
+        for x in range(res):
+            c = layer[y, x] >= 0
+            core[y, x] = c
+            filled += c & circle[y, x]
+    _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out)
+    left = 0
+    holes = 0
+    seen = 0  # empty texels a lookup can land in
+    for y in range(res):
+        for x in range(res):
+            e = layer[y, x] < 0
+            holes += e
+            left += e & circle[y, x]
+            seen += e & reach[y, x]
+    tally[k, 0] = filled
+    tally[k, 1] = left
+    # every direction's map point lies in the disk of radius s / 2 (map_coords), so only
+    # texels meeting it are ever looked up: with none of them empty, the fill (most of
+    # a layer's time where the extensions closed the circle) would change no lookup
+    if seen == 0 or holes == res * res:
+        return
+    empty = np.empty((res, res), np.bool_)
+    for y in range(res):
+        for x in range(res):
+            empty[y, x] = layer[y, x] < 0
+    rows = np.empty((res, res), np.int32)
+    cols = np.empty((res, res), np.int32)
+    _nearest_filled(empty, rows, cols)
+    for y in range(res):
+        for x in range(res):
+            if empty[y, x]:
+                layer[y, x] = layer[rows[y, x], cols[y, x]]
 
 
 def boundary_edges(faces: np.ndarray) -> np.ndarray:
@@ -310,14 +334,14 @@ def _vertex_coords(v, n, used, eye, center, radius, frame, res, s, coords):
 
 
 @njit(cache=True, inline="always")
-def _span(lo, hi, slope, const):
+def _span(lo, hi, slope, cross):
     """[lo, hi] narrowed to the texels x whose center px = x + 0.5 may have
-    slope * px + const >= 0, with 2 texels to spare for rounding; unchanged where the
+    slope * (px - cross) >= 0, with 2 texels to spare for rounding; unchanged where the
     slope is too flat to place the crossing (|slope| < 1e-6 texel units)."""
     if slope >= 1e-6:
-        lo = max(lo, -const / slope - 2.5)
+        lo = max(lo, cross - 2.5)
     elif slope <= -1e-6:
-        hi = min(hi, -const / slope + 1.5)
+        hi = min(hi, cross + 1.5)
     return lo, hi
 
 
@@ -326,7 +350,9 @@ def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty):
     """Texels whose centers the triangle holds (barycentrics >= 0, either winding) get
     `value` (with `only_empty`, only texels still < 0). Each row visits only the span the
     three edge functions allow (widened by 2 texels) of the bounding box, then tests each
-    texel exactly as before: the same texels as testing the whole box."""
+    texel exactly as before: the same texels as testing the whole box. An edge function's
+    zero on row py is at cross = p + q py (p, q per triangle: no division per row; its
+    rounding is far inside the 2 texels to spare)."""
     res = ids.shape[0]
     area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
     if area == 0.0 or math.isnan(area):
@@ -336,16 +362,22 @@ def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty):
     y0 = max(int(math.floor(min(ay, by, cy))), 0)
     y1 = min(int(math.ceil(max(ay, by, cy))), res - 1)
     sign = 1.0 if area > 0.0 else -1.0
+    # area * w_i as functions of px (w0 = e0 / area, ...), signed to be >= 0 inside:
+    # s_i px + k_i(py), k_i(py) = m_i + l_i py, crossing at -k_i / s_i
+    s0 = sign * (by - cy)
+    s1 = sign * (cy - ay)
+    s2 = -s0 - s1
+    m0, l0 = sign * (bx * cy - cx * by), sign * (cx - bx)
+    m1, l1 = sign * (cx * ay - ax * cy), sign * (ax - cx)
+    m2, l2 = sign * area - m0 - m1, -l0 - l1
+    i0 = -1.0 / s0 if s0 != 0.0 else 0.0
+    i1 = -1.0 / s1 if s1 != 0.0 else 0.0
+    i2 = -1.0 / s2 if s2 != 0.0 else 0.0
     for y in range(y0, y1 + 1):
         py = y + 0.5
-        # area * w_i as functions of px (w0 = e0 / area, ...), signed to be >= 0 inside
-        s0 = sign * (by - cy)
-        k0 = sign * (bx * (cy - py) - cx * (by - py))
-        s1 = sign * (cy - ay)
-        k1 = sign * (cx * (ay - py) - ax * (cy - py))
-        lo, hi = _span(float(x0), float(x1), s0, k0)
-        lo, hi = _span(lo, hi, s1, k1)
-        lo, hi = _span(lo, hi, -s0 - s1, sign * area - k0 - k1)
+        lo, hi = _span(float(x0), float(x1), s0, (m0 + l0 * py) * i0)
+        lo, hi = _span(lo, hi, s1, (m1 + l1 * py) * i1)
+        lo, hi = _span(lo, hi, s2, (m2 + l2 * py) * i2)
         if not lo <= hi:
             continue
         for x in range(int(math.ceil(lo)), int(math.floor(hi)) + 1):
