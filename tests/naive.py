@@ -1266,6 +1266,33 @@ def tile_bounds(inside, q, r, size):
     return [np.array([o[i] for o in out], np.float64) for i in range(5)]
 
 
+def part_candidates(points, center, radius, axis, half):
+    """Twin of virtual.tiles._candidates (PartTiles.candidates): points outside the ball
+    (center, radius) and outside the cone about `axis` of half-angle `half` grown by the
+    ball's spread asin(radius / dist) (angles by arccos, 1e-9 to spare) are not candidates."""
+    out = np.zeros(len(points), bool)
+    for k, p in enumerate(np.asarray(points, np.float64)):
+        v = p - center
+        dist = float(np.linalg.norm(v))
+        if dist <= radius:
+            out[k] = True
+            continue
+        spread = math.asin(radius / dist)
+        angle = math.acos(float(np.clip(v @ axis / dist, -1.0, 1.0)))
+        out[k] = half + spread >= math.pi or angle <= half + spread + 1e-9
+    return out
+
+
+def joined(flag, polygons):
+    """Twin of virtual.tiles._join (tiles.joined): the flagged points and every point of a
+    polygon holding a flagged one."""
+    out = np.array(flag, bool)
+    for poly in polygons:
+        if any(flag[i] for i in poly):
+            out[list(poly)] = True
+    return out
+
+
 def scan(points, center, radius, axis, half, pixel, margin, q, r):
     """Twin of virtual.tiles._scan: a point is reached by tile j if it lies in the tile's
     ball (1.001 of the radius) or within half + margin + asin(radius / dist) of the axis

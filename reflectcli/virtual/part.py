@@ -53,10 +53,7 @@ class ExplosionPart:
         retry = reach = None
         tiles = self.view.tiles
         if tiles is not None:
-            reach, retry = tiles.scan(points, self.grid[0], self.grid[1], polygons)
-            if polygons is not None:
-                todo = reach.copy()
-                todo[polygons[reach[polygons].any(axis=1)].ravel()] = True
+            reach, retry, todo = tiles.scan_needed(points, self.grid[0], self.grid[1], polygons)
         virtual = points.astype(np.float64).copy()
         flags = np.ones(n, bool)
         if todo.any():

@@ -15,6 +15,7 @@ from naive import (
     map_coords,
     mirror_on_circle,
     nearest_filled_distance,
+    part_candidates,
     plane_from_map,
     profile_one,
     refine_point,
@@ -26,6 +27,7 @@ from naive import (
 )
 from naive import fill_cracks as naive_fill_cracks
 from naive import gather_corners as naive_gather_corners
+from naive import joined as naive_joined
 from naive import mirror_boxes as naive_mirror_boxes
 from naive import mirror_rays as naive_mirror_rays
 from naive import part_stencil as naive_part_stencil
@@ -36,7 +38,7 @@ from reflectcli.raster.rasterize import FLAG_MIRROR, FLAG_SKIP
 from reflectcli.scene import primitives
 from reflectcli.virtual import circle, compose, direct, explosion, refine
 from reflectcli.virtual.mesh import weld
-from reflectcli.virtual.tiles import PartTiles
+from reflectcli.virtual.tiles import PartTiles, joined
 
 
 def circle_cases(rng, n=600):
@@ -272,6 +274,30 @@ def test_tile_scan_matches_twin():
     todo = full_reach.copy()
     todo[polygons[full_reach[polygons].any(axis=1)].ravel()] = True
     np.testing.assert_array_equal(culled_seeds[todo], full_seeds[todo])
+
+
+def test_part_candidates_and_join_match_twins():
+    """The part's cull (ball and cone) and the polygon join, against their twins, on points
+    near the cone's edge too."""
+    rng = np.random.default_rng(11)
+    _, inside, q, r = sphere_grid()
+    tiles = PartTiles(inside, q, r, size=8)
+    pts = np.concatenate([rng.normal(size=(400, 3)) * 3.0, [tiles.part_center],
+                          tiles.part_center + rng.normal(size=(50, 3)) * 1e-3])
+    half = tiles.part_half + tiles.margin
+    want = part_candidates(pts, tiles.part_center, tiles.part_radius, tiles.part_axis, half)
+    got = tiles.candidates(pts)
+    # the kernel tests cosines, the twin angles: they may part only within 1e-9 of the edge
+    v = pts - tiles.part_center
+    dist = np.linalg.norm(v, axis=1)
+    angle = np.arccos(np.clip(v @ tiles.part_axis / dist, -1, 1))
+    spread = np.arcsin(np.minimum(tiles.part_radius / dist, 1.0))
+    edge = np.abs(angle - half - spread) < 1e-7
+    np.testing.assert_array_equal(got[~edge], want[~edge])
+    assert got.any() and (~edge).sum() > 400
+    flag = rng.random(len(pts)) < 0.05
+    polygons = rng.integers(0, len(pts), (120, 3))
+    np.testing.assert_array_equal(joined(flag, polygons), naive_joined(flag, polygons))
 
 
 @pytest.fixture(scope="module")
