@@ -205,6 +205,13 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                            "build_explosion_maps"),
     "virtual/explosion.py:_build_layer": ([V + "test_explosion_layers_match_twin"],
                                           "_build_layers"),
+    "virtual/explosion.py:_marked_box": (
+        [V + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
+    "virtual/explosion.py:_lookup_at": (
+        [V + "test_maps_built_for_their_lookups_match_whole_maps_there"] + LOOKUP, "_virtual"),
+    "virtual/explosion.py:_mark_lookups": (
+        [V + "test_maps_built_for_their_lookups_match_whole_maps_there"],
+        "build_explosion_maps"),
     "virtual/explosion.py:_fill_triangle": (FILL, None),
     "virtual/explosion.py:_fill_faces": (FILL, None),
     "virtual/explosion.py:_extend": (FILL, "_fill_extensions"),

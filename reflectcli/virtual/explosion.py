@@ -114,10 +114,16 @@ def map_coords(frame, res, s, dx, dy, dz):
 
 def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
                          near_radius: float, far_radius: float, res: int,
-                         layers: int = 2, boundary: np.ndarray | None = None) -> ExplosionMaps:
+                         layers: int = 2, boundary: np.ndarray | None = None,
+                         lookups: np.ndarray | None = None,
+                         flip_axis: np.ndarray | None = None) -> ExplosionMaps:
     """Maps at `layers` radii from near to far, spaced geometrically (2: the paper's pair).
     `boundary`: the mesh's boundary_edges, if already known (they depend on its faces
-    alone, so a caller that keeps the mesh keeps them too)."""
+    alone, so a caller that keeps the mesh keeps them too). `lookups` (N, 3 world), if
+    given: the only points virtual_vertices will look up in these maps (with `flip_axis`
+    as it will be given there). Each layer is then right (ids and core as a whole build
+    gives them) at the texels those points look up; elsewhere it may lack extensions and
+    the nearest fill, and empty_after_extension is -1 where it was not counted."""
     v, n, f = mesh.vertices, mesh.normals, mesh.faces
     to_eye = eye - v
     front = np.einsum("ij,ij->i", n, to_eye) >= 0.0
@@ -151,9 +157,18 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     ids = np.empty((count, res, res), np.int32)
     core = np.empty((count, res, res), np.bool_)
     tally = np.zeros((count, 2), np.int64)
-    _build_layers(v, fixed, used, np.asarray(eye, np.float64), np.asarray(center, np.float64),
+    center = np.asarray(center, np.float64)
+    if lookups is None:
+        needed = np.zeros((count, 0, 0), np.bool_)  # no restriction
+    else:
+        needed = np.zeros((count, res, res), np.bool_)
+        flip = np.zeros(3) if flip_axis is None else np.asarray(flip_axis, np.float64)
+        _mark_lookups(np.ascontiguousarray(lookups, np.float64), center, flip, frame, res, s,
+                      radii, needed)
+    _build_layers(v, fixed, used, np.asarray(eye, np.float64), center,
                   radii, frame, res, s, f, np.flatnonzero(drawn), extensions, len(f),
-                  EXTENSION_REACH * s, coords, ids, core, tally, numba.get_num_threads())
+                  EXTENSION_REACH * s, coords, ids, core, tally, needed,
+                  numba.get_num_threads())
     maps = [ExplosionMap(ids[k], coords[k], radius, int(tally[k, 0]), int(tally[k, 1]),
                          core[k]) for k, radius in enumerate(radii)]
     return ExplosionMaps(mesh, fixed, front, frame, np.asarray(center, float), maps,
@@ -162,15 +177,16 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
 
 @njit(cache=True, parallel=True)
 def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, extensions,
-                  n_faces, reach_out, coords, ids, core, tally, threads):
+                  n_faces, reach_out, coords, ids, core, tally, needed, threads):
     """Every layer's map at once, layers claimed one at a time by whichever thread is free
     (parallel.py; each layer is work of its own, written to its own planes, so no value
     depends on which thread built it): vertex coordinates, faces, extension quads where
     still empty, then the nearest filled id in the texels left empty (skipped where no
     texel a lookup can reach is empty: the texels outside the map's disk then stay -1).
     coords[k] (V, 2), ids[k], core[k] (res, res): layer k's; tally[k]: texels inside the
-    map's circle filled by faces alone, and left empty after the extensions. `threads`:
-    numba.get_num_threads() of the caller."""
+    map's circle filled by faces alone, and left empty after the extensions. needed
+    (layers, res, res) bool: the texels lookups will read (build_explosion_maps' `lookups`),
+    or (layers, 0, 0) for whole layers. `threads`: numba.get_num_threads() of the caller."""
     half = s / 2.0
     # per texel, once for every layer: its center inside the map's circle, and its square
     # meeting the disk of map points (with rounding to spare: only those are looked up)
@@ -193,15 +209,20 @@ def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, e
                 break
             _build_layer(k, v, n, used, eye, center, radii[k], frame, res, s, faces, drawn,
                          extensions, n_faces, reach_out, circle, reach, coords[k], ids[k],
-                         core[k], tally)
+                         core[k], tally, needed[k])
 
 
 @njit(cache=True)
 def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn, extensions,
-                 n_faces, reach_out, circle, reach, coords, layer, core, tally):
+                 n_faces, reach_out, circle, reach, coords, layer, core, tally, needed):
     """Layer k of _build_layers into coords, layer (ids) and core, its counts into
     tally[k]. The texel passes are branch-free (counts as sums of booleans) so that they
-    vectorise; the nearest fill runs only where a lookup could land in an empty texel."""
+    vectorise; the nearest fill runs only where a lookup could land in an empty texel.
+    With `needed` (res, res) marks, the extensions are first drawn over the box of the
+    marked texels alone (a texel's extension is the first quad holding it: its own test,
+    whatever else is drawn); only if a marked texel is still empty are they drawn
+    everywhere (the box's texels, filled or held by no quad, stay as they are) and the
+    nearest fill made, as for a whole layer."""
     for i in range(coords.shape[0]):
         coords[i, 0] = np.nan
         coords[i, 1] = np.nan
@@ -214,6 +235,22 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
             c = layer[y, x] >= 0
             core[y, x] = c
             filled += c & circle[y, x]
+    if needed.shape[0] > 0:
+        y0, y1, x0, x1 = _marked_box(needed)
+        if y0 > y1:
+            tally[k, 0] = filled
+            tally[k, 1] = -1
+            return  # nothing looked up here
+        _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out, y0, y1,
+                         x0, x1)
+        hole = False
+        for y in range(y0, y1 + 1):
+            for x in range(x0, x1 + 1):
+                hole |= needed[y, x] & (layer[y, x] < 0)
+        if not hole:
+            tally[k, 0] = filled
+            tally[k, 1] = -1
+            return
     _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out)
     left = 0
     holes = 0
@@ -346,21 +383,25 @@ def _span(lo, hi, slope, cross):
 
 
 @njit(cache=True)
-def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty):
+def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty, box_y0=0, box_y1=1 << 30,
+                   box_x0=0, box_x1=1 << 30):
     """Texels whose centers the triangle holds (barycentrics >= 0, either winding) get
     `value` (with `only_empty`, only texels still < 0). Each row visits only the span the
     three edge functions allow (widened by 2 texels) of the bounding box, then tests each
     texel exactly as before: the same texels as testing the whole box. An edge function's
     zero on row py is at cross = p + q py (p, q per triangle: no division per row; its
-    rounding is far inside the 2 texels to spare)."""
+    rounding is far inside the 2 texels to spare). box_*: only the texels of rows
+    box_y0..box_y1, columns box_x0..box_x1 (each tested as in the whole map)."""
     res = ids.shape[0]
     area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
     if area == 0.0 or math.isnan(area):
         return
-    x0 = max(int(math.floor(min(ax, bx, cx))), 0)
-    x1 = min(int(math.ceil(max(ax, bx, cx))), res - 1)
-    y0 = max(int(math.floor(min(ay, by, cy))), 0)
-    y1 = min(int(math.ceil(max(ay, by, cy))), res - 1)
+    x0 = max(int(math.floor(min(ax, bx, cx))), 0, box_x0)
+    x1 = min(int(math.ceil(max(ax, bx, cx))), res - 1, box_x1)
+    y0 = max(int(math.floor(min(ay, by, cy))), 0, box_y0)
+    y1 = min(int(math.ceil(max(ay, by, cy))), res - 1, box_y1)
+    if x0 > x1:
+        return
     sign = 1.0 if area > 0.0 else -1.0
     # area * w_i as functions of px (w0 = e0 / area, ...), signed to be >= 0 inside:
     # s_i px + k_i(py), k_i(py) = m_i + l_i py, crossing at -k_i / s_i
@@ -417,7 +458,10 @@ def _extend(cx, cy, px, py, reach):
 
 
 @njit(cache=True)
-def _fill_extensions(ids, coords, extensions, n_faces, center, reach):
+def _fill_extensions(ids, coords, extensions, n_faces, center, reach, box_y0=0,
+                     box_y1=1 << 30, box_x0=0, box_x1=1 << 30):
+    """Each extension's quad, where still empty (the first quad holding a texel wins);
+    box_*: as in _fill_triangle."""
     for e in range(extensions.shape[0]):
         i, j = extensions[e, 1], extensions[e, 2]
         ax, ay = coords[i, 0], coords[i, 1]
@@ -426,8 +470,52 @@ def _fill_extensions(ids, coords, extensions, n_faces, center, reach):
         dx, dy = _extend(center, center, ax, ay, reach)
         value = n_faces + e
         # either winding: _fill_triangle's barycentrics are divided by the signed area
-        _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, True)
-        _fill_triangle(ids, ax, ay, cx, cy, dx, dy, value, True)
+        _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, True, box_y0, box_y1, box_x0,
+                       box_x1)
+        _fill_triangle(ids, ax, ay, cx, cy, dx, dy, value, True, box_y0, box_y1, box_x0,
+                       box_x1)
+
+
+@njit(cache=True)
+def _marked_box(marks):
+    """(y0, y1, x0, x1): the rows and columns holding a marked texel (y0 > y1 if none)."""
+    h, w = marks.shape
+    y0, y1, x0, x1 = h, -1, w, -1
+    for y in range(h):
+        for x in range(w):
+            if marks[y, x]:
+                y0 = min(y0, y)
+                y1 = max(y1, y)
+                x0 = min(x0, x)
+                x1 = max(x1, x)
+    return y0, y1, x0, x1
+
+
+@njit(cache=True, inline="always")
+def _lookup_at(q0, q1, q2, center, flip_axis, frame, res, s, radii):
+    """(texel x, y, layer lo): where _virtual looks up point q, in maps lo and lo + 1."""
+    dx, dy, dz = q0 - center[0], q1 - center[1], q2 - center[2]
+    if dx * flip_axis[0] + dy * flip_axis[1] + dz * flip_axis[2] < 0.0:
+        dx, dy, dz = -dx, -dy, -dz
+    tx, ty = map_coords(frame, res, s, dx, dy, dz)
+    dist = math.sqrt((q0 - center[0]) ** 2 + (q1 - center[1]) ** 2 + (q2 - center[2]) ** 2)
+    lo = 0
+    while lo < radii.shape[0] - 2 and dist > radii[lo + 1]:
+        lo += 1
+    cx = min(max(int(math.floor(tx)), 0), res - 1)
+    cy = min(max(int(math.floor(ty)), 0), res - 1)
+    return tx, ty, cx, cy, dist, lo
+
+
+@njit(cache=True, parallel=True)
+def _mark_lookups(points, center, flip_axis, frame, res, s, radii, needed):
+    """needed[lo], needed[lo + 1] set at the texel each point is looked up at (_virtual).
+    Two threads may mark one texel: both store True (no value depends on the order)."""
+    for i in prange(points.shape[0]):
+        _, _, cx, cy, _, lo = _lookup_at(points[i, 0], points[i, 1], points[i, 2], center,
+                                         flip_axis, frame, res, s, radii)
+        needed[lo, cy, cx] = True
+        needed[lo + 1, cy, cx] = True
 
 
 def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.ndarray,
@@ -547,18 +635,9 @@ def _virtual(points, v, n, faces, extensions, ids, coords, radii, center, flip_a
                 continue
         # a point between a concave reflector and the focus of its rays is reached by a ray
         # still travelling toward the focus: look up the direction that ray is going in
-        dx, dy, dz = q[0] - center[0], q[1] - center[1], q[2] - center[2]
-        if dx * flip_axis[0] + dy * flip_axis[1] + dz * flip_axis[2] < 0.0:
-            dx, dy, dz = -dx, -dy, -dz
-        tx, ty = map_coords(frame, res, s, dx, dy, dz)
-        dist = math.sqrt((q[0] - center[0]) ** 2 + (q[1] - center[1]) ** 2
-                         + (q[2] - center[2]) ** 2)
-        lo = 0
-        while lo < radii.shape[0] - 2 and dist > radii[lo + 1]:
-            lo += 1
+        tx, ty, cx, cy, dist, lo = _lookup_at(q[0], q[1], q[2], center, flip_axis, frame, res,
+                                              s, radii)
         r_near, r_far = radii[lo], radii[lo + 1]
-        cx = min(max(int(math.floor(tx)), 0), res - 1)
-        cy = min(max(int(math.floor(ty)), 0), res - 1)
         unreflected[i] = not (cores[lo, cy, cx] and cores[lo + 1, cy, cx])
         pn, nn_ = _plane_from_map(ids[lo], coords[lo], v, n, faces, extensions, tx, ty)
         pf, nf_ = _plane_from_map(ids[lo + 1], coords[lo + 1], v, n, faces, extensions, tx, ty)

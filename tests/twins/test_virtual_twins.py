@@ -352,6 +352,59 @@ def test_explosion_layers_match_twin(layers):
             assert layer.ids[y, x] in set(ids[fy[near], fx[near]]), (y, x)
 
 
+@pytest.mark.parametrize("open_mesh", [False, True])
+def test_maps_built_for_their_lookups_match_whole_maps_there(open_mesh):
+    """build_explosion_maps with `lookups`: at every texel those points are looked up at
+    (layers lo and lo + 1 of each, found by the twins' map_coords and radii), the ids and
+    core of the whole build, and the same virtual vertices, bit for bit; on a closed
+    sphere (extensions close the circle) and an open patch off the map's center (its
+    extensions leave texels empty that lookups land in: the fill runs), points near and
+    far, some flipped."""
+    if open_mesh:
+        corners = np.array([[[2, 0, 0], [2.5, 0, 0], [2.5, 0.5, 0]],
+                            [[2, 0, 0], [2.5, 0.5, 0], [2, 0.5, 0]]], float)
+        normals = np.zeros_like(corners)
+        normals[..., 2] = 1.0
+        normals[0, 0] = [0.3, 0.0, 1.0]  # a bend, so the patch's image is not a line
+        normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    else:
+        m = primitives.uv_sphere(1.0, 10)
+        corners, normals = m.corners, m.normals
+    mesh = weld(corners, normals)
+    eye = np.array([0.4, 1.0, 6.0])
+    rng = np.random.default_rng(12)
+    pts = np.concatenate([rng.normal(size=(40, 3)) * 4.0,
+                          [0.0, 0.0, 3.0] + rng.normal(size=(20, 3)) * 0.3])
+    for flip_axis in (None, np.array([0.0, 0.0, 1.0])):
+        whole = explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 40, 4)
+        some = explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 40, 4,
+                                              lookups=pts, flip_axis=flip_axis)
+        radii = np.array([layer.radius for layer in whole.layers])
+        flip = np.zeros(3) if flip_axis is None else flip_axis
+        marked = np.zeros((len(radii), 40, 40), bool)
+        for p in pts:
+            d = p - whole.center
+            d = -d if d @ flip < 0 else d
+            tx, ty = map_coords(whole.frame, whole.res, whole.s, d)
+            dist = np.linalg.norm(p - whole.center)
+            lo = min(int(np.searchsorted(radii[1:], dist)), len(radii) - 2)
+            x, y = (min(max(int(np.floor(t)), 0), 39) for t in (tx, ty))
+            marked[[lo, lo + 1], y, x] = True
+        for k, (a, b) in enumerate(zip(whole.layers, some.layers, strict=True)):
+            np.testing.assert_array_equal(a.ids[marked[k]], b.ids[marked[k]])
+            np.testing.assert_array_equal(a.core[marked[k]], b.core[marked[k]])
+            np.testing.assert_array_equal(a.coords, b.coords)
+        if open_mesh:  # the restricted build had to fill the nearest ids somewhere
+            assert any(layer.empty_after_extension > 0 for layer in some.layers)
+        none = np.full(len(pts), -1)
+        got = explosion.virtual_vertices(some, pts, none, np.zeros((len(pts), 2)),
+                                         np.zeros((len(mesh.vertices), 2)), flip_axis)
+        want = explosion.virtual_vertices(whole, pts, none, np.zeros((len(pts), 2)),
+                                          np.zeros((len(mesh.vertices), 2)), flip_axis)
+        assert got[0].tobytes() == want[0].tobytes()
+        np.testing.assert_array_equal(got[1], want[1])
+
+
 def test_map_coords_and_vertex_coords_match_twin(sphere_maps):
     mesh, eye, maps = sphere_maps
     rng = np.random.default_rng(4)
