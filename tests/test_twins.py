@@ -183,6 +183,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/refine.py:_residual": (REFINE, "_walk"),
     "virtual/refine.py:_walk": (REFINE, "_refine"),
     "virtual/refine.py:_refine": (REFINE, "refine_virtual"),
+    "virtual/refine.py:_refine_point": (REFINE, "_refine"),
     "virtual/tiles.py:_scan": ([V + "test_tile_scan_matches_twin",
                                 V + "test_tile_scan_with_a_wide_cone_matches_twin"],
                                "PartTiles.scan"),

@@ -139,16 +139,16 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     used = front | needs
     drawn = face_front.all(axis=1) | profile
     two_back = profile & (face_front.sum(axis=1) == 1)
-    ext = []
-    for fi in np.flatnonzero(two_back):
-        i, j = [int(x) for x in f[fi][~face_front[fi]]]
-        ext.append((fi, i, j))
+    # per such face, its two back-facing vertices in the face's order
+    back_faces = np.flatnonzero(two_back)
+    back = f[back_faces][~face_front[back_faces]].reshape(-1, 2)
+    ext = np.column_stack([back_faces, back]).astype(np.int64)
     # an open reflector (a cap, a mask, a part of a split mesh) ends at boundary edges rather
     # than at a silhouette: they bound the reflected directions the same way
     if boundary is None:
         boundary = boundary_edges(f)
     open_edges = boundary[drawn[boundary[:, 0]] & used[boundary[:, 1]] & used[boundary[:, 2]]]
-    extensions = np.concatenate([np.array(ext, np.int64).reshape(-1, 3), open_edges])
+    extensions = np.concatenate([ext.reshape(-1, 3), open_edges])
     frame = map_frame(center, eye)
     s = res - 2.0
     radii = np.geomspace(near_radius, far_radius, max(layers, 2))
