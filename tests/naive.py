@@ -1354,7 +1354,7 @@ def vertex_coords(v, n, used, eye, center, radius, frame, res, s):
 
 
 def fill_triangle(ids, a, b, c, value, only_empty):
-    """Twin of virtual.explosion._fill_triangle: every texel whose center has non-negative
+    """Twin of virtual.mapfill._fill_triangle: every texel whose center has non-negative
     barycentrics in (a, b, c) gets `value` (only empty ones if `only_empty`), over the whole
     map at once; degenerate or NaN triangles fill nothing."""
     (ax, ay), (bx, by), (cx, cy) = a, b, c
@@ -1373,7 +1373,7 @@ def fill_triangle(ids, a, b, c, value, only_empty):
 
 
 def nearest_filled_distance(empty):
-    """Twin of virtual.explosion._nearest_filled, by brute force: per texel, the Euclidean
+    """Twin of virtual.mapfill._nearest_filled, by brute force: per texel, the Euclidean
     distance (texel centers) to the nearest texel that is not empty."""
     h, w = empty.shape
     fy, fx = np.nonzero(~empty)
@@ -1383,13 +1383,13 @@ def nearest_filled_distance(empty):
 
 
 def fill_faces(ids, coords, faces, drawn):
-    """Twin of virtual.explosion._fill_faces: the drawn faces in order, filled with their id."""
+    """Twin of virtual.mapfill._fill_faces: the drawn faces in order, filled with their id."""
     for fi in drawn:
         fill_triangle(ids, *(coords[faces[fi, k]] for k in range(3)), fi, False)
 
 
 def fill_extensions(ids, coords, extensions, n_faces, center, reach):
-    """Twin of virtual.explosion._fill_extensions / _extend: each extension's quad, from its
+    """Twin of virtual.mapfill._fill_extensions / _extend: each extension's quad, from its
     edge (i, j) out to `reach` from the map center along the directions of its ends, filled
     where empty with n_faces + its index (as two triangles; fill_triangle takes either
     winding)."""

@@ -199,24 +199,24 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                         None),
     "virtual/explosion.py:_vertex_coords": (
         [V + "test_map_coords_and_vertex_coords_match_twin"], "build_explosion_maps"),
-    "virtual/explosion.py:_span": (FILL, "_fill_triangle"),
-    "virtual/explosion.py:_nearest_filled": ([V + "test_nearest_filled_matches_twin"],
+    "virtual/mapfill.py:_span": (FILL, "_fill_triangle"),
+    "virtual/mapfill.py:_nearest_filled": ([V + "test_nearest_filled_matches_twin"],
                                              "_build_layers"),
     "virtual/explosion.py:_build_layers": ([V + "test_explosion_layers_match_twin"],
                                            "build_explosion_maps"),
     "virtual/explosion.py:_build_layer": ([V + "test_explosion_layers_match_twin"],
                                           "_build_layers"),
-    "virtual/explosion.py:_marked_box": (
+    "virtual/mapfill.py:_marked_box": (
         [V + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
     "virtual/explosion.py:_lookup_at": (
         [V + "test_maps_built_for_their_lookups_match_whole_maps_there"] + LOOKUP, "_virtual"),
     "virtual/explosion.py:_mark_lookups": (
         [V + "test_maps_built_for_their_lookups_match_whole_maps_there"],
         "build_explosion_maps"),
-    "virtual/explosion.py:_fill_triangle": (FILL, None),
-    "virtual/explosion.py:_fill_faces": (FILL, None),
-    "virtual/explosion.py:_extend": (FILL, "_fill_extensions"),
-    "virtual/explosion.py:_fill_extensions": (FILL, None),
+    "virtual/mapfill.py:_fill_triangle": (FILL, None),
+    "virtual/mapfill.py:_fill_faces": (FILL, None),
+    "virtual/mapfill.py:_extend": (FILL, "_fill_extensions"),
+    "virtual/mapfill.py:_fill_extensions": (FILL, None),
     "virtual/explosion.py:_plane_from_map": (
         [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
     "virtual/explosion.py:_screen_plane": (
