@@ -1382,6 +1382,18 @@ def nearest_filled_distance(empty):
     return np.sqrt(d2.min(axis=-1))
 
 
+def nearest_filled_texel(layer, y, x):
+    """Twin of virtual.mapfill._nearest_in_box / _fill_marked_nearest, by brute force over
+    the whole map: the filled (>= 0) texel nearest to (y, x), ties to the least column and
+    then the least row (the rule _nearest_filled's two passes follow); None if none."""
+    fy, fx = np.nonzero(layer >= 0)
+    if not len(fy):
+        return None
+    d2 = (fy - y) ** 2 + (fx - x) ** 2
+    keys = sorted(zip(d2, fx, fy, strict=True))
+    return int(keys[0][2]), int(keys[0][1])
+
+
 def fill_faces(ids, coords, faces, drawn):
     """Twin of virtual.mapfill._fill_faces: the drawn faces in order, filled with their id."""
     for fi in drawn:

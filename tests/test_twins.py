@@ -213,6 +213,11 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/explosion.py:_mark_lookups": (
         [V + "test_maps_built_for_their_lookups_match_whole_maps_there"],
         "build_explosion_maps"),
+    "virtual/mapfill.py:_nearest_in_box": (
+        [V + "test_nearest_near_marked_texels_matches_twin"], "_fill_marked_nearest"),
+    "virtual/mapfill.py:_fill_marked_nearest": (
+        [V + "test_nearest_near_marked_texels_matches_twin",
+         V + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
     "virtual/mapfill.py:_fill_triangle": (FILL, None),
     "virtual/mapfill.py:_fill_faces": (FILL, None),
     "virtual/mapfill.py:_extend": (FILL, "_fill_extensions"),

@@ -33,6 +33,7 @@ from ..parallel import claim
 from .mapfill import (
     _fill_extensions,
     _fill_faces,
+    _fill_marked_nearest,
     _fill_triangle,  # noqa: F401 (tests reach the fills through this module)
     _marked_box,
     _nearest_filled,
@@ -40,6 +41,7 @@ from .mapfill import (
 from .mesh import IndexedMesh
 
 EXTENSION_REACH = 0.6  # extension vertices end at this fraction of s from the map center
+NEAR_MARGIN = 48  # texels around the looked-up ones searched for a nearest filled texel
 
 
 @dataclass
@@ -255,6 +257,17 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
             for x in range(x0, x1 + 1):
                 hole |= needed[y, x] & (layer[y, x] < 0)
         if not hole:
+            tally[k, 0] = filled
+            tally[k, 1] = -1
+            return
+        # a looked-up texel stays empty: its nearest filled texel is most often close by,
+        # so the extensions are drawn over the box grown by NEAR_MARGIN, and the fill
+        # searched for there (where the box cannot be sure, the whole layer is made)
+        gy0, gy1 = max(y0 - NEAR_MARGIN, 0), min(y1 + NEAR_MARGIN, res - 1)
+        gx0, gx1 = max(x0 - NEAR_MARGIN, 0), min(x1 + NEAR_MARGIN, res - 1)
+        _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out, gy0, gy1,
+                         gx0, gx1)
+        if _fill_marked_nearest(layer, needed, reach, y0, y1, x0, x1, NEAR_MARGIN):
             tally[k, 0] = filled
             tally[k, 1] = -1
             return

@@ -189,3 +189,71 @@ def _nearest_filled(empty, rows, cols):
             q = v[k]
             cols[y, x] = q
             rows[y, x] = near_row[y, q]
+
+
+@njit(cache=True)
+def _nearest_in_box(layer, y0, y1, x0, x1, y, x):
+    """(row, column) of the filled texel of `layer` nearest to empty texel (y, x) among rows
+    y0..y1, columns x0..x1, by the whole map's rule (_nearest_filled: least squared
+    distance, then least column, then least row), or (-1, -1) if it is not sure to be the
+    whole map's answer: none found, or a texel outside the box (and inside the map) could
+    be as near."""
+    h, w = layer.shape
+    out = 1 << 62  # squared distance to the nearest texel outside the box, in the map
+    if y0 > 0:
+        out = min(out, (y - y0 + 1) ** 2)
+    if y1 < h - 1:
+        out = min(out, (y1 + 1 - y) ** 2)
+    if x0 > 0:
+        out = min(out, (x - x0 + 1) ** 2)
+    if x1 < w - 1:
+        out = min(out, (x1 + 1 - x) ** 2)
+    best, by, bx = 1 << 62, -1, -1
+    r = 1
+    while r * r <= best and r * r < out:
+        # the square ring at Chebyshev distance r, clipped to the box
+        for yy in range(max(y - r, y0), min(y + r, y1) + 1):
+            step = 1 if yy == y - r or yy == y + r else 2 * r
+            for xx in range(x - r, x + r + 1, step):
+                if xx < x0 or xx > x1 or layer[yy, xx] < 0:
+                    continue
+                d = (yy - y) ** 2 + (xx - x) ** 2
+                if d < best or (d == best and (xx < bx or (xx == bx and yy < by))):
+                    best, by, bx = d, yy, xx
+        r += 1
+    if by < 0 or best >= out:
+        return -1, -1
+    return by, bx
+
+
+@njit(cache=True)
+def _fill_marked_nearest(layer, marks, reach, y0, y1, x0, x1, margin):
+    """The nearest fill (as _nearest_filled gives it over the whole map) at the marked
+    texels of rows y0..y1, columns x0..x1 that are empty, each searched for within that box
+    grown by `margin`: True if done, False (layer unchanged) if some such texel is not
+    sure of its answer there, or lies where the whole map's fill could be skipped (not
+    `reach`). The texels inside the grown box must hold their final ids but for the fill."""
+    h, w = layer.shape
+    gy0, gy1 = max(y0 - margin, 0), min(y1 + margin, h - 1)
+    gx0, gx1 = max(x0 - margin, 0), min(x1 + margin, w - 1)
+    count = 0
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            count += marks[y, x] & (layer[y, x] < 0)
+    found = np.empty((count, 3), np.int64)  # texel, source texel: written once all are known
+    i = 0
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            if not (marks[y, x] and layer[y, x] < 0):
+                continue
+            if not reach[y, x]:
+                return False
+            sy, sx = _nearest_in_box(layer, gy0, gy1, gx0, gx1, y, x)
+            if sy < 0:
+                return False
+            found[i, 0], found[i, 1], found[i, 2] = y * w + x, sy, sx
+            i += 1
+    for i in range(count):
+        y, x = divmod(found[i, 0], w)
+        layer[y, x] = layer[found[i, 1], found[i, 2]]
+    return True

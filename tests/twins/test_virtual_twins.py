@@ -15,6 +15,7 @@ from naive import (
     map_coords,
     mirror_on_circle,
     nearest_filled_distance,
+    nearest_filled_texel,
     part_candidates,
     plane_from_map,
     profile_one,
@@ -36,7 +37,7 @@ from naive import part_views as naive_part_views
 from reflectcli.camera import Camera
 from reflectcli.raster.rasterize import FLAG_MIRROR, FLAG_SKIP
 from reflectcli.scene import primitives
-from reflectcli.virtual import circle, compose, direct, explosion, refine
+from reflectcli.virtual import circle, compose, direct, explosion, mapfill, refine
 from reflectcli.virtual.mesh import weld
 from reflectcli.virtual.tiles import PartTiles, joined
 
@@ -394,8 +395,18 @@ def test_maps_built_for_their_lookups_match_whole_maps_there(open_mesh):
             np.testing.assert_array_equal(a.ids[marked[k]], b.ids[marked[k]])
             np.testing.assert_array_equal(a.core[marked[k]], b.core[marked[k]])
             np.testing.assert_array_equal(a.coords, b.coords)
-        if open_mesh:  # the restricted build had to fill the nearest ids somewhere
-            assert any(layer.empty_after_extension > 0 for layer in some.layers)
+        if open_mesh:  # a lookup lands where faces and extensions leave a texel empty
+            used = ~np.isnan(whole.layers[0].coords[:, 0])
+            drawn = np.flatnonzero(used[mesh.faces].all(axis=1)
+                                   & whole.front[mesh.faces].any(axis=1))
+            holes = False
+            for k, layer in enumerate(whole.layers):
+                ids = np.full((40, 40), -1, np.int32)
+                fill_faces(ids, layer.coords, mesh.faces, drawn)
+                fill_extensions(ids, layer.coords, whole.extensions, len(mesh.faces), 20.0,
+                                explosion.EXTENSION_REACH * whole.s)
+                holes |= bool((ids[marked[k]] < 0).any())
+            assert holes
         none = np.full(len(pts), -1)
         got = explosion.virtual_vertices(some, pts, none, np.zeros((len(pts), 2)),
                                          np.zeros((len(mesh.vertices), 2)), flip_axis)
@@ -517,6 +528,52 @@ def test_nearest_filled_matches_twin():
         assert not empty[rows, cols].any()
         got = np.hypot(rows - np.arange(h)[:, None], cols - np.arange(w)[None, :])
         np.testing.assert_allclose(got, nearest_filled_distance(empty), rtol=0, atol=1e-12)
+
+
+def test_nearest_near_marked_texels_matches_twin():
+    """_nearest_in_box answers as the whole map's rule would (nearest, then least column,
+    then least row), or not at all when a texel outside its box could be as near; and
+    _fill_marked_nearest fills the marked empty texels as _nearest_filled does over the
+    whole map (which the rule matches), or leaves the layer alone."""
+    rng = np.random.default_rng(13)
+    answered = declined = 0
+    for _ in range(60):
+        h, w = (int(v) for v in rng.integers(8, 40, 2))
+        layer = np.where(rng.random((h, w)) < rng.choice([0.02, 0.1, 0.5]),
+                         rng.integers(0, 50, (h, w)), -1).astype(np.int32)
+        y0, x0 = int(rng.integers(0, h)), int(rng.integers(0, w))
+        y1, x1 = int(rng.integers(y0, h)), int(rng.integers(x0, w))
+        for y, x in zip(*np.nonzero(layer[y0:y1 + 1, x0:x1 + 1] < 0), strict=True):
+            y, x = int(y + y0), int(x + x0)
+            got = mapfill._nearest_in_box(layer, y0, y1, x0, x1, y, x)
+            want = nearest_filled_texel(layer, y, x)
+            if got != (-1, -1):
+                assert got == want
+                answered += 1
+                continue
+            declined += 1
+            sides = [(y - y0 + 1) ** 2 if y0 > 0 else np.inf,
+                     (y1 + 1 - y) ** 2 if y1 < h - 1 else np.inf,
+                     (x - x0 + 1) ** 2 if x0 > 0 else np.inf,
+                     (x1 + 1 - x) ** 2 if x1 < w - 1 else np.inf]
+            assert want is None or (want[0] - y) ** 2 + (want[1] - x) ** 2 >= min(sides)
+        marks = rng.random((h, w)) < 0.2
+        reach = np.ones((h, w), bool)
+        filled = layer.copy()
+        if mapfill._fill_marked_nearest(filled, marks, reach, y0, y1, x0, x1, 4):
+            empty = layer < 0
+            rows = np.empty((h, w), np.int32)
+            cols = np.empty((h, w), np.int32)
+            if not empty.all():
+                mapfill._nearest_filled(empty, rows, cols)
+            box = np.zeros((h, w), bool)
+            box[y0:y1 + 1, x0:x1 + 1] = True
+            sel = marks & box & empty
+            np.testing.assert_array_equal(filled[sel], layer[rows[sel], cols[sel]])
+            np.testing.assert_array_equal(filled[~sel], layer[~sel])
+        else:
+            np.testing.assert_array_equal(filled, layer)
+    assert answered > 100 and declined > 10
 
 
 def test_mirror_boxes_match_twin():
