@@ -69,6 +69,11 @@ class ExplosionMaps:
     extensions: np.ndarray  # (X, 3) int64: face, vertex i, vertex j
     res: int
     s: float
+    # every layer's arrays at once (layer k's ids, coords and core are views of row k),
+    # as the lookups take them
+    all_ids: np.ndarray  # (L, res, res) int32
+    all_coords: np.ndarray  # (L, V, 2)
+    all_cores: np.ndarray  # (L, res, res) bool
 
     @property
     def near(self) -> ExplosionMap:
@@ -181,7 +186,7 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     maps = [ExplosionMap(ids[k], coords[k], radius, int(tally[k, 0]), int(tally[k, 1]),
                          core[k]) for k, radius in enumerate(radii)]
     return ExplosionMaps(mesh, fixed, front, frame, np.asarray(center, float), maps,
-                         extensions, res, s)
+                         extensions, res, s, ids, coords, core)
 
 
 @njit(cache=True, parallel=True)
@@ -368,10 +373,8 @@ def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.nd
     reflected cell (the unreflected region) - their virtual vertices only close polygons)."""
     out = np.empty(points.shape, np.float64)
     m = maps.mesh
-    ids = np.stack([layer.ids for layer in maps.layers])
-    coords = np.stack([layer.coords for layer in maps.layers])
+    ids, coords, cores = maps.all_ids, maps.all_coords, maps.all_cores
     radii = np.array([layer.radius for layer in maps.layers])
-    cores = np.stack([layer.core for layer in maps.layers])
     unreflected = np.zeros(points.shape[0], np.bool_)
     flip = np.zeros(3) if flip_axis is None else np.asarray(flip_axis, np.float64)
     _virtual(np.ascontiguousarray(points, np.float64), m.vertices, maps.normals, m.faces,
