@@ -400,7 +400,7 @@ def _unit_or_zero(nn, always):
     return nn
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
     """(plane point, unit normal) for map point T, or a zero normal if the texel is empty
     (tuples: the lookup runs per point and map, and arrays made per call cost more than
@@ -457,7 +457,7 @@ def _screen_plane(faces, f, screen, v, n, sx, sy):
                                                           True)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mirror(q, p, nn):
     d = (q[0] - p[0]) * nn[0] + (q[1] - p[1]) * nn[1] + (q[2] - p[2]) * nn[2]
     return q[0] - 2 * d * nn[0], q[1] - 2 * d * nn[1], q[2] - 2 * d * nn[2]
