@@ -351,10 +351,12 @@ def _lookup_at(q0, q1, q2, center, flip_axis, frame, res, s, radii):
     return tx, ty, cx, cy, dist, lo
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _mark_lookups(points, center, flip_axis, frame, res, s, radii, needed):
-    """needed[lo], needed[lo + 1] set at the texel each point is looked up at (_virtual).
-    One thread: about 10 ns a point, less than a parallel loop's start on a busy machine."""
+    """needed[lo], needed[lo + 1] set at the texel each point is looked up at (_virtual,
+    whose numpy error model it shares: a point at the center gives NaN, clamped, not an
+    error). One thread: about 13 ns a point (3x less than with Python's checks for zero
+    divisors), less than a parallel loop's start on a busy machine."""
     for i in range(points.shape[0]):
         _, _, cx, cy, _, lo = _lookup_at(points[i, 0], points[i, 1], points[i, 2], center,
                                          flip_axis, frame, res, s, radii)
