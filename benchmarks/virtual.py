@@ -2,7 +2,7 @@
 map building, virtual vertices and rasterization.
 
     .venv/bin/python benchmarks/virtual.py [--repeats 9] [--threads 2] [--scenes four-spheres,mask]
-        [--floor]
+        [--floor] [--cpu]
 
 Frames of the two techniques alternate (one of each per round, after a warm-up round), so a
 busy machine slows both alike; medians per frame, with the ratio of the minima beside (the
@@ -36,16 +36,16 @@ def opened(scene: str, technique: str, overrides: list[str], threads: int):
     return o
 
 
-def alternate(runs: dict, repeats: int) -> dict:
+def alternate(runs: dict, repeats: int, clock=time.perf_counter) -> dict:
     """name -> list of (seconds, frame); each round renders frame 0 once per technique."""
     out = {k: [] for k in runs}
     for rep in range(repeats + 1):
         for name, o in runs.items():
             o.technique.forget_view(o.prepare())
-            t = time.perf_counter()
+            t = clock()
             f = o.render_frame(0)
             if rep:  # round 0 warms up
-                out[name].append((time.perf_counter() - t, f))
+                out[name].append((clock() - t, f))
     return out
 
 
@@ -58,6 +58,9 @@ def main() -> None:
                     help="also alternate the raster technique: the primary pass (and the "
                     "mirrors' base colour) that every virtual frame starts with, as a "
                     "ratio of raytrace's frame")
+    ap.add_argument("--cpu", action="store_true",
+                    help="frame times as the process's CPU time (with --threads 1: what the "
+                    "frame costs, whatever else the machine runs; the split stays wall time)")
     args = ap.parse_args()
     numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     for scene in args.scenes.split(","):
@@ -66,7 +69,8 @@ def main() -> None:
                       "virtual": opened(scene, "virtual", [], args.threads)}
         if args.floor:
             techniques["raster"] = opened(scene, "raster", [], args.threads)
-        runs = alternate(techniques, args.repeats)
+        runs = alternate(techniques, args.repeats,
+                         time.process_time if args.cpu else time.perf_counter)
         ref = np.array([t for t, _ in runs["raytrace"]])
         mine = np.array([t for t, _ in runs["virtual"]])
         split = {k: 1e3 * statistics.median(f.timings.get(k, 0.0) for _, f in runs["virtual"])
