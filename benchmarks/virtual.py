@@ -2,7 +2,7 @@
 map building, virtual vertices and rasterization.
 
     .venv/bin/python benchmarks/virtual.py [--repeats 9] [--threads 2] [--scenes four-spheres,mask]
-        [--floor] [--raster-anchor [--anchors ../shared/anchors]]
+        [--floor] [--cpu] [--raster-anchor [--anchors ../shared/anchors]]
 
 Frames of the two techniques alternate (one of each per round, after a warm-up round), so a
 busy machine slows both alike; medians per frame, with the ratio of the minima beside (the
@@ -44,17 +44,17 @@ def opened(scene: str, technique: str, overrides: list[str], threads: int):
     return o
 
 
-def alternate(runs: dict, repeats: int) -> dict:
-    """name -> list of (seconds, the frame's timings); each round renders frame 0 once per
-    technique. Frames are dropped as a render drops them once written: kept, each new
-    frame's buffers were fresh pages to fault in (about 1,000 a frame at 512x512)."""
+def alternate(runs: dict, repeats: int, clock=time.perf_counter) -> dict:
+    """name -> list of (seconds by `clock`, the frame's timings); each round renders frame 0
+    once per technique. Frames are dropped as a render drops them once written: kept, each
+    new frame's buffers were fresh pages to fault in (about 1,000 a frame at 512x512)."""
     out = {k: [] for k in runs}
     for rep in range(repeats + 1):
         for name, o in runs.items():
             o.technique.forget_view(o.prepare())
-            t = time.perf_counter()
+            t = clock()
             f = o.render_frame(0)
-            seconds = time.perf_counter() - t
+            seconds = clock() - t
             if rep:  # round 0 warms up
                 out[name].append((seconds, f.timings))
             del f
@@ -183,6 +183,9 @@ def main() -> None:
                     help="also time the virtual passes' rasterization against the tuned "
                     "rasterizer anchor on the same triangles (ns a triangle)")
     ap.add_argument("--anchors", type=Path, default=ROOT.parent / "shared" / "anchors")
+    ap.add_argument("--cpu", action="store_true",
+                    help="frame times as the process's CPU time (with --threads 1: what the "
+                    "frame costs, whatever else the machine runs; the split stays wall time)")
     args = ap.parse_args()
     numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     for scene in args.scenes.split(","):
@@ -191,7 +194,8 @@ def main() -> None:
                       "virtual": opened(scene, "virtual", [], args.threads)}
         if args.floor:
             techniques["raster"] = opened(scene, "raster", [], args.threads)
-        runs = alternate(techniques, args.repeats)
+        runs = alternate(techniques, args.repeats,
+                         time.process_time if args.cpu else time.perf_counter)
         ref = np.array([t for t, _ in runs["raytrace"]])
         mine = np.array([t for t, _ in runs["virtual"]])
         split = {k: 1e3 * statistics.median(timings.get(k, 0.0) for _, timings in runs["virtual"])

@@ -1283,6 +1283,33 @@ def tile_bounds(inside, q, r, size):
     return [np.array([o[i] for o in out], np.float64) for i in range(5)]
 
 
+def part_candidates(points, center, radius, axis, half):
+    """Twin of virtual.tiles._candidates (PartTiles.candidates): points outside the ball
+    (center, radius) and outside the cone about `axis` of half-angle `half` grown by the
+    ball's spread asin(radius / dist) (angles by arccos, 1e-9 to spare) are not candidates."""
+    out = np.zeros(len(points), bool)
+    for k, p in enumerate(np.asarray(points, np.float64)):
+        v = p - center
+        dist = float(np.linalg.norm(v))
+        if dist <= radius:
+            out[k] = True
+            continue
+        spread = math.asin(radius / dist)
+        angle = math.acos(float(np.clip(v @ axis / dist, -1.0, 1.0)))
+        out[k] = half + spread >= math.pi or angle <= half + spread + 1e-9
+    return out
+
+
+def joined(flag, polygons):
+    """Twin of virtual.tiles._join (tiles.joined): the flagged points and every point of a
+    polygon holding a flagged one."""
+    out = np.array(flag, bool)
+    for poly in polygons:
+        if any(flag[i] for i in poly):
+            out[list(poly)] = True
+    return out
+
+
 def scan(points, center, radius, axis, half, pixel, margin, q, r):
     """Twin of virtual.tiles._scan: a point is reached by tile j if it lies in the tile's
     ball (1.001 of the radius) or within half + margin + asin(radius / dist) of the axis
@@ -1344,7 +1371,7 @@ def vertex_coords(v, n, used, eye, center, radius, frame, res, s):
 
 
 def fill_triangle(ids, a, b, c, value, only_empty):
-    """Twin of virtual.explosion._fill_triangle: every texel whose center has non-negative
+    """Twin of virtual.mapfill._fill_triangle: every texel whose center has non-negative
     barycentrics in (a, b, c) gets `value` (only empty ones if `only_empty`), over the whole
     map at once; degenerate or NaN triangles fill nothing."""
     (ax, ay), (bx, by), (cx, cy) = a, b, c
@@ -1363,7 +1390,7 @@ def fill_triangle(ids, a, b, c, value, only_empty):
 
 
 def nearest_filled_distance(empty):
-    """Twin of virtual.explosion._nearest_filled, by brute force: per texel, the Euclidean
+    """Twin of virtual.mapfill._nearest_filled, by brute force: per texel, the Euclidean
     distance (texel centers) to the nearest texel that is not empty."""
     h, w = empty.shape
     fy, fx = np.nonzero(~empty)
@@ -1372,14 +1399,26 @@ def nearest_filled_distance(empty):
     return np.sqrt(d2.min(axis=-1))
 
 
+def nearest_filled_texel(layer, y, x):
+    """Twin of virtual.mapfill._nearest_in_box / _fill_marked_nearest, by brute force over
+    the whole map: the filled (>= 0) texel nearest to (y, x), ties to the least column and
+    then the least row (the rule _nearest_filled's two passes follow); None if none."""
+    fy, fx = np.nonzero(layer >= 0)
+    if not len(fy):
+        return None
+    d2 = (fy - y) ** 2 + (fx - x) ** 2
+    keys = sorted(zip(d2, fx, fy, strict=True))
+    return int(keys[0][2]), int(keys[0][1])
+
+
 def fill_faces(ids, coords, faces, drawn):
-    """Twin of virtual.explosion._fill_faces: the drawn faces in order, filled with their id."""
+    """Twin of virtual.mapfill._fill_faces: the drawn faces in order, filled with their id."""
     for fi in drawn:
         fill_triangle(ids, *(coords[faces[fi, k]] for k in range(3)), fi, False)
 
 
 def fill_extensions(ids, coords, extensions, n_faces, center, reach):
-    """Twin of virtual.explosion._fill_extensions / _extend: each extension's quad, from its
+    """Twin of virtual.mapfill._fill_extensions / _extend: each extension's quad, from its
     edge (i, j) out to `reach` from the map center along the directions of its ends, filled
     where empty with n_faces + its index (as two triangles; fill_triangle takes either
     winding)."""

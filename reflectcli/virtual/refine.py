@@ -20,9 +20,11 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba import njit, prange
 
+from ..parallel import claim
 from ..raster.rasterize import recover_barycentrics
 
 
@@ -143,7 +145,7 @@ def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q:
     _refine(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(seeds, np.float64),
             inside, q, r, np.asarray(eye, np.float64), iterations,
             np.ascontiguousarray(retry_seeds, np.float64), np.ascontiguousarray(reach, np.bool_),
-            out, ok)
+            out, ok, numba.get_num_threads())
     return out, ok
 
 
@@ -278,26 +280,47 @@ def _walk(p, inside, q, r, sx, sy, iterations):
     return status, e0, e1, e2
 
 
+_CHUNK = 64  # points claimed at a time by a thread in _refine
+
+
 @njit(cache=True, parallel=True)
-def _refine(points, seeds, inside, q, r, eye, iterations, retry, reach, out, ok):
-    for k in prange(points.shape[0]):
-        p = points[k]
-        status = NONE
-        e0 = e1 = e2 = 0.0
-        if np.isfinite(seeds[k, 0]) and np.isfinite(seeds[k, 1]):
-            status, e0, e1, e2 = _walk(p, inside, q, r, seeds[k, 0], seeds[k, 1], iterations)
-        if (status == NONE or (status == BOUNDARY and reach[k])) and np.isfinite(retry[k, 0]):
-            again, f0, f1, f2 = _walk(p, inside, q, r, retry[k, 0], retry[k, 1], iterations)
-            if again == EXACT or (status == NONE and again != NONE):
-                status = again
-                e0, e1, e2 = f0, f1, f2
-        if status == NONE:
-            continue
-        d0, d1, d2 = p[0] - e0, p[1] - e1, p[2] - e2
-        v0, v1, v2 = e0 - eye[0], e1 - eye[1], e2 - eye[2]
-        le = math.sqrt(v0 ** 2 + v1 ** 2 + v2 ** 2)
-        lp = math.sqrt(d0 ** 2 + d1 ** 2 + d2 ** 2)
-        out[k, 0] = eye[0] + v0 / le * (le + lp)
-        out[k, 1] = eye[1] + v1 / le * (le + lp)
-        out[k, 2] = eye[2] + v2 / le * (le + lp)
-        ok[k] = status
+def _refine(points, seeds, inside, q, r, eye, iterations, retry, reach, out, ok, threads):
+    """refine_virtual's search, point by point. Walks take 1 to 2 x `iterations` steps, so
+    points go in chunks claimed by whichever thread is free (parallel.py); each point's
+    answer is its own, whoever finds it."""
+    n = points.shape[0]
+    chunks = (n + _CHUNK - 1) // _CHUNK
+    claimed = np.zeros(1, np.int64)
+    for _worker in prange(min(threads, chunks)):
+        while True:
+            c = claim(claimed)
+            if c >= chunks:
+                break
+            for k in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
+                _refine_point(k, points, seeds, inside, q, r, eye, iterations, retry, reach,
+                              out, ok)
+
+
+@njit(cache=True, inline="always")
+def _refine_point(k, points, seeds, inside, q, r, eye, iterations, retry, reach, out, ok):
+    """Point k of _refine into out[k] and ok[k]."""
+    p = points[k]
+    status = NONE
+    e0 = e1 = e2 = 0.0
+    if np.isfinite(seeds[k, 0]) and np.isfinite(seeds[k, 1]):
+        status, e0, e1, e2 = _walk(p, inside, q, r, seeds[k, 0], seeds[k, 1], iterations)
+    if (status == NONE or (status == BOUNDARY and reach[k])) and np.isfinite(retry[k, 0]):
+        again, f0, f1, f2 = _walk(p, inside, q, r, retry[k, 0], retry[k, 1], iterations)
+        if again == EXACT or (status == NONE and again != NONE):
+            status = again
+            e0, e1, e2 = f0, f1, f2
+    if status == NONE:
+        return
+    d0, d1, d2 = p[0] - e0, p[1] - e1, p[2] - e2
+    v0, v1, v2 = e0 - eye[0], e1 - eye[1], e2 - eye[2]
+    le = math.sqrt(v0 ** 2 + v1 ** 2 + v2 ** 2)
+    lp = math.sqrt(d0 ** 2 + d1 ** 2 + d2 ** 2)
+    out[k, 0] = eye[0] + v0 / le * (le + lp)
+    out[k, 1] = eye[1] + v1 / le * (le + lp)
+    out[k, 2] = eye[2] + v2 / le * (le + lp)
+    ok[k] = status

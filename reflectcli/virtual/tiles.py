@@ -54,15 +54,12 @@ class PartTiles:
         direction of its cone passes (or its ball, grown by 0.1%); each such ray starts in the
         part's ball along a direction of the part's cone, so the same test with the part's
         ball and cone holds the point too (with 1e-9 to spare for rounding)."""
-        v = np.asarray(points, np.float64) - self.part_center
-        dist = np.linalg.norm(v, axis=1)
+        points = np.ascontiguousarray(points, np.float64)
+        out = np.empty(points.shape[0], np.bool_)
         a = self.part_half + self.margin
-        with np.errstate(divide="ignore", invalid="ignore"):
-            sin_s = np.minimum(self.part_radius / dist, 1.0)
-            c = (v @ self.part_axis) / dist
-            bound = math.cos(a) * np.sqrt(1.0 - sin_s * sin_s) - math.sin(a) * sin_s
-            wide = a + np.arcsin(sin_s) >= math.pi if a >= 0.5 * math.pi else False
-        return ~(c < bound - 1e-9) | (dist <= self.part_radius) | (sin_s >= 1.0) | wide
+        _candidates(points, self.part_center, self.part_radius, self.part_axis, math.cos(a),
+                    math.sin(a), a, out)
+        return out
 
     def scan(self, points: np.ndarray, q: np.ndarray, r: np.ndarray,
              polygons: np.ndarray | None = None):
@@ -71,31 +68,71 @@ class PartTiles:
         among all). With `polygons` (T, 3) point indices, seeds are found only for the
         points a part needs: those that reach it and those a polygon joins to one that does
         (NaN elsewhere); points outside the part's own cone skip the per-tile tests."""
+        reach, seeds, _ = self.scan_needed(points, q, r, polygons)
+        return reach, seeds
+
+    def scan_needed(self, points: np.ndarray, q: np.ndarray, r: np.ndarray,
+                    polygons: np.ndarray | None = None):
+        """scan's (reach, seeds), and (N,) bool the points the part needs: with `polygons`,
+        those that reach it and those a polygon joins to one that does (joined); without,
+        all."""
         n = points.shape[0]
         points = np.ascontiguousarray(points, np.float64)
         reach = np.zeros(n, np.bool_)
         seeds = np.full((n, 2), np.nan)
         if polygons is None:
             self._scan_rows(points, q, r, np.arange(n), reach, seeds)
-            return reach, seeds
+            return reach, seeds, np.ones(n, np.bool_)
         near = self.candidates(points)
         self._scan_rows(points, q, r, np.flatnonzero(near), reach, seeds)
-        todo = reach.copy()
-        todo[polygons[reach[polygons].any(axis=1)].ravel()] = True
+        # points outside the part's cone reach no tile: reach is final here
+        todo = joined(reach, polygons)
         self._scan_rows(points, q, r, np.flatnonzero(todo & ~near), reach, seeds)
-        return reach, seeds
+        return reach, seeds, todo
 
     def _scan_rows(self, points, q, r, rows, reach, seeds) -> None:
         """_scan of points[rows] into reach[rows] and seeds[rows] (each point's answer is its
         own: a subset gives the same answers)."""
         if rows.size == 0:
             return
-        sub_reach = np.zeros(rows.size, np.bool_)
-        sub_seeds = np.full((rows.size, 2), np.nan)
-        _scan(np.ascontiguousarray(points[rows]), self.center, self.radius, self.axis,
-              self.half, self.pixel, self.margin, q, r, sub_reach, sub_seeds)
-        reach[rows] = sub_reach
-        seeds[rows] = sub_seeds
+        _scan(points, rows, self.center, self.radius, self.axis, self.half, self.pixel,
+              self.margin, q, r, reach, seeds)
+
+
+def joined(flag: np.ndarray, polygons: np.ndarray) -> np.ndarray:
+    """(N,) bool: `flag`, and every point of a polygon (T, 3 point indices) one of whose
+    points has it."""
+    out = flag.copy()
+    _join(flag, np.ascontiguousarray(polygons, np.int64), out)
+    return out
+
+
+@njit(cache=True)
+def _join(flag, polygons, out):
+    for t in range(polygons.shape[0]):
+        a, b, c = polygons[t, 0], polygons[t, 1], polygons[t, 2]
+        if flag[a] or flag[b] or flag[c]:
+            out[a] = True
+            out[b] = True
+            out[c] = True
+
+
+@njit(cache=True, error_model="numpy")
+def _candidates(points, center, radius, axis, cos_a, sin_a, a, out):
+    """PartTiles.candidates per point: outside the ball (radius) and the cone (axis, half-angle
+    a) grown by the ball's spread, with 1e-9 to spare; cos_a, sin_a of a. One thread: a few
+    ns a point, less than a parallel loop's start on a busy machine."""
+    wide_cone = a >= 0.5 * math.pi
+    for k in range(points.shape[0]):
+        v0 = points[k, 0] - center[0]
+        v1 = points[k, 1] - center[1]
+        v2 = points[k, 2] - center[2]
+        dist = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        sin_s = min(radius / dist, 1.0)
+        c = (v0 * axis[0] + v1 * axis[1] + v2 * axis[2]) / dist
+        bound = cos_a * math.sqrt(1.0 - sin_s * sin_s) - sin_a * sin_s
+        wide = wide_cone and a + math.asin(sin_s) >= math.pi
+        out[k] = not (c < bound - 1e-9) or dist <= radius or sin_s >= 1.0 or wide
 
 
 @njit(cache=True, parallel=True)
@@ -157,16 +194,17 @@ _BLOCK = 128  # points tested side by side against each tile
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _scan(points, center, radius, axis, half, pixel, margin, q, r, reach, seeds):
-    """Per point: the tile whose seed pixel's ray passes closest (least |unit(P - Q) - R|^2;
-    the first on ties), among the tiles whose cone holds the point, else among all.
+def _scan(points, rows, center, radius, axis, half, pixel, margin, q, r, reach, seeds):
+    """Per point points[rows[k]] (its answers into reach and seeds at rows[k]): the tile
+    whose seed pixel's ray passes closest (least |unit(P - Q) - R|^2; the first on ties),
+    among the tiles whose cone holds the point, else among all.
 
     Points go in blocks of _BLOCK, each block meeting the tiles one after another: the test
     of one tile against a block's points is a loop without branches, which the compiler
     vectorises (a point at a time, the tests' square roots and divisions waited on each
     other). Each point meets the tiles in the same order, with the same arithmetic, as
     one at a time."""
-    n = points.shape[0]
+    n = rows.shape[0]
     tiles = center.shape[0]
     cos_a = np.cos(half + margin)
     sin_a = np.sin(half + margin)
@@ -187,9 +225,10 @@ def _scan(points, center, radius, axis, half, pixel, margin, q, r, reach, seeds)
         count = min(n, k0 + _BLOCK) - k0
         s = np.empty((7, _BLOCK))  # x, y, z, best_in, best_any, j_in, j_any
         for k in range(count):
-            s[0, k] = points[k0 + k, 0]
-            s[1, k] = points[k0 + k, 1]
-            s[2, k] = points[k0 + k, 2]
+            i = rows[k0 + k]
+            s[0, k] = points[i, 0]
+            s[1, k] = points[i, 1]
+            s[2, k] = points[i, 2]
             s[3, k] = np.inf
             s[4, k] = np.inf
             s[5, k] = -1.0
@@ -200,11 +239,12 @@ def _scan(points, center, radius, axis, half, pixel, margin, q, r, reach, seeds)
         for k in range(count):
             j_in = int(s[5, k])
             j_any = int(s[6, k])
-            reach[k0 + k] = j_in >= 0
+            i = rows[k0 + k]
+            reach[i] = j_in >= 0
             jj = j_in if j_in >= 0 else j_any
             if jj >= 0:
-                seeds[k0 + k, 0] = pixel[jj, 0]
-                seeds[k0 + k, 1] = pixel[jj, 1]
+                seeds[i, 0] = pixel[jj, 0]
+                seeds[i, 1] = pixel[jj, 1]
 
 
 @njit(cache=True, inline="always", error_model="numpy")

@@ -15,6 +15,8 @@ from naive import (
     map_coords,
     mirror_on_circle,
     nearest_filled_distance,
+    nearest_filled_texel,
+    part_candidates,
     plane_from_map,
     profile_one,
     refine_point,
@@ -26,6 +28,7 @@ from naive import (
 )
 from naive import fill_cracks as naive_fill_cracks
 from naive import gather_corners as naive_gather_corners
+from naive import joined as naive_joined
 from naive import mirror_boxes as naive_mirror_boxes
 from naive import mirror_rays as naive_mirror_rays
 from naive import part_stencil as naive_part_stencil
@@ -34,9 +37,9 @@ from naive import part_views as naive_part_views
 from reflectcli.camera import Camera
 from reflectcli.raster.rasterize import FLAG_MIRROR, FLAG_SKIP
 from reflectcli.scene import primitives
-from reflectcli.virtual import circle, compose, direct, explosion, refine
+from reflectcli.virtual import circle, compose, direct, explosion, mapfill, refine
 from reflectcli.virtual.mesh import weld
-from reflectcli.virtual.tiles import PartTiles
+from reflectcli.virtual.tiles import PartTiles, joined
 
 
 def circle_cases(rng, n=600):
@@ -274,6 +277,31 @@ def test_tile_scan_matches_twin():
     np.testing.assert_array_equal(culled_seeds[todo], full_seeds[todo])
 
 
+def test_part_candidates_and_join_match_twins():
+    """The part's cull (ball and cone) and the polygon join, against their twins, on points
+    near the cone's edge too."""
+    rng = np.random.default_rng(11)
+    _, inside, q, r = sphere_grid()
+    tiles = PartTiles(inside, q, r, size=8)
+    pts = np.concatenate([rng.normal(size=(400, 3)) * 3.0, [tiles.part_center],
+                          tiles.part_center + rng.normal(size=(50, 3)) * 1e-3])
+    half = tiles.part_half + tiles.margin
+    want = part_candidates(pts, tiles.part_center, tiles.part_radius, tiles.part_axis, half)
+    got = tiles.candidates(pts)
+    # the kernel tests cosines, the twin angles: they may part only within 1e-9 of the edge
+    v = pts - tiles.part_center
+    dist = np.linalg.norm(v, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):  # the point at the center
+        angle = np.arccos(np.clip(v @ tiles.part_axis / dist, -1, 1))
+        spread = np.arcsin(np.minimum(tiles.part_radius / dist, 1.0))
+    edge = np.abs(angle - half - spread) < 1e-7
+    np.testing.assert_array_equal(got[~edge], want[~edge])
+    assert got.any() and (~edge).sum() > 400
+    flag = rng.random(len(pts)) < 0.05
+    polygons = rng.integers(0, len(pts), (120, 3))
+    np.testing.assert_array_equal(joined(flag, polygons), naive_joined(flag, polygons))
+
+
 @pytest.fixture(scope="module")
 def sphere_maps():
     m = primitives.uv_sphere(1.0, 12)
@@ -324,6 +352,69 @@ def test_explosion_layers_match_twin(layers):
         for y, x in zip(*np.nonzero(empty), strict=True):
             near = (fy - y) ** 2 + (fx - x) ** 2 == round(dist[y, x] ** 2)
             assert layer.ids[y, x] in set(ids[fy[near], fx[near]]), (y, x)
+
+
+@pytest.mark.parametrize("open_mesh", [False, True])
+def test_maps_built_for_their_lookups_match_whole_maps_there(open_mesh):
+    """build_explosion_maps with `lookups`: at every texel those points are looked up at
+    (layers lo and lo + 1 of each, found by the twins' map_coords and radii), the ids and
+    core of the whole build, and the same virtual vertices, bit for bit; on a closed
+    sphere (extensions close the circle) and an open patch off the map's center (its
+    extensions leave texels empty that lookups land in: the fill runs), points near and
+    far, some flipped."""
+    if open_mesh:
+        corners = np.array([[[2, 0, 0], [2.5, 0, 0], [2.5, 0.5, 0]],
+                            [[2, 0, 0], [2.5, 0.5, 0], [2, 0.5, 0]]], float)
+        normals = np.zeros_like(corners)
+        normals[..., 2] = 1.0
+        normals[0, 0] = [0.3, 0.0, 1.0]  # a bend, so the patch's image is not a line
+        normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    else:
+        m = primitives.uv_sphere(1.0, 10)
+        corners, normals = m.corners, m.normals
+    mesh = weld(corners, normals)
+    eye = np.array([0.4, 1.0, 6.0])
+    rng = np.random.default_rng(12)
+    pts = np.concatenate([rng.normal(size=(40, 3)) * 4.0,
+                          [0.0, 0.0, 3.0] + rng.normal(size=(20, 3)) * 0.3])
+    for flip_axis in (None, np.array([0.0, 0.0, 1.0])):
+        whole = explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 40, 4)
+        some = explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 40, 4,
+                                              lookups=pts, flip_axis=flip_axis)
+        radii = np.array([layer.radius for layer in whole.layers])
+        flip = np.zeros(3) if flip_axis is None else flip_axis
+        marked = np.zeros((len(radii), 40, 40), bool)
+        for p in pts:
+            d = p - whole.center
+            d = -d if d @ flip < 0 else d
+            tx, ty = map_coords(whole.frame, whole.res, whole.s, d)
+            dist = np.linalg.norm(p - whole.center)
+            lo = min(int(np.searchsorted(radii[1:], dist)), len(radii) - 2)
+            x, y = (min(max(int(np.floor(t)), 0), 39) for t in (tx, ty))
+            marked[[lo, lo + 1], y, x] = True
+        for k, (a, b) in enumerate(zip(whole.layers, some.layers, strict=True)):
+            np.testing.assert_array_equal(a.ids[marked[k]], b.ids[marked[k]])
+            np.testing.assert_array_equal(a.core[marked[k]], b.core[marked[k]])
+            np.testing.assert_array_equal(a.coords, b.coords)
+        if open_mesh:  # a lookup lands where faces and extensions leave a texel empty
+            used = ~np.isnan(whole.layers[0].coords[:, 0])
+            drawn = np.flatnonzero(used[mesh.faces].all(axis=1)
+                                   & whole.front[mesh.faces].any(axis=1))
+            holes = False
+            for k, layer in enumerate(whole.layers):
+                ids = np.full((40, 40), -1, np.int32)
+                fill_faces(ids, layer.coords, mesh.faces, drawn)
+                fill_extensions(ids, layer.coords, whole.extensions, len(mesh.faces), 20.0,
+                                explosion.EXTENSION_REACH * whole.s)
+                holes |= bool((ids[marked[k]] < 0).any())
+            assert holes
+        none = np.full(len(pts), -1)
+        got = explosion.virtual_vertices(some, pts, none, np.zeros((len(pts), 2)),
+                                         np.zeros((len(mesh.vertices), 2)), flip_axis)
+        want = explosion.virtual_vertices(whole, pts, none, np.zeros((len(pts), 2)),
+                                          np.zeros((len(mesh.vertices), 2)), flip_axis)
+        assert got[0].tobytes() == want[0].tobytes()
+        np.testing.assert_array_equal(got[1], want[1])
 
 
 def test_map_coords_and_vertex_coords_match_twin(sphere_maps):
@@ -438,6 +529,52 @@ def test_nearest_filled_matches_twin():
         assert not empty[rows, cols].any()
         got = np.hypot(rows - np.arange(h)[:, None], cols - np.arange(w)[None, :])
         np.testing.assert_allclose(got, nearest_filled_distance(empty), rtol=0, atol=1e-12)
+
+
+def test_nearest_near_marked_texels_matches_twin():
+    """_nearest_in_box answers as the whole map's rule would (nearest, then least column,
+    then least row), or not at all when a texel outside its box could be as near; and
+    _fill_marked_nearest fills the marked empty texels as _nearest_filled does over the
+    whole map (which the rule matches), or leaves the layer alone."""
+    rng = np.random.default_rng(13)
+    answered = declined = 0
+    for _ in range(60):
+        h, w = (int(v) for v in rng.integers(8, 40, 2))
+        layer = np.where(rng.random((h, w)) < rng.choice([0.02, 0.1, 0.5]),
+                         rng.integers(0, 50, (h, w)), -1).astype(np.int32)
+        y0, x0 = int(rng.integers(0, h)), int(rng.integers(0, w))
+        y1, x1 = int(rng.integers(y0, h)), int(rng.integers(x0, w))
+        for y, x in zip(*np.nonzero(layer[y0:y1 + 1, x0:x1 + 1] < 0), strict=True):
+            y, x = int(y + y0), int(x + x0)
+            got = mapfill._nearest_in_box(layer, y0, y1, x0, x1, y, x)
+            want = nearest_filled_texel(layer, y, x)
+            if got != (-1, -1):
+                assert got == want
+                answered += 1
+                continue
+            declined += 1
+            sides = [(y - y0 + 1) ** 2 if y0 > 0 else np.inf,
+                     (y1 + 1 - y) ** 2 if y1 < h - 1 else np.inf,
+                     (x - x0 + 1) ** 2 if x0 > 0 else np.inf,
+                     (x1 + 1 - x) ** 2 if x1 < w - 1 else np.inf]
+            assert want is None or (want[0] - y) ** 2 + (want[1] - x) ** 2 >= min(sides)
+        marks = rng.random((h, w)) < 0.2
+        reach = np.ones((h, w), bool)
+        filled = layer.copy()
+        if mapfill._fill_marked_nearest(filled, marks, reach, y0, y1, x0, x1, 4):
+            empty = layer < 0
+            rows = np.empty((h, w), np.int32)
+            cols = np.empty((h, w), np.int32)
+            if not empty.all():
+                mapfill._nearest_filled(empty, rows, cols)
+            box = np.zeros((h, w), bool)
+            box[y0:y1 + 1, x0:x1 + 1] = True
+            sel = marks & box & empty
+            np.testing.assert_array_equal(filled[sel], layer[rows[sel], cols[sel]])
+            np.testing.assert_array_equal(filled[~sel], layer[~sel])
+        else:
+            np.testing.assert_array_equal(filled, layer)
+    assert answered > 100 and declined > 10
 
 
 def test_mirror_boxes_match_twin():

@@ -1,0 +1,259 @@
+"""Filling an explosion map's texels (explosion.py): triangles by their texel centers, the
+extension quads where still empty, and the nearest filled texel for the texels left empty,
+over the whole map or near the texels lookups will read."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def _span(lo, hi, slope, cross):
+    """[lo, hi] narrowed to the texels x whose center px = x + 0.5 may have
+    slope * (px - cross) >= 0, with 2 texels to spare for rounding; unchanged where the
+    slope is too flat to place the crossing (|slope| < 1e-6 texel units)."""
+    if slope >= 1e-6:
+        lo = max(lo, cross - 2.5)
+    elif slope <= -1e-6:
+        hi = min(hi, cross + 1.5)
+    return lo, hi
+
+
+@njit(cache=True)
+def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty, box_y0=0, box_y1=1 << 30,
+                   box_x0=0, box_x1=1 << 30):
+    """Texels whose centers the triangle holds (barycentrics >= 0, either winding) get
+    `value` (with `only_empty`, only texels still < 0). Each row visits only the span the
+    three edge functions allow (widened by 2 texels) of the bounding box, then tests each
+    texel exactly as before: the same texels as testing the whole box. An edge function's
+    zero on row py is at cross = p + q py (p, q per triangle: no division per row; its
+    rounding is far inside the 2 texels to spare). box_*: only the texels of rows
+    box_y0..box_y1, columns box_x0..box_x1 (each tested as in the whole map)."""
+    res = ids.shape[0]
+    area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+    if area == 0.0 or math.isnan(area):
+        return
+    x0 = max(int(math.floor(min(ax, bx, cx))), 0, box_x0)
+    x1 = min(int(math.ceil(max(ax, bx, cx))), res - 1, box_x1)
+    y0 = max(int(math.floor(min(ay, by, cy))), 0, box_y0)
+    y1 = min(int(math.ceil(max(ay, by, cy))), res - 1, box_y1)
+    if x0 > x1:
+        return
+    sign = 1.0 if area > 0.0 else -1.0
+    # area * w_i as functions of px (w0 = e0 / area, ...), signed to be >= 0 inside:
+    # s_i px + k_i(py), k_i(py) = m_i + l_i py, crossing at -k_i / s_i
+    s0 = sign * (by - cy)
+    s1 = sign * (cy - ay)
+    s2 = -s0 - s1
+    m0, l0 = sign * (bx * cy - cx * by), sign * (cx - bx)
+    m1, l1 = sign * (cx * ay - ax * cy), sign * (ax - cx)
+    m2, l2 = sign * area - m0 - m1, -l0 - l1
+    i0 = -1.0 / s0 if s0 != 0.0 else 0.0
+    i1 = -1.0 / s1 if s1 != 0.0 else 0.0
+    i2 = -1.0 / s2 if s2 != 0.0 else 0.0
+    for y in range(y0, y1 + 1):
+        py = y + 0.5
+        lo, hi = _span(float(x0), float(x1), s0, (m0 + l0 * py) * i0)
+        lo, hi = _span(lo, hi, s1, (m1 + l1 * py) * i1)
+        lo, hi = _span(lo, hi, s2, (m2 + l2 * py) * i2)
+        if not lo <= hi:
+            continue
+        for x in range(int(math.ceil(lo)), int(math.floor(hi)) + 1):
+            if only_empty and ids[y, x] >= 0:
+                continue  # taken: no test needed
+            px = x + 0.5
+            # w0 = n0 / area < 0 exactly when sign * n0 < 0 (a quotient keeps the signs'
+            # product): the divisions are made only for texels both first tests pass
+            n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
+            if sign * n0 < 0.0:
+                continue
+            n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
+            if sign * n1 < 0.0:
+                continue
+            w0 = n0 / area
+            w1 = n1 / area
+            if 1.0 - w0 - w1 >= 0.0:
+                ids[y, x] = value
+
+
+@njit(cache=True)
+def _fill_faces(ids, coords, faces, drawn):
+    for k in range(drawn.shape[0]):
+        fi = drawn[k]
+        a, b, c = faces[fi, 0], faces[fi, 1], faces[fi, 2]
+        _fill_triangle(ids, coords[a, 0], coords[a, 1], coords[b, 0], coords[b, 1],
+                       coords[c, 0], coords[c, 1], fi, False)
+
+
+@njit(cache=True)
+def _extend(cx, cy, px, py, reach):
+    dx, dy = px - cx, py - cy
+    length = math.sqrt(dx * dx + dy * dy)
+    if length == 0.0:
+        return px, py
+    return cx + dx * reach / length, cy + dy * reach / length
+
+
+@njit(cache=True)
+def _fill_extensions(ids, coords, extensions, n_faces, center, reach, box_y0=0,
+                     box_y1=1 << 30, box_x0=0, box_x1=1 << 30):
+    """Each extension's quad, where still empty (the first quad holding a texel wins);
+    box_*: as in _fill_triangle."""
+    for e in range(extensions.shape[0]):
+        i, j = extensions[e, 1], extensions[e, 2]
+        ax, ay = coords[i, 0], coords[i, 1]
+        bx, by = coords[j, 0], coords[j, 1]
+        cx, cy = _extend(center, center, bx, by, reach)
+        dx, dy = _extend(center, center, ax, ay, reach)
+        value = n_faces + e
+        # either winding: _fill_triangle's barycentrics are divided by the signed area
+        _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, True, box_y0, box_y1, box_x0,
+                       box_x1)
+        _fill_triangle(ids, ax, ay, cx, cy, dx, dy, value, True, box_y0, box_y1, box_x0,
+                       box_x1)
+
+
+@njit(cache=True)
+def _marked_box(marks):
+    """(y0, y1, x0, x1): the rows and columns holding a marked texel (y0 > y1 if none)."""
+    h, w = marks.shape
+    y0, y1, x0, x1 = h, -1, w, -1
+    for y in range(h):
+        for x in range(w):
+            if marks[y, x]:
+                y0 = min(y0, y)
+                y1 = max(y1, y)
+                x0 = min(x0, x)
+                x1 = max(x1, x)
+    return y0, y1, x0, x1
+
+
+_FAR = 1e20  # squared distance standing for "no filled texel in this column"
+
+
+@njit(cache=True)
+def _nearest_filled(empty, rows, cols):
+    """Exact Euclidean feature transform (Felzenszwalb & Huttenlocher's two passes of 1-D
+    squared distance transforms, in O(texels)): rows[y, x], cols[y, x] is a filled (not
+    empty) texel nearest to (y, x). Pass 1: per column, the nearest filled row (ties: the
+    one above). Pass 2: per row, the lower envelope of the parabolas (x - x')^2 + g(x')^2
+    (ties: the leftmost parabola of the envelope)."""
+    h, w = empty.shape
+    near_row = np.empty((h, w), np.int32)
+    g = np.empty((h, w))
+    for x in range(w):
+        last = -1
+        for y in range(h):  # nearest filled at or above
+            if not empty[y, x]:
+                last = y
+            near_row[y, x] = last
+        last = -1
+        for y in range(h - 1, -1, -1):  # nearest filled at or below, if nearer
+            if not empty[y, x]:
+                last = y
+            above = near_row[y, x]
+            if last >= 0 and (above < 0 or last - y < y - above):
+                near_row[y, x] = last
+            r = near_row[y, x]
+            g[y, x] = _FAR if r < 0 else float((y - r) * (y - r))
+    v = np.empty(w, np.int64)  # parabolas of the lower envelope
+    z = np.empty(w + 1)  # their ranges
+    for y in range(h):
+        k = 0
+        v[0] = 0
+        z[0] = -np.inf
+        z[1] = np.inf
+        for q in range(1, w):
+            while True:
+                p = v[k]
+                s = ((g[y, q] + q * q) - (g[y, p] + p * p)) / (2.0 * (q - p))
+                if s <= z[k] and k > 0:
+                    k -= 1
+                    continue
+                break
+            if s <= z[k]:  # k == 0: q replaces the first parabola
+                v[0] = q
+                z[1] = np.inf
+                continue
+            k += 1
+            v[k] = q
+            z[k] = s
+            z[k + 1] = np.inf
+        k = 0
+        for x in range(w):
+            while z[k + 1] < x:
+                k += 1
+            q = v[k]
+            cols[y, x] = q
+            rows[y, x] = near_row[y, q]
+
+
+@njit(cache=True)
+def _nearest_in_box(layer, y0, y1, x0, x1, y, x):
+    """(row, column) of the filled texel of `layer` nearest to empty texel (y, x) among rows
+    y0..y1, columns x0..x1, by the whole map's rule (_nearest_filled: least squared
+    distance, then least column, then least row), or (-1, -1) if it is not sure to be the
+    whole map's answer: none found, or a texel outside the box (and inside the map) could
+    be as near."""
+    h, w = layer.shape
+    out = 1 << 62  # squared distance to the nearest texel outside the box, in the map
+    if y0 > 0:
+        out = min(out, (y - y0 + 1) ** 2)
+    if y1 < h - 1:
+        out = min(out, (y1 + 1 - y) ** 2)
+    if x0 > 0:
+        out = min(out, (x - x0 + 1) ** 2)
+    if x1 < w - 1:
+        out = min(out, (x1 + 1 - x) ** 2)
+    best, by, bx = 1 << 62, -1, -1
+    r = 1
+    while r * r <= best and r * r < out:
+        # the square ring at Chebyshev distance r, clipped to the box
+        for yy in range(max(y - r, y0), min(y + r, y1) + 1):
+            step = 1 if yy == y - r or yy == y + r else 2 * r
+            for xx in range(x - r, x + r + 1, step):
+                if xx < x0 or xx > x1 or layer[yy, xx] < 0:
+                    continue
+                d = (yy - y) ** 2 + (xx - x) ** 2
+                if d < best or (d == best and (xx < bx or (xx == bx and yy < by))):
+                    best, by, bx = d, yy, xx
+        r += 1
+    if by < 0 or best >= out:
+        return -1, -1
+    return by, bx
+
+
+@njit(cache=True)
+def _fill_marked_nearest(layer, marks, reach, y0, y1, x0, x1, margin):
+    """The nearest fill (as _nearest_filled gives it over the whole map) at the marked
+    texels of rows y0..y1, columns x0..x1 that are empty, each searched for within that box
+    grown by `margin`: True if done, False (layer unchanged) if some such texel is not
+    sure of its answer there, or lies where the whole map's fill could be skipped (not
+    `reach`). The texels inside the grown box must hold their final ids but for the fill."""
+    h, w = layer.shape
+    gy0, gy1 = max(y0 - margin, 0), min(y1 + margin, h - 1)
+    gx0, gx1 = max(x0 - margin, 0), min(x1 + margin, w - 1)
+    count = 0
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            count += marks[y, x] & (layer[y, x] < 0)
+    found = np.empty((count, 3), np.int64)  # texel, source texel: written once all are known
+    i = 0
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            if not (marks[y, x] and layer[y, x] < 0):
+                continue
+            if not reach[y, x]:
+                return False
+            sy, sx = _nearest_in_box(layer, gy0, gy1, gx0, gx1, y, x)
+            if sy < 0:
+                return False
+            found[i, 0], found[i, 1], found[i, 2] = y * w + x, sy, sx
+            i += 1
+    for i in range(count):
+        y, x = divmod(found[i, 0], w)
+        layer[y, x] = layer[found[i, 1], found[i, 2]]
+    return True
