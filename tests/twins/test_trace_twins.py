@@ -201,7 +201,8 @@ def run_wave(scenes, kind, params, surfaces, counts, seg_len, rows_per_seg, cam,
     trace_segments(seg_len, out_counts, rows_per_seg, cam, buffers,
                    np.array([tfar, tfar], np.float32), *sides, analytic, surfaces,
                    (bounce, bounce), bounce + 1 if follow else bounce, (out_hits, out_hits),
-                   color, np.float32(near), reflected_hit, traced, numba.get_num_threads())
+                   color, np.float32(near), reflected_hit, traced, numba.get_num_threads(),
+                   False)
     np.testing.assert_array_equal(traced[:, bounce], counts)
     assert (traced[:, :bounce] == -1).all() and (traced[:, bounce + 1:] == -1).all()
     return (*out_hits, out_rays, out_counts, reflected_hit)
