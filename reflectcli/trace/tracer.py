@@ -18,7 +18,7 @@ import numpy as np
 from ..camera import Camera
 from ..frame import Frame
 from ..scene.types import Geometry, Scene
-from .analytic import has_analytic, quad_edges
+from .analytic import has_analytic, quad_edges, screen_boxes
 from .embree import TriangleScene
 from .rays import camera_rays, primary_rays
 from .wave import trace_segments
@@ -164,7 +164,8 @@ class _Segments:
             scene.background)
         self.analytic = (has_analytic(m.kind), m.kind,
                          np.ascontiguousarray(m.params, dtype=np.float64),
-                         accel.buffers.quad_edges(m.kind, m.params))
+                         accel.buffers.quad_edges(m.kind, m.params),
+                         screen_boxes(m.kind, m.params, camera))
         # embreex traces outside the kernel (no Embree library for it, or numba's JIT off)
         self.fallback = any(s.count and not s.handle for s in (accel.objects, accel.mirrors))
 

@@ -19,6 +19,7 @@ from numba import njit, prange
 
 from ..parallel import claim
 from .analytic import intersect_range as analytic_range
+from .analytic import intersect_rows as analytic_rows
 from .embree import intersect_range as embree_range
 from .embree import packet_buffer
 from .rays import rows_of_rays
@@ -48,7 +49,8 @@ def trace_segments(seg_len, counts, rows_per_seg, cam, buffers, tfars, objects, 
     the reflected rays' tfar. `objects`, `mirrors`: (Embree scene handle, hits given, t,
     primitive, u, v): a nonzero handle is traced here; with none, the hit arrays are either
     given (the embreex fallback fills them first, one wave a call) or all misses.
-    `analytic`: (any analytic mirror, kind, params, quad edges, t, index). `surfaces`:
+    `analytic`: (any analytic mirror, kind, params, quad edges, screen boxes of the primary
+    rays' camera (analytic.screen_boxes), t, index). `surfaces`:
     resolve_range's scene arrays, from the objects' corners to the background. `hits`:
     ((depth, surface ids) of the primary wave: t + near, inf on a miss, at the frame's rows;
     (t, surface) of the others) per ray. Writes color (rows of the rays' slots); the first
@@ -102,11 +104,11 @@ def _rows_hits(side, start, n):
 
 @njit(cache=True, inline="always")
 def _rows_analytic(analytic, start, n):
-    """The analytic side (any, kind, params, edges, t, index) with its hit arrays' rows
+    """The analytic side (any, kind, params, edges, boxes, t, index) with its hit arrays' rows
     start .. start + n - 1."""
-    any_analytic, kind, params, edges, t, index = analytic
+    any_analytic, kind, params, edges, boxes, t, index = analytic
     t, index = _rows2((t, index), start, n)
-    return any_analytic, kind, params, edges, t, index
+    return any_analytic, kind, params, edges, boxes, t, index
 
 
 @njit(cache=True, inline="always")
@@ -116,12 +118,13 @@ def _segment(k, lo, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, o
     """Segment k through waves bounces[0] .. bounces[1], its rays from row lo of the ray
     buffers and hit arrays on."""
     count = counts[k]
+    per_row = cam[5] * cam[7] * cam[7]  # rays an image row
     for bounce in range(bounces[0], bounces[1] + 1):
         traced[k, bounce] = count
         if count == 0:
             break
         even = bounce % 2 == 0
-        count = _wave(lo, lo + count, k * rows_per_seg, rows_per_seg, cam,
+        count = _wave(lo, lo + count, k * seg_len // per_row, rows_per_seg, cam,
                       rays_a if even else rays_b, tfars[min(bounce, 1):min(bounce, 1) + 1],
                       objects, mirrors, analytic, surfaces, bounce < max_depth, bounce,
                       first_hits if bounce == 0 else hits, color, rays_b if even else rays_a,
@@ -132,17 +135,17 @@ def _segment(k, lo, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, o
 @njit(cache=True, inline="always")
 def _wave(lo, hi, j0, rows_per_seg, cam, rays, tfar, objects, mirrors, analytic, surfaces,
           follow, bounce, hits, color, out_rays, near, reflected_hit):
-    """Wave `bounce` of a segment: rays lo .. hi - 1 (on the primary wave, with rows_per_seg
-    > 0, the rays of image rows j0 onward, made here from row lo on); returns how many it
+    """Wave `bounce` of a segment: rays lo .. hi - 1 (on the primary wave the rays of image
+    rows j0 onward, made here from row lo on when rows_per_seg > 0); returns how many it
     emitted."""
     origins, dirs, weight, slot = rays
     obj_scene, obj_given, t_o, p_o, u_o, v_o = objects
     mir_scene, mir_given, t_m, p_m, u_m, v_m = mirrors
-    any_analytic, kind, params, edges, t_a, k_a = analytic
+    any_analytic, kind, params, edges, boxes, t_a, k_a = analytic
     hit_t, hit_surface = hits
     first = bounce == 0
+    per_row = cam[5] * cam[7] * cam[7]
     if first and rows_per_seg > 0:
-        per_row = cam[5] * cam[7] * cam[7]
         rows_of_rays(j0, min(cam[6], j0 + rows_per_seg), j0 * per_row - lo, cam, origins, dirs)
     if obj_scene != 0 or mir_scene != 0:
         buf, off = packet_buffer()
@@ -154,7 +157,10 @@ def _wave(lo, hi, j0, rows_per_seg, cam, rays, tfar, objects, mirrors, analytic,
         _misses(lo, hi, t_o, p_o)
     if mir_scene == 0 and not mir_given:
         _misses(lo, hi, t_m, p_m)
-    if any_analytic:
+    if any_analytic and first:  # only rays of pixels in a mirror's screen box can meet it
+        analytic_rows(lo, hi, j0, per_row, cam[7] * cam[7], boxes, origins, dirs, tfar, kind,
+                      params, edges, 0.0, t_a, k_a)
+    elif any_analytic:
         analytic_range(lo, hi, origins, dirs, tfar, kind, params, edges, 0.0, t_a, k_a)
     else:
         _misses(lo, hi, t_a, k_a)
