@@ -164,8 +164,13 @@ def _wave(lo, hi, j0, rows_per_seg, cam, rays, tfar, objects, mirrors, analytic,
         analytic_range(lo, hi, origins, dirs, tfar, kind, params, edges, 0.0, t_a, k_a)
     else:
         _misses(lo, hi, t_a, k_a)
-    emitted = resolve_range(lo, hi, rays, (t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m),
-                            (t_a, k_a), surfaces, follow, color, hits, out_rays, lo, first)
+    # `first` as a constant in each copy: its branches per ray fold away
+    if first:
+        emitted = resolve_range(lo, hi, rays, (t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m),
+                                (t_a, k_a), surfaces, follow, color, hits, out_rays, lo, True)
+    else:
+        emitted = resolve_range(lo, hi, rays, (t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m),
+                                (t_a, k_a), surfaces, follow, color, hits, out_rays, lo, False)
     if first:  # depth: t + near (a miss's inf stays inf)
         for i in range(lo, hi):
             hit_t[i] += near
