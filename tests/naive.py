@@ -552,9 +552,10 @@ def resolve(origins, dirs, weight, slot, t_o, p_o, u_o, v_o, t_m, p_m, u_m, v_m,
 
 def analytic_nearest(o, d, tfar, kind, params, tmin):
     """The closed forms of every analytic mirror together (the twin of
-    trace.analytic.intersect_range, which a wave uses): (t, mirror or -1, marginal), marginal
-    where the closed forms' own ambiguity (tangents, rims, edges, near ties) allows either
-    answer."""
+    trace.analytic.intersect_range, which a wave uses, and of trace.analytic.intersect_rows,
+    which the primary wave uses inside the mirrors' screen boxes): (t, mirror or -1,
+    marginal), marginal where the closed forms' own ambiguity (tangents, rims, edges, near
+    ties) allows either answer."""
     o64, d64, p = o.astype(np.float64), d.astype(np.float64), params
     n, k = len(o), len(kind)
     all_t = np.full((n, k), np.inf)

@@ -63,6 +63,51 @@ def has_analytic(kind: np.ndarray) -> bool:
 QUAD_TRIANGLES = ((PLANE_P00, PLANE_P10, PLANE_P11), (PLANE_P00, PLANE_P11, PLANE_P01))
 
 
+def screen_boxes(kind: np.ndarray, params: np.ndarray, camera) -> np.ndarray:
+    """(M, 4) int64 per mirror: pixels x0 .. x1 - 1, rows y0 .. y1 - 1 of `camera`'s image
+    outside of which no primary ray can meet the mirror (`intersect_rows`). The box holds the
+    projections of the corners of the mirror's world-space bounding box, grown by a small
+    world margin and 2 pixels: every point of the mirror lies in front of the eye when all
+    corners do, and then projects into their projections' hull (a primary ray's pixel is
+    where its hit point projects; the margins cover rounding). With a corner not in front of
+    the eye the box is the whole image; other kinds of mirror (meshes) get an empty box."""
+    right, up, back = camera.basis()
+    eye = np.asarray(camera.eye, np.float64)
+    w, h = camera.width, camera.height
+    tan_half = math.tan(math.radians(camera.fov_y) / 2.0)
+    boxes = np.zeros((kind.shape[0], 4), np.int64)
+    for k in range(kind.shape[0]):
+        p = params[k]
+        if kind[k] == PLANAR:
+            pts = p[PLANE_P00:PLANE_P01 + 3].reshape(4, 3)
+            lo, hi = pts.min(axis=0), pts.max(axis=0)
+        elif kind[k] == SPHERE:
+            c, r = p[SPHERE_CENTER:SPHERE_CENTER + 3], abs(p[SPHERE_RADIUS])
+            lo, hi = c - r, c + r
+        elif kind[k] == CYLINDER:
+            o = p[CYLINDER_ORIGIN:CYLINDER_ORIGIN + 3]
+            ends = np.stack([o, o + p[CYLINDER_HEIGHT] * p[CYLINDER_AXIS:CYLINDER_AXIS + 3]])
+            r = abs(p[CYLINDER_RADIUS])
+            lo, hi = ends.min(axis=0) - r, ends.max(axis=0) + r
+        else:
+            continue
+        margin = 1e-4 * (1.0 + max(np.abs(lo).max(), np.abs(hi).max()))
+        lo, hi = lo - margin, hi + margin
+        corners = np.stack(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij"), -1)
+        v = corners.reshape(-1, 3) - eye
+        depth = -(v @ back)
+        if not np.all(depth > 1e-9 * (1.0 + np.abs(v).max())):
+            boxes[k] = (0, w, 0, h)
+            continue
+        col = ((v @ right) / depth / (tan_half * camera.aspect) + 1.0) * 0.5 * w
+        row = (1.0 - (v @ up) / depth / tan_half) * 0.5 * h
+        x0, x1 = max(0, math.floor(col.min()) - 2), min(w, math.ceil(col.max()) + 3)
+        y0, y1 = max(0, math.floor(row.min()) - 2), min(h, math.ceil(row.max()) + 3)
+        if x0 < x1 and y0 < y1:
+            boxes[k] = (x0, x1, y0, y1)
+    return boxes
+
+
 def quad_edges(kind: np.ndarray, params: np.ndarray) -> np.ndarray:
     """(M, 6, 4) float64: per planar mirror, the edges of its two triangles (p00 p10 p11,
     p00 p11 p01) as planes through the edge along the mirror normal: m = n x (c_j - c_i)
@@ -184,6 +229,31 @@ def intersect_range(a, b, origins, directions, tfar, kind, params, edges, tmin, 
     entry), written at their indices: t or inf, mirror index or -1."""
     for i in range(a, b):
         _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out, idx_out)
+
+
+@njit(cache=True, inline="always")
+def intersect_rows(a, b, j0, per_row, spp, boxes, origins, directions, tfar, kind, params,
+                   edges, tmin, t_out, idx_out):
+    """intersect_range for primary rays a .. b - 1, image rows j0 onward (per_row rays a
+    row, spp a pixel): in each row only the rays of pixels within some mirror's
+    `screen_boxes` box are traced (all mirrors, as intersect_range traces them); the others
+    can meet none and get a miss."""
+    j = j0
+    for first in range(a, b, per_row):
+        last = min(b, first + per_row)
+        lo, hi = per_row, 0  # the row's rays to trace, counted from the row's start
+        for k in range(boxes.shape[0]):
+            if boxes[k, 2] <= j < boxes[k, 3]:
+                lo = min(lo, boxes[k, 0] * spp)
+                hi = max(hi, boxes[k, 1] * spp)
+        for i in range(first, last):
+            if lo <= i - first < hi:
+                _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out,
+                              idx_out)
+            else:
+                t_out[i] = np.inf
+                idx_out[i] = -1
+        j += 1
 
 
 @njit(cache=True, inline="always")

@@ -41,16 +41,16 @@ def _primary_rays(cam, origins, dirs):
     """One row of pixels per work item (`rows_of_rays`)."""
     height = cam[6]
     for j in prange(height):
-        rows_of_rays(j, j + 1, cam, origins, dirs)
+        rows_of_rays(j, j + 1, 0, cam, origins, dirs)
 
 
 @njit(cache=True, inline="always")
-def rows_of_rays(j0, j1, cam, origins, dirs):
+def rows_of_rays(j0, j1, shift, cam, origins, dirs):
     """The rays of image rows j0 .. j1 - 1 into origins and dirs (row-major, samples of a
-    pixel together). `cam`: camera_rays. The per-row (ye) and per-sample-column (xe) factors,
-    and their products with the basis, are worked out once each by the same expressions as
-    per ray (same values, bit for bit); directions and origins are worked in float64 and
-    stored as float32."""
+    pixel together), ray k of the frame at row k - shift. `cam`: camera_rays. The per-row
+    (ye) and per-sample-column (xe) factors, and their products with the basis, are worked
+    out once each by the same expressions as per ray (same values, bit for bit); directions
+    and origins are worked in float64 and stored as float32."""
     eye, right, up, back, tan_half, width, height, samples, near = cam
     aspect = width / height
     per_row = width * samples * samples
@@ -71,13 +71,13 @@ def rows_of_rays(j0, j1, cam, origins, dirs):
             for a in range(3):
                 y_up[sy, a] = ye * up[a]
         if samples == 1:
-            _row(j * per_row, width, x_right, y_up[0, 0], y_up[0, 1], y_up[0, 2], bx, by, bz,
-                 ex, ey, ez, near, origins, dirs)
+            _row(j * per_row - shift, width, x_right, y_up[0, 0], y_up[0, 1], y_up[0, 2], bx,
+                 by, bz, ex, ey, ez, near, origins, dirs)
             continue
         for i in range(width):
             for sy in range(samples):
                 for sx in range(samples):
-                    k = j * per_row + (i * samples + sy) * samples + sx
+                    k = j * per_row + (i * samples + sy) * samples + sx - shift
                     c = i * samples + sx
                     for a in range(3):
                         d = x_right[c, a] + y_up[sy, a] - back[a]

@@ -85,6 +85,14 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
     hit_t, hit_surface = hits
     out_o, out_d, out_w, out_slot = out_rays
     j = out_start
+    # planar mirrors' unit normals, worked out once (the same expression as per ray below)
+    unit = np.empty((m_kind.shape[0], 3))
+    for k in range(m_kind.shape[0]):
+        if m_kind[k] == PLANAR:
+            gx, gy, gz = (m_params[k, PLANE_NORMAL], m_params[k, PLANE_NORMAL + 1],
+                          m_params[k, PLANE_NORMAL + 2])
+            inv = 1.0 / np.sqrt(gx * gx + gy * gy + gz * gz)
+            unit[k, 0], unit[k, 1], unit[k, 2] = gx * inv, gy * inv, gz * inv
     for i in range(lo, hi):
         if first:
             s = np.int64(i)
@@ -127,6 +135,7 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
         if which == 1:
             t = np.float64(t_m[i])
             tri = p_m[i]
+            planar = False
             k = m_surface[tri] - n_objects
             b1, b2 = np.float64(u_m[i]), np.float64(v_m[i])
             b0 = 1.0 - b1 - b2
@@ -144,6 +153,7 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
         else:
             t = np.float64(t_a[i])
             k = k_a[i]
+            planar = m_kind[k] == PLANAR
             p = m_params[k]
             px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
             if m_kind[k] == PLANAR:
@@ -166,15 +176,20 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
             _add(color, s, c, w[c] * (1.0 - m_refl[k, c]) * m_base[k, c], first)
         if not follow:
             continue
-        # face both normals toward the incoming ray (mirrors are two-sided)
-        if gx * dx + gy * dy + gz * dz > 0.0:
-            gx, gy, gz = -gx, -gy, -gz
-        if nx * dx + ny * dy + nz * dz > 0.0:
-            nx, ny, nz = -nx, -ny, -nz
-        inv = 1.0 / np.sqrt(nx * nx + ny * ny + nz * nz)
-        nx, ny, nz = nx * inv, ny * inv, nz * inv
-        inv = 1.0 / np.sqrt(gx * gx + gy * gy + gz * gz)
-        gx, gy, gz = gx * inv, gy * inv, gz * inv
+        # face both normals toward the incoming ray (mirrors are two-sided), unit length
+        if planar:  # n = g: the unit normal, turned (-x * inv is -(x * inv), bit for bit)
+            sign = -1.0 if gx * dx + gy * dy + gz * dz > 0.0 else 1.0
+            gx, gy, gz = sign * unit[k, 0], sign * unit[k, 1], sign * unit[k, 2]
+            nx, ny, nz = gx, gy, gz
+        else:
+            if gx * dx + gy * dy + gz * dz > 0.0:
+                gx, gy, gz = -gx, -gy, -gz
+            if nx * dx + ny * dy + nz * dz > 0.0:
+                nx, ny, nz = -nx, -ny, -nz
+            inv = 1.0 / np.sqrt(nx * nx + ny * ny + nz * nz)
+            nx, ny, nz = nx * inv, ny * inv, nz * inv
+            inv = 1.0 / np.sqrt(gx * gx + gy * gy + gz * gz)
+            gx, gy, gz = gx * inv, gy * inv, gz * inv
         dn = dx * nx + dy * ny + dz * nz
         rx, ry, rz = dx - 2.0 * dn * nx, dy - 2.0 * dn * ny, dz - 2.0 * dn * nz
         inv = 1.0 / np.sqrt(rx * rx + ry * ry + rz * rz)

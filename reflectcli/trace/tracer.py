@@ -18,7 +18,7 @@ import numpy as np
 from ..camera import Camera
 from ..frame import Frame
 from ..scene.types import Geometry, Scene
-from .analytic import has_analytic, quad_edges
+from .analytic import has_analytic, quad_edges, screen_boxes
 from .embree import TriangleScene
 from .rays import camera_rays, primary_rays
 from .wave import trace_segments
@@ -147,8 +147,9 @@ def trace_frame(
 
 class _Segments:
     """trace_segments' arguments that stay the same over a frame, and its calls. Rays
-    alternate between the kept ray buffers "a" and "b", each spanning the primary rays
-    (a segment's reflected rays stay in its part of that range)."""
+    alternate between the kept ray buffers "a" and "b": a segment's worth of rows per thread
+    (trace_segments' per_worker scratch), or with the embreex fallback the whole frame's
+    rays (a segment's reflected rays stay in its part of that range)."""
 
     def __init__(self, scene: Scene, geometry: Geometry, accel: Accelerators, camera: Camera,
                  threads: int) -> None:
@@ -163,7 +164,8 @@ class _Segments:
             scene.background)
         self.analytic = (has_analytic(m.kind), m.kind,
                          np.ascontiguousarray(m.params, dtype=np.float64),
-                         accel.buffers.quad_edges(m.kind, m.params))
+                         accel.buffers.quad_edges(m.kind, m.params),
+                         screen_boxes(m.kind, m.params, camera))
         # embreex traces outside the kernel (no Embree library for it, or numba's JIT off)
         self.fallback = any(s.count and not s.handle for s in (accel.objects, accel.mirrors))
 
@@ -179,18 +181,23 @@ class _Segments:
         counts = np.full(segments, seg_len, np.int64)
         counts[-1] = n - (segments - 1) * seg_len
         traced = np.zeros((segments, max_depth + 1), np.int64)
-        buffers = (b.rays("a", n), b.rays("b", n))
-        hits_o, hits_m = b.hits("objects", n), b.hits("mirrors", n)
+        threads = numba.get_num_threads()
+        # the kernels take a segment through all its waves: a segment's worth of scratch per
+        # thread; the embreex fallback traces a wave of the whole frame between calls
+        scratch = n if self.fallback else threads * seg_len
+        buffers = (b.rays("a", scratch), b.rays("b", scratch))
+        hits_o, hits_m = b.hits("objects", scratch), b.hits("mirrors", scratch)
         args = [seg_len, counts, rows, camera_rays(cam, samples), buffers,
                 np.array([cam.far - cam.near, _FAR_AWAY], np.float32),
                 (self.accel.objects.handle, bool(self.accel.objects.count), *hits_o),
                 (self.accel.mirrors.handle, bool(self.accel.mirrors.count), *hits_m),
-                (*self.analytic, b.get("analytic_t", n, np.float32),
-                 b.get("analytic_k", n, np.int32)),
+                (*self.analytic, b.get("analytic_t", scratch, np.float32),
+                 b.get("analytic_k", scratch, np.int32)),
                 self.surfaces, (0, max_depth), max_depth,
-                ((depth, surface), (b.get("hit_t", n, np.float32),
-                                    b.get("hit_surface", n, np.int32))),
-                color, np.float32(cam.near), reflected_hit, traced, numba.get_num_threads()]
+                ((depth, surface), (b.get("hit_t", scratch, np.float32),
+                                    b.get("hit_surface", scratch, np.int32))),
+                color, np.float32(cam.near), reflected_hit, traced, threads,
+                not self.fallback]
         if not self.fallback:
             trace_segments(*args)  # one item per thread, segments claimed (parallel.py)
         else:  # one wave a call, embreex tracing its rays first

@@ -19,6 +19,7 @@ from numba import njit, prange
 
 from ..parallel import claim
 from .analytic import intersect_range as analytic_range
+from .analytic import intersect_rows as analytic_rows
 from .embree import intersect_range as embree_range
 from .embree import packet_buffer
 from .rays import rows_of_rays
@@ -28,50 +29,102 @@ from .resolve import resolve_range
 @njit(cache=True, parallel=True)
 def trace_segments(seg_len, counts, rows_per_seg, cam, buffers, tfars, objects, mirrors,
                    analytic, surfaces, bounces, max_depth, hits, color, near, reflected_hit,
-                   traced, threads):
+                   traced, threads, per_worker):
     """Waves bounces[0] .. bounces[1] (0: the primary rays) of segments k = 0 ..
-    len(counts) - 1, each segment through all of them in turn: wave b traces rays
-    k * seg_len .. k * seg_len + counts[k] - 1 of ray buffer buffers[b % 2] (origins,
-    dirs, weights, slots) and emits the reflected rays into buffers[(b + 1) % 2] (while
-    b < max_depth). counts[k] becomes the number the last wave emitted; traced[k, b] is the
-    number wave b traced. `threads`: numba's thread count.
+    len(counts) - 1, each segment through all of them in turn: wave b traces counts[k] rays
+    of ray buffer buffers[b % 2] (origins, dirs, weights, slots) and emits the reflected rays
+    into buffers[(b + 1) % 2] (while b < max_depth). counts[k] becomes the number the last
+    wave emitted; traced[k, b] is the number wave b traced. `threads`: numba's thread count.
+
+    Where a segment's rays live: with `per_worker` false, rays k * seg_len .. of the ray
+    buffers and hit arrays, which span the frame, and slots index the frame's outputs. With
+    `per_worker` true, the ray buffers and hit arrays hold `threads` * seg_len rows and the
+    worker w tracing segment k uses rows w * seg_len .. (w + 1) * seg_len - 1 only, its slots
+    counted from the segment's first output row k * seg_len: a frame then touches its
+    outputs and a scratch the size of a segment per thread, which stays in the cache
+    (needs bounces[0] == 0 and rays made here).
 
     `rows_per_seg` > 0: the primary wave makes its rays here, image rows k * rows_per_seg
     onward of `cam` (rays.camera_rays) (0: they are given). `tfars`: the primary rays' and
     the reflected rays' tfar. `objects`, `mirrors`: (Embree scene handle, hits given, t,
     primitive, u, v): a nonzero handle is traced here; with none, the hit arrays are either
     given (the embreex fallback fills them first, one wave a call) or all misses.
-    `analytic`: (any analytic mirror, kind, params, quad edges, t, index). `surfaces`:
+    `analytic`: (any analytic mirror, kind, params, quad edges, screen boxes of the primary
+    rays' camera (analytic.screen_boxes), t, index). `surfaces`:
     resolve_range's scene arrays, from the objects' corners to the background. `hits`:
-    ((depth, surface ids) of the primary wave: t + near, inf on a miss; (t, surface) of the
-    others) per ray. Writes color (rows of the rays' slots); the first bounce marks
-    reflected_hit[slot] of its rays that hit anything."""
+    ((depth, surface ids) of the primary wave: t + near, inf on a miss, at the frame's rows;
+    (t, surface) of the others) per ray. Writes color (rows of the rays' slots); the first
+    bounce marks reflected_hit[slot] of its rays that hit anything."""
     rays_a, rays_b = buffers  # (tuples of tuples do not enter the parallel loop)
     first_hits, hits = hits
     # one item per thread, each claiming the next segment until none is left (parallel.py)
     claimed = np.zeros(1, np.int64)
-    for _ in prange(threads):
+    for w in prange(threads):
         while True:
             k = claim(claimed)
             if k >= counts.shape[0]:
                 break
-            _segment(k, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, objects,
-                     mirrors, analytic, surfaces, bounces, max_depth, first_hits, hits, color,
-                     near, reflected_hit, traced)
+            if per_worker:  # scratch rows w * seg_len .., outputs from row k * seg_len
+                _segment(k, 0, seg_len, counts, rows_per_seg, cam,
+                         _rows4(rays_a, w * seg_len, seg_len), _rows4(rays_b, w * seg_len, seg_len),
+                         tfars, _rows_hits(objects, w * seg_len, seg_len),
+                         _rows_hits(mirrors, w * seg_len, seg_len),
+                         _rows_analytic(analytic, w * seg_len, seg_len), surfaces, bounces,
+                         max_depth, _rows2(first_hits, k * seg_len, seg_len),
+                         _rows2(hits, w * seg_len, seg_len), color[k * seg_len:(k + 1) * seg_len],
+                         near, reflected_hit[k * seg_len:(k + 1) * seg_len], traced)
+            else:
+                _segment(k, k * seg_len, seg_len, counts, rows_per_seg, cam, rays_a, rays_b,
+                         tfars, objects, mirrors, analytic, surfaces, bounces, max_depth,
+                         first_hits, hits, color, near, reflected_hit, traced)
 
 
 @njit(cache=True, inline="always")
-def _segment(k, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, objects, mirrors,
-             analytic, surfaces, bounces, max_depth, first_hits, hits, color, near,
+def _rows2(arrays, start, n):
+    """Rows start .. start + n - 1 of each of two arrays (views)."""
+    a, b = arrays
+    return a[start:start + n], b[start:start + n]
+
+
+@njit(cache=True, inline="always")
+def _rows4(arrays, start, n):
+    """Rows start .. start + n - 1 of each of four arrays (views)."""
+    a, b, c, d = arrays
+    return a[start:start + n], b[start:start + n], c[start:start + n], d[start:start + n]
+
+
+@njit(cache=True, inline="always")
+def _rows_hits(side, start, n):
+    """An (Embree handle, given, t, primitive, u, v) side with its hit arrays' rows start ..
+    start + n - 1."""
+    scene, given, t, p, u, v = side
+    t, p, u, v = _rows4((t, p, u, v), start, n)
+    return scene, given, t, p, u, v
+
+
+@njit(cache=True, inline="always")
+def _rows_analytic(analytic, start, n):
+    """The analytic side (any, kind, params, edges, boxes, t, index) with its hit arrays' rows
+    start .. start + n - 1."""
+    any_analytic, kind, params, edges, boxes, t, index = analytic
+    t, index = _rows2((t, index), start, n)
+    return any_analytic, kind, params, edges, boxes, t, index
+
+
+@njit(cache=True, inline="always")
+def _segment(k, lo, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, objects,
+             mirrors, analytic, surfaces, bounces, max_depth, first_hits, hits, color, near,
              reflected_hit, traced):
-    """Segment k through waves bounces[0] .. bounces[1]."""
+    """Segment k through waves bounces[0] .. bounces[1], its rays from row lo of the ray
+    buffers and hit arrays on."""
     count = counts[k]
+    per_row = cam[5] * cam[7] * cam[7]  # rays an image row
     for bounce in range(bounces[0], bounces[1] + 1):
         traced[k, bounce] = count
         if count == 0:
             break
         even = bounce % 2 == 0
-        count = _wave(k * seg_len, k * seg_len + count, k, rows_per_seg, cam,
+        count = _wave(lo, lo + count, k * seg_len // per_row, rows_per_seg, cam,
                       rays_a if even else rays_b, tfars[min(bounce, 1):min(bounce, 1) + 1],
                       objects, mirrors, analytic, surfaces, bounce < max_depth, bounce,
                       first_hits if bounce == 0 else hits, color, rays_b if even else rays_a,
@@ -80,18 +133,20 @@ def _segment(k, seg_len, counts, rows_per_seg, cam, rays_a, rays_b, tfars, objec
 
 
 @njit(cache=True, inline="always")
-def _wave(lo, hi, k, rows_per_seg, cam, rays, tfar, objects, mirrors, analytic, surfaces,
+def _wave(lo, hi, j0, rows_per_seg, cam, rays, tfar, objects, mirrors, analytic, surfaces,
           follow, bounce, hits, color, out_rays, near, reflected_hit):
-    """Wave `bounce` of segment k: rays lo .. hi - 1; returns how many it emitted."""
+    """Wave `bounce` of a segment: rays lo .. hi - 1 (on the primary wave the rays of image
+    rows j0 onward, made here from row lo on when rows_per_seg > 0); returns how many it
+    emitted."""
     origins, dirs, weight, slot = rays
     obj_scene, obj_given, t_o, p_o, u_o, v_o = objects
     mir_scene, mir_given, t_m, p_m, u_m, v_m = mirrors
-    any_analytic, kind, params, edges, t_a, k_a = analytic
+    any_analytic, kind, params, edges, boxes, t_a, k_a = analytic
     hit_t, hit_surface = hits
     first = bounce == 0
+    per_row = cam[5] * cam[7] * cam[7]
     if first and rows_per_seg > 0:
-        j0 = k * rows_per_seg
-        rows_of_rays(j0, min(cam[6], j0 + rows_per_seg), cam, origins, dirs)
+        rows_of_rays(j0, min(cam[6], j0 + rows_per_seg), j0 * per_row - lo, cam, origins, dirs)
     if obj_scene != 0 or mir_scene != 0:
         buf, off = packet_buffer()
         if obj_scene != 0:
@@ -102,12 +157,20 @@ def _wave(lo, hi, k, rows_per_seg, cam, rays, tfar, objects, mirrors, analytic, 
         _misses(lo, hi, t_o, p_o)
     if mir_scene == 0 and not mir_given:
         _misses(lo, hi, t_m, p_m)
-    if any_analytic:
+    if any_analytic and first:  # only rays of pixels in a mirror's screen box can meet it
+        analytic_rows(lo, hi, j0, per_row, cam[7] * cam[7], boxes, origins, dirs, tfar, kind,
+                      params, edges, 0.0, t_a, k_a)
+    elif any_analytic:
         analytic_range(lo, hi, origins, dirs, tfar, kind, params, edges, 0.0, t_a, k_a)
     else:
         _misses(lo, hi, t_a, k_a)
-    emitted = resolve_range(lo, hi, rays, (t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m),
-                            (t_a, k_a), surfaces, follow, color, hits, out_rays, lo, first)
+    # `first` as a constant in each copy: its branches per ray fold away
+    if first:
+        emitted = resolve_range(lo, hi, rays, (t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m),
+                                (t_a, k_a), surfaces, follow, color, hits, out_rays, lo, True)
+    else:
+        emitted = resolve_range(lo, hi, rays, (t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m),
+                                (t_a, k_a), surfaces, follow, color, hits, out_rays, lo, False)
     if first:  # depth: t + near (a miss's inf stays inf)
         for i in range(lo, hi):
             hit_t[i] += near

@@ -10,7 +10,7 @@ from naive import compact, embreex_hits, pick, primary_rays, resolve, wave
 from test_shading_raster_twins import CAMERAS, lights, materials
 
 from reflectcli.scene.types import CYLINDER, LAMBERT, MESH, MIRROR_PARAMS, PLANAR, SPHERE, UNLIT
-from reflectcli.trace.analytic import quad_edges
+from reflectcli.trace.analytic import quad_edges, screen_boxes
 from reflectcli.trace.rays import camera_rays
 from reflectcli.trace.resolve import _pick, resolve_range
 from reflectcli.trace.wave import trace_segments
@@ -175,7 +175,7 @@ def wave_scene(rng, shading):
 
 
 def run_wave(scenes, kind, params, surfaces, counts, seg_len, rows_per_seg, cam, rays, tfar,
-             follow, bounce, near, color, given=None):
+             follow, bounce, near, color, given=None, boxes=None, per_worker=False):
     """One wave of trace_segments, fresh outputs: (hit_t (depth: t + near on the primary wave),
     hit_surface, out rays, out counts, reflected_hit). `given`: the objects' and mirrors'
     hits, filled before (the embreex fallback), instead of the scenes' handles."""
@@ -189,7 +189,9 @@ def run_wave(scenes, kind, params, surfaces, counts, seg_len, rows_per_seg, cam,
             for a, b in zip(h, g, strict=True):
                 a[:] = b
         sides.append((0 if given else s.handle, given is not None and s.count > 0, *h))
-    analytic = (True, kind, params, quad_edges(kind, params), np.full(n, 7.0, np.float32),
+    if boxes is None:
+        boxes = np.tile(np.array([0, cam[5], 0, cam[6]], np.int64), (len(kind), 1))
+    analytic = (True, kind, params, quad_edges(kind, params), boxes, np.full(n, 7.0, np.float32),
                 np.full(n, -7, np.int32))
     out_hits = (np.full(n, -5.0, np.float32), np.full(n, -5, np.int32))
     out_rays = (np.full((n, 3), np.nan, np.float32), np.full((n, 3), np.nan, np.float32),
@@ -201,7 +203,8 @@ def run_wave(scenes, kind, params, surfaces, counts, seg_len, rows_per_seg, cam,
     trace_segments(seg_len, out_counts, rows_per_seg, cam, buffers,
                    np.array([tfar, tfar], np.float32), *sides, analytic, surfaces,
                    (bounce, bounce), bounce + 1 if follow else bounce, (out_hits, out_hits),
-                   color, np.float32(near), reflected_hit, traced, numba.get_num_threads())
+                   color, np.float32(near), reflected_hit, traced, numba.get_num_threads(),
+                   per_worker)
     np.testing.assert_array_equal(traced[:, bounce], counts)
     assert (traced[:, :bounce] == -1).all() and (traced[:, bounce + 1:] == -1).all()
     return (*out_hits, out_rays, out_counts, reflected_hit)
@@ -309,8 +312,11 @@ def test_primary_wave_matches_twin(samples):
     scenes = (TriangleScene(corners), TriangleScene(m_corners))
     color = np.full((size, 3), np.nan, np.float32)
     tfar = camera.far - camera.near
+    boxes = screen_boxes(kind, params, camera)
+    assert (boxes[:3, 1] - boxes[:3, 0] < camera.width).any()  # some rays skip a mirror
     got = run_wave(scenes, kind, params, surfaces, counts, seg_len, rows_per_seg,
-                   camera_rays(camera, samples), rays, tfar, True, 0, camera.near, color)
+                   camera_rays(camera, samples), rays, tfar, True, 0, camera.near, color,
+                   boxes=boxes)
     want_o, want_d = primary_rays(camera, samples)
     np.testing.assert_allclose(rays[0][:n], want_o, rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(rays[1][:n], want_d, rtol=1e-6, atol=1e-6)
@@ -324,3 +330,13 @@ def test_primary_wave_matches_twin(samples):
     np.testing.assert_allclose(got[0][rows][clear], want[6][clear], rtol=1e-5)  # depth
     assert np.isinf(got[0][rows][clear & (want[3] < 0)]).all()
     assert (got[4] == 0).all()  # reflected_hit: the first bounce's
+    # per-thread scratch: the rays made and traced in a thread's rows; the same bytes out
+    scratch = tuple(np.full_like(a, np.nan if a.dtype.kind == "f" else -(10 ** 9))
+                    for a in rays)
+    color2 = np.full((size, 3), np.nan, np.float32)
+    got2 = run_wave(scenes, kind, params, surfaces, counts, seg_len, rows_per_seg,
+                    camera_rays(camera, samples), scratch, tfar, True, 0, camera.near, color2,
+                    boxes=boxes, per_worker=True)
+    assert color2[:n].tobytes() == color[:n].tobytes()
+    for a, b in ((got2[0], got[0]), (got2[1], got[1]), (got2[3], got[3]), (got2[4], got[4])):
+        assert a[:n].tobytes() == b[:n].tobytes()
