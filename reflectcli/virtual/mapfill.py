@@ -209,8 +209,11 @@ def _nearest_in_box(layer, y0, y1, x0, x1, y, x):
     if x1 < w - 1:
         out = min(out, (x1 + 1 - x) ** 2)
     best, by, bx = 1 << 62, -1, -1
+    # rings beyond this one lie wholly outside the box (with the box the whole map and no
+    # filled texel in it, `best` and `out` never bound the search: an empty layer)
+    last = max(y - y0, y1 - y, x - x0, x1 - x)
     r = 1
-    while r * r <= best and r * r < out:
+    while r * r <= best and r * r < out and r <= last:
         # the square ring at Chebyshev distance r, clipped to the box
         for yy in range(max(y - r, y0), min(y + r, y1) + 1):
             step = 1 if yy == y - r or yy == y + r else 2 * r

@@ -354,6 +354,23 @@ def test_explosion_layers_match_twin(layers):
             assert layer.ids[y, x] in set(ids[fy[near], fx[near]]), (y, x)
 
 
+def test_maps_for_lookups_of_a_patch_seen_from_behind():
+    """A patch facing away from the eye fills no texel of any layer: built for lookups
+    spread over a 200^2 map (the grown box the whole map), the build returns (the search
+    for a nearest filled texel once never ended here) with the whole build's ids."""
+    corners = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                        [[1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    normals = np.zeros_like(corners)
+    normals[..., 2] = -1.0  # facing away from the eye at z = 6
+    mesh = weld(corners, normals)
+    eye, center = np.array([0.4, 1.0, 6.0]), np.array([0.5, 0.5, 0.0])
+    pts = np.random.default_rng(0).normal(size=(200, 3)) * 3.0 + [0.5, 0.5, 4.0]
+    whole = explosion.build_explosion_maps(mesh, eye, center, 0.5, 5.0, 200)
+    some = explosion.build_explosion_maps(mesh, eye, center, 0.5, 5.0, 200, lookups=pts)
+    for a, b in zip(whole.layers, some.layers, strict=True):
+        assert (a.ids < 0).all() and (b.ids < 0).all()
+
+
 @pytest.mark.parametrize("open_mesh", [False, True])
 def test_maps_built_for_their_lookups_match_whole_maps_there(open_mesh):
     """build_explosion_maps with `lookups`: at every texel those points are looked up at
@@ -575,6 +592,15 @@ def test_nearest_near_marked_texels_matches_twin():
         else:
             np.testing.assert_array_equal(filled, layer)
     assert answered > 100 and declined > 10
+    # a layer with no filled texel (a part seen only from behind), the box the whole map or
+    # a part of it: no answer (the whole layer's build takes over), and no endless search
+    empty = np.full((12, 12), -1, np.int32)
+    marks = np.zeros((12, 12), bool)
+    marks[5, 5] = True
+    for box in ((0, 11, 0, 11), (5, 5, 5, 5), (2, 9, 0, 11)):
+        assert mapfill._nearest_in_box(empty, *box, 5, 5) == (-1, -1)
+        assert not mapfill._fill_marked_nearest(empty.copy(), marks, np.ones((12, 12), bool),
+                                                5, 5, 5, 5, 48)
 
 
 def test_mirror_boxes_match_twin():
