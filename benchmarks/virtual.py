@@ -86,6 +86,9 @@ def captured_passes(scene: str, threads: int) -> list[tuple]:
 
 
 def raster_against_anchor(scene: str, threads: int, repeats: int, anchors: Path) -> None:
+    """Prints the virtual passes' rasterization in ns a triangle against the tuned anchor's
+    on the same triangles (--raster-anchor): whether the passes' cost is the rasterizer's
+    or the method's."""
     from reflectcli.raster.rasterize import RasterWorkspace, rasterize, standard_planes
 
     source = anchors / "raster_tuned.py"

@@ -34,7 +34,6 @@ from .mapfill import (
     _fill_extensions,
     _fill_faces,
     _fill_marked_nearest,
-    _fill_triangle,  # noqa: F401 (tests reach the fills through this module)
     _marked_box,
     _nearest_filled,
 )

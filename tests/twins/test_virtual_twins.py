@@ -459,7 +459,7 @@ def test_fill_kernels_match_twin(sphere_maps):
         only_empty = bool(rng.random() < 0.5)
         ids = np.where(rng.random((24, 24)) < 0.3, 7, -1).astype(np.int32)
         want = ids.copy()
-        explosion._fill_triangle(ids, *tri.reshape(-1), 3, only_empty)
+        mapfill._fill_triangle(ids, *tri.reshape(-1), 3, only_empty)
         fill_triangle(want, *tri, 3, only_empty)
         np.testing.assert_array_equal(ids, want)
     layer = maps.layers[1]
