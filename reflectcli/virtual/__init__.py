@@ -12,7 +12,8 @@ One idea per module, in the order a frame uses them (reflectcli/techniques/virtu
     shape         per reflector shape, once: mesh, parts, boundary edges (cached)
     view          per shape and view: hidden map, reflection-ray grid, tiles (cached)
     part          one part's virtual vertices: explosion maps, then the refinement
-    explosion     explosion maps and their lookup (numba)
+    explosion     explosion maps and their lookup (numba), built where looked up
+    mapfill       the maps' texel fills: faces, extensions, nearest filled texel (numba)
     refine        Gauss-Newton on the reflector's pixels (numba)
     tiles         tile culling and seeds for the refinement (numba)
     screen        world points to screen pixels
