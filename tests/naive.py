@@ -1217,7 +1217,7 @@ def mirror_rays(triangle, mirror, drawn, clip_from_world, corners, normals, eye,
 
 
 def grid_sample(inside, q, r, sx, sy):
-    """Twin of virtual.refine._sample: bilinear Q and R at screen point (sx, sy) over the
+    """Twin of virtual.refine._sample_slope's values: bilinear Q and R at screen point (sx, sy) over the
     pixel centers inside the part, the missing corners' weight given to the others
     (renormalized), R normalized; None if no corner inside carries weight."""
     h, w = inside.shape
@@ -1236,8 +1236,79 @@ def grid_sample(inside, q, r, sx, sy):
     return qq, rr / np.linalg.norm(rr)
 
 
+def grid_sample_slope(inside, q, r, sx, sy, step=1e-6):
+    """Twin of virtual.refine._sample_slope: grid_sample's Q and R at (sx, sy) and their
+    derivatives along screen x and y, by forward differences of grid_sample over `step`
+    pixels (the bilinear blend is smooth within a cell, so the step stays in it unless
+    (sx, sy) lies within `step` of a cell's right or lower edge). None where grid_sample
+    gives none. Returns (Q, dQ/dx, dQ/dy, R, dR/dx, dR/dy)."""
+    at = grid_sample(inside, q, r, sx, sy)
+    if at is None:
+        return None
+    along_x = grid_sample(inside, q, r, sx + step, sy)
+    along_y = grid_sample(inside, q, r, sx, sy + step)
+    return (at[0], (along_x[0] - at[0]) / step, (along_y[0] - at[0]) / step,
+            at[1], (along_x[1] - at[1]) / step, (along_y[1] - at[1]) / step)
+
+
+def refine_walk(p, seed, inside, q, r, iterations=20):
+    """Twin of virtual.refine._walk: Gauss-Newton on c(s) = unit(P - Q(s)) - R(s) from
+    `seed`, the Jacobian J by forward differences of c within the cell (step 1e-7 pixel),
+    the step solving the normal equations (J^T J) step = -J^T c, or where J^T J is all but
+    singular (det <= 1e-12 trace^2: the part's corners in one row or column) the least-norm
+    step -J^T c / trace; capped at 8 pixels. Returns (status, Q at the end):
+    EXACT (1) where a step under 1e-3 pixel is left and |c| <= 0.01 (Q at that step's end,
+    on the linear model), BOUNDARY (2) where the walk leaves the part (Q extrapolated on the
+    last point's linear model), NONE (0) if the part was never sampled."""
+    h, w = inside.shape
+    s = np.asarray(seed, np.float64).copy()
+    status, end, rr = 0, None, None
+
+    def residual(x, y):
+        got = grid_sample(inside, q, r, x, y)
+        if got is None or np.linalg.norm(p - got[0]) == 0.0:
+            return None
+        return (p - got[0]) / np.linalg.norm(p - got[0]) - got[1], got[0], got[1]
+
+    for _ in range(iterations):
+        if not (0.0 <= s[0] < w and 0.0 <= s[1] < h):
+            break
+        at = residual(*s)
+        if at is None:
+            break
+        c, qq, rr = at
+        status, end = 2, qq
+        x0, y0 = math.floor(s[0] - 0.5), math.floor(s[1] - 0.5)
+        if sum(0 <= x < w and 0 <= y < h and inside[y, x]
+               for x in (x0, x0 + 1) for y in (y0, y0 + 1)) == 1:
+            break  # a lone corner of the part: Q and R constant, no direction to go
+        h_ = 1e-7
+        cx, qx, _ = residual(s[0] + h_, s[1])
+        cy, qy, _ = residual(s[0], s[1] + h_)
+        jac = np.stack([(cx - c) / h_, (cy - c) / h_], 1)
+        normal, gradient = jac.T @ jac, jac.T @ c
+        trace = np.trace(normal)
+        if np.linalg.det(normal) > 1e-12 * trace**2:
+            step = np.linalg.solve(normal, -gradient)
+        elif trace > 1e-30:  # rank one: the least-norm step
+            step = -gradient / trace
+        else:
+            break
+        if np.linalg.norm(step) > 8.0:
+            step *= 8.0 / np.linalg.norm(step)
+        end = qq + (qx - qq) / h_ * step[0] + (qy - qq) / h_ * step[1]
+        if np.linalg.norm(step) < 1e-3:
+            if c @ c <= 1e-4:
+                status = 1
+            break
+        s += step
+    if status == 1 and (p - end) @ rr <= 0.0:
+        status = 2
+    return status, end
+
+
 def refine_point(p, seed, inside, q, r, eye):
-    """Twin of virtual.refine._refine / _walk / _residual for a point whose reflection lies
+    """Twin of virtual.refine._refine / _walk's answer for a point whose reflection lies
     on the part: the screen point s near `seed` where unit(P - Q(s)) = R(s) (Q, R from
     grid_sample), by scipy's least squares, and P' = E + unit(Q - E) (|Q - E| + |P - Q|).
     None where no zero residual is found."""

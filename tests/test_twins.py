@@ -42,6 +42,7 @@ SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
                  V + "test_sphere_blocks_do_not_change_answers"]
 PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
 REFINE = [V + "test_screen_refinement_matches_twin",
+          V + "test_refinement_walks_match_twin",
           V + "test_refinement_skips_only_retries_that_cannot_matter"]
 FILL = [V + "test_fill_kernels_match_twin"]
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
@@ -189,8 +190,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                    V + "test_mirror_rays_match_reflector_grid"], "_grid"),
     "virtual/refine.py:mirror_rays": ([V + "test_mirror_rays_match_reflector_grid"], None),
     "virtual/refine.py:_grid": ([V + "test_reflector_grid_matches_twin"], "reflector_grid"),
-    "virtual/refine.py:_sample": ([V + "test_grid_sample_matches_twin"] + REFINE, None),
-    "virtual/refine.py:_residual": (REFINE, "_walk"),
+    "virtual/refine.py:_sample_slope": ([V + "test_grid_sample_matches_twin",
+                                         V + "test_grid_sample_slope_matches_twin"] + REFINE,
+                                        None),
     "virtual/refine.py:_walk": (REFINE, "_refine"),
     "virtual/refine.py:_refine": (REFINE, "refine_virtual"),
     "virtual/refine.py:_refine_point": (REFINE, "_refine"),

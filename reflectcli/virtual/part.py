@@ -86,7 +86,7 @@ class ExplosionPart:
         face = np.full(len(points), -1, np.int64)  # part face in front of a hidden point
         xs, ys = x[ok], y[ok]
         behind = proj[ok, 2] > self.depth[ys, xs]
-        face[np.flatnonzero(ok)[behind]] = self.view.hidden_map[ys[behind], xs[behind]]
+        face[np.flatnonzero(ok)[behind]] = self.view.hidden_faces(ys[behind], xs[behind])
         maps = self._maps
         if maps is None:  # built for these points only (they are this part's lookups)
             maps = build_explosion_maps(*self._build, lookups=points, flip_axis=self.flip)
@@ -99,9 +99,9 @@ class ExplosionPart:
             # found it keeps its doubly virtual vertex
             seeds = screen_from_world(virtual, self.clip_from_world, camera.width,
                                       camera.height)[:, :2]
-            refined, status = refine_virtual(points, seeds, self.view.inside, self.grid[0],
+            refined, status = refine_virtual(points, seeds, self.view.owner, self.grid[0],
                                              self.grid[1], camera.eye, retry,
-                                             reach=reach)
+                                             reach=reach, part=self.view.part)
             found = status != NONE
             virtual[found] = refined[found]
             flags = (flags & (status != EXACT)) | (status == BOUNDARY)

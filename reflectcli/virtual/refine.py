@@ -26,6 +26,7 @@ from numba import njit, prange
 
 from ..parallel import claim
 from ..raster.rasterize import recover_barycentrics
+from .tiles import owner_plane
 
 
 def reflector_grid(triangle: np.ndarray, b1: np.ndarray, b2: np.ndarray, corners: np.ndarray,
@@ -122,12 +123,13 @@ NONE, EXACT, BOUNDARY = 0, 1, 2
 
 def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q: np.ndarray,
                    r: np.ndarray, eye: np.ndarray, retry_seeds: np.ndarray | None = None,
-                   iterations: int = 20, reach: np.ndarray | None = None
-                   ) -> tuple[np.ndarray, np.ndarray]:
+                   iterations: int = 20, reach: np.ndarray | None = None,
+                   part: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Virtual vertices of `points` (N, 3) by the search above, from screen positions `seeds`
-    (N, 2, pixels; NaN: no seed) within the pixels where `inside` (H, W) holds. A point whose
-    seed does not lead to its reflection (outside the part, or a walk blocked by a hole in
-    it) tries again from `retry_seeds` (N, 2; see tiles.PartTiles.scan).
+    (N, 2, pixels; NaN: no seed) within the part's pixels: where `inside` (H, W, bool)
+    holds, or with `part`, where the owner plane `inside` (view.part_views) is `part`. A
+    point whose seed does not lead to its reflection (outside the part, or a walk blocked by
+    a hole in it) tries again from `retry_seeds` (N, 2; see tiles.PartTiles.scan).
     `reach` (N,) bool, if given: the tiles' verdict (PartTiles.scan) that some ray of the
     part may pass the point. A point no ray reaches has no reflection in the part (an EXACT
     end lies within 0.6 degrees of a ray of the part, inside the tiles' 1 degree margin), so
@@ -136,6 +138,7 @@ def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q:
     Returns (virtual points (N, 3), status (N,) int8): EXACT where the reflection was found,
     BOUNDARY where the search left the part (see _walk), NONE (rows NaN) where it never
     sampled the part."""
+    owner, part = owner_plane(inside, part)
     out = np.full(points.shape, np.nan)
     ok = np.zeros(points.shape[0], np.int8)
     if retry_seeds is None:
@@ -143,131 +146,163 @@ def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q:
     if reach is None:
         reach = np.ones(points.shape[0], np.bool_)
     _refine(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(seeds, np.float64),
-            inside, q, r, np.asarray(eye, np.float64), iterations,
+            owner, part, q, r, np.asarray(eye, np.float64), iterations,
             np.ascontiguousarray(retry_seeds, np.float64), np.ascontiguousarray(reach, np.bool_),
             out, ok, numba.get_num_threads())
     return out, ok
 
 
 @njit(cache=True, inline="always")
-def _sample(inside, q, r, sx, sy):
-    """Bilinear Q and R at screen point (sx, sy) from the four nearest pixel centers that lie
-    inside the part (missing ones take the weight of the others): (ok, Q x, y, z, R x, y, z)
-    with R unit; ok False (and the rest meaningless) if none does. Scalars, not arrays: the
-    walk keeps them in registers."""
-    h, w = inside.shape
+def _sample_slope(owner, part, q, r, sx, sy):
+    """Q and R at screen point (sx, sy), blended bilinearly from the four nearest pixel
+    centers of the part (owner == part; missing ones take the weight of the others, R made
+    unit), with their derivatives along screen x and
+    y (per pixel), those of the bilinear blend of the cell's corners inside the part (the
+    weights renormalized: Q = S / T, dQ = (dS - Q dT) / T; R = B / |B|, dR = (dB - R (R.dB))
+    / |B|): (corners, Q, dQ/dx, dQ/dy, R, dR/dx, dR/dy), each as three scalars; corners:
+    how many of the cell's corners are the part's (1: Q and R are constant, their
+    derivatives zero up to rounding), 0 (and the rest meaningless) if none carries weight.
+    Corners of zero weight count in the derivatives (a one-sided derivative on a cell's
+    edge). Scalars, not arrays:
+    the walk keeps them in registers."""
+    h, w = owner.shape
     fx = sx - 0.5
     fy = sy - 0.5
     x0 = int(math.floor(fx))
     y0 = int(math.floor(fy))
     ax = fx - x0
     ay = fy - y0
-    total = 0.0
+    total = tx = ty = 0.0
+    corners = 0
     q0 = q1 = q2 = r0 = r1 = r2 = 0.0
+    qx0 = qx1 = qx2 = rx0 = rx1 = rx2 = 0.0
+    qy0 = qy1 = qy2 = ry0 = ry1 = ry2 = 0.0
     for dy in range(2):
         for dx in range(2):
             x = x0 + dx
             y = y0 + dy
-            if x < 0 or y < 0 or x >= w or y >= h or not inside[y, x]:
+            if x < 0 or y < 0 or x >= w or y >= h or owner[y, x] != part:
                 continue
-            wt = (ax if dx else 1.0 - ax) * (ay if dy else 1.0 - ay)
-            if wt <= 0.0:
-                continue
+            wx = ax if dx else 1.0 - ax
+            wy = ay if dy else 1.0 - ay
+            wt = wx * wy
+            gx = wy if dx else -wy  # d wt / d sx
+            gy = wx if dy else -wx
+            a0, a1, a2 = q[y, x, 0], q[y, x, 1], q[y, x, 2]
+            b0, b1, b2 = r[y, x, 0], r[y, x, 1], r[y, x, 2]
+            corners += 1
             total += wt
-            q0 += wt * q[y, x, 0]
-            q1 += wt * q[y, x, 1]
-            q2 += wt * q[y, x, 2]
-            r0 += wt * r[y, x, 0]
-            r1 += wt * r[y, x, 1]
-            r2 += wt * r[y, x, 2]
+            tx += gx
+            ty += gy
+            q0 += wt * a0
+            q1 += wt * a1
+            q2 += wt * a2
+            r0 += wt * b0
+            r1 += wt * b1
+            r2 += wt * b2
+            qx0 += gx * a0
+            qx1 += gx * a1
+            qx2 += gx * a2
+            qy0 += gy * a0
+            qy1 += gy * a1
+            qy2 += gy * a2
+            rx0 += gx * b0
+            rx1 += gx * b1
+            rx2 += gx * b2
+            ry0 += gy * b0
+            ry1 += gy * b1
+            ry2 += gy * b2
     if total <= 1e-9:
-        return False, q0, q1, q2, r0, r1, r2
-    norm = math.sqrt(r0 ** 2 + r1 ** 2 + r2 ** 2)
-    return True, q0 / total, q1 / total, q2 / total, r0 / norm, r1 / norm, r2 / norm
-
-
-@njit(cache=True, inline="always")
-def _residual(p, inside, q, r, sx, sy):
-    """(ok, c x, y, z, Q x, y, z, R x, y, z): c = unit(p - Q) - R at screen point (sx, sy),
-    with the sample's Q and R; ok False where the part is not sampled there or p is Q."""
-    ok, q0, q1, q2, r0, r1, r2 = _sample(inside, q, r, sx, sy)
-    if not ok:
-        return False, 0.0, 0.0, 0.0, q0, q1, q2, r0, r1, r2
-    d0 = p[0] - q0
-    d1 = p[1] - q1
-    d2 = p[2] - q2
-    length = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-    if length <= 0.0:
-        return False, 0.0, 0.0, 0.0, q0, q1, q2, r0, r1, r2
-    return True, d0 / length - r0, d1 / length - r1, d2 / length - r2, q0, q1, q2, r0, r1, r2
+        return (0, q0, q1, q2, qx0, qx1, qx2, qy0, qy1, qy2, r0, r1, r2, rx0, rx1, rx2,
+                ry0, ry1, ry2)
+    inv = 1.0 / total
+    q0, q1, q2 = q0 * inv, q1 * inv, q2 * inv
+    qx0, qx1, qx2 = (qx0 - q0 * tx) * inv, (qx1 - q1 * tx) * inv, (qx2 - q2 * tx) * inv
+    qy0, qy1, qy2 = (qy0 - q0 * ty) * inv, (qy1 - q1 * ty) * inv, (qy2 - q2 * ty) * inv
+    inv = 1.0 / math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+    r0, r1, r2 = r0 * inv, r1 * inv, r2 * inv
+    along = r0 * rx0 + r1 * rx1 + r2 * rx2
+    rx0, rx1, rx2 = (rx0 - r0 * along) * inv, (rx1 - r1 * along) * inv, (rx2 - r2 * along) * inv
+    along = r0 * ry0 + r1 * ry1 + r2 * ry2
+    ry0, ry1, ry2 = (ry0 - r0 * along) * inv, (ry1 - r1 * along) * inv, (ry2 - r2 * along) * inv
+    return (corners, q0, q1, q2, qx0, qx1, qx2, qy0, qy1, qy2, r0, r1, r2, rx0, rx1, rx2,
+            ry0, ry1, ry2)
 
 
 @njit(cache=True)
-def _walk(p, inside, q, r, sx, sy, iterations):
+def _walk(p, owner, part, q, r, sx, sy, iterations):
     """Gauss-Newton from screen point (sx, sy) toward the reflection point of p: (status,
-    Q x, y, z). EXACT with Q there; BOUNDARY where the walk leaves the part (the reflection
-    lies past a silhouette, or on another part): then the last step is taken on the linear
-    model from the last point inside, Q extrapolated along its screen derivatives, so that
+    Q x, y, z). The Jacobian of c(s) = unit(P - Q(s)) - R(s) is analytic, from one sample
+    and its derivatives (_sample_slope): dc = -(dQ - u (u.dQ)) / |P - Q| - dR, u = unit(P -
+    Q). EXACT with Q there; BOUNDARY where the walk leaves the part (the reflection lies
+    past a silhouette, or on another part): then the last step is taken on the linear model
+    from the last point inside, Q extrapolated along its screen derivatives, so that
     polygons reaching out there stretch past the part's edge (and are masked) as exact ones
     would; NONE if the part was never sampled (Q meaningless)."""
-    h, w = inside.shape
-    step_h = 0.5  # finite-difference step, pixels
+    h, w = owner.shape
     status = NONE
     e0 = e1 = e2 = 0.0  # Q at the end (extrapolated, unless exact)
     r0 = r1 = r2 = 0.0  # R at the last point inside
-    c0 = c1 = c2 = 0.0
     for _ in range(iterations):
         if not (0.0 <= sx < w and 0.0 <= sy < h):
             break
-        ok, c0, c1, c2, q0, q1, q2, r0, r1, r2 = _residual(p, inside, q, r, sx, sy)
-        if not ok:
+        (corners, q0, q1, q2, qx0, qx1, qx2, qy0, qy1, qy2, s0, s1, s2, rx0, rx1, rx2, ry0,
+         ry1, ry2) = _sample_slope(owner, part, q, r, sx, sy)
+        if corners == 0:
             break
+        d0 = p[0] - q0
+        d1 = p[1] - q1
+        d2 = p[2] - q2
+        dd = d0 * d0 + d1 * d1 + d2 * d2
+        if dd <= 0.0:
+            break
+        r0, r1, r2 = s0, s1, s2
         status = BOUNDARY
         e0, e1, e2 = q0, q1, q2
-        sign_x = 1.0
-        ok, cx0, cx1, cx2, qx0, qx1, qx2, _, _, _ = _residual(p, inside, q, r, sx + step_h, sy)
-        if not ok:
-            ok, cx0, cx1, cx2, qx0, qx1, qx2, _, _, _ = _residual(p, inside, q, r,
-                                                                  sx - step_h, sy)
-            if not ok:
-                break
-            sign_x = -1.0
-        sign_y = 1.0
-        ok, cy0, cy1, cy2, qy0, qy1, qy2, _, _, _ = _residual(p, inside, q, r, sx, sy + step_h)
-        if not ok:
-            ok, cy0, cy1, cy2, qy0, qy1, qy2, _, _, _ = _residual(p, inside, q, r, sx,
-                                                                  sy - step_h)
-            if not ok:
-                break
-            sign_y = -1.0
+        inv = 1.0 / math.sqrt(dd)
+        u0, u1, u2 = d0 * inv, d1 * inv, d2 * inv
+        c0, c1, c2 = u0 - r0, u1 - r1, u2 - r2
         # Jacobian columns (per pixel) and the 2x2 normal equations
-        jx0 = sign_x * (cx0 - c0) / step_h
-        jx1 = sign_x * (cx1 - c1) / step_h
-        jx2 = sign_x * (cx2 - c2) / step_h
-        jy0 = sign_y * (cy0 - c0) / step_h
-        jy1 = sign_y * (cy1 - c1) / step_h
-        jy2 = sign_y * (cy2 - c2) / step_h
-        a00 = ((0.0 + jx0 * jx0) + jx1 * jx1) + jx2 * jx2
-        a01 = ((0.0 + jx0 * jy0) + jx1 * jy1) + jx2 * jy2
-        a11 = ((0.0 + jy0 * jy0) + jy1 * jy1) + jy2 * jy2
-        g0 = ((0.0 + jx0 * c0) + jx1 * c1) + jx2 * c2
-        g1 = ((0.0 + jy0 * c0) + jy1 * c1) + jy2 * c2
+        along = u0 * qx0 + u1 * qx1 + u2 * qx2
+        jx0 = (u0 * along - qx0) * inv - rx0
+        jx1 = (u1 * along - qx1) * inv - rx1
+        jx2 = (u2 * along - qx2) * inv - rx2
+        along = u0 * qy0 + u1 * qy1 + u2 * qy2
+        jy0 = (u0 * along - qy0) * inv - ry0
+        jy1 = (u1 * along - qy1) * inv - ry1
+        jy2 = (u2 * along - qy2) * inv - ry2
+        a00 = jx0 * jx0 + jx1 * jx1 + jx2 * jx2
+        a01 = jx0 * jy0 + jx1 * jy1 + jx2 * jy2
+        a11 = jy0 * jy0 + jy1 * jy1 + jy2 * jy2
+        g0 = jx0 * c0 + jx1 * c1 + jx2 * c2
+        g1 = jy0 * c0 + jy1 * c1 + jy2 * c2
         det = a00 * a11 - a01 * a01
-        if not det > 1e-30:
+        trace = a00 + a11
+        if corners == 1:  # a lone corner of the part: no direction to go
             break
-        dx = -(a11 * g0 - a01 * g1) / det
-        dy = -(a00 * g1 - a01 * g0) / det
-        length = math.sqrt(dx * dx + dy * dy)
-        if length > 8.0:  # a trust region: no jumps across the part
-            dx *= 8.0 / length
-            dy *= 8.0 / length
-        e0 = q0 + (sign_x * (qx0 - q0) * dx + sign_y * (qy0 - q0) * dy) / step_h
-        e1 = q1 + (sign_x * (qx1 - q1) * dx + sign_y * (qy1 - q1) * dy) / step_h
-        e2 = q2 + (sign_x * (qx2 - q2) * dx + sign_y * (qy2 - q2) * dy) / step_h
-        if length < 1e-3:
-            if c0 ** 2 + c1 ** 2 + c2 ** 2 <= 1e-4:  # else a local minimum
-                status = EXACT
-                e0, e1, e2 = q0, q1, q2
+        if det > 1e-12 * trace * trace:
+            inv = 1.0 / det
+            dx = (a01 * g1 - a11 * g0) * inv
+            dy = (a01 * g0 - a00 * g1) * inv
+        elif trace > 1e-30:
+            # one direction only (a cell with one row or column of the part's corners):
+            # the least-norm step, along the gradient, which lies in the Jacobian's range
+            inv = 1.0 / trace
+            dx = -g0 * inv
+            dy = -g1 * inv
+        else:
+            break
+        step = dx * dx + dy * dy
+        if step > 64.0:  # a trust region: no jumps across the part
+            scale = 8.0 / math.sqrt(step)
+            dx *= scale
+            dy *= scale
+        e0 = q0 + qx0 * dx + qy0 * dy
+        e1 = q1 + qx1 * dx + qy1 * dy
+        e2 = q2 + qx2 * dx + qy2 * dy
+        if step < 1e-6:  # under a thousandth of a pixel
+            if c0 * c0 + c1 * c1 + c2 * c2 <= 1e-4:  # else a local minimum
+                status = EXACT  # at the linear model's zero, the step's end
             break
         sx += dx
         sy += dy
@@ -284,7 +319,7 @@ _CHUNK = 64  # points claimed at a time by a thread in _refine
 
 
 @njit(cache=True, parallel=True)
-def _refine(points, seeds, inside, q, r, eye, iterations, retry, reach, out, ok, threads):
+def _refine(points, seeds, owner, part, q, r, eye, iterations, retry, reach, out, ok, threads):
     """refine_virtual's search, point by point. Walks take 1 to 2 x `iterations` steps, so
     points go in chunks claimed by whichever thread is free (parallel.py); each point's
     answer is its own, whoever finds it."""
@@ -297,20 +332,20 @@ def _refine(points, seeds, inside, q, r, eye, iterations, retry, reach, out, ok,
             if c >= chunks:
                 break
             for k in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
-                _refine_point(k, points, seeds, inside, q, r, eye, iterations, retry, reach,
+                _refine_point(k, points, seeds, owner, part, q, r, eye, iterations, retry, reach,
                               out, ok)
 
 
 @njit(cache=True, inline="always")
-def _refine_point(k, points, seeds, inside, q, r, eye, iterations, retry, reach, out, ok):
+def _refine_point(k, points, seeds, owner, part, q, r, eye, iterations, retry, reach, out, ok):
     """Point k of _refine into out[k] and ok[k]."""
     p = points[k]
     status = NONE
     e0 = e1 = e2 = 0.0
     if np.isfinite(seeds[k, 0]) and np.isfinite(seeds[k, 1]):
-        status, e0, e1, e2 = _walk(p, inside, q, r, seeds[k, 0], seeds[k, 1], iterations)
+        status, e0, e1, e2 = _walk(p, owner, part, q, r, seeds[k, 0], seeds[k, 1], iterations)
     if (status == NONE or (status == BOUNDARY and reach[k])) and np.isfinite(retry[k, 0]):
-        again, f0, f1, f2 = _walk(p, inside, q, r, retry[k, 0], retry[k, 1], iterations)
+        again, f0, f1, f2 = _walk(p, owner, part, q, r, retry[k, 0], retry[k, 1], iterations)
         if again == EXACT or (status == NONE and again != NONE):
             status = again
             e0, e1, e2 = f0, f1, f2

@@ -21,12 +21,16 @@ class PartTiles:
     and cone, being convex, hold the block's blends); the margin covers rounding."""
 
     def __init__(self, inside: np.ndarray, q: np.ndarray, r: np.ndarray, size: int = 12,
-                 margin_degrees: float = 1.0, tiles: np.ndarray | None = None) -> None:
-        """`tiles`: the ids ty * (W // size + 1) + tx of the tiles holding a pixel of
-        `inside`, ascending, if already known (view.part_views marks them in its pass)."""
-        h, w = inside.shape
+                 margin_degrees: float = 1.0, tiles: np.ndarray | None = None,
+                 part: int | None = None) -> None:
+        """`inside` (H, W): bool, the part's pixels; or, with `part`, an owner plane (int,
+        the part under each pixel: view.part_views), the part's pixels where it is `part`.
+        `tiles`: the ids ty * (W // size + 1) + tx of the tiles holding a pixel of the
+        part, ascending, if already known (view.part_views marks them in its pass)."""
+        owner, part = owner_plane(inside, part)
+        h, w = owner.shape
         if tiles is None:
-            ys, xs = np.nonzero(inside)
+            ys, xs = np.nonzero(owner == part)
             tiles = np.unique((ys // size) * (w // size + 1) + xs // size)
         n = tiles.size
         self.center = np.empty((n, 3))
@@ -34,7 +38,7 @@ class PartTiles:
         self.axis = np.empty((n, 3))
         self.half = np.empty(n)
         self.pixel = np.empty((n, 2))
-        _tile_bounds(inside, q, r, tiles, size, self.center, self.radius, self.axis,
+        _tile_bounds(owner, part, q, r, tiles, size, self.center, self.radius, self.axis,
                      self.half, self.pixel)
         self.margin = math.radians(margin_degrees)
         # one ball and cone holding every tile's (with their margins): a point outside the
@@ -99,6 +103,14 @@ class PartTiles:
               self.margin, q, r, reach, seeds)
 
 
+def owner_plane(inside: np.ndarray, part: int | None) -> tuple[np.ndarray, int]:
+    """(owner plane, part) the kernels take: `inside` as it is with `part`, else a bool
+    mask seen as int8 (no copy), its pixels part 1."""
+    if part is not None:
+        return inside, int(part)
+    return np.asarray(inside, np.bool_).view(np.int8), 1
+
+
 def joined(flag: np.ndarray, polygons: np.ndarray) -> np.ndarray:
     """(N,) bool: `flag`, and every point of a polygon (T, 3 point indices) one of whose
     points has it."""
@@ -136,26 +148,26 @@ def _candidates(points, center, radius, axis, cos_a, sin_a, a, out):
 
 
 @njit(cache=True, parallel=True)
-def _tile_bounds(inside, q, r, tiles, size, center, radius, axis, half, pixel):
-    """Per tile (id ty * (W // size + 1) + tx): over its part pixels grown by the row above
+def _tile_bounds(owner, part, q, r, tiles, size, center, radius, axis, half, pixel):
+    """Per tile (id ty * (W // size + 1) + tx): over its part pixels (owner == part) grown by the row above
     and the column left, the ball (mean of Q, farthest Q from it), the cone (unit sum of R,
     widest angle from it) and the seed (its own pixel, not the grown ones, whose Q is
     nearest the mean; the first in row-major order on ties), as numpy's reductions give
     them (sums in pixel order)."""
-    w = inside.shape[1]
+    w = owner.shape[1]
     across = w // size + 1
     for j in prange(tiles.shape[0]):
         ty, tx = divmod(tiles[j], across)
         y0, x0 = ty * size, tx * size
         ey, ex = max(y0 - 1, 0), max(x0 - 1, 0)  # grown up and left by a pixel
-        y1 = min(y0 + size, inside.shape[0])
+        y1 = min(y0 + size, owner.shape[0])
         x1 = min(x0 + size, w)
         count = 0
         s0 = s1 = s2 = 0.0
         a0 = a1 = a2 = 0.0
         for y in range(ey, y1):
             for x in range(ex, x1):
-                if inside[y, x]:
+                if owner[y, x] == part:
                     count += 1
                     s0 += q[y, x, 0]
                     s1 += q[y, x, 1]
@@ -172,7 +184,7 @@ def _tile_bounds(inside, q, r, tiles, size, center, radius, axis, half, pixel):
         bx = by = 0
         for y in range(ey, y1):
             for x in range(ex, x1):
-                if not inside[y, x]:
+                if owner[y, x] != part:
                     continue
                 d0, d1, d2 = q[y, x, 0] - c0, q[y, x, 1] - c1, q[y, x, 2] - c2
                 dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)

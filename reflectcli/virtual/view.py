@@ -22,9 +22,19 @@ CACHE_SIZE = 8  # views kept before the cache starts over (each holds a few scre
 
 @dataclass(frozen=True)
 class PartView:
-    hidden_map: np.ndarray  # (H, W) int32 screen: the part's face under each pixel, or -1
-    inside: np.ndarray | None  # (H, W) bool screen: hidden_map >= 0 (with refinement only)
+    """Part `part` of the reflector's item buffer. The reflector's pixels are split among
+    its parts in one plane (`owner`, shared by the parts), not one plane per part: a
+    part's pixels are found where owner == part, its faces through `local`."""
+
+    owner: np.ndarray  # (H, W) int16 screen: the part under each pixel, or -1 (shared)
+    part: int  # this part's index, as `owner` holds it
+    triangle: np.ndarray  # (H, W) int32 screen: the reflector face under each pixel, or -1
+    local: np.ndarray  # (F + 1,) int32: reflector face -> this part's face, or -1 (last: -1)
     tiles: PartTiles | None  # (with refinement only)
+
+    def hidden_faces(self, ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
+        """The paper's hidden map at pixels (ys, xs): the part's face under each, or -1."""
+        return self.local[self.triangle[ys, xs]]
 
 
 @dataclass(frozen=True)
@@ -44,42 +54,41 @@ def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorSha
     if refine:
         grid = reflector_grid(alone.triangle, alone.b1, alone.b2, corners, normals, camera.eye)
     h, w = alone.triangle.shape
-    local = np.full((len(shape.parts), count + 1), -1, np.int32)  # face -> part face
+    parts = len(shape.parts)
+    local = np.full((parts, count + 1), -1, np.int32)  # face -> part face
+    part_of = np.full(count + 1, -1, np.int16)  # face -> part (the parts split the faces)
     for p, part in enumerate(shape.parts):
         local[p, part.faces] = np.arange(len(part.faces))
-    hidden = np.empty((len(shape.parts), h, w), np.int32)  # half the bytes to write
-    inside = np.empty((len(shape.parts), h, w), np.bool_)
-    marks = np.zeros((len(shape.parts), h // TILE + 1, w // TILE + 1), np.bool_)
-    part_views(alone.triangle, local, TILE, hidden, inside, marks)
-    parts = []
-    for p in range(len(shape.parts)):
+        part_of[part.faces] = p
+    owner = np.empty((h, w), np.int16)
+    marks = np.zeros((parts, h // TILE + 1, w // TILE + 1), np.bool_)
+    part_views(alone.triangle, part_of, TILE, owner, marks)
+    views = []
+    for p in range(parts):
         tiles = None
         if grid is not None:
-            tiles = PartTiles(inside[p], grid[0], grid[1], TILE,
-                              tiles=np.flatnonzero(marks[p]))
-        parts.append(PartView(hidden[p], inside[p] if grid is not None else None, tiles))
-    return ReflectorView(alone.depth, grid, tuple(parts))
+            tiles = PartTiles(owner, grid[0], grid[1], TILE, tiles=np.flatnonzero(marks[p]),
+                              part=p)
+        views.append(PartView(owner, p, alone.triangle, local[p], tiles))
+    return ReflectorView(alone.depth, grid, tuple(views))
 
 
 TILE = 12  # pixels a side of the refinement's tiles (tiles.PartTiles)
 
 
 @njit(cache=True, parallel=True)
-def part_views(triangle, local, size, hidden, inside, marks):
-    """Per part p, in one pass over the reflector's item buffer: hidden[p] (H, W) its face
-    under each pixel (local[p, reflector face], -1 where none; the buffer's -1 reads the
-    last entry, -1), inside[p] = hidden[p] >= 0, and marks[p, ty, tx] set for the tiles
-    of size x size pixels holding one of its pixels (so tile ids ty * (W // size + 1) + tx
-    come out ascending, as np.unique of the pixels' ids gives them)."""
+def part_views(triangle, part_of, size, owner, marks):
+    """In one pass over the reflector's item buffer: owner (H, W) the part under each pixel
+    (part_of[reflector face], -1 where none; the buffer's -1 reads the last entry, -1), and
+    marks[p, ty, tx] set for the tiles of size x size pixels holding a pixel of part p (so
+    tile ids ty * (W // size + 1) + tx come out ascending, as np.unique of the pixels' ids
+    gives them)."""
     h, w = triangle.shape
-    for row in prange(local.shape[0] * h):  # part by part: each writes its planes in order
-        p = row // h
-        y = row - p * h
+    for y in prange(h):
         for x in range(w):
-            f = local[p, triangle[y, x]]
-            hidden[p, y, x] = f
-            inside[p, y, x] = f >= 0
-            if f >= 0:
+            p = part_of[triangle[y, x]]
+            owner[y, x] = p
+            if p >= 0:
                 # rows of one tile row may be on two threads: both store the same True
                 # (a benign race; no value depends on which store lands)
                 marks[p, y // size, x // size] = True

@@ -393,7 +393,7 @@ def test_part_tiles_never_cull_a_reflected_point(scene, size):
     from reflectcli.loading import load_config
     from reflectcli.raster.rasterize import rasterize
     from reflectcli.scene.build import build_scene
-    from reflectcli.virtual.refine import _sample, reflector_grid
+    from reflectcli.virtual.refine import _sample_slope, reflector_grid
     from reflectcli.virtual.tiles import PartTiles
 
     path = str(SCENES / f"{scene}.toml")
@@ -414,9 +414,9 @@ def test_part_tiles_never_cull_a_reflected_point(scene, size):
     positions = np.stack([xs[pick], ys[pick]], 1) + rng.uniform(0.0, 1.5, (20000, 2))
     points = []
     for sx, sy in positions:
-        ok, *sample = _sample(inside, q, r, sx, sy)
+        ok, *sample = _sample_slope(inside.view(np.int8), 1, q, r, sx, sy)
         if ok:
-            qq, rr = np.array(sample[:3]), np.array(sample[3:])
+            qq, rr = np.array(sample[0:3]), np.array(sample[9:12])
             points.append(qq + rng.uniform(0.05, 5.0) * rr)
     assert len(points) > 15000
     reach, seeds = tiles.scan(np.array(points), q, r)

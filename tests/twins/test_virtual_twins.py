@@ -12,6 +12,7 @@ from naive import (
     fill_faces,
     fill_triangle,
     grid_sample,
+    grid_sample_slope,
     map_coords,
     mirror_on_circle,
     nearest_filled_distance,
@@ -20,6 +21,7 @@ from naive import (
     plane_from_map,
     profile_one,
     refine_point,
+    refine_walk,
     reflector_grid,
     scan,
     screen_plane,
@@ -164,12 +166,59 @@ def test_grid_sample_matches_twin():
     _, inside, q, r = sphere_grid(16, 12)
     pts = list(rng.uniform(-1, 17, (300, 2))) + [(0.5, 0.5), (8.0, 6.0), (16.0, 12.0)]
     for sx, sy in pts:
-        ok, *got = refine._sample(inside, q, r, sx, sy)
+        ok, *got = refine._sample_slope(inside.view(np.int8), 1, q, r, sx, sy)
+        got = got[0:3] + got[9:12]  # Q and R
         want = grid_sample(inside, q, r, sx, sy)
-        assert ok == (want is not None), (sx, sy)
+        assert (ok > 0) == (want is not None), (sx, sy)
         if ok:
             np.testing.assert_allclose(got[:3], want[0], atol=1e-12)
             np.testing.assert_allclose(got[3:], want[1], atol=1e-12)
+
+
+def test_grid_sample_slope_matches_twin():
+    """Q, R and their screen derivatives against forward differences of the bilinear sample,
+    in cells with all four corners inside the part and at its edge (corners missing)."""
+    rng = np.random.default_rng(3)
+    _, inside, q, r = sphere_grid(16, 12)
+    pts = rng.uniform(-1, 17, (400, 2))
+    pts = pts[(np.abs(pts - 0.5 - np.round(pts - 0.5)) > 1e-3).all(axis=1)]  # off cell edges
+    edges = 0
+    for sx, sy in pts:
+        ok, *got = refine._sample_slope(inside.view(np.int8), 1, q, r, sx, sy)
+        want = grid_sample_slope(inside, q, r, sx, sy)
+        assert (ok > 0) == (want is not None), (sx, sy)
+        if not ok:
+            continue
+        np.testing.assert_allclose(got[0:3], want[0], atol=1e-12)
+        np.testing.assert_allclose(got[9:12], want[3], atol=1e-12)
+        for g, x in ((got[3:6], want[1]), (got[6:9], want[2]), (got[12:15], want[4]),
+                     (got[15:18], want[5])):
+            np.testing.assert_allclose(g, x, atol=1e-5)
+        x0, y0 = int(np.floor(sx - 0.5)), int(np.floor(sy - 0.5))
+        cell = inside[max(y0, 0):y0 + 2, max(x0, 0):x0 + 2]
+        edges += cell.size < 4 or not cell.all()
+    assert edges > 10
+
+
+def test_refinement_walks_match_twin():
+    """Whole walks, EXACT or not, from seeds up to 6 pixels off, against the twin's plain
+    Gauss-Newton (forward-difference Jacobian): the same status and end point."""
+    rng = np.random.default_rng(4)
+    cam, inside, q, r = sphere_grid()
+    ys, xs = np.nonzero(inside)
+    pick = rng.choice(len(ys), 80, replace=False)
+    pts = q[ys[pick], xs[pick]] + r[ys[pick], xs[pick]] * rng.uniform(0.5, 3.0, (80, 1))
+    pts[60:] = rng.normal(size=(20, 3)) * 2.0  # mostly reflected nowhere near
+    seeds = np.stack([xs[pick], ys[pick]], 1) + rng.uniform(-6, 6, (80, 2))
+    statuses = []
+    for p, seed in zip(pts, seeds, strict=True):
+        status, *end = refine._walk(p, inside.view(np.int8), 1, q, r, seed[0], seed[1], 20)
+        want_status, want_end = refine_walk(p, seed, inside, q, r)
+        assert status == want_status, (p, seed)
+        statuses.append(status)
+        if status != refine.NONE:
+            np.testing.assert_allclose(end, want_end, atol=1e-5)
+    assert statuses.count(refine.EXACT) > 30 and statuses.count(refine.BOUNDARY) > 10
 
 
 def test_screen_refinement_matches_twin():
@@ -694,9 +743,10 @@ def test_part_stencil_matches_twin():
 
 
 def test_part_views_match_twin():
-    """view.part_views (one pass, every part) against its twin part by part: each part's
-    face under each pixel, its pixels, and its tiles as np.unique of the pixels' tile ids."""
-    from reflectcli.virtual.view import part_views
+    """view.part_views (one pass, every part, one owner plane) against its twin part by
+    part: each part's face under each pixel (PartView.hidden_faces), its pixels, and its
+    tiles as np.unique of the pixels' tile ids."""
+    from reflectcli.virtual.view import PartView, part_views
 
     rng = np.random.default_rng(12)
     h, w, count, size = 37, 50, 40, 12
@@ -704,14 +754,17 @@ def test_part_views_match_twin():
     triangle[:, :20] = -1  # tiles with no pixel of any part
     faces = [np.array([0, 5, 7]), np.arange(10, 30), np.array([39])]
     local = np.full((len(faces), count + 1), -1, np.int32)
+    part_of = np.full(count + 1, -1, np.int16)
     for p, f in enumerate(faces):
         local[p, f] = np.arange(len(f))
-    hidden = np.empty((len(faces), h, w), np.int32)
-    inside = np.empty((len(faces), h, w), np.bool_)
+        part_of[f] = p
+    owner = np.empty((h, w), np.int16)
     marks = np.zeros((len(faces), h // size + 1, w // size + 1), np.bool_)
-    part_views(triangle, local, size, hidden, inside, marks)
+    part_views(triangle, part_of, size, owner, marks)
+    ys, xs = np.indices((h, w))
     for p, (want, want_inside, want_tiles) in enumerate(naive_part_views(triangle, local,
                                                                           size)):
-        np.testing.assert_array_equal(hidden[p], want)
-        np.testing.assert_array_equal(inside[p], want_inside)
+        view = PartView(owner, p, triangle, local[p], None)
+        np.testing.assert_array_equal(view.hidden_faces(ys, xs), want)
+        np.testing.assert_array_equal(owner == p, want_inside)
         np.testing.assert_array_equal(np.flatnonzero(marks[p]), want_tiles)
