@@ -238,120 +238,200 @@ def _walk(p, owner, part, q, r, sx, sy, iterations):
     past a silhouette, or on another part): then the last step is taken on the linear model
     from the last point inside, Q extrapolated along its screen derivatives, so that
     polygons reaching out there stretch past the part's edge (and are masked) as exact ones
-    would; NONE if the part was never sampled (Q meaningless)."""
-    h, w = owner.shape
+    would; NONE if the part was never sampled (Q meaningless). One _step at a time (_refine
+    runs the same steps, several walks side by side)."""
     status = NONE
     e0 = e1 = e2 = 0.0  # Q at the end (extrapolated, unless exact)
     r0 = r1 = r2 = 0.0  # R at the last point inside
     for _ in range(iterations):
-        if not (0.0 <= sx < w and 0.0 <= sy < h):
+        go, sx, sy, status, e0, e1, e2, r0, r1, r2 = _step(
+            p[0], p[1], p[2], owner, part, q, r, sx, sy, status, e0, e1, e2, r0, r1, r2)
+        if not go:
             break
-        (corners, q0, q1, q2, qx0, qx1, qx2, qy0, qy1, qy2, s0, s1, s2, rx0, rx1, rx2, ry0,
-         ry1, ry2) = _sample_slope(owner, part, q, r, sx, sy)
-        if corners == 0:
-            break
-        d0 = p[0] - q0
-        d1 = p[1] - q1
-        d2 = p[2] - q2
-        dd = d0 * d0 + d1 * d1 + d2 * d2
-        if dd <= 0.0:
-            break
-        r0, r1, r2 = s0, s1, s2
-        status = BOUNDARY
-        e0, e1, e2 = q0, q1, q2
-        inv = 1.0 / math.sqrt(dd)
-        u0, u1, u2 = d0 * inv, d1 * inv, d2 * inv
-        c0, c1, c2 = u0 - r0, u1 - r1, u2 - r2
-        # Jacobian columns (per pixel) and the 2x2 normal equations
-        along = u0 * qx0 + u1 * qx1 + u2 * qx2
-        jx0 = (u0 * along - qx0) * inv - rx0
-        jx1 = (u1 * along - qx1) * inv - rx1
-        jx2 = (u2 * along - qx2) * inv - rx2
-        along = u0 * qy0 + u1 * qy1 + u2 * qy2
-        jy0 = (u0 * along - qy0) * inv - ry0
-        jy1 = (u1 * along - qy1) * inv - ry1
-        jy2 = (u2 * along - qy2) * inv - ry2
-        a00 = jx0 * jx0 + jx1 * jx1 + jx2 * jx2
-        a01 = jx0 * jy0 + jx1 * jy1 + jx2 * jy2
-        a11 = jy0 * jy0 + jy1 * jy1 + jy2 * jy2
-        g0 = jx0 * c0 + jx1 * c1 + jx2 * c2
-        g1 = jy0 * c0 + jy1 * c1 + jy2 * c2
-        det = a00 * a11 - a01 * a01
-        trace = a00 + a11
-        if corners == 1:  # a lone corner of the part: no direction to go
-            break
-        if det > 1e-12 * trace * trace:
-            inv = 1.0 / det
-            dx = (a01 * g1 - a11 * g0) * inv
-            dy = (a01 * g0 - a00 * g1) * inv
-        elif trace > 1e-30:
-            # one direction only (a cell with one row or column of the part's corners):
-            # the least-norm step, along the gradient, which lies in the Jacobian's range
-            inv = 1.0 / trace
-            dx = -g0 * inv
-            dy = -g1 * inv
-        else:
-            break
-        step = dx * dx + dy * dy
-        if step > 64.0:  # a trust region: no jumps across the part
-            scale = 8.0 / math.sqrt(step)
-            dx *= scale
-            dy *= scale
-        e0 = q0 + qx0 * dx + qy0 * dy
-        e1 = q1 + qx1 * dx + qy1 * dy
-        e2 = q2 + qx2 * dx + qy2 * dy
-        if step < 1e-6:  # under a thousandth of a pixel
-            if c0 * c0 + c1 * c1 + c2 * c2 <= 1e-4:  # else a local minimum
-                status = EXACT  # at the linear model's zero, the step's end
-            break
-        sx += dx
-        sy += dy
-    if status == EXACT:
-        d0 = p[0] - e0
-        d1 = p[1] - e1
-        d2 = p[2] - e2
-        if d0 * r0 + d1 * r1 + d2 * r2 <= 0.0:
-            status = BOUNDARY  # on the line of the ray, but behind its start
+    return _walk_end(p[0], p[1], p[2], status, e0, e1, e2, r0, r1, r2)
+
+
+@njit(cache=True, inline="always")
+def _walk_end(p0, p1, p2, status, e0, e1, e2, r0, r1, r2):
+    """A walk's answer (status, Q) from its last state."""
+    if status == EXACT and (p0 - e0) * r0 + (p1 - e1) * r1 + (p2 - e2) * r2 <= 0.0:
+        status = BOUNDARY  # on the line of the ray, but behind its start
     return status, e0, e1, e2
 
 
+@njit(cache=True, inline="always")
+def _step(p0, p1, p2, owner, part, q, r, sx, sy, status, e0, e1, e2, r0, r1, r2):
+    """One Gauss-Newton step of _walk from screen point (sx, sy) with the walk's state
+    (status, end e, last R): (go on, next sx, sy, status, e, R)."""
+    h, w = owner.shape
+    stop = (False, sx, sy, status, e0, e1, e2, r0, r1, r2)
+    if not (0.0 <= sx < w and 0.0 <= sy < h):
+        return stop
+    (corners, q0, q1, q2, qx0, qx1, qx2, qy0, qy1, qy2, s0, s1, s2, rx0, rx1, rx2, ry0,
+     ry1, ry2) = _sample_slope(owner, part, q, r, sx, sy)
+    if corners == 0:
+        return stop
+    d0 = p0 - q0
+    d1 = p1 - q1
+    d2 = p2 - q2
+    dd = d0 * d0 + d1 * d1 + d2 * d2
+    if dd <= 0.0:
+        return stop
+    if corners == 1:  # a lone corner of the part: no direction to go
+        return False, sx, sy, BOUNDARY, q0, q1, q2, s0, s1, s2
+    inv = 1.0 / math.sqrt(dd)
+    u0, u1, u2 = d0 * inv, d1 * inv, d2 * inv
+    c0, c1, c2 = u0 - s0, u1 - s1, u2 - s2
+    # Jacobian columns (per pixel) and the 2x2 normal equations
+    along = u0 * qx0 + u1 * qx1 + u2 * qx2
+    jx0 = (u0 * along - qx0) * inv - rx0
+    jx1 = (u1 * along - qx1) * inv - rx1
+    jx2 = (u2 * along - qx2) * inv - rx2
+    along = u0 * qy0 + u1 * qy1 + u2 * qy2
+    jy0 = (u0 * along - qy0) * inv - ry0
+    jy1 = (u1 * along - qy1) * inv - ry1
+    jy2 = (u2 * along - qy2) * inv - ry2
+    a00 = jx0 * jx0 + jx1 * jx1 + jx2 * jx2
+    a01 = jx0 * jy0 + jx1 * jy1 + jx2 * jy2
+    a11 = jy0 * jy0 + jy1 * jy1 + jy2 * jy2
+    g0 = jx0 * c0 + jx1 * c1 + jx2 * c2
+    g1 = jy0 * c0 + jy1 * c1 + jy2 * c2
+    det = a00 * a11 - a01 * a01
+    trace = a00 + a11
+    if det > 1e-12 * trace * trace:
+        inv = 1.0 / det
+        dx = (a01 * g1 - a11 * g0) * inv
+        dy = (a01 * g0 - a00 * g1) * inv
+    elif trace > 1e-30:
+        # one direction only (a cell with one row or column of the part's corners):
+        # the least-norm step, along the gradient, which lies in the Jacobian's range
+        inv = 1.0 / trace
+        dx = -g0 * inv
+        dy = -g1 * inv
+    else:
+        return False, sx, sy, BOUNDARY, q0, q1, q2, s0, s1, s2
+    step = dx * dx + dy * dy
+    if step > 64.0:  # a trust region: no jumps across the part
+        scale = 8.0 / math.sqrt(step)
+        dx *= scale
+        dy *= scale
+    e0 = q0 + qx0 * dx + qy0 * dy
+    e1 = q1 + qx1 * dx + qy1 * dy
+    e2 = q2 + qx2 * dx + qy2 * dy
+    if step < 1e-6:  # under a thousandth of a pixel
+        # EXACT at the linear model's zero, the step's end; else a local minimum
+        done = EXACT if c0 * c0 + c1 * c1 + c2 * c2 <= 1e-4 else BOUNDARY
+        return False, sx, sy, done, e0, e1, e2, s0, s1, s2
+    return True, sx + dx, sy + dy, BOUNDARY, e0, e1, e2, s0, s1, s2
+
+
 _CHUNK = 64  # points claimed at a time by a thread in _refine
+_LANES = 4  # walks run side by side by a thread
 
 
 @njit(cache=True, parallel=True)
 def _refine(points, seeds, owner, part, q, r, eye, iterations, retry, reach, out, ok, threads):
     """refine_virtual's search, point by point. Walks take 1 to 2 x `iterations` steps, so
     points go in chunks claimed by whichever thread is free (parallel.py); each point's
-    answer is its own, whoever finds it."""
+    answer is its own, whoever finds it. A thread runs _LANES walks side by side, a step of
+    each in turn: a step is a chain of divisions and square roots, each waiting on the
+    last, and the steps of other walks fill those waits. A lane whose walk ends takes the
+    point's retry, or the chunk's next point."""
     n = points.shape[0]
     chunks = (n + _CHUNK - 1) // _CHUNK
     claimed = np.zeros(1, np.int64)
     for _worker in prange(min(threads, chunks)):
+        # per lane: point (-1: idle), phase (0: from the seed, 1: the retry), steps taken,
+        # the first walk's answer; the walk's state: (sx, sy, status, e, R)
+        lane_k = np.empty(_LANES, np.int64)
+        phase = np.empty(_LANES, np.int64)
+        steps = np.empty(_LANES, np.int64)
+        first = np.empty((_LANES, 4))
+        state = np.empty((_LANES, 9))
+        status = np.empty(_LANES, np.int64)
         while True:
             c = claim(claimed)
             if c >= chunks:
                 break
-            for k in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
-                _refine_point(k, points, seeds, owner, part, q, r, eye, iterations, retry, reach,
-                              out, ok)
+            k = c * _CHUNK
+            end = min(n, (c + 1) * _CHUNK)
+            active = 0
+            for j in range(_LANES):
+                k = _start(j, k, end, points, seeds, retry, out, ok, eye, lane_k, phase, steps,
+                           first, state, status)
+                active += lane_k[j] >= 0
+            while active > 0:
+                for j in range(_LANES):
+                    i = lane_k[j]
+                    if i < 0:
+                        continue
+                    go, sx, sy, st, e0, e1, e2, r0, r1, r2 = _step(
+                        points[i, 0], points[i, 1], points[i, 2], owner, part, q, r,
+                        state[j, 0], state[j, 1], status[j], state[j, 2], state[j, 3],
+                        state[j, 4], state[j, 5], state[j, 6], state[j, 7])
+                    steps[j] += 1
+                    status[j] = st
+                    state[j, 0], state[j, 1] = sx, sy
+                    state[j, 2], state[j, 3], state[j, 4] = e0, e1, e2
+                    state[j, 5], state[j, 6], state[j, 7] = r0, r1, r2
+                    if go and steps[j] < iterations:
+                        continue
+                    st, e0, e1, e2 = _walk_end(points[i, 0], points[i, 1], points[i, 2], st,
+                                               e0, e1, e2, r0, r1, r2)
+                    if phase[j] == 0 and (st == NONE or (st == BOUNDARY and reach[i])) \
+                            and np.isfinite(retry[i, 0]):
+                        first[j, 0], first[j, 1], first[j, 2], first[j, 3] = st, e0, e1, e2
+                        _begin(j, 1, retry[i, 0], retry[i, 1], phase, steps, state, status)
+                        continue
+                    if phase[j] == 1:
+                        was = int(first[j, 0])
+                        if not (st == EXACT or (was == NONE and st != NONE)):
+                            st, e0, e1, e2 = was, first[j, 1], first[j, 2], first[j, 3]
+                    _finish(i, points, st, e0, e1, e2, eye, out, ok)
+                    k = _start(j, k, end, points, seeds, retry, out, ok, eye, lane_k, phase,
+                               steps, first, state, status)
+                    active -= lane_k[j] < 0
 
 
 @njit(cache=True, inline="always")
-def _refine_point(k, points, seeds, owner, part, q, r, eye, iterations, retry, reach, out, ok):
-    """Point k of _refine into out[k] and ok[k]."""
-    p = points[k]
-    status = NONE
-    e0 = e1 = e2 = 0.0
-    if np.isfinite(seeds[k, 0]) and np.isfinite(seeds[k, 1]):
-        status, e0, e1, e2 = _walk(p, owner, part, q, r, seeds[k, 0], seeds[k, 1], iterations)
-    if (status == NONE or (status == BOUNDARY and reach[k])) and np.isfinite(retry[k, 0]):
-        again, f0, f1, f2 = _walk(p, owner, part, q, r, retry[k, 0], retry[k, 1], iterations)
-        if again == EXACT or (status == NONE and again != NONE):
-            status = again
-            e0, e1, e2 = f0, f1, f2
+def _begin(j, which, sx, sy, phase, steps, state, status):
+    """Lane j starts a walk (phase `which`) at screen point (sx, sy)."""
+    phase[j] = which
+    steps[j] = 0
+    status[j] = NONE
+    state[j, 0], state[j, 1] = sx, sy
+    for m in range(2, 9):
+        state[j, m] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _start(j, k, end, points, seeds, retry, out, ok, eye, lane_k, phase, steps, first, state,
+           status):
+    """Lane j takes the next point from k on (below `end`) that has a walk to take (from its
+    seed, else its retry, the first walk then NONE); points with neither stay NONE. Returns
+    the next k; lane_k[j] -1 if none is left."""
+    while k < end:
+        i = k
+        k += 1
+        if np.isfinite(seeds[i, 0]) and np.isfinite(seeds[i, 1]):
+            lane_k[j] = i
+            _begin(j, 0, seeds[i, 0], seeds[i, 1], phase, steps, state, status)
+            return k
+        if np.isfinite(retry[i, 0]):
+            lane_k[j] = i
+            first[j, 0] = NONE
+            _begin(j, 1, retry[i, 0], retry[i, 1], phase, steps, state, status)
+            return k
+    lane_k[j] = -1
+    return k
+
+
+@njit(cache=True, inline="always")
+def _finish(k, points, status, e0, e1, e2, eye, out, ok):
+    """Point k's virtual vertex from its walks' answer (status, Q) into out[k] and ok[k]."""
     if status == NONE:
         return
-    d0, d1, d2 = p[0] - e0, p[1] - e1, p[2] - e2
+    d0, d1, d2 = points[k, 0] - e0, points[k, 1] - e1, points[k, 2] - e2
     v0, v1, v2 = e0 - eye[0], e1 - eye[1], e2 - eye[2]
     le = math.sqrt(v0 ** 2 + v1 ** 2 + v2 ** 2)
     lp = math.sqrt(d0 ** 2 + d1 ** 2 + d2 ** 2)
