@@ -1217,8 +1217,8 @@ def mirror_rays(triangle, mirror, drawn, clip_from_world, corners, normals, eye,
 
 
 def grid_sample(inside, q, r, sx, sy):
-    """Twin of virtual.refine._sample_slope's values: bilinear Q and R at screen point (sx, sy) over the
-    pixel centers inside the part, the missing corners' weight given to the others
+    """Twin of virtual.refine._sample_slope's values: bilinear Q and R at screen point
+    (sx, sy) over the pixel centers inside the part, the missing corners' weight given to the others
     (renormalized), R normalized; None if no corner inside carries weight."""
     h, w = inside.shape
     fx, fy = sx - 0.5, sy - 0.5
