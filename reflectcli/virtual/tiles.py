@@ -150,9 +150,10 @@ def _candidates(points, center, radius, axis, cos_a, sin_a, a, out):
 @njit(cache=True, parallel=True)
 def _tile_bounds(owner, part, q, r, tiles, size, center, radius, axis, half, pixel):
     """Per tile (id ty * (W // size + 1) + tx): over its part pixels (owner == part) grown
-    by the row above and the column left, the ball (mean of Q, farthest Q from it), the cone (unit sum of R,
-    widest angle from it) and the seed (its own pixel, not the grown ones, whose Q is
-    nearest the mean; the first in row-major order on ties), as numpy's reductions give
+    by the row above and the column left, the ball (mean of Q, farthest Q from it), the
+    cone (unit sum of R, widest angle from it) and the seed (its own pixel, not the grown
+    ones, whose Q is nearest the mean; the first in row-major order on ties), as numpy's
+    reductions give
     them (sums in pixel order)."""
     w = owner.shape[1]
     across = w // size + 1
