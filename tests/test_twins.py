@@ -43,6 +43,7 @@ SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
 PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
 REFINE = [V + "test_screen_refinement_matches_twin",
           V + "test_refinement_walks_match_twin",
+          V + "test_refinement_lanes_match_walks_one_at_a_time",
           V + "test_refinement_skips_only_retries_that_cannot_matter"]
 FILL = [V + "test_fill_kernels_match_twin"]
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]

@@ -221,6 +221,55 @@ def test_refinement_walks_match_twin():
     assert statuses.count(refine.EXACT) > 30 and statuses.count(refine.BOUNDARY) > 10
 
 
+def test_refinement_lanes_match_walks_one_at_a_time():
+    """_refine runs walks side by side (lanes), retries included: each point's answer is
+    the one its walks give one at a time (_walk from the seed, then from the retry where
+    the first walk found nothing, or only the boundary of a part the tiles say it reaches),
+    bit for bit, at 1 and 2 threads."""
+    import numba
+
+    rng = np.random.default_rng(11)
+    cam, inside, q, r = sphere_grid()
+    ys, xs = np.nonzero(inside)
+    pick = rng.choice(len(ys), 300)
+    pts = q[ys[pick], xs[pick]] + r[ys[pick], xs[pick]] * rng.uniform(0.5, 3.0, (300, 1))
+    pts[200:] = rng.normal(size=(100, 3)) * 2.0
+    seeds = np.stack([xs[pick], ys[pick]], 1) + rng.uniform(-8, 8, (300, 2))
+    retry = np.stack([xs[pick[::-1]], ys[pick[::-1]]], 1) + 0.5
+    seeds[::7] = np.nan
+    retry[::5] = np.nan
+    reach = rng.random(300) < 0.7
+    owner = inside.view(np.int8)
+    want = np.full((300, 3), np.nan)
+    want_status = np.zeros(300, np.int8)
+    for k, p in enumerate(pts):
+        status, e = refine.NONE, None
+        if np.isfinite(seeds[k]).all():
+            status, *e = refine._walk(p, owner, 1, q, r, seeds[k, 0], seeds[k, 1], 20)
+        if (status == refine.NONE or (status == refine.BOUNDARY and reach[k])) \
+                and np.isfinite(retry[k, 0]):
+            again, *f = refine._walk(p, owner, 1, q, r, retry[k, 0], retry[k, 1], 20)
+            if again == refine.EXACT or (status == refine.NONE and again != refine.NONE):
+                status, e = again, f
+        if status == refine.NONE:
+            continue
+        v = np.array(e) - cam.eye
+        le, lp = np.sqrt(v @ v), np.sqrt((p - e) @ (p - e))
+        want[k] = cam.eye + v / le * (le + lp)
+        want_status[k] = status
+    assert len(set(want_status.tolist())) == 3
+    before = numba.get_num_threads()
+    try:
+        for threads in (1, min(2, numba.config.NUMBA_NUM_THREADS)):
+            numba.set_num_threads(threads)
+            got, status = refine.refine_virtual(pts, seeds, inside, q, r, cam.eye, retry,
+                                                reach=reach)
+            np.testing.assert_array_equal(status, want_status)
+            np.testing.assert_array_equal(got, want)
+    finally:
+        numba.set_num_threads(before)
+
+
 def test_screen_refinement_matches_twin():
     """Points reflected at known pixel centers, searched from seeds a few pixels off: where
     the kernel reports EXACT it lands on the twin's least-squares solution."""
