@@ -76,6 +76,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/shade.py:_object_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade_pixel"),
     "raster/shade.py:_shade_row": (RECOVER, "_shade"),
     "raster/shade.py:_run_setup": (RECOVER, "_shade_row"),
+    "raster/shade.py:_run_weights": (RECOVER, "_run_setup"),
+    "raster/shade.py:_run_setup_albedo": (RECOVER, "_shade_row"),
     "raster/shade.py:_light_row": (RECOVER, "_shade_row"),
     "raster/shade.py:add_reflection": ([SR + "test_add_reflection_matches_twin"], None),
     "raster/rasterize/draw.py:_draw": (RASTER, "rasterize"),

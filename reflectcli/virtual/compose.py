@@ -22,6 +22,13 @@ def mirror_boxes(surface, n_objects, n_mirrors):
     boxes[:, 0] = h
     boxes[:, 2] = w
     for y in range(h):
+        # a row's greatest id first (a loop without branches, vectorised): most rows hold
+        # no mirror and need no look at each pixel
+        top = -1
+        for x in range(w):
+            top = max(top, surface[y, x])
+        if top < n_objects:
+            continue
         for x in range(w):
             k = surface[y, x] - n_objects
             if 0 <= k < n_mirrors:
