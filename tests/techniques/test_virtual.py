@@ -493,7 +493,8 @@ def test_fill_cracks_closes_one_pixel_gaps_only():
     colors = np.arange(5 * 7 * 3, dtype=np.float32).reshape(5, 7, 3)
     colors[~covered] = -1.0
     stencil = np.ones((5, 7), bool)
-    fill_cracks(colors, covered, stencil, 0, 5, 0, 7)
+    triangle = np.where(covered, 0, -1).astype(np.int32)  # the pass's ids: -1 uncovered
+    fill_cracks(colors, triangle, stencil, 0, 5, 0, 7)
     expected = (colors[2, 2] + colors[2, 4] + colors[1, 3] + colors[3, 3]) / 4
     np.testing.assert_allclose(colors[2, 3], expected)
     np.testing.assert_allclose(colors[3, 5], (colors[3, 4] + colors[3, 6]) / 2)
