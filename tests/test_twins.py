@@ -187,6 +187,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/compose.py:part_stencil": ([V + "test_part_stencil_matches_twin"], None),
     "virtual/compose.py:gather_corners": ([V + "test_gather_corners_match_twin"], None),
     "virtual/compose.py:fill_cracks": ([V + "test_fill_cracks_match_twin"], None),
+    "virtual/compose.py:_covered": ([V + "test_fill_cracks_match_twin"], "fill_cracks"),
     "virtual/refine.py:_ray_at": ([V + "test_reflector_grid_matches_twin",
                                    V + "test_mirror_rays_match_reflector_grid"], "_grid"),
     "virtual/refine.py:mirror_rays": ([V + "test_mirror_rays_match_reflector_grid"], None),
