@@ -146,6 +146,31 @@ def _shade_stencil(stencil, tri, b1, b2, recover, m, drawn, corners, uvs, normal
 
 
 @njit(cache=True, inline="always")
+def _run_weights(drawn, t, m, ny):
+    """_run_setup's barycentric numerators along the row: (a0, a1, a2, e0, e1, e2)."""
+    x0, x1, x2, y0, y1, y2, w0, w1, w2 = clip_corners(drawn, t, m)
+    v0, v1, v2 = y0 - ny * w0, y1 - ny * w1, y2 - ny * w2
+    a0, e0 = x1 * v2 - x2 * v1, w1 * v2 - w2 * v1
+    a1, e1 = x2 * v0 - x0 * v2, w2 * v0 - w0 * v2
+    a2, e2 = x0 * v1 - x1 * v0, w0 * v1 - w1 * v0
+    return a0, a1, a2, e0, e1, e2
+
+
+@njit(cache=True, inline="always")
+def _run_setup_albedo(drawn, t, m, ny, uvs):
+    """_run_setup as far as unlit shading reads it (the denominator, u and v; the rest 0):
+    the same values, without reading the triangle's corners and normals (in a virtual pass
+    each pixel is a triangle of its own, whose rows are memory waits)."""
+    a0, a1, a2, e0, e1, e2 = _run_weights(drawn, t, m, ny)
+    return (a0 + a1 + a2, e0 + e1 + e2,
+            a0 * uvs[t, 0, 0] + a1 * uvs[t, 1, 0] + a2 * uvs[t, 2, 0],
+            e0 * uvs[t, 0, 0] + e1 * uvs[t, 1, 0] + e2 * uvs[t, 2, 0],
+            a0 * uvs[t, 0, 1] + a1 * uvs[t, 1, 1] + a2 * uvs[t, 2, 1],
+            e0 * uvs[t, 0, 1] + e1 * uvs[t, 1, 1] + e2 * uvs[t, 2, 1],
+            0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+@njit(cache=True, inline="always")
 def _run_setup(drawn, t, m, ny, corners, uvs, normals):
     """Triangle t's attributes along pixel row NDC y = ny, as affine functions of NDC x:
     u, v, p (world) and n each (numerator at nx = 0, its slope), and the denominator; the
@@ -156,11 +181,7 @@ def _run_setup(drawn, t, m, ny, corners, uvs, normals):
     a_i - nx * e_i, so each interpolated attribute sum_i A_i b_i is (sum A_i a_i - nx sum A_i
     e_i) / (sum a_i - nx sum e_i): the same perspective-correct interpolation, worked once per
     run of a triangle's pixels instead of per pixel."""
-    x0, x1, x2, y0, y1, y2, w0, w1, w2 = clip_corners(drawn, t, m)
-    v0, v1, v2 = y0 - ny * w0, y1 - ny * w1, y2 - ny * w2
-    a0, e0 = x1 * v2 - x2 * v1, w1 * v2 - w2 * v1
-    a1, e1 = x2 * v0 - x0 * v2, w2 * v0 - w0 * v2
-    a2, e2 = x0 * v1 - x1 * v0, w0 * v1 - w1 * v0
+    a0, a1, a2, e0, e1, e2 = _run_weights(drawn, t, m, ny)
     return (a0 + a1 + a2, e0 + e1 + e2,
             a0 * uvs[t, 0, 0] + a1 * uvs[t, 1, 0] + a2 * uvs[t, 2, 0],
             e0 * uvs[t, 0, 0] + e1 * uvs[t, 1, 0] + e2 * uvs[t, 2, 0],
@@ -206,9 +227,10 @@ def _shade_row(y, x0, x1, stencil, use_stencil, g, xs, tri, m, drawn, corners, u
         t_ahead = tri[y, min(x + _AHEAD, x1 - 1)]
         if t_ahead != ahead:
             ahead = t_ahead
-            prefetch(corners, t_ahead)
+            if lit:
+                prefetch(corners, t_ahead)
+                prefetch(normals, t_ahead)
             prefetch(uvs, t_ahead)
-            prefetch(normals, t_ahead)
             prefetch(drawn, t_ahead)
             prefetch(surface, t_ahead)
         if use_stencil and not stencil[y, x]:
@@ -218,7 +240,8 @@ def _shade_row(y, x0, x1, stencil, use_stencil, g, xs, tri, m, drawn, corners, u
             continue
         if t != last:
             last = t
-            co = _run_setup(drawn, t, m, ny, corners, uvs, normals)
+            co = (_run_setup(drawn, t, m, ny, corners, uvs, normals) if lit
+                  else _run_setup_albedo(drawn, t, m, ny, uvs))
         nx = (x + 0.5) * sx - 1.0
         q = 1.0 / (co[0] - nx * co[1])
         u = (co[2] - nx * co[3]) * q

@@ -22,6 +22,13 @@ def mirror_boxes(surface, n_objects, n_mirrors):
     boxes[:, 0] = h
     boxes[:, 2] = w
     for y in range(h):
+        # a row's greatest id first (a loop without branches, vectorised): most rows hold
+        # no mirror and need no look at each pixel
+        top = -1
+        for x in range(w):
+            top = max(top, surface[y, x])
+        if top < n_objects:
+            continue
         for x in range(w):
             k = surface[y, x] - n_objects
             if 0 <= k < n_mirrors:
@@ -67,12 +74,19 @@ def gather_corners(virtual, hidden, corner_index, surface, n_objects, corners, f
                     | (FLAG_SKIP if every else 0))
 
 
+@njit(cache=True, inline="always")
+def _covered(triangle, stencil, y, x):
+    return stencil[y, x] and triangle[y, x] >= 0
+
+
 @njit(cache=True)
-def fill_cracks(colors, covered, stencil, y0, y1, x0, x1):
+def fill_cracks(colors, triangle, stencil, y0, y1, x0, x1):
     """Close one-pixel cracks between virtual triangles, in place, within rows y0..y1-1 and
     columns x0..x1-1 (the stencil's box): a stencil pixel no fragment covered whose two
     neighbours across it (above and below, or left and right) are covered takes their mean
-    color, summed in float64 in that order (above, below, left, right).
+    color, summed in float64 in that order (above, below, left, right). Covered: a stencil
+    pixel with a triangle (`triangle` (H, W) >= 0) - a masked pass draws nowhere else, and
+    outside the stencil's box its buffer holds whatever an earlier pass left.
 
     Curved reflectors only. Reflected triangles are split n x n with n chosen per triangle
     (by its longest edge), so two neighbours split differently meet in a T-junction; the
@@ -85,14 +99,15 @@ def fill_cracks(colors, covered, stencil, y0, y1, x0, x1):
 
     One thread: a box's few thousand pixels take microseconds, less than a parallel region
     costs when the machine's other work holds a core (its barrier then waits for it)."""
-    h, w = covered.shape
+    h, w = triangle.shape
     for y in range(y0, y1):
         for x in range(x0, x1):
-            if not stencil[y, x] or covered[y, x]:
+            if not stencil[y, x] or triangle[y, x] >= 0:
                 continue
             t0 = t1 = t2 = 0.0
             count = 0
-            if y >= 1 and y + 1 < h and covered[y - 1, x] and covered[y + 1, x]:
+            if (y >= 1 and y + 1 < h and _covered(triangle, stencil, y - 1, x)
+                    and _covered(triangle, stencil, y + 1, x)):
                 t0 += np.float64(colors[y - 1, x, 0])
                 t1 += np.float64(colors[y - 1, x, 1])
                 t2 += np.float64(colors[y - 1, x, 2])
@@ -100,7 +115,8 @@ def fill_cracks(colors, covered, stencil, y0, y1, x0, x1):
                 t1 += np.float64(colors[y + 1, x, 1])
                 t2 += np.float64(colors[y + 1, x, 2])
                 count += 2
-            if x >= 1 and x + 1 < w and covered[y, x - 1] and covered[y, x + 1]:
+            if (x >= 1 and x + 1 < w and _covered(triangle, stencil, y, x - 1)
+                    and _covered(triangle, stencil, y, x + 1)):
                 t0 += np.float64(colors[y, x - 1, 0])
                 t1 += np.float64(colors[y, x - 1, 1])
                 t2 += np.float64(colors[y, x - 1, 2])

@@ -18,7 +18,8 @@ from .refine import mirror_rays
 def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world: np.ndarray,
                  reflected: Triangles, virtual: np.ndarray, flags: np.ndarray,
                  stencil: np.ndarray, box: tuple[int, int, int, int], sid: int,
-                 mirror_plane: np.ndarray | None, reflector_test: str, incoming: np.ndarray,
+                 mirror_plane: np.ndarray | None, reflector_test: str,
+                 incoming: np.ndarray | None,
                  workspace: RasterWorkspace | None = None) -> np.ndarray:
     """(H, W, 3) colors of the virtual triangles `virtual` (T, 3, 3 world, float32) over
     `stencil` (H, W screen) inside `box` (rows y0..y1-1, columns x0..x1-1); `flags` (T,):
@@ -29,7 +30,8 @@ def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world
     Each fragment is shaded as the ray tracer shades the same hit: seen along the reflected
     ray that reaches it, `incoming` (H, W, 3 world: per pixel, the eye ray reflected at the
     reflector point under it; `reflected_rays`), not from the real eye, which sees the
-    original surface from its other side wherever the mirror shows its underside.
+    original surface from its other side wherever the mirror shows its underside. None:
+    shaded from the real eye (only right for unlit shading, which reads no direction).
 
     Only the stencil's pixels of the result are meaningful (the others hold whatever the
     last call left). `workspace` (outputs=True): the rasterizer's buffers and the colors
@@ -55,13 +57,13 @@ def draw_virtual(scene: Scene, primary: Primary, camera: Camera, clip_from_world
     mask = stencil.view(np.uint8) if stencil.dtype == np.bool_ else stencil
     buffers = rasterize(np.ascontiguousarray(virtual, np.float32), flags, clip_from_world,
                         camera.width, camera.height, planes, mask=mask, depth_floor=floor,
-                        workspace=ws)
+                        workspace=ws, clear_outside=False)
     # shaded where the stencil is: fragments (and the pixels fill_cracks reads) lie there
     colors, _ = shade_buffers(buffers, reflected, scene, camera.eye, incoming, stencil=stencil,
                               out=(ws.get("virtual_rgb", (h, w, 3), np.float32),
                                    ws.get("virtual_surface", (h, w), np.int32)), box=box)
     if mirror_plane is None:
-        fill_cracks(colors, buffers.triangle >= 0, stencil, *box)
+        fill_cracks(colors, buffers.triangle, stencil, *box)
     return colors
 
 

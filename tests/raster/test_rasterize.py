@@ -394,3 +394,43 @@ def test_stencil_box_matches_twin():
               for p in (0.001, 0.01, 0.2) for _ in range(20)]
     for s in cases:
         assert stencil_box(s) == naive_stencil_box(s), s.shape
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_clear_outside_false_keeps_pixels_outside_the_box(threads):
+    """A masked pass with clear_outside=False into a workspace's outputs: inside the
+    stencil's box the very bytes of a cleared pass; outside it, what the last call left
+    (virtual's passes read only their box); an empty drawing still clears its box."""
+    from reflectcli.raster.rasterize import RasterWorkspace
+
+    rng = np.random.default_rng(5)
+    cam = camera(w=80, h=60)
+    corners = random_triangles(cam, 400, rng, spread=3.0, size=(0.05, 0.3))
+    m = world_to_clip(cam)
+    flags = np.zeros(len(corners), np.uint8)
+    mask = np.zeros((60, 80), bool)
+    mask[12:37, 20:61] = True
+    mask[12, 20] = mask[30, 50] = False  # the box, not the whole rectangle
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        want = rasterize(corners, flags, m, 80, 60, mask=mask)
+        ws = RasterWorkspace(outputs=True)
+        rasterize(corners, flags, m, 80, 60, workspace=ws)  # the whole image drawn first
+        old_tri = ws.get("tri", (60, 80), np.int32).copy()
+        old_depth = ws.get("depth", (60, 80), np.float32).copy()
+        got = rasterize(corners, flags, m, 80, 60, mask=mask, workspace=ws,
+                        clear_outside=False)
+        inside = np.zeros((60, 80), bool)
+        inside[12:37, 20:61] = True
+        assert (got.triangle[inside] == want.triangle[inside]).all()
+        assert got.depth[inside].tobytes() == want.depth[inside].tobytes()
+        assert (got.triangle[~inside] == old_tri[~inside]).all()
+        assert got.depth[~inside].tobytes() == old_depth[~inside].tobytes()
+        assert (old_tri[~inside] >= 0).sum() > 50 and (want.triangle[inside] >= 0).sum() > 50
+        empty = rasterize(corners[:0], flags[:0], m, 80, 60, mask=mask, workspace=ws,
+                          clear_outside=False)
+        assert (empty.triangle[inside] == -1).all() and np.isinf(empty.depth[inside]).all()
+        assert (empty.triangle[~inside] == old_tri[~inside]).all()
+    finally:
+        numba.set_num_threads(before)

@@ -493,7 +493,8 @@ def test_fill_cracks_closes_one_pixel_gaps_only():
     colors = np.arange(5 * 7 * 3, dtype=np.float32).reshape(5, 7, 3)
     colors[~covered] = -1.0
     stencil = np.ones((5, 7), bool)
-    fill_cracks(colors, covered, stencil, 0, 5, 0, 7)
+    triangle = np.where(covered, 0, -1).astype(np.int32)  # the pass's ids: -1 uncovered
+    fill_cracks(colors, triangle, stencil, 0, 5, 0, 7)
     expected = (colors[2, 2] + colors[2, 4] + colors[1, 3] + colors[3, 3]) / 4
     np.testing.assert_allclose(colors[2, 3], expected)
     np.testing.assert_allclose(colors[3, 5], (colors[3, 4] + colors[3, 6]) / 2)
@@ -564,27 +565,32 @@ def test_welded_tessellation_gives_the_same_virtual_corners():
     same virtual corners bit for bit. Only equal bits are merged (0.0 and -0.0 stay two),
     and explosion reflectors, whose parts read the polygons, keep their points."""
     from reflectcli.techniques.virtual.technique import Virtual
-    from reflectcli.virtual.reflected import reflected_objects, welded
+    from reflectcli.virtual.reflected import reflected_objects, turned_away_from, welded
     from reflectcli.virtual.tessellation import Tessellation
 
     opened = open_scene("four-spheres", "virtual", ())
     scene, state = opened.scene, opened.prepare()
     geometry = scene.geometry(0)
     rule = opened.technique.params.tessellation
-    tess = state.reflected.get(geometry, scene.n_objects, 0, rule)
+    tess = state.reflected.get(geometry, scene.n_objects, 0, rule, closed=state.closed)
     key = next(k for k in state.reflected.entries if k[1] == 0)
+    # as prepare made it: the other spheres' faces turned away from this one left out
+    drop = turned_away_from(geometry, scene.n_objects, state.closed,
+                            state.reflected.radii[(geometry.key, 0)])
+    culled = reflected_objects(geometry, scene.n_objects, scene.n_objects,
+                               rule.subdivisions, *key[3:5], drop)
     plain = reflected_objects(geometry, scene.n_objects, scene.n_objects, rule.subdivisions,
-                              *key[3:])
-    assert len(tess.points) < len(plain.points) / 2
+                              *key[3:5])
+    assert len(tess.points) < len(culled.points) / 2
     assert len(np.unique(tess.points, axis=0)) == len(tess.points)
     np.testing.assert_array_equal(tess.points[tess.corner_index],
-                                  plain.points[plain.corner_index])
+                                  culled.points[culled.corner_index])
     p = scene.mirrors.params[0]
     eye = opened.camera(0).eye
     got, got_hidden = sphere_virtual_vertices(tess.points, eye, p[:3], p[3])
-    want, want_hidden = sphere_virtual_vertices(plain.points, eye, p[:3], p[3])
-    assert got[tess.corner_index].tobytes() == want[plain.corner_index].tobytes()
-    assert (got_hidden[tess.corner_index] == want_hidden[plain.corner_index]).all()
+    want, want_hidden = sphere_virtual_vertices(culled.points, eye, p[:3], p[3])
+    assert got[tess.corner_index].tobytes() == want[culled.corner_index].tobytes()
+    assert (got_hidden[tess.corner_index] == want_hidden[culled.corner_index]).all()
     # bits, not values: 0.0 and -0.0 are two points
     signed = Tessellation(plain.triangles, np.array([[0.0, 1, 2], [-0.0, 1, 2], [0.0, 1, 2]]),
                           np.array([[0, 1, 2]]))
@@ -596,3 +602,50 @@ def test_welded_tessellation_gives_the_same_virtual_corners():
     assert isinstance(explosion.technique, Virtual)
     kept = state.reflected.get(explosion.scene.geometry(0), scene.n_objects, 0, rule)
     assert len(kept.points) == len(plain.points)
+
+
+@pytest.mark.parametrize("scene", ["four-spheres", "four-spheres-lit"])
+def test_faces_turned_away_from_the_reflector_change_no_pixel(scene):
+    """prepare leaves out the other spheres' faces turned away from a whole reflector
+    (reflected.turned_away): the frame is the same bytes as with every face reflected, with
+    far fewer virtual triangles and searches."""
+    overrides = ["camera.width=256", "camera.height=256"]
+    culled = open_scene(scene, "virtual", overrides)
+    frame = culled.render_frame(0)
+    every = open_scene(scene, "virtual", overrides)
+    state = every.prepare()
+    state.__dict__["closed"] = ()  # the cached property: no closed surfaces
+    state.reflected.entries.clear()
+    for k in range(every.scene.mirrors.count):  # re-made (and welded) as prepare would
+        state.reflected.get(every.scene.geometry(0), every.scene.n_objects, k,
+                            every.technique.params.tessellation, weld=True)
+    full = every.render_frame(0)
+    assert frame.rgb.tobytes() == full.rgb.tobytes()
+    assert frame.surface.tobytes() == full.surface.tobytes()
+    assert frame.stats["virtual_triangles"] < 0.8 * full.stats["virtual_triangles"]
+    assert frame.stats["virtual_vertices"] < 0.85 * full.stats["virtual_vertices"]
+
+
+def test_turned_away_marks_faces_whose_plane_hides_the_whole_ball():
+    """A closed sphere mesh beside a ball: a face is marked exactly when the ball lies
+    wholly behind its plane (outward: away from the mesh's corner mean); other surfaces
+    are never marked."""
+    from reflectcli.scene.types import Triangles
+    from reflectcli.virtual.reflected import BALL_MARGIN, turned_away
+
+    sphere = primitives.uv_sphere(1.0, 12)
+    n = len(sphere.corners)
+    corners = np.concatenate([sphere.corners, sphere.corners + 5.0]).astype(np.float32)
+    tris = Triangles(corners, np.zeros((2 * n, 3, 2), np.float32),
+                     np.zeros((2 * n, 3, 3), np.float32), np.zeros(2 * n, np.int32),
+                     np.repeat(np.array([7, 3], np.int32), n))
+    center, radius = np.array([3.0, 0.5, 0.0]), 0.6
+    got = turned_away(tris, (7,), center, radius)
+    assert not got[n:].any()  # surface 3 is not closed here
+    c = corners[:n].astype(np.float64)
+    normal = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    normal *= np.sign(np.einsum("ij,ij->i", normal, c[:, 0]))[:, None]  # outward
+    gap = np.einsum("ij,ij->i", normal, center - c[:, 0])  # the ball center above the plane
+    np.testing.assert_array_equal(got[:n], gap + radius * (1.0 + BALL_MARGIN) < 0.0)
+    assert 0.3 * n < got[:n].sum() < 0.7 * n

@@ -735,12 +735,17 @@ def test_fill_cracks_match_twin(seed):
     covered = rng.random((h, w)) < 0.8
     stencil = covered | (rng.random((h, w)) < 0.7)
     stencil[:2] = False  # a box that is not the whole image
+    # the pass's triangle ids: drawn only on the stencil; elsewhere whatever an earlier
+    # pass left (ids or -1), which must not count
+    triangle = np.where(covered, rng.integers(0, 50, (h, w)), -1).astype(np.int32)
+    stale = ~stencil & (rng.random((h, w)) < 0.5)
+    triangle[stale] = rng.integers(0, 50, int(stale.sum()))
     covered &= stencil
     colors = rng.random((h, w, 3)).astype(np.float32)
     want = colors.copy()
     naive_fill_cracks(want, covered, stencil)
     ys, xs = np.nonzero(stencil)
-    compose.fill_cracks(colors, covered, stencil, ys.min(), ys.max() + 1, xs.min(),
+    compose.fill_cracks(colors, triangle, stencil, ys.min(), ys.max() + 1, xs.min(),
                         xs.max() + 1)
     assert colors.tobytes() == want.tobytes()
 

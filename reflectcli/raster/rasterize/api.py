@@ -25,6 +25,7 @@ def rasterize(
     mask: np.ndarray | None = None,
     depth_floor: np.ndarray | None = None,
     workspace: RasterWorkspace | None = None,
+    clear_outside: bool = True,
 ) -> RasterBuffers:
     """Rasterize world-space triangles (T, 3, 3) with an OpenGL-style world->clip matrix.
 
@@ -37,6 +38,9 @@ def rasterize(
     of its bounding box are visited. `depth_floor` (H, W) eye-space depths: fragments at or
     in front of it are dropped (a second z-buffer, e.g. a curved reflector's own depth).
     `workspace`: scratch arrays to reuse (see RasterWorkspace).
+    `clear_outside` False (a masked pass into a workspace's outputs, read only inside the
+    stencil's box): the pixels outside that box keep what the last call left, not cleared
+    (a 512^2 pass over a small reflector's box wrote the whole image: 2 MB a pass).
     """
     ws = workspace if workspace is not None else RasterWorkspace()
     if planes is None:
@@ -96,6 +100,7 @@ def rasterize(
     else:
         own_tri = ws.get("own_tri", (0, *box), np.int32)
         own_key = ws.get("own_key", (0, *box), np.float32)
-    _resolve(flags, x0, x1, y0, y1, own_tri, own_key, drew, tri, depth)
+    _resolve(flags, x0, x1, y0, y1, own_tri, own_key, drew, tri, depth,
+             clear_outside or mask is None)
     return RasterBuffers(tri, None, None, depth, corners, m, out)
 

@@ -9,22 +9,26 @@ from .constants import FLAG_MIRROR
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _resolve(flags, col0, col1, top, bottom, own_tri, own_key, drew, tri, depth):
+def _resolve(flags, col0, col1, top, bottom, own_tri, own_key, drew, tri, depth, clear):
     """Merge the threads' buffers (greatest key, then lowest triangle index) into `tri`, and
     eye depth w = 1 / (1/w) from the key (a mirror's divided by MIRROR_TIE); buffers of
     threads that drew nothing (`drew`) are left out. Pixels outside the box [top, bottom)
-    x [col0, col1) get no triangle. Each row goes in passes without branches (they
+    x [col0, col1) get no triangle; unless `clear` is False: then they keep what they held
+    (only the box's rows are visited). Each row goes in passes without branches (they
     vectorise): the first drawing thread's buffers, the others' merged in, then the keys
     (kept in `depth` meanwhile) turned to depths."""
     h, w = tri.shape
     owners = np.flatnonzero(drew)
-    for py in prange(h):
+    # the rows and columns this call writes: the image, or (clear False) the box
+    r0, r1 = (0, h) if clear else (max(top, 0), min(bottom, h))
+    lo, hi = (0, w) if clear else (col0, col1)
+    for py in prange(r0, r1):
         inside = top <= py < bottom and owners.size > 0
         first, last = (col0, col1) if inside else (w, w)
-        for px in range(min(first, w)):
+        for px in range(lo, min(first, hi)):
             tri[py, px] = -1
             depth[py, px] = np.inf
-        for px in range(last, w):
+        for px in range(max(last, lo), hi):
             tri[py, px] = -1
             depth[py, px] = np.inf
         if not inside:

@@ -37,7 +37,7 @@ from ...frame import Frame
 from ...raster.primary import render_primary
 from ...raster.rasterize import RasterWorkspace
 from ...raster.shade import add_reflection
-from ...scene.types import PLANAR, Scene
+from ...scene.types import PLANAR, SPHERE, UNLIT, Scene
 from ...virtual.compose import gather_corners, mirror_boxes
 from ...virtual.dispatch import choose_method, facing_plane, reflector_parts
 from ...virtual.raster import draw_virtual, reflected_rays
@@ -62,6 +62,14 @@ class VirtualState:
     primary_raster: RasterWorkspace = field(default_factory=RasterWorkspace)
     virtual_raster: RasterWorkspace = field(
         default_factory=lambda: RasterWorkspace(outputs=True))
+
+    @cached_property
+    def closed(self) -> tuple[int, ...]:
+        """Surface ids of the sphere mirrors: closed convex meshes, whose faces turned away
+        from a whole reflector it never reflects (reflected.turned_away)."""
+        mirrors = self.scene.mirrors
+        return tuple(self.scene.n_objects + j for j in range(mirrors.count)
+                     if mirrors.kind[j] == SPHERE)
 
     @cached_property
     def scene_points(self) -> np.ndarray:
@@ -96,7 +104,7 @@ class Virtual(Technique):
             # points welded for the vertex functions of one point at a time (explosion
             # parts read the polygons: kept as tessellated)
             state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation,
-                                weld=method != "explosion")
+                                weld=method != "explosion", closed=state.closed)
             if method != "explosion":
                 continue
             first, count = int(mine[0]), int(mine.size)  # a reflector's triangles are contiguous
@@ -125,7 +133,7 @@ class Virtual(Technique):
         primary = render_primary(scene, frame_index, camera, workspace=state.primary_raster)
         result = primary.frame
         geometry = scene.geometry(frame_index)
-        clip_from_world = camera.clip_from_world()
+        clip_from_world = primary.buffers.clip_from_world  # the camera's (85 us to make)
         stats = {"virtual_vertices": 0, "virtual_triangles": 0, "reflector_parts": 0}
         seconds = dict.fromkeys(("tessellate", "maps", "virtual_vertices", "virtual_raster"),
                                 0.0)
@@ -134,7 +142,9 @@ class Virtual(Technique):
         counts, boxes = mirror_boxes(result.surface, scene.n_objects, scene.mirrors.count)
         seen = np.flatnonzero(counts)
         incoming = None  # per pixel, the reflected ray shading sees its fragment along
-        if seen.size:
+        # (lit shading only: unlit shading reads the albedo alone, so the rays, 0.8 ms of
+        # four-spheres' frame at 1 thread, would go unread)
+        if seen.size and scene.shading != UNLIT:
             box = (int(boxes[seen, 0].min()), int(boxes[seen, 1].max()),
                    int(boxes[seen, 2].min()), int(boxes[seen, 3].max()))
             incoming = reflected_rays(primary, camera.eye, box, state.virtual_raster)
@@ -143,7 +153,8 @@ class Virtual(Technique):
         for k in (int(k) for k in seen):
             box = tuple(int(v) for v in boxes[k])
             t_start = time.perf_counter()
-            tess = state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation)
+            tess = state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation,
+                                       closed=state.closed)
             seconds["tessellate"] += time.perf_counter() - t_start
             mirror_plane = None
             if scene.mirrors.kind[k] == PLANAR:
