@@ -59,25 +59,23 @@ def trace_segments(seg_len, counts, rows_per_seg, cam, buffers, tfars, objects, 
     first_hits, hits = hits
     # one item per thread, each claiming the next segment until none is left (parallel.py)
     claimed = np.zeros(1, np.int64)
+    whole = 1 << 62  # a view's length reaching the end of any array (slices clamp)
     for w in prange(threads):
         while True:
             k = claim(claimed)
             if k >= counts.shape[0]:
                 break
+            # one call of the inlined segment (two would compile it twice): views of the
+            # scratch rows and output rows this segment uses, from which its rays start at lo
             if per_worker:  # scratch rows w * seg_len .., outputs from row k * seg_len
-                _segment(k, 0, seg_len, counts, rows_per_seg, cam,
-                         _rows4(rays_a, w * seg_len, seg_len), _rows4(rays_b, w * seg_len, seg_len),
-                         tfars, _rows_hits(objects, w * seg_len, seg_len),
-                         _rows_hits(mirrors, w * seg_len, seg_len),
-                         _rows_analytic(analytic, w * seg_len, seg_len), surfaces, bounces,
-                         max_depth, _rows2(first_hits, k * seg_len, seg_len),
-                         _rows2(hits, w * seg_len, seg_len), color[k * seg_len:(k + 1) * seg_len],
-                         near, reflected_hit[k * seg_len:(k + 1) * seg_len], traced)
-            else:
-                _segment(k, k * seg_len, seg_len, counts, rows_per_seg, cam, rays_a, rays_b,
-                         tfars, objects, mirrors, analytic, surfaces, bounces, max_depth,
-                         first_hits, hits, color, near, reflected_hit, traced)
-
+                lo, s0, sn, o0, on = 0, w * seg_len, seg_len, k * seg_len, seg_len
+            else:  # the frame-wide arrays, rays from row k * seg_len
+                lo, s0, sn, o0, on = k * seg_len, 0, whole, 0, whole
+            _segment(k, lo, seg_len, counts, rows_per_seg, cam, _rows4(rays_a, s0, sn),
+                     _rows4(rays_b, s0, sn), tfars, _rows_hits(objects, s0, sn),
+                     _rows_hits(mirrors, s0, sn), _rows_analytic(analytic, s0, sn), surfaces,
+                     bounces, max_depth, _rows2(first_hits, o0, on), _rows2(hits, s0, sn),
+                     color[o0:o0 + on], near, reflected_hit[o0:o0 + on], traced)
 
 @njit(cache=True, inline="always")
 def _rows2(arrays, start, n):
