@@ -12,7 +12,7 @@ from test_shading_raster_twins import CAMERAS, lights, materials
 from reflectcli.scene.types import CYLINDER, LAMBERT, MESH, MIRROR_PARAMS, PLANAR, SPHERE, UNLIT
 from reflectcli.trace.analytic import quad_edges, screen_boxes
 from reflectcli.trace.rays import camera_rays
-from reflectcli.trace.resolve import _pick, resolve_range
+from reflectcli.trace.resolve import _pick, planar_units, resolve_range
 from reflectcli.trace.wave import trace_segments
 
 
@@ -83,7 +83,7 @@ def test_resolve_matches_twin(seed, follow, shading):
     color = rng.random((n, 3)).astype(np.float32)
     surfaces = (corners, uvs, normals, material, surface, m_corners, m_normals, m_surface, kind,
                 params, m_refl, m_base, n_objects, mat_i, mat_f, texels, light_f, shading, 0.1,
-                background)
+                background, planar_units(kind, params))
     hits = ((t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m), (t_a, k_a))
 
     def run(weight, slot, color, first, lo=0, hi=n, start=3):
@@ -170,7 +170,7 @@ def wave_scene(rng, shading):
     background = rng.random(3).astype(np.float32)
     surfaces = (corners, uvs, normals, material, surface, m_corners, m_normals, m_surface, kind,
                 params, m_refl, m_base, n_objects, mat_i, mat_f, texels, lights(rng), shading,
-                0.1, background)
+                0.1, background, planar_units(kind, params))
     return corners, m_corners, kind, params, surfaces
 
 
