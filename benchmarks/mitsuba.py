@@ -21,6 +21,9 @@ bounces, no light or shadow rays. Only unlit scenes with planar (triangle) mirro
 Mitsuba runs in a subprocess (this file with `--worker`, under the Mitsuba python) that renders
 one frame per request; the frames alternate with reflect's (one of each per round, medians
 after warm-up, `--gap` seconds of idle before each), so a busy machine slows both alike.
+Each side's CPU time for its frame (all threads of its process, Linux) is reported too, with
+the other side's CPU time during that frame (which shows whether either spills onto the
+other's frame).
 A Mitsuba frame is `mi.render` of the scene (its JIT traces the integrator, finds the
 compiled kernel in its cache, launches it) plus waiting for the image; its first frame, which
 compiles the kernel (or loads it from Dr.Jit's disk cache), is reported apart.
