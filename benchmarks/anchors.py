@@ -330,6 +330,13 @@ def bench_mitsuba(reps: int, python: str | None, threads: int) -> None:
         f"{ms(r['mitsuba'])} ({r['version']['variant']}; first frame "
         f"{1e3 * r['mitsuba_first']:.0f} ms)", ms(r["reflect"]),
         ratio(r["reflect"], r["mitsuba"]), "<= 1")
+    add("raytrace frame vs Mitsuba 3, CPU time (all threads of each process)",
+        f"{ms(r['mitsuba_cpu'])}", ms(r["reflect_cpu"]),
+        ratio(r["reflect_cpu"], r["mitsuba_cpu"]), "<= 1")
+    print(f"    CPU of the other side during a frame (median): Mitsuba's worker during "
+          f"reflect's {1e3 * np.median(r['mitsuba_during_reflect']):.2f} ms, reflect's "
+          f"process during Mitsuba's {1e3 * np.median(r['reflect_during_mitsuba']):.2f} ms",
+          flush=True)
 
 
 def main() -> None:

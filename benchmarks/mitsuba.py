@@ -21,6 +21,9 @@ bounces, no light or shadow rays. Only unlit scenes with planar (triangle) mirro
 Mitsuba runs in a subprocess (this file with `--worker`, under the Mitsuba python) that renders
 one frame per request; the frames alternate with reflect's (one of each per round, medians
 after warm-up, `--gap` seconds of idle before each), so a busy machine slows both alike.
+Each side's CPU time for its frame (all threads of its process, Linux) is reported too, with
+the other side's CPU time during that frame (which shows whether either spills onto the
+other's frame).
 A Mitsuba frame is `mi.render` of the scene (its JIT traces the integrator, finds the
 compiled kernel in its cache, launches it) plus waiting for the image; its first frame, which
 compiles the kernel (or loads it from Dr.Jit's disk cache), is reported apart.
@@ -233,6 +236,22 @@ class Worker:
         self.proc.stdin.flush()
         return self._reply()["seconds"]
 
+    def cpu_seconds(self) -> float:
+        """CPU time the worker process (all its threads) has used so far (Linux schedstat,
+        nanoseconds; 0 where /proc is missing)."""
+        total = 0
+        try:
+            tasks = os.listdir(f"/proc/{self.proc.pid}/task")
+        except OSError:
+            return 0.0
+        for task in tasks:
+            try:
+                with open(f"/proc/{self.proc.pid}/task/{task}/schedstat") as f:
+                    total += int(f.read().split()[0])
+            except (OSError, ValueError, IndexError):
+                pass
+        return total * 1e-9
+
     def close(self) -> None:
         if self.proc.poll() is None:
             self.proc.stdin.write("quit\n")
@@ -243,7 +262,8 @@ class Worker:
 def compare(scene: str, python: str, reps: int, threads: int, variant: str,
             max_depth: int | None = None, gap: float = 0.1) -> dict | None:
     """Alternating frames of reflect's raytrace and Mitsuba's; None when Mitsuba is missing.
-    Returns seconds per frame (arrays), the Mitsuba first frame, rays, and an image check.
+    Returns seconds per frame (arrays; also each side's CPU time for its frame, and the other
+    side's CPU time during it), the Mitsuba first frame, rays, and an image check.
     `gap` seconds pass before each frame, so that neither frame starts while the other
     renderer's worker threads may still be spinning after its own. On a machine shared with
     other work, 2-thread figures mostly say whether the second core was free: reflect runs
@@ -267,22 +287,36 @@ def compare(scene: str, python: str, reps: int, threads: int, variant: str,
             ours = opened.render_frame(0)
             theirs = np.load(folder / "image.npy")[..., :3]
             times = {"reflect": [], "mitsuba": []}
+            # the other side's CPU time during each frame: a renderer whose threads still
+            # spin (or work) while the other's frame runs would take its cores
+            # and each side's own CPU time (all its threads) for its frame: at 1 thread the
+            # work itself, whatever the machine's other load does to wall time
+            busy = {"mitsuba_during_reflect": [], "reflect_during_mitsuba": [],
+                    "reflect_cpu": [], "mitsuba_cpu": []}
             for rep in range(reps + 2):  # two warm-up rounds
                 time.sleep(gap)
+                other, mine = worker.cpu_seconds(), time.process_time()
                 t = time.perf_counter()
                 opened.render_frame(0)
                 t_reflect = time.perf_counter() - t
+                other, mine = worker.cpu_seconds() - other, time.process_time() - mine
                 time.sleep(gap)
+                theirs, mine_then = worker.cpu_seconds(), time.process_time()
                 t_mitsuba = worker.frame()
+                theirs, mine_then = (worker.cpu_seconds() - theirs,
+                                     time.process_time() - mine_then)
                 if rep >= 2:
                     times["reflect"].append(t_reflect)
                     times["mitsuba"].append(t_mitsuba)
+                    for k, x in zip(busy, (other, mine_then, mine, theirs), strict=True):
+                        busy[k].append(x)
         finally:
             worker.close()
     diff = np.abs(ours.rgb - theirs).max(axis=-1)
     return {
         "reflect": np.array(times["reflect"]), "mitsuba": np.array(times["mitsuba"]),
         "mitsuba_first": first, "rays": ours.stats["rays"], "max_depth": depth,
+        **{k: np.array(v) for k, v in busy.items()},
         "version": worker.ready, "size": ours.rgb.shape[:2],
         # 1 spp jitters Mitsuba's sample in the pixel: edges differ, flat areas agree
         "close": float(np.mean(diff < 0.02)),
@@ -330,6 +364,12 @@ def main() -> None:
     print(f"  Mitsuba:          {ms(r['mitsuba'])}")
     print(f"  reflect / Mitsuba: {np.median(r['reflect']) / np.median(r['mitsuba']):.2f}x "
           f"(minima {r['reflect'].min() / r['mitsuba'].min():.2f}x; goal <= 1)")
+    print(f"  CPU time a frame (all threads of each process): reflect {ms(r['reflect_cpu'])}, "
+          f"Mitsuba {ms(r['mitsuba_cpu'])}: "
+          f"{np.median(r['reflect_cpu']) / np.median(r['mitsuba_cpu']):.2f}x")
+    print(f"  CPU of the other side during a frame (median): Mitsuba's worker during "
+          f"reflect's {1e3 * np.median(r['mitsuba_during_reflect']):.2f} ms, reflect's "
+          f"process during Mitsuba's {1e3 * np.median(r['reflect_during_mitsuba']):.2f} ms")
     print(f"  images: {100 * r['close']:.1f}% of pixels within 0.02 (Mitsuba jitters its "
           f"1 sample in the pixel)")
 

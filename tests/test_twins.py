@@ -127,6 +127,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "trace/resolve.py:_pick": ([T + "test_pick_matches_twin_on_ties_and_misses",
                                T + "test_resolve_matches_twin"], None),
     "trace/resolve.py:resolve_range": ([T + "test_resolve_matches_twin"] + WAVE, None),
+    "trace/resolve.py:planar_units": ([T + "test_planar_units_match_twin",
+                                       T + "test_resolve_matches_twin"] + WAVE, None),
     "trace/wave.py:trace_segments": (WAVE + FRAMES, None),
     "trace/wave.py:_segment": (WAVE + FRAMES, "trace_segments"),
     "parallel.py:claim": (WAVE + FRAMES + [R + "test_deterministic_across_thread_counts",

@@ -55,6 +55,20 @@ def _pick(t_o, t_m, t_a):
     return which
 
 
+@njit(cache=True)
+def planar_units(kind, params):
+    """(M, 3) float64: each planar mirror's unit normal (rows of other mirrors unset), by the
+    same expression resolve_range would use per ray (the same bits)."""
+    unit = np.empty((kind.shape[0], 3))
+    for k in range(kind.shape[0]):
+        if kind[k] == PLANAR:
+            gx, gy, gz = (params[k, PLANE_NORMAL], params[k, PLANE_NORMAL + 1],
+                          params[k, PLANE_NORMAL + 2])
+            inv = 1.0 / np.sqrt(gx * gx + gy * gy + gz * gz)
+            unit[k, 0], unit[k, 1], unit[k, 2] = gx * inv, gy * inv, gz * inv
+    return unit
+
+
 @njit(cache=True, inline="always")
 def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surfaces, follow, color,
                   hits, out_rays, out_start, first):
@@ -73,7 +87,8 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
     dirs, weight, slot); the hits (t, primitive, u, v) of objects and of mesh mirrors and
     (t, mirror) of analytic ones; surfaces (objects' corners, uvs, normals, material,
     surface; mesh mirrors' corners, normals, surface; mirrors' kind, params, reflectance,
-    base; n_objects; mat_i, mat_f, texels, light_f, shading, ambient, background); hits
+    base; n_objects; mat_i, mat_f, texels, light_f, shading, ambient, background; the
+    mirrors' `planar_units`, made once a frame, not once a wave of a segment); hits
     (hit_t, hit_surface); out_rays (origins, dirs, weights, slots)."""
     origins, dirs, weight, slot = rays
     t_o, p_o, u_o, v_o = object_hits
@@ -81,18 +96,10 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
     t_a, k_a = analytic_hits
     (corners, uvs, normals, material, surface, m_corners, m_normals, m_surface, m_kind,
      m_params, m_refl, m_base, n_objects, mat_i, mat_f, texels, light_f, shading, ambient,
-     background) = surfaces
+     background, unit) = surfaces
     hit_t, hit_surface = hits
     out_o, out_d, out_w, out_slot = out_rays
     j = out_start
-    # planar mirrors' unit normals, worked out once (the same expression as per ray below)
-    unit = np.empty((m_kind.shape[0], 3))
-    for k in range(m_kind.shape[0]):
-        if m_kind[k] == PLANAR:
-            gx, gy, gz = (m_params[k, PLANE_NORMAL], m_params[k, PLANE_NORMAL + 1],
-                          m_params[k, PLANE_NORMAL + 2])
-            inv = 1.0 / np.sqrt(gx * gx + gy * gy + gz * gz)
-            unit[k, 0], unit[k, 1], unit[k, 2] = gx * inv, gy * inv, gz * inv
     for i in range(lo, hi):
         if first:
             s = np.int64(i)
@@ -154,19 +161,22 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
             t = np.float64(t_a[i])
             k = k_a[i]
             planar = m_kind[k] == PLANAR
-            p = m_params[k]
             px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
             if m_kind[k] == PLANAR:
-                gx, gy, gz = p[PLANE_NORMAL], p[PLANE_NORMAL + 1], p[PLANE_NORMAL + 2]
+                gx = m_params[k, PLANE_NORMAL]
+                gy = m_params[k, PLANE_NORMAL + 1]
+                gz = m_params[k, PLANE_NORMAL + 2]
             elif m_kind[k] == SPHERE:
-                gx = px - p[SPHERE_CENTER]
-                gy = py - p[SPHERE_CENTER + 1]
-                gz = pz - p[SPHERE_CENTER + 2]
+                gx = px - m_params[k, SPHERE_CENTER]
+                gy = py - m_params[k, SPHERE_CENTER + 1]
+                gz = pz - m_params[k, SPHERE_CENTER + 2]
             else:  # CYLINDER: radial direction from the axis
-                lx = px - p[CYLINDER_ORIGIN]
-                ly = py - p[CYLINDER_ORIGIN + 1]
-                lz = pz - p[CYLINDER_ORIGIN + 2]
-                ax, ay, az = p[CYLINDER_AXIS], p[CYLINDER_AXIS + 1], p[CYLINDER_AXIS + 2]
+                lx = px - m_params[k, CYLINDER_ORIGIN]
+                ly = py - m_params[k, CYLINDER_ORIGIN + 1]
+                lz = pz - m_params[k, CYLINDER_ORIGIN + 2]
+                ax = m_params[k, CYLINDER_AXIS]
+                ay = m_params[k, CYLINDER_AXIS + 1]
+                az = m_params[k, CYLINDER_AXIS + 2]
                 h = lx * ax + ly * ay + lz * az
                 gx, gy, gz = lx - h * ax, ly - h * ay, lz - h * az
             nx, ny, nz = gx, gy, gz

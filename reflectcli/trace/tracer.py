@@ -21,6 +21,7 @@ from ..scene.types import Geometry, Scene
 from .analytic import has_analytic, quad_edges, screen_boxes
 from .embree import TriangleScene
 from .rays import camera_rays, primary_rays
+from .resolve import planar_units
 from .wave import trace_segments
 
 _FAR_AWAY = np.float32(1e30)  # tfar of reflected rays
@@ -35,6 +36,7 @@ class TraceBuffers:
     def __init__(self) -> None:
         self._arrays: dict[str, np.ndarray] = {}
         self._edges: tuple[np.ndarray, np.ndarray] | None = None  # (mirror params, edges)
+        self._units: tuple[np.ndarray, np.ndarray] | None = None  # (mirror params, units)
 
     def quad_edges(self, kind: np.ndarray, params: np.ndarray) -> np.ndarray:
         """analytic.quad_edges of the scene's mirrors, made once (the mirrors' parameters
@@ -42,6 +44,12 @@ class TraceBuffers:
         if self._edges is None or self._edges[0] is not params:
             self._edges = (params, quad_edges(kind, params))
         return self._edges[1]
+
+    def planar_units(self, kind: np.ndarray, params: np.ndarray) -> np.ndarray:
+        """resolve.planar_units of the scene's mirrors, made once (as quad_edges)."""
+        if self._units is None or self._units[0] is not params:
+            self._units = (params, planar_units(kind, params))
+        return self._units[1]
 
     def get(self, name: str, n: int, dtype, width: int = 0) -> np.ndarray:
         """The first n rows of buffer `name` ((n,) or (n, width)), grown when too small;
@@ -161,7 +169,7 @@ class _Segments:
             accel.mirror_normals, accel.mirror_surface, m.kind, m.params, m.reflectance,
             m.base, scene.n_objects, scene.materials.mat_i, scene.materials.mat_f,
             scene.materials.texels, scene.lights.light_f, scene.shading, scene.ambient,
-            scene.background)
+            scene.background, accel.buffers.planar_units(m.kind, m.params))
         self.analytic = (has_analytic(m.kind), m.kind,
                          np.ascontiguousarray(m.params, dtype=np.float64),
                          accel.buffers.quad_edges(m.kind, m.params),

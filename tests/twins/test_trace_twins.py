@@ -7,12 +7,13 @@ import numpy as np
 import pytest
 from conftest import compiled_only
 from naive import compact, embreex_hits, pick, primary_rays, resolve, wave
+from naive import planar_units as planar_units_twin
 from test_shading_raster_twins import CAMERAS, lights, materials
 
 from reflectcli.scene.types import CYLINDER, LAMBERT, MESH, MIRROR_PARAMS, PLANAR, SPHERE, UNLIT
 from reflectcli.trace.analytic import quad_edges, screen_boxes
 from reflectcli.trace.rays import camera_rays
-from reflectcli.trace.resolve import _pick, resolve_range
+from reflectcli.trace.resolve import _pick, planar_units, resolve_range
 from reflectcli.trace.wave import trace_segments
 
 
@@ -36,6 +37,21 @@ def mirror_params(rng):
     a = rng.normal(size=3)
     params[2, :8] = (*rng.normal(size=3), *(a / np.linalg.norm(a)), 0.5, 2.0)
     return kind, params
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_planar_units_match_twin(seed):
+    """The planar mirrors' unit normals resolve_range reads (made once a frame), against the
+    twin's normal over its length, on random normals of any length and kind."""
+    rng = np.random.default_rng(seed)
+    kind = rng.choice(np.array([PLANAR, SPHERE, CYLINDER, MESH], np.int32), 12)
+    params = np.zeros((12, MIRROR_PARAMS))
+    params[:, :3] = rng.normal(size=(12, 3)) * 10.0 ** rng.uniform(-3, 3, (12, 1))
+    got, want = planar_units(kind, params), planar_units_twin(kind, params)
+    planar = kind == PLANAR
+    np.testing.assert_allclose(got[planar], want[planar], rtol=1e-15, atol=0)
+    np.testing.assert_allclose(np.linalg.norm(got[planar], axis=1), 1.0, rtol=1e-15)
+    assert planar_units(kind[:0], params[:0]).shape == (0, 3)
 
 
 @pytest.mark.parametrize("shading", [UNLIT, LAMBERT])
@@ -83,7 +99,7 @@ def test_resolve_matches_twin(seed, follow, shading):
     color = rng.random((n, 3)).astype(np.float32)
     surfaces = (corners, uvs, normals, material, surface, m_corners, m_normals, m_surface, kind,
                 params, m_refl, m_base, n_objects, mat_i, mat_f, texels, light_f, shading, 0.1,
-                background)
+                background, planar_units(kind, params))
     hits = ((t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m), (t_a, k_a))
 
     def run(weight, slot, color, first, lo=0, hi=n, start=3):
@@ -170,7 +186,7 @@ def wave_scene(rng, shading):
     background = rng.random(3).astype(np.float32)
     surfaces = (corners, uvs, normals, material, surface, m_corners, m_normals, m_surface, kind,
                 params, m_refl, m_base, n_objects, mat_i, mat_f, texels, lights(rng), shading,
-                0.1, background)
+                0.1, background, planar_units(kind, params))
     return corners, m_corners, kind, params, surfaces
 
 
