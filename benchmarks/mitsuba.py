@@ -301,14 +301,14 @@ def compare(scene: str, python: str, reps: int, threads: int, variant: str,
                 t_reflect = time.perf_counter() - t
                 other, mine = worker.cpu_seconds() - other, time.process_time() - mine
                 time.sleep(gap)
-                theirs, mine_then = worker.cpu_seconds(), time.process_time()
+                their_cpu, mine_then = worker.cpu_seconds(), time.process_time()
                 t_mitsuba = worker.frame()
-                theirs, mine_then = (worker.cpu_seconds() - theirs,
-                                     time.process_time() - mine_then)
+                their_cpu, mine_then = (worker.cpu_seconds() - their_cpu,
+                                        time.process_time() - mine_then)
                 if rep >= 2:
                     times["reflect"].append(t_reflect)
                     times["mitsuba"].append(t_mitsuba)
-                    for k, x in zip(busy, (other, mine_then, mine, theirs), strict=True):
+                    for k, x in zip(busy, (other, mine_then, mine, their_cpu), strict=True):
                         busy[k].append(x)
         finally:
             worker.close()

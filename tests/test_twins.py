@@ -93,7 +93,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize/rows.py:_rows": (RASTER, "_fill"),
     "raster/rasterize/draw.py:_draw_clipped": (CLIP, "_draw"),
     "raster/rasterize/clip.py:_clip_polygon": (CLIP, "_draw_clipped"),
-    "raster/rasterize/resolve.py:_resolve": (RASTER, "rasterize"),
+    "raster/rasterize/resolve.py:_resolve": (
+        RASTER + [R + "test_clear_outside_false_keeps_pixels_outside_the_box"], "rasterize"),
     "raster/rasterize/stencil.py:stencil_box": ([R + "test_stencil_box_matches_twin"], None),
     "raster/rasterize/clip.py:_box_misses": (
         [R + "test_skipping_chunks_by_their_boxes_changes_nothing"], "_draw"),
@@ -199,10 +200,10 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/refine.py:_sample_slope": ([V + "test_grid_sample_matches_twin",
                                          V + "test_grid_sample_slope_matches_twin"] + REFINE,
                                         None),
-    "virtual/refine.py:_walk": (REFINE, "_refine"),
+    "virtual/refine.py:_walk": (REFINE, None),  # the serial walk, held to refine_walk
     "virtual/refine.py:_refine": (REFINE, "refine_virtual"),
-    "virtual/refine.py:_step": (REFINE, "_walk"),
-    "virtual/refine.py:_walk_end": (REFINE, "_walk"),
+    "virtual/refine.py:_step": (REFINE, "_refine"),
+    "virtual/refine.py:_walk_end": (REFINE, "_refine"),
     "virtual/refine.py:_begin": (REFINE, "_refine"),
     "virtual/refine.py:_start": (REFINE, "_refine"),
     "virtual/refine.py:_finish": (REFINE, "_refine"),

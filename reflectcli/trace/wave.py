@@ -77,6 +77,7 @@ def trace_segments(seg_len, counts, rows_per_seg, cam, buffers, tfars, objects, 
                      bounces, max_depth, _rows2(first_hits, o0, on), _rows2(hits, s0, sn),
                      color[o0:o0 + on], near, reflected_hit[o0:o0 + on], traced)
 
+
 @njit(cache=True, inline="always")
 def _rows2(arrays, start, n):
     """Rows start .. start + n - 1 of each of two arrays (views)."""

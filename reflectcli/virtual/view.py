@@ -26,7 +26,8 @@ class PartView:
     its parts in one plane (`owner`, shared by the parts), not one plane per part: a
     part's pixels are found where owner == part, its faces through `local`."""
 
-    owner: np.ndarray  # (H, W) int16 screen: the part under each pixel, or -1 (shared)
+    # (H, W) int16 (int32 past 32,767 parts) screen: the part under each pixel, or -1 (shared)
+    owner: np.ndarray
     part: int  # this part's index, as `owner` holds it
     triangle: np.ndarray  # (H, W) int32 screen: the reflector face under each pixel, or -1
     local: np.ndarray  # (F + 1,) int32: reflector face -> this part's face, or -1 (last: -1)
@@ -56,11 +57,12 @@ def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorSha
     h, w = alone.triangle.shape
     parts = len(shape.parts)
     local = np.full((parts, count + 1), -1, np.int32)  # face -> part face
-    part_of = np.full(count + 1, -1, np.int16)  # face -> part (the parts split the faces)
+    # face -> part (the parts split the faces); int16 halves the owner plane's reads
+    part_of = np.full(count + 1, -1, np.int16 if parts < 2**15 else np.int32)
     for p, part in enumerate(shape.parts):
         local[p, part.faces] = np.arange(len(part.faces))
         part_of[part.faces] = p
-    owner = np.empty((h, w), np.int16)
+    owner = np.empty((h, w), part_of.dtype)
     marks = np.zeros((parts, h // TILE + 1, w // TILE + 1), np.bool_)
     part_views(alone.triangle, part_of, TILE, owner, marks)
     views = []

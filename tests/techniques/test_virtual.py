@@ -598,10 +598,14 @@ def test_welded_tessellation_gives_the_same_virtual_corners():
     assert len(merged.points) == 2 and merged.corner_index.tolist() == [[0, 1, 0]]
     # an explosion reflector keeps the tessellation as made
     explosion = open_scene("four-spheres", "virtual", ('technique.method="explosion"',))
-    state = explosion.prepare()
+    ex_state = explosion.prepare()
     assert isinstance(explosion.technique, Virtual)
-    kept = state.reflected.get(explosion.scene.geometry(0), scene.n_objects, 0, rule)
-    assert len(kept.points) == len(plain.points)
+    made = set(ex_state.reflected.entries)
+    kept = ex_state.reflected.get(explosion.scene.geometry(0), scene.n_objects, 0,
+                                  explosion.technique.params.tessellation,
+                                  closed=ex_state.closed)
+    assert set(ex_state.reflected.entries) == made  # the entry prepare made, not a new one
+    assert len(kept.points) == len(culled.points)
 
 
 @pytest.mark.parametrize("scene", ["four-spheres", "four-spheres-lit"])

@@ -15,7 +15,9 @@ from .constants import _CHUNK
 class RasterBuffers:
     """What a pass left visible: per pixel the triangle id (int32, -1 where nothing was
     drawn), its barycentric weights of corners 1 and 2 (float32) and its eye-space depth
-    (float32, +inf where nothing was drawn), all (H, W).
+    (float32, +inf where nothing was drawn), all (H, W). A pass with `clear_outside=False`
+    sets these only inside its stencil's box: outside it they are what the workspace held
+    from an earlier pass (ids of other triangles), so its consumers read only the box.
 
     The rasterizer gives ids and depths; `b1` and `b2` are recovered from the triangles'
     clip-space corners on first use (`recover`), so a pass whose consumer recovers them
