@@ -30,7 +30,7 @@ class ReflectedCache:
     """Tessellations by (geometry key, reflector, edge lengths)."""
 
     entries: dict = field(default_factory=dict)
-    radii: dict = field(default_factory=dict)  # (geometry key, reflector) -> radius
+    balls: dict = field(default_factory=dict)  # (geometry key, reflector) -> ball
 
     def get(self, geometry: Geometry, n_objects: int, k: int, rule: TessellationRule,
             weld: bool = False, closed: tuple[int, ...] = ()) -> Tessellation:
@@ -41,16 +41,8 @@ class ReflectedCache:
         closed convex surfaces (spheres), whose faces turned away from the whole reflector
         are left out (`turned_away`)."""
         sid = n_objects + k
-        # the reflector's radius about its corner mean (world units) scales the edge limits
-        # (kept per geometry state: the lookup runs every frame)
-        radius = self.radii.get((geometry.key, k))
-        if radius is None:
-            pts = geometry.mirror_tris.corners[geometry.mirror_tris.surface == sid]
-            pts = pts.reshape(-1, 3).astype(np.float64)
-            radius = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).max())
-            if len(self.radii) > CACHE_SIZE:
-                self.radii.clear()
-            self.radii[(geometry.key, k)] = radius
+        # the reflector's radius about its corner mean scales the edge limits
+        center, radius = self.ball(geometry, n_objects, k)
         max_edge = rule.max_edge
         if max_edge is None and rule.max_edge_radii is not None:
             max_edge = rule.max_edge_radii * radius
@@ -61,11 +53,26 @@ class ReflectedCache:
         if key not in self.entries:
             if len(self.entries) > CACHE_SIZE:
                 self.entries.clear()
-            drop = turned_away_from(geometry, sid, closed, radius) if closed else None
+            drop = (turned_away(geometry.all_triangles(), closed, center, radius) if closed
+                    else None)
             tess = reflected_objects(geometry, n_objects, sid, rule.subdivisions, max_edge,
                                      min_edge, drop)
             self.entries[key] = welded(tess) if weld else tess
         return self.entries[key]
+
+    def ball(self, geometry: Geometry, n_objects: int, k: int) -> tuple[np.ndarray, float]:
+        """Reflector k's ball (world): its corners' mean and the farthest corner's distance
+        from it; kept per geometry state, since the lookup runs every frame."""
+        ball = self.balls.get((geometry.key, k))
+        if ball is None:
+            pts = geometry.mirror_tris.corners[geometry.mirror_tris.surface == n_objects + k]
+            pts = pts.reshape(-1, 3).astype(np.float64)
+            center = pts.mean(axis=0)
+            ball = (center, float(np.linalg.norm(pts - center, axis=1).max()))
+            if len(self.balls) > CACHE_SIZE:
+                self.balls.clear()
+            self.balls[(geometry.key, k)] = ball
+        return ball
 
 
 def reflected_objects(geometry: Geometry, n_objects: int, sid: int, subdivisions: int,
@@ -101,14 +108,6 @@ def welded(tess: Tessellation) -> Tessellation:
     rank[order] = np.arange(order.size)
     corner_index = rank[inverse.ravel()][tess.corner_index]
     return Tessellation(tess.triangles, points[first[order]], corner_index)
-
-
-def turned_away_from(geometry: Geometry, sid: int, closed: tuple[int, ...],
-                     radius: float) -> np.ndarray:
-    """turned_away for reflector `sid` (its ball: its corners' mean and `radius`)."""
-    pts = geometry.mirror_tris.corners[geometry.mirror_tris.surface == sid]
-    center = pts.reshape(-1, 3).astype(np.float64).mean(axis=0)
-    return turned_away(geometry.all_triangles(), closed, center, radius)
 
 
 # the reflector's ball grown by this much of its radius: the vertex functions reflect on

@@ -565,7 +565,7 @@ def test_welded_tessellation_gives_the_same_virtual_corners():
     same virtual corners bit for bit. Only equal bits are merged (0.0 and -0.0 stay two),
     and explosion reflectors, whose parts read the polygons, keep their points."""
     from reflectcli.techniques.virtual.technique import Virtual
-    from reflectcli.virtual.reflected import reflected_objects, turned_away_from, welded
+    from reflectcli.virtual.reflected import reflected_objects, turned_away, welded
     from reflectcli.virtual.tessellation import Tessellation
 
     opened = open_scene("four-spheres", "virtual", ())
@@ -575,8 +575,8 @@ def test_welded_tessellation_gives_the_same_virtual_corners():
     tess = state.reflected.get(geometry, scene.n_objects, 0, rule, closed=state.closed)
     key = next(k for k in state.reflected.entries if k[1] == 0)
     # as prepare made it: the other spheres' faces turned away from this one left out
-    drop = turned_away_from(geometry, scene.n_objects, state.closed,
-                            state.reflected.radii[(geometry.key, 0)])
+    drop = turned_away(geometry.all_triangles(), state.closed,
+                       *state.reflected.ball(geometry, scene.n_objects, 0))
     culled = reflected_objects(geometry, scene.n_objects, scene.n_objects,
                                rule.subdivisions, *key[3:5], drop)
     plain = reflected_objects(geometry, scene.n_objects, scene.n_objects, rule.subdivisions,
