@@ -21,6 +21,8 @@ bounces, no light or shadow rays. Only unlit scenes with planar (triangle) mirro
 Mitsuba runs in a subprocess (this file with `--worker`, under the Mitsuba python) that renders
 one frame per request; the frames alternate with reflect's (one of each per round, medians
 after warm-up, `--gap` seconds of idle before each), so a busy machine slows both alike.
+With `--run N` each side renders N frames back to back a round, as a batch render does, and
+the first of each run is not counted: it is the one whose threads wake from the idle gap.
 Each side's CPU time for its frame (all threads of its process, Linux) is reported too, with
 the other side's CPU time during that frame (which shows whether either spills onto the
 other's frame).
@@ -260,7 +262,7 @@ class Worker:
 
 
 def compare(scene: str, python: str, reps: int, threads: int, variant: str,
-            max_depth: int | None = None, gap: float = 0.1) -> dict | None:
+            max_depth: int | None = None, gap: float = 0.1, run: int = 1) -> dict | None:
     """Alternating frames of reflect's raytrace and Mitsuba's; None when Mitsuba is missing.
     Returns seconds per frame (arrays; also each side's CPU time for its frame, and the other
     side's CPU time during it), the Mitsuba first frame, rays, and an image check.
@@ -268,7 +270,9 @@ def compare(scene: str, python: str, reps: int, threads: int, variant: str,
     renderer's worker threads may still be spinning after its own. On a machine shared with
     other work, 2-thread figures mostly say whether the second core was free: reflect runs
     several parallel loops a frame, each waiting at its end for a thread that lost its core,
-    where Mitsuba launches one kernel; 1 thread (`--threads 1`) is the steadier comparison."""
+    where Mitsuba launches one kernel; 1 thread (`--threads 1`) is the steadier comparison.
+    `run` > 1: each side renders `run` frames back to back after its gap, as a batch render
+    does, and the first of each run (the one woken from the idle gap) is not counted."""
     if not python or not Path(python).exists():
         return None
     from reflectcli import api
@@ -293,23 +297,29 @@ def compare(scene: str, python: str, reps: int, threads: int, variant: str,
             # work itself, whatever the machine's other load does to wall time
             busy = {"mitsuba_during_reflect": [], "reflect_during_mitsuba": [],
                     "reflect_cpu": [], "mitsuba_cpu": []}
+            counted = 1 if run > 1 else 0  # frames of a run not counted
             for rep in range(reps + 2):  # two warm-up rounds
                 time.sleep(gap)
-                other, mine = worker.cpu_seconds(), time.process_time()
-                t = time.perf_counter()
-                opened.render_frame(0)
-                t_reflect = time.perf_counter() - t
-                other, mine = worker.cpu_seconds() - other, time.process_time() - mine
+                for k in range(run):
+                    other, mine = worker.cpu_seconds(), time.process_time()
+                    t = time.perf_counter()
+                    opened.render_frame(0)
+                    t_reflect = time.perf_counter() - t
+                    other, mine = worker.cpu_seconds() - other, time.process_time() - mine
+                    if rep >= 2 and k >= counted:
+                        times["reflect"].append(t_reflect)
+                        busy["mitsuba_during_reflect"].append(other)
+                        busy["reflect_cpu"].append(mine)
                 time.sleep(gap)
-                their_cpu, mine_then = worker.cpu_seconds(), time.process_time()
-                t_mitsuba = worker.frame()
-                their_cpu, mine_then = (worker.cpu_seconds() - their_cpu,
-                                        time.process_time() - mine_then)
-                if rep >= 2:
-                    times["reflect"].append(t_reflect)
-                    times["mitsuba"].append(t_mitsuba)
-                    for k, x in zip(busy, (other, mine_then, mine, their_cpu), strict=True):
-                        busy[k].append(x)
+                for k in range(run):
+                    their_cpu, mine_then = worker.cpu_seconds(), time.process_time()
+                    t_mitsuba = worker.frame()
+                    their_cpu, mine_then = (worker.cpu_seconds() - their_cpu,
+                                            time.process_time() - mine_then)
+                    if rep >= 2 and k >= counted:
+                        times["mitsuba"].append(t_mitsuba)
+                        busy["reflect_during_mitsuba"].append(mine_then)
+                        busy["mitsuba_cpu"].append(their_cpu)
         finally:
             worker.close()
     diff = np.abs(ours.rgb - theirs).max(axis=-1)
@@ -340,6 +350,9 @@ def main() -> None:
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--gap", type=float, default=0.1,
                     help="seconds of idle before each frame (see compare)")
+    ap.add_argument("--run", type=int, default=1,
+                    help="frames each side renders back to back a round, the first not "
+                         "counted (default 1: frames alternate one by one)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
@@ -353,11 +366,13 @@ def main() -> None:
 
     numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     r = compare(args.scene, args.mitsuba_python, args.reps, args.threads, args.variant,
-                args.max_depth, args.gap)
+                args.max_depth, args.gap, args.run)
     h, w = r["size"]
     print(f"{args.scene}, {w}x{h}, 1 spp, max_depth {r['max_depth']}, {r['rays']:,} rays a "
           f"reflect frame; Mitsuba {r['version']['ready']} {r['version']['variant']}, "
-          f"{args.threads} threads")
+          f"{args.threads} threads"
+          + (f"; runs of {args.run} frames back to back, the first not counted"
+             if args.run > 1 else ""))
     print(f"  Mitsuba first frame (kernel compile or cache load): "
           f"{1e3 * r['mitsuba_first']:.1f} ms")
     print(f"  reflect raytrace: {ms(r['reflect'])}")
