@@ -80,12 +80,16 @@ def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty, box_y0=0, box
 
 
 @njit(cache=True)
-def _fill_faces(ids, coords, faces, drawn):
+def _fill_faces(ids, coords, faces, drawn, box_y0=0, box_y1=1 << 30, box_x0=0,
+                box_x1=1 << 30):
+    """The drawn faces, each over the texels whose centers it holds (the last face holding
+    a texel wins); box_*: as in _fill_triangle (drawing a box again, or a larger one, after
+    the extensions changes nothing there: the extensions fill only texels no face holds)."""
     for k in range(drawn.shape[0]):
         fi = drawn[k]
         a, b, c = faces[fi, 0], faces[fi, 1], faces[fi, 2]
         _fill_triangle(ids, coords[a, 0], coords[a, 1], coords[b, 0], coords[b, 1],
-                       coords[c, 0], coords[c, 1], fi, False)
+                       coords[c, 0], coords[c, 1], fi, False, box_y0, box_y1, box_x0, box_x1)
 
 
 @njit(cache=True)
