@@ -217,6 +217,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                         V + "test_tile_scan_with_a_wide_cone_matches_twin",
                                         V + "test_tile_scan_blocks_skip_only_tiles_that_reach_"
                                         "none_of_them"], "PartTiles.scan"),
+    "virtual/tiles.py:_reached_block": (
+        [V + "test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them"], "_scan_reached"),
     "virtual/tiles.py:_block_misses": (
         [V + "test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them"], "_scan_reached"),
     "virtual/tiles.py:_seed_rays": ([V + "test_tile_scan_matches_twin"], "_scan"),

@@ -6,8 +6,11 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba import njit, prange
+
+from ..parallel import claim
 
 
 class PartTiles:
@@ -103,9 +106,12 @@ class PartTiles:
         where a tile reaches the point, left as they are elsewhere)."""
         if rows.size == 0:
             return
-        scan = _scan_reached if reached_only else _scan
-        scan(points, rows, self.center, self.radius, self.axis, self.half, self.pixel,
-             self.margin, q, r, reach, seeds)
+        args = (points, rows, self.center, self.radius, self.axis, self.half, self.pixel,
+                self.margin, q, r, reach, seeds)
+        if reached_only:
+            _scan_reached(*args, numba.get_num_threads())
+        else:
+            _scan(*args)
 
 
 def owner_plane(inside: np.ndarray, part: int | None) -> tuple[np.ndarray, int]:
@@ -281,48 +287,63 @@ def _scan(points, rows, center, radius, axis, half, pixel, margin, q, r, reach, 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _scan_reached(points, rows, center, radius, axis, half, pixel, margin, q, r, reach,
-                  seeds):
+                  seeds, threads):
     """_scan's reach, and its seeds where a tile reaches the point (seeds left as they are
     elsewhere: no tile's ray is looked for among all), with the same answers: each block of
     points skips the tiles whose test none of its points can pass (_block_misses), so only
     tiles that hold no point of the block are left out, and the others meet each point in
     the same order, with the same arithmetic. On the mask's shell (321 tiles) 8% of the
-    block-tile pairs remain."""
+    block-tile pairs remain. Blocks differ in cost by the tiles they keep, so they are
+    claimed by whichever thread is free (parallel.py; each block writes its own points'
+    answers: no value depends on the thread). `threads`: numba.get_num_threads()."""
     n = rows.shape[0]
     cos_a = np.cos(half + margin)
     sin_a = np.sin(half + margin)
     seed, wide = _seed_rays(pixel, margin, half, q, r)
     blocks = (n + _BLOCK - 1) // _BLOCK
-    for b in prange(blocks):
-        k0 = b * _BLOCK
-        count = min(n, k0 + _BLOCK) - k0
-        s = np.empty((7, _BLOCK))  # as in _scan
-        _load_block(points, rows, k0, count, s)
-        # the block's ball: the mean of its points, the farthest of them from it
-        b0 = b1 = b2 = 0.0
-        for k in range(count):
-            b0 += s[0, k]
-            b1 += s[1, k]
-            b2 += s[2, k]
-        b0, b1, b2 = b0 / count, b1 / count, b2 / count
-        rho = 0.0
-        for k in range(count):
-            rho = max(rho, math.sqrt((s[0, k] - b0) ** 2 + (s[1, k] - b1) ** 2
-                                     + (s[2, k] - b2) ** 2))
-        rho = rho * (1.0 + 1e-9) + 1e-12  # rounding to spare
-        for j in range(center.shape[0]):
-            if not wide[j] and _block_misses(b0, b1, b2, rho, center[j], radius[j] * 1.001,
-                                              axis[j], cos_a[j], sin_a[j]):
-                continue
-            _scan_tile(s, count, j, center, radius, axis, half, margin, cos_a, sin_a, seed,
-                       wide[j])
-        for k in range(count):
-            j_in = int(s[5, k])
-            i = rows[k0 + k]
-            reach[i] = j_in >= 0
-            if j_in >= 0:
-                seeds[i, 0] = pixel[j_in, 0]
-                seeds[i, 1] = pixel[j_in, 1]
+    claimed = np.zeros(1, np.int64)
+    for _worker in prange(min(threads, blocks)):
+        while True:
+            b = claim(claimed)
+            if b >= blocks:
+                break
+            _reached_block(b, points, rows, n, center, radius, axis, half, pixel, margin,
+                           cos_a, sin_a, seed, wide, reach, seeds)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _reached_block(b, points, rows, n, center, radius, axis, half, pixel, margin, cos_a,
+                   sin_a, seed, wide, reach, seeds):
+    """Block b of _scan_reached."""
+    k0 = b * _BLOCK
+    count = min(n, k0 + _BLOCK) - k0
+    s = np.empty((7, _BLOCK))  # as in _scan
+    _load_block(points, rows, k0, count, s)
+    # the block's ball: the mean of its points, the farthest of them from it
+    b0 = b1 = b2 = 0.0
+    for k in range(count):
+        b0 += s[0, k]
+        b1 += s[1, k]
+        b2 += s[2, k]
+    b0, b1, b2 = b0 / count, b1 / count, b2 / count
+    rho = 0.0
+    for k in range(count):
+        rho = max(rho, math.sqrt((s[0, k] - b0) ** 2 + (s[1, k] - b1) ** 2
+                                 + (s[2, k] - b2) ** 2))
+    rho = rho * (1.0 + 1e-9) + 1e-12  # rounding to spare
+    for j in range(center.shape[0]):
+        if not wide[j] and _block_misses(b0, b1, b2, rho, center[j], radius[j] * 1.001,
+                                          axis[j], cos_a[j], sin_a[j]):
+            continue
+        _scan_tile(s, count, j, center, radius, axis, half, margin, cos_a, sin_a, seed,
+                   wide[j])
+    for k in range(count):
+        j_in = int(s[5, k])
+        i = rows[k0 + k]
+        reach[i] = j_in >= 0
+        if j_in >= 0:
+            seeds[i, 0] = pixel[j_in, 0]
+            seeds[i, 1] = pixel[j_in, 1]
 
 
 @njit(cache=True, inline="always", error_model="numpy")

@@ -394,7 +394,7 @@ def test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them():
     want_reach, want_seeds = np.zeros(len(pts), bool), np.full((len(pts), 2), np.nan)
     tiles._scan(pts, rows, *args[:6], q, r, want_reach, want_seeds)
     reach, seeds = np.zeros(len(pts), bool), np.full((len(pts), 2), np.nan)
-    tiles._scan_reached(pts, rows, *args[:6], q, r, reach, seeds)
+    tiles._scan_reached(pts, rows, *args[:6], q, r, reach, seeds, 2)
     np.testing.assert_array_equal(reach, want_reach)
     np.testing.assert_array_equal(seeds[reach], want_seeds[reach])
     assert np.isnan(seeds[~reach]).all() and reach.any() and not reach.all()
