@@ -48,6 +48,7 @@ REFINE = [V + "test_screen_refinement_matches_twin",
 FILL = [V + "test_fill_kernels_match_twin"]
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
 LOOKUP = [V + "test_explosion_lookup_matches_twin"]
+IDS_AT = [V + "test_ids_at_marked_texels_match_the_fill_twins"]
 S = "tests/techniques/test_ssr.py::"
 P = "tests/techniques/test_ppr.py::"
 HIZ = [S + "test_hiz_equals_pixel_walk_on_random_buffers",
@@ -253,6 +254,11 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/mapfill.py:_fill_marked_nearest": (
         [V + "test_nearest_near_marked_texels_matches_twin",
          V + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
+    "virtual/mapfill.py:_ids_at_marked": (IDS_AT, "_build_layer"),
+    "virtual/mapfill.py:_holds": (IDS_AT, "_ids_at_marked"),
+    "virtual/mapfill.py:_texel_range": (IDS_AT, "_ids_at_marked"),
+    "virtual/mapfill.py:_quad": (IDS_AT, "_ids_at_marked"),
+    "virtual/mapfill.py:_hole_box": (IDS_AT, "_build_layer"),
     "virtual/mapfill.py:_fill_triangle": (FILL, None),
     "virtual/mapfill.py:_fill_faces": (FILL, None),
     "virtual/mapfill.py:_extend": (FILL, "_fill_extensions"),

@@ -34,13 +34,16 @@ from .mapfill import (
     _fill_extensions,
     _fill_faces,
     _fill_marked_nearest,
+    _hole_box,
+    _ids_at_marked,
     _marked_box,
     _nearest_filled,
 )
 from .mesh import IndexedMesh
 
 EXTENSION_REACH = 0.6  # extension vertices end at this fraction of s from the map center
-NEAR_MARGIN = 48  # texels around the looked-up ones searched for a nearest filled texel
+# texels around the empty looked-up ones searched for a nearest filled texel, in turn
+NEAR_MARGINS = (8, 48)
 
 
 @dataclass
@@ -240,13 +243,15 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
     """Layer k of _build_layers into coords, layer (ids) and core, its counts into
     tally[k]. The texel passes are branch-free (counts as sums of booleans) so that they
     vectorise; the nearest fill runs only where a lookup could land in an empty texel.
-    With `needed` (res, res) marks, the faces and then the extensions are first drawn over
-    the box of the marked texels alone (a texel's id is the last face holding it, else the
-    first quad: its own tests, whatever else is drawn), and core made there (False
-    elsewhere; the counts -1, not counted); if a marked texel is still empty, both are drawn
-    over the box grown by NEAR_MARGIN and the nearest fill searched for there, and only
-    where that cannot be sure is the whole layer made (drawing a box again changes nothing
-    in it: the extensions fill only texels no face holds)."""
+    With `needed` (res, res) marks, the ids and core of the marked texels alone are found,
+    texel by texel (_ids_at_marked: the last face holding the texel, else the first
+    extension quad, each by the fill's own tests); elsewhere ids stay -1 and core False,
+    and the counts are -1 (not counted). If a marked texel is still empty, the faces and
+    extensions are drawn over the box of such texels grown by NEAR_MARGINS (a small margin,
+    then a larger one) and the nearest fill searched for there; only where that cannot be
+    sure is the whole layer made (drawing over texels already found changes nothing: a
+    face's texel takes its last face again, and the extensions fill only texels no face
+    holds)."""
     for i in range(coords.shape[0]):
         coords[i, 0] = np.nan
         coords[i, 1] = np.nan
@@ -259,28 +264,22 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
         y0, y1, x0, x1 = _marked_box(needed)
         if y0 > y1:
             return  # nothing looked up here
-        _fill_faces(layer, coords, faces, drawn, y0, y1, x0, x1)
-        for y in range(y0, y1 + 1):
-            for x in range(x0, x1 + 1):
-                core[y, x] = layer[y, x] >= 0
-        _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out, y0, y1,
-                         x0, x1)
-        hole = False
-        for y in range(y0, y1 + 1):
-            for x in range(x0, x1 + 1):
-                hole |= needed[y, x] & (layer[y, x] < 0)
-        if not hole:
+        if _ids_at_marked(layer, core, needed, coords, faces, drawn, extensions, n_faces,
+                          res / 2.0, reach_out, y0, y1, x0, x1):
             return
         # a looked-up texel stays empty: its nearest filled texel is most often close by,
-        # so the faces and extensions are drawn over the box grown by NEAR_MARGIN, and the
-        # fill searched for there (where the box cannot be sure, the whole layer is made)
-        gy0, gy1 = max(y0 - NEAR_MARGIN, 0), min(y1 + NEAR_MARGIN, res - 1)
-        gx0, gx1 = max(x0 - NEAR_MARGIN, 0), min(x1 + NEAR_MARGIN, res - 1)
-        _fill_faces(layer, coords, faces, drawn, gy0, gy1, gx0, gx1)
-        _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out, gy0, gy1,
-                         gx0, gx1)
-        if _fill_marked_nearest(layer, needed, reach, y0, y1, x0, x1, NEAR_MARGIN):
-            return
+        # so the faces and extensions are drawn over the box of such texels grown by each
+        # of NEAR_MARGINS in turn, and the fill searched for there (where no box can be
+        # sure, the whole layer is made)
+        y0, y1, x0, x1 = _hole_box(layer, needed, y0, y1, x0, x1)
+        for margin in NEAR_MARGINS:
+            gy0, gy1 = max(y0 - margin, 0), min(y1 + margin, res - 1)
+            gx0, gx1 = max(x0 - margin, 0), min(x1 + margin, res - 1)
+            _fill_faces(layer, coords, faces, drawn, gy0, gy1, gx0, gx1)
+            _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out, gy0,
+                             gy1, gx0, gx1)
+            if _fill_marked_nearest(layer, needed, reach, y0, y1, x0, x1, margin):
+                return
     _fill_faces(layer, coords, faces, drawn)
     filled = 0
     for y in range(res):

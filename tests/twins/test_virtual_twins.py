@@ -620,6 +620,61 @@ def test_fill_kernels_match_twin(sphere_maps):
     assert (ids >= len(f)).any()
 
 
+def test_ids_at_marked_texels_match_the_fill_twins(sphere_maps):
+    """mapfill._ids_at_marked (faces and quads sorted into cells, each marked texel tested
+    alone) against drawing the whole map with the fill twins: at every marked texel the
+    same id (the last face holding it, else the first quad) and core (a face holds it);
+    True exactly when no marked texel is left empty. On the sphere's maps, with extra
+    degenerate, NaN, tiny and map-wide triangles and quads, texels marked scattered, in
+    clusters and on the map's edges, inside boxes of several sizes."""
+    mesh, _, maps = sphere_maps
+    rng = np.random.default_rng(8)
+    res, half = maps.res, maps.res / 2.0
+    reach = explosion.EXTENSION_REACH * maps.s
+    for case in range(12):
+        layer = maps.layers[case % len(maps.layers)]
+        coords = layer.coords.copy()
+        extra = np.concatenate([rng.uniform(-10, res + 10, (20, 2)),
+                                coords[:5] + rng.normal(size=(5, 2)) * 0.3])
+        extra[3] = np.nan
+        coords = np.concatenate([coords, extra])
+        v = len(layer.coords)
+        faces = np.concatenate([mesh.faces, rng.integers(0, len(coords), (30, 3)),
+                                [[v, v, v + 1], [v + 3, v + 4, v + 5]]]).astype(np.int64)
+        faces[-3:, :] = np.where(np.isnan(coords[faces[-3:]]).any(axis=2), 0, faces[-3:])
+        drawn = rng.permutation(len(faces))[: int(len(faces) * rng.uniform(0.3, 1.0))]
+        extensions = np.concatenate([maps.extensions, np.column_stack(
+            [np.zeros(15, np.int64), rng.integers(0, len(coords), (15, 2))])])
+        marks = rng.random((res, res)) < rng.choice([0.002, 0.02, 0.2])
+        marks[rng.integers(0, res - 6):, :3] = True  # an edge, a cluster
+        marks[0, rng.integers(0, res)] = True
+        y0, y1, x0, x1 = mapfill._marked_box(marks)
+        ids = np.full((res, res), -1, np.int32)
+        core = np.zeros((res, res), bool)
+        full = mapfill._ids_at_marked(ids, core, marks, coords, faces, drawn, extensions,
+                                      len(faces), half, reach, y0, y1, x0, x1)
+        want = np.full((res, res), -1, np.int32)
+        fill_faces(want, coords, faces, drawn)
+        want_core = want >= 0
+        fill_extensions(want, coords, extensions, len(faces), half, reach)
+        np.testing.assert_array_equal(ids[marks], want[marks])
+        np.testing.assert_array_equal(core[marks], want_core[marks])
+        assert (ids[~marks] == -1).all() and not core[~marks].any()
+        assert full == bool((want[marks] >= 0).all())
+        filled = marks & (want >= 0)  # only filled texels marked: none left empty
+        again = np.full((res, res), -1, np.int32)
+        assert mapfill._ids_at_marked(again, core, filled, coords, faces, drawn, extensions,
+                                      len(faces), half, reach, *mapfill._marked_box(filled))
+        np.testing.assert_array_equal(again[filled], want[filled])
+        hole = mapfill._hole_box(ids, marks, y0, y1, x0, x1)
+        empty = np.argwhere(marks & (ids < 0))
+        if len(empty):
+            assert hole == (empty[:, 0].min(), empty[:, 0].max(), empty[:, 1].min(),
+                            empty[:, 1].max())
+        else:
+            assert hole[0] > hole[1]
+
+
 def test_plane_and_screen_lookups_match_twin(sphere_maps):
     mesh, _, maps = sphere_maps
     rng = np.random.default_rng(6)
