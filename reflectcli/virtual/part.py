@@ -68,12 +68,15 @@ class ExplosionPart:
         virtual = points.astype(np.float64)  # a copy
         flags = np.ones(n, bool)
         if todo.any():
+            # rows gathered by take and an index array: a boolean mask on (N, 3) rows took
+            # 5-8x longer here, several times per part
+            rows = np.flatnonzero(todo)
             camera = self.camera
             screen = self.view.points.of(points, self.clip_from_world, camera.width,
                                          camera.height)
-            virtual[todo], flags[todo] = self.vertices(
-                points[todo], None if retry is None else retry[todo],
-                None if reach is None else reach[todo], screen[todo])
+            virtual[rows], flags[rows] = self.vertices(
+                points.take(rows, axis=0), None if retry is None else retry.take(rows, axis=0),
+                None if reach is None else reach.take(rows), screen.take(rows, axis=0))
         return virtual, flags
 
     def vertices(self, points: np.ndarray, retry: np.ndarray | None,
@@ -100,7 +103,7 @@ class ExplosionPart:
             refined, status = refine_virtual(points, seeds, self.view.owner, self.grid[0],
                                              self.grid[1], camera.eye, retry,
                                              reach=reach, part=self.view.part)
-            found = status != NONE
-            virtual[found] = refined[found]
+            found = np.flatnonzero(status != NONE)
+            virtual[found] = refined.take(found, axis=0)
             flags = (flags & (status != EXACT)) | (status == BOUNDARY)
         return virtual, flags
