@@ -1137,6 +1137,22 @@ def part_stencil(triangle, surface, sid, first, faces, count):
     return (surface == sid) & ok & np.isin(np.where(ok, face, -1), faces)
 
 
+def faces_behind(screen, depth, triangle, local):
+    """Twin of virtual.view._faces_behind (PartView.faces_behind): pixels by flooring the
+    finite screen positions of points in front of the eye, kept on the image; where the
+    point is deeper than `depth` there, the part's face under it (local[triangle]), else
+    -1."""
+    h, w = depth.shape
+    out = np.full(len(screen), -1, np.int64)
+    for i, (x, y, z) in enumerate(np.asarray(screen, np.float64)):
+        if not (np.isfinite(x) and np.isfinite(y) and z > 0):
+            continue
+        xi, yi = math.floor(x), math.floor(y)
+        if 0 <= xi < w and 0 <= yi < h and z > depth[yi, xi]:
+            out[i] = local[triangle[yi, xi]]
+    return out
+
+
 def part_views(triangle, local, size):
     """Twin of virtual.view.part_views: per part p, (its face under each pixel, local[p]
     indexed by the item buffer (-1 reads the last entry), those >= 0, and the ids

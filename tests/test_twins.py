@@ -48,6 +48,7 @@ REFINE = [V + "test_screen_refinement_matches_twin",
 FILL = [V + "test_fill_kernels_match_twin"]
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
 LOOKUP = [V + "test_explosion_lookup_matches_twin"]
+IDS_AT = [V + "test_ids_at_marked_texels_match_the_fill_twins"]
 S = "tests/techniques/test_ssr.py::"
 P = "tests/techniques/test_ppr.py::"
 HIZ = [S + "test_hiz_equals_pixel_walk_on_random_buffers",
@@ -213,9 +214,21 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/tiles.py:_scan_tile": ([V + "test_tile_scan_matches_twin",
                                      V + "test_tile_scan_with_a_wide_cone_matches_twin"],
                                     "_scan"),
+    "virtual/tiles.py:_scan_reached": ([V + "test_tile_scan_matches_twin",
+                                        V + "test_tile_scan_with_a_wide_cone_matches_twin",
+                                        V + "test_tile_scan_blocks_skip_only_tiles_that_reach_"
+                                        "none_of_them"], "PartTiles.scan"),
+    "virtual/tiles.py:_reached_block": (
+        [V + "test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them"], "_scan_reached"),
+    "virtual/tiles.py:_block_misses": (
+        [V + "test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them"], "_scan_reached"),
+    "virtual/tiles.py:_seed_rays": ([V + "test_tile_scan_matches_twin"], "_scan"),
+    "virtual/tiles.py:_load_block": ([V + "test_tile_scan_matches_twin"], "_scan"),
     "virtual/tiles.py:_candidates": ([V + "test_part_candidates_and_join_match_twins"],
                                      "PartTiles.candidates"),
     "virtual/tiles.py:_join": ([V + "test_part_candidates_and_join_match_twins"], "joined"),
+    "virtual/view.py:_faces_behind": ([V + "test_faces_behind_match_twin"],
+                                      "PartView.faces_behind"),
     "virtual/view.py:part_views": ([V + "test_part_views_match_twin"], "reflector_view"),
     "virtual/tiles.py:_tile_bounds": ([V + "test_tile_bounds_match_twin"], "PartTiles"),
     "virtual/explosion.py:map_coords": ([V + "test_map_coords_and_vertex_coords_match_twin"],
@@ -241,6 +254,11 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/mapfill.py:_fill_marked_nearest": (
         [V + "test_nearest_near_marked_texels_matches_twin",
          V + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
+    "virtual/mapfill.py:_ids_at_marked": (IDS_AT, "_build_layer"),
+    "virtual/mapfill.py:_holds": (IDS_AT, "_ids_at_marked"),
+    "virtual/mapfill.py:_texel_range": (IDS_AT, "_ids_at_marked"),
+    "virtual/mapfill.py:_quad": (IDS_AT, "_ids_at_marked"),
+    "virtual/mapfill.py:_hole_box": (IDS_AT, "_build_layer"),
     "virtual/mapfill.py:_fill_triangle": (FILL, None),
     "virtual/mapfill.py:_fill_faces": (FILL, None),
     "virtual/mapfill.py:_extend": (FILL, "_fill_extensions"),

@@ -34,13 +34,16 @@ from .mapfill import (
     _fill_extensions,
     _fill_faces,
     _fill_marked_nearest,
+    _hole_box,
+    _ids_at_marked,
     _marked_box,
     _nearest_filled,
 )
 from .mesh import IndexedMesh
 
 EXTENSION_REACH = 0.6  # extension vertices end at this fraction of s from the map center
-NEAR_MARGIN = 48  # texels around the looked-up ones searched for a nearest filled texel
+# texels around the empty looked-up ones searched for a nearest filled texel, in turn
+NEAR_MARGINS = (8, 48)
 
 
 @dataclass
@@ -48,7 +51,8 @@ class ExplosionMap:
     ids: np.ndarray  # (res, res) int32: face id, F + extension id, or -1
     coords: np.ndarray  # (V, 2) map coordinates of the vertices used (nan if unused)
     radius: float  # of the sphere the reflection rays were cut with
-    filled_before_extension: int  # texels inside the circle filled by triangles alone
+    filled_before_extension: int  # texels inside the circle filled by triangles alone (-1:
+    # not counted, build_explosion_maps' lookups)
     empty_after_extension: int  # texels inside the circle ExtendMap left empty (then filled
     # with the nearest id, so that no lookup falls into a hole)
     core: np.ndarray  # (res, res) bool: texels filled by reflector triangles (reflected cells)
@@ -109,9 +113,16 @@ def map_frame(center: np.ndarray, eye: np.ndarray) -> np.ndarray:
     z = eye - center
     z = z / np.linalg.norm(z)
     helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    x = np.cross(helper, z)
+    x = _cross(helper, z)
     x /= np.linalg.norm(x)
-    return np.array([x, np.cross(z, x), z])
+    return np.array([x, _cross(z, x), z])
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """np.cross of two 3-vectors, by the same products and differences (np.cross's own
+    set-up took 15 us a call, twice per part and frame)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
 
 
 @njit(cache=True)
@@ -135,8 +146,9 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     alone, so a caller that keeps the mesh keeps them too). `lookups` (N, 3 world), if
     given: the only points virtual_vertices will look up in these maps (with `flip_axis`
     as it will be given there). Each layer is then right (ids and core as a whole build
-    gives them) at the texels those points look up; elsewhere it may lack extensions and
-    the nearest fill, and empty_after_extension is -1 where it was not counted."""
+    gives them) at the texels those points look up; elsewhere it may lack faces,
+    extensions and the nearest fill, and its counts (filled_before_extension,
+    empty_after_extension) are -1 where they were not counted."""
     v, n, f = mesh.vertices, mesh.normals, mesh.faces
     to_eye = eye - v
     front = np.einsum("ij,ij->i", n, to_eye) >= 0.0
@@ -231,50 +243,51 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
     """Layer k of _build_layers into coords, layer (ids) and core, its counts into
     tally[k]. The texel passes are branch-free (counts as sums of booleans) so that they
     vectorise; the nearest fill runs only where a lookup could land in an empty texel.
-    With `needed` (res, res) marks, the extensions are first drawn over the box of the
-    marked texels alone (a texel's extension is the first quad holding it: its own test,
-    whatever else is drawn); only if a marked texel is still empty are they drawn
-    everywhere (the box's texels, filled or held by no quad, stay as they are) and the
-    nearest fill made, as for a whole layer."""
+    With `needed` (res, res) marks, the ids and core of the marked texels alone are found,
+    texel by texel (_ids_at_marked: the last face holding the texel, else the first
+    extension quad, each by the fill's own tests); elsewhere ids stay -1 and core False,
+    and the counts are -1 (not counted). If a marked texel is still empty, the faces and
+    extensions are drawn over the box of such texels grown by NEAR_MARGINS (a small margin,
+    then a larger one) and the nearest fill searched for there; only where that cannot be
+    sure is the whole layer made (drawing over texels already found changes nothing: a
+    face's texel takes its last face again, and the extensions fill only texels no face
+    holds)."""
     for i in range(coords.shape[0]):
         coords[i, 0] = np.nan
         coords[i, 1] = np.nan
     _vertex_coords(v, n, used, eye, center, radius, frame, res, s, coords)
     layer[:, :] = -1
+    if needed.shape[0] > 0:
+        tally[k, 0] = -1
+        tally[k, 1] = -1
+        core[:, :] = False
+        y0, y1, x0, x1 = _marked_box(needed)
+        if y0 > y1:
+            return  # nothing looked up here
+        if _ids_at_marked(layer, core, needed, coords, faces, drawn, extensions, n_faces,
+                          res / 2.0, reach_out, y0, y1, x0, x1):
+            return
+        # a looked-up texel stays empty: its nearest filled texel is most often close by,
+        # so the faces and extensions are drawn over the box of such texels grown by each
+        # of NEAR_MARGINS in turn, and the fill searched for there (where no box can be
+        # sure, the whole layer is made)
+        y0, y1, x0, x1 = _hole_box(layer, needed, y0, y1, x0, x1)
+        for margin in NEAR_MARGINS:
+            gy0, gy1 = max(y0 - margin, 0), min(y1 + margin, res - 1)
+            gx0, gx1 = max(x0 - margin, 0), min(x1 + margin, res - 1)
+            _fill_faces(layer, coords, faces, drawn, gy0, gy1, gx0, gx1)
+            _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out, gy0,
+                             gy1, gx0, gx1)
+            if _fill_marked_nearest(layer, needed, reach, y0, y1, x0, x1, margin):
+                return
     _fill_faces(layer, coords, faces, drawn)
     filled = 0
     for y in range(res):
         for x in range(res):
-            c = layer[y, x] >= 0
+            # a face's id (the extensions' come after them): the texels faces alone fill
+            c = (layer[y, x] >= 0) & (layer[y, x] < n_faces)
             core[y, x] = c
             filled += c & circle[y, x]
-    if needed.shape[0] > 0:
-        y0, y1, x0, x1 = _marked_box(needed)
-        if y0 > y1:
-            tally[k, 0] = filled
-            tally[k, 1] = -1
-            return  # nothing looked up here
-        _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out, y0, y1,
-                         x0, x1)
-        hole = False
-        for y in range(y0, y1 + 1):
-            for x in range(x0, x1 + 1):
-                hole |= needed[y, x] & (layer[y, x] < 0)
-        if not hole:
-            tally[k, 0] = filled
-            tally[k, 1] = -1
-            return
-        # a looked-up texel stays empty: its nearest filled texel is most often close by,
-        # so the extensions are drawn over the box grown by NEAR_MARGIN, and the fill
-        # searched for there (where the box cannot be sure, the whole layer is made)
-        gy0, gy1 = max(y0 - NEAR_MARGIN, 0), min(y1 + NEAR_MARGIN, res - 1)
-        gx0, gx1 = max(x0 - NEAR_MARGIN, 0), min(x1 + NEAR_MARGIN, res - 1)
-        _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out, gy0, gy1,
-                         gx0, gx1)
-        if _fill_marked_nearest(layer, needed, reach, y0, y1, x0, x1, NEAR_MARGIN):
-            tally[k, 0] = filled
-            tally[k, 1] = -1
-            return
     _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out)
     left = 0
     holes = 0

@@ -80,12 +80,16 @@ def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty, box_y0=0, box
 
 
 @njit(cache=True)
-def _fill_faces(ids, coords, faces, drawn):
+def _fill_faces(ids, coords, faces, drawn, box_y0=0, box_y1=1 << 30, box_x0=0,
+                box_x1=1 << 30):
+    """The drawn faces, each over the texels whose centers it holds (the last face holding
+    a texel wins); box_*: as in _fill_triangle (drawing a box again, or a larger one, after
+    the extensions changes nothing there: the extensions fill only texels no face holds)."""
     for k in range(drawn.shape[0]):
         fi = drawn[k]
         a, b, c = faces[fi, 0], faces[fi, 1], faces[fi, 2]
         _fill_triangle(ids, coords[a, 0], coords[a, 1], coords[b, 0], coords[b, 1],
-                       coords[c, 0], coords[c, 1], fi, False)
+                       coords[c, 0], coords[c, 1], fi, False, box_y0, box_y1, box_x0, box_x1)
 
 
 @njit(cache=True)
@@ -114,6 +118,189 @@ def _fill_extensions(ids, coords, extensions, n_faces, center, reach, box_y0=0,
                        box_x1)
         _fill_triangle(ids, ax, ay, cx, cy, dx, dy, value, True, box_y0, box_y1, box_x0,
                        box_x1)
+
+
+_CELL = 8  # texels a side of the cells _ids_at_marked sorts triangles into
+
+
+@njit(cache=True, inline="always")
+def _texel_range(ax, ay, bx, by, cx, cy, res):
+    """(x0, x1, y0, y1): the texels _fill_triangle visits for the triangle over the whole
+    map (x0 > x1 if none: a degenerate or NaN triangle fills nothing)."""
+    area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+    if area == 0.0 or math.isnan(area):
+        return 1, 0, 1, 0
+    x0 = max(int(math.floor(min(ax, bx, cx))), 0)
+    x1 = min(int(math.ceil(max(ax, bx, cx))), res - 1)
+    y0 = max(int(math.floor(min(ay, by, cy))), 0)
+    y1 = min(int(math.ceil(max(ay, by, cy))), res - 1)
+    return x0, x1, y0, y1
+
+
+@njit(cache=True, inline="always")
+def _holds(ax, ay, bx, by, cx, cy, res, x, y):
+    """Whether _fill_triangle fills texel (x, y) with the triangle (over the whole map, or
+    over any box holding the texel: a box narrows only the texels visited): the same
+    range, row span and tests, in the same arithmetic."""
+    area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+    if area == 0.0 or math.isnan(area):
+        return False
+    x0, x1, y0, y1 = _texel_range(ax, ay, bx, by, cx, cy, res)
+    if not (x0 <= x <= x1 and y0 <= y <= y1):
+        return False
+    sign = 1.0 if area > 0.0 else -1.0
+    s0 = sign * (by - cy)
+    s1 = sign * (cy - ay)
+    s2 = -s0 - s1
+    m0, l0 = sign * (bx * cy - cx * by), sign * (cx - bx)
+    m1, l1 = sign * (cx * ay - ax * cy), sign * (ax - cx)
+    m2, l2 = sign * area - m0 - m1, -l0 - l1
+    i0 = -1.0 / s0 if s0 != 0.0 else 0.0
+    i1 = -1.0 / s1 if s1 != 0.0 else 0.0
+    i2 = -1.0 / s2 if s2 != 0.0 else 0.0
+    py = y + 0.5
+    lo, hi = _span(float(x0), float(x1), s0, (m0 + l0 * py) * i0)
+    lo, hi = _span(lo, hi, s1, (m1 + l1 * py) * i1)
+    lo, hi = _span(lo, hi, s2, (m2 + l2 * py) * i2)
+    if not lo <= hi:
+        return False
+    if not (int(math.ceil(lo)) <= x <= int(math.floor(hi))):
+        return False
+    px = x + 0.5
+    n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
+    if sign * n0 < 0.0:
+        return False
+    n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
+    if sign * n1 < 0.0:
+        return False
+    w0 = n0 / area
+    w1 = n1 / area
+    return 1.0 - w0 - w1 >= 0.0
+
+
+@njit(cache=True, inline="always")
+def _quad(coords, extensions, e, center, reach):
+    """Extension e's quad as _fill_extensions draws it: (a, b, c) and (a, c, d)."""
+    i, j = extensions[e, 1], extensions[e, 2]
+    ax, ay = coords[i, 0], coords[i, 1]
+    bx, by = coords[j, 0], coords[j, 1]
+    cx, cy = _extend(center, center, bx, by, reach)
+    dx, dy = _extend(center, center, ax, ay, reach)
+    return ax, ay, bx, by, cx, cy, dx, dy
+
+
+@njit(cache=True)
+def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, center,
+                   reach, y0, y1, x0, x1):
+    """ids and core at the marked texels of rows y0..y1, columns x0..x1, as _fill_faces
+    and then _fill_extensions make them (the last drawn face holding the texel, else the
+    first extension quad; core: a face holds it), found texel by texel instead of drawing
+    (the mask's lookups mark about 2% of their box): faces and quads are first sorted into
+    cells of _CELL texels that hold a marked texel, by the texels _fill_triangle would
+    visit, in drawing order; a texel then tests its cell's faces from the last and its
+    quads from the first (_holds). Other texels are left as they are. True if every marked
+    texel is filled (else a looked-up texel is empty: the nearest fill is needed)."""
+    res = ids.shape[0]
+    cy0, cx0 = y0 // _CELL, x0 // _CELL
+    rows, cols = y1 // _CELL - cy0 + 1, x1 // _CELL - cx0 + 1
+    want = np.zeros((rows, cols), np.bool_)
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            if marks[y, x]:
+                want[y // _CELL - cy0, x // _CELL - cx0] = True
+    n_drawn, n_ext = drawn.shape[0], extensions.shape[0]
+    # per triangle (faces, then quads), its cells' range: r0, r1, c0, c1 (empty: r0 > r1)
+    span = np.empty((n_drawn + n_ext, 4), np.int64)
+    for k in range(n_drawn + n_ext):
+        if k < n_drawn:
+            f = drawn[k]
+            a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+            tx0, tx1, ty0, ty1 = _texel_range(coords[a, 0], coords[a, 1], coords[b, 0],
+                                              coords[b, 1], coords[c, 0], coords[c, 1], res)
+        else:
+            ax, ay, bx, by, cx, cy, dx, dy = _quad(coords, extensions, k - n_drawn, center,
+                                                   reach)
+            tx0, tx1, ty0, ty1 = _texel_range(ax, ay, bx, by, cx, cy, res)
+            ux0, ux1, uy0, uy1 = _texel_range(ax, ay, cx, cy, dx, dy, res)
+            if ux0 <= ux1 and uy0 <= uy1:
+                if tx0 <= tx1 and ty0 <= ty1:
+                    tx0, tx1 = min(tx0, ux0), max(tx1, ux1)
+                    ty0, ty1 = min(ty0, uy0), max(ty1, uy1)
+                else:
+                    tx0, tx1, ty0, ty1 = ux0, ux1, uy0, uy1
+        tx0, tx1 = max(tx0, x0), min(tx1, x1)
+        ty0, ty1 = max(ty0, y0), min(ty1, y1)
+        if tx0 > tx1 or ty0 > ty1:
+            span[k, 0], span[k, 1] = 1, 0
+            continue
+        span[k, 0], span[k, 1] = ty0 // _CELL - cy0, ty1 // _CELL - cy0
+        span[k, 2], span[k, 3] = tx0 // _CELL - cx0, tx1 // _CELL - cx0
+    # cell lists in drawing order (counted, then filled): faces and quads apart
+    count = np.zeros((2, rows * cols + 1), np.int64)
+    for k in range(n_drawn + n_ext):
+        kind = 0 if k < n_drawn else 1
+        for r in range(span[k, 0], span[k, 1] + 1):
+            for c in range(span[k, 2], span[k, 3] + 1):
+                if want[r, c]:
+                    count[kind, r * cols + c + 1] += 1
+    for kind in range(2):
+        for i in range(rows * cols):
+            count[kind, i + 1] += count[kind, i]
+    items = np.empty(count[0, rows * cols] + count[1, rows * cols], np.int64)
+    fill = np.empty((2, rows * cols), np.int64)
+    base = count[0, rows * cols]
+    for i in range(rows * cols):
+        fill[0, i] = count[0, i]
+        fill[1, i] = base + count[1, i]
+    for k in range(n_drawn + n_ext):
+        kind = 0 if k < n_drawn else 1
+        for r in range(span[k, 0], span[k, 1] + 1):
+            for c in range(span[k, 2], span[k, 3] + 1):
+                if want[r, c]:
+                    items[fill[kind, r * cols + c]] = k
+                    fill[kind, r * cols + c] += 1
+    full = True
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            if not marks[y, x]:
+                continue
+            cell = (y // _CELL - cy0) * cols + x // _CELL - cx0
+            found = -1
+            for t in range(count[0, cell + 1] - 1, count[0, cell] - 1, -1):
+                f = drawn[items[t]]
+                a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+                if _holds(coords[a, 0], coords[a, 1], coords[b, 0], coords[b, 1],
+                          coords[c, 0], coords[c, 1], res, x, y):
+                    found = f
+                    break
+            core[y, x] = found >= 0
+            if found < 0:
+                for t in range(base + count[1, cell], base + count[1, cell + 1]):
+                    e = items[t] - n_drawn
+                    ax, ay, bx, by, cx, cy, dx, dy = _quad(coords, extensions, e, center,
+                                                           reach)
+                    if (_holds(ax, ay, bx, by, cx, cy, res, x, y)
+                            or _holds(ax, ay, cx, cy, dx, dy, res, x, y)):
+                        found = n_faces + e
+                        break
+            ids[y, x] = found
+            full &= found >= 0
+    return full
+
+
+@njit(cache=True)
+def _hole_box(ids, marks, y0, y1, x0, x1):
+    """(y0, y1, x0, x1): the rows and columns, within the given ones, holding a marked
+    texel that is empty (ids < 0); y0 > y1 if none."""
+    hy0, hy1, hx0, hx1 = y1 + 1, y0 - 1, x1 + 1, x0 - 1
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            if marks[y, x] and ids[y, x] < 0:
+                hy0 = min(hy0, y)
+                hy1 = max(hy1, y)
+                hx0 = min(hx0, x)
+                hx1 = max(hx1, x)
+    return hy0, hy1, hx0, hx1
 
 
 @njit(cache=True)

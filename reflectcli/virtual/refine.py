@@ -38,13 +38,12 @@ def reflector_grid(triangle: np.ndarray, b1: np.ndarray, b2: np.ndarray, corners
     ones; Q None: R only (Q is returned as None)."""
     h, w = triangle.shape
     if out is None:
-        q = np.full((h, w, 3), np.nan)
-        r = np.full((h, w, 3), np.nan)
+        # not filled with NaN first: _grid writes every pixel (one pass over 2 x 6 MB at
+        # 512^2, not two)
+        q = np.empty((h, w, 3))
+        r = np.empty((h, w, 3))
     else:
         q, r = out
-        if q is not None:
-            q.fill(np.nan)
-        r.fill(np.nan)
     want_q = q is not None
     if not want_q:
         q = np.empty((0, 0, 3))
@@ -54,12 +53,18 @@ def reflector_grid(triangle: np.ndarray, b1: np.ndarray, b2: np.ndarray, corners
 
 @njit(cache=True, parallel=True)
 def _grid(triangle, b1, b2, corners, normals, eye, q, r):
+    """reflector_grid into q (unless (0, 0, 3)) and r: every pixel written, NaN where no
+    triangle is."""
     h, w = triangle.shape
     want_q = q.shape[0] > 0  # (0, 0, 3): R only
     for y in prange(h):
         for x in range(w):
             t = triangle[y, x]
             if t < 0:
+                for i in range(3):
+                    r[y, x, i] = np.nan
+                    if want_q:
+                        q[y, x, i] = np.nan
                 continue
             _ray_at(t, b1[y, x], b2[y, x], corners, normals, eye, y, x, q, want_q, r)
 

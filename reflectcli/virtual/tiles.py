@@ -6,8 +6,11 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba import njit, prange
+
+from ..parallel import claim
 
 
 class PartTiles:
@@ -79,28 +82,36 @@ class PartTiles:
                     polygons: np.ndarray | None = None):
         """scan's (reach, seeds), and (N,) bool the points the part needs: with `polygons`,
         those that reach it and those a polygon joins to one that does (joined); without,
-        all."""
+        all. Two passes: the tiles reaching each point first (blocks of points skip the
+        tiles whose cone holds none of them, _scan_reached); then, among all tiles, the
+        seeds of the points needed but reached by none (_scan)."""
         n = points.shape[0]
         points = np.ascontiguousarray(points, np.float64)
         reach = np.zeros(n, np.bool_)
         seeds = np.full((n, 2), np.nan)
         if polygons is None:
-            self._scan_rows(points, q, r, np.arange(n), reach, seeds)
+            self._scan_rows(points, q, r, np.arange(n), reach, seeds, reached_only=True)
+            self._scan_rows(points, q, r, np.flatnonzero(~reach), reach, seeds)
             return reach, seeds, np.ones(n, np.bool_)
+        # points outside the part's cone reach no tile: reach is final after the first pass
         near = self.candidates(points)
-        self._scan_rows(points, q, r, np.flatnonzero(near), reach, seeds)
-        # points outside the part's cone reach no tile: reach is final here
+        self._scan_rows(points, q, r, np.flatnonzero(near), reach, seeds, reached_only=True)
         todo = joined(reach, polygons)
-        self._scan_rows(points, q, r, np.flatnonzero(todo & ~near), reach, seeds)
+        self._scan_rows(points, q, r, np.flatnonzero(todo & ~reach), reach, seeds)
         return reach, seeds, todo
 
-    def _scan_rows(self, points, q, r, rows, reach, seeds) -> None:
+    def _scan_rows(self, points, q, r, rows, reach, seeds, reached_only=False) -> None:
         """_scan of points[rows] into reach[rows] and seeds[rows] (each point's answer is its
-        own: a subset gives the same answers)."""
+        own: a subset gives the same answers); `reached_only`: _scan_reached (seeds only
+        where a tile reaches the point, left as they are elsewhere)."""
         if rows.size == 0:
             return
-        _scan(points, rows, self.center, self.radius, self.axis, self.half, self.pixel,
-              self.margin, q, r, reach, seeds)
+        args = (points, rows, self.center, self.radius, self.axis, self.half, self.pixel,
+                self.margin, q, r, reach, seeds)
+        if reached_only:
+            _scan_reached(*args, numba.get_num_threads())
+        else:
+            _scan(*args)
 
 
 def owner_plane(inside: np.ndarray, part: int | None) -> tuple[np.ndarray, int]:
@@ -206,6 +217,38 @@ def _tile_bounds(owner, part, q, r, tiles, size, center, radius, axis, half, pix
 _BLOCK = 128  # points tested side by side against each tile
 
 
+@njit(cache=True, inline="always")
+def _seed_rays(pixel, margin, half, q, r):
+    """Per tile: its seed pixel's Q and R (tiles, 6), and whether its cone is wide
+    (half-angle at least a right angle: the spread's arcsine decides, a call that does not
+    vectorise)."""
+    tiles = pixel.shape[0]
+    seed = np.empty((tiles, 6))
+    wide = np.zeros(tiles, np.bool_)
+    for j in range(tiles):
+        x = int(pixel[j, 0])
+        y = int(pixel[j, 1])
+        for i in range(3):
+            seed[j, i] = q[y, x, i]
+            seed[j, 3 + i] = r[y, x, i]
+        wide[j] = half[j] + margin >= 0.5 * math.pi
+    return seed, wide
+
+
+@njit(cache=True, inline="always")
+def _load_block(points, rows, k0, count, s):
+    """Rows of block s (see _scan) for points rows[k0:k0 + count], answers reset."""
+    for k in range(count):
+        i = rows[k0 + k]
+        s[0, k] = points[i, 0]
+        s[1, k] = points[i, 1]
+        s[2, k] = points[i, 2]
+        s[3, k] = np.inf
+        s[4, k] = np.inf
+        s[5, k] = -1.0
+        s[6, k] = -1.0
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
 def _scan(points, rows, center, radius, axis, half, pixel, margin, q, r, reach, seeds):
     """Per point points[rows[k]] (its answers into reach and seeds at rows[k]): the tile
@@ -221,31 +264,13 @@ def _scan(points, rows, center, radius, axis, half, pixel, margin, q, r, reach, 
     tiles = center.shape[0]
     cos_a = np.cos(half + margin)
     sin_a = np.sin(half + margin)
-    # the seed pixel's Q and R per tile, and whether its cone is wide (half-angle at least
-    # a right angle: the spread's arcsine decides, a call that does not vectorise)
-    seed = np.empty((tiles, 6))
-    wide = np.zeros(tiles, np.bool_)
-    for j in range(tiles):
-        x = int(pixel[j, 0])
-        y = int(pixel[j, 1])
-        for i in range(3):
-            seed[j, i] = q[y, x, i]
-            seed[j, 3 + i] = r[y, x, i]
-        wide[j] = half[j] + margin >= 0.5 * math.pi
+    seed, wide = _seed_rays(pixel, margin, half, q, r)
     blocks = (n + _BLOCK - 1) // _BLOCK
     for b in prange(blocks):
         k0 = b * _BLOCK
         count = min(n, k0 + _BLOCK) - k0
         s = np.empty((7, _BLOCK))  # x, y, z, best_in, best_any, j_in, j_any
-        for k in range(count):
-            i = rows[k0 + k]
-            s[0, k] = points[i, 0]
-            s[1, k] = points[i, 1]
-            s[2, k] = points[i, 2]
-            s[3, k] = np.inf
-            s[4, k] = np.inf
-            s[5, k] = -1.0
-            s[6, k] = -1.0
+        _load_block(points, rows, k0, count, s)
         for j in range(tiles):
             _scan_tile(s, count, j, center, radius, axis, half, margin, cos_a, sin_a, seed,
                        wide[j])
@@ -258,6 +283,93 @@ def _scan(points, rows, center, radius, axis, half, pixel, margin, q, r, reach, 
             if jj >= 0:
                 seeds[i, 0] = pixel[jj, 0]
                 seeds[i, 1] = pixel[jj, 1]
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _scan_reached(points, rows, center, radius, axis, half, pixel, margin, q, r, reach,
+                  seeds, threads):
+    """_scan's reach, and its seeds where a tile reaches the point (seeds left as they are
+    elsewhere: no tile's ray is looked for among all), with the same answers: each block of
+    points skips the tiles whose test none of its points can pass (_block_misses), so only
+    tiles that hold no point of the block are left out, and the others meet each point in
+    the same order, with the same arithmetic. On the mask's shell (321 tiles) 8% of the
+    block-tile pairs remain. Blocks differ in cost by the tiles they keep, so they are
+    claimed by whichever thread is free (parallel.py; each block writes its own points'
+    answers: no value depends on the thread). `threads`: numba.get_num_threads()."""
+    n = rows.shape[0]
+    cos_a = np.cos(half + margin)
+    sin_a = np.sin(half + margin)
+    seed, wide = _seed_rays(pixel, margin, half, q, r)
+    blocks = (n + _BLOCK - 1) // _BLOCK
+    claimed = np.zeros(1, np.int64)
+    for _worker in prange(min(threads, blocks)):
+        while True:
+            b = claim(claimed)
+            if b >= blocks:
+                break
+            _reached_block(b, points, rows, n, center, radius, axis, half, pixel, margin,
+                           cos_a, sin_a, seed, wide, reach, seeds)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _reached_block(b, points, rows, n, center, radius, axis, half, pixel, margin, cos_a,
+                   sin_a, seed, wide, reach, seeds):
+    """Block b of _scan_reached."""
+    k0 = b * _BLOCK
+    count = min(n, k0 + _BLOCK) - k0
+    s = np.empty((7, _BLOCK))  # as in _scan
+    _load_block(points, rows, k0, count, s)
+    # the block's ball: the mean of its points, the farthest of them from it
+    b0 = b1 = b2 = 0.0
+    for k in range(count):
+        b0 += s[0, k]
+        b1 += s[1, k]
+        b2 += s[2, k]
+    b0, b1, b2 = b0 / count, b1 / count, b2 / count
+    rho = 0.0
+    for k in range(count):
+        rho = max(rho, math.sqrt((s[0, k] - b0) ** 2 + (s[1, k] - b1) ** 2
+                                 + (s[2, k] - b2) ** 2))
+    rho = rho * (1.0 + 1e-9) + 1e-12  # rounding to spare
+    for j in range(center.shape[0]):
+        if not wide[j] and _block_misses(b0, b1, b2, rho, center[j], radius[j] * 1.001,
+                                          axis[j], cos_a[j], sin_a[j]):
+            continue
+        _scan_tile(s, count, j, center, radius, axis, half, margin, cos_a, sin_a, seed,
+                   wide[j])
+    for k in range(count):
+        j_in = int(s[5, k])
+        i = rows[k0 + k]
+        reach[i] = j_in >= 0
+        if j_in >= 0:
+            seeds[i, 0] = pixel[j_in, 0]
+            seeds[i, 1] = pixel[j_in, 1]
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _block_misses(b0, b1, b2, rho, center, rad, axis, cos_a, sin_a):
+    """True if no point within rho of B = (b0, b1, b2) passes a tile's test (ball (C, rad),
+    its 1.001 included; cone of half-angle a below a right angle, cos_a and sin_a of it).
+    With |B - C| > rad + rho, each such point P is |P - C| > rad from C, so it passes only
+    if its angle from the axis is at most a + asin(rad / |P - C|) <= a + s1, s1 =
+    asin(rad / (|B - C| - rho)); and P - C is within s2 = asin(rho / |B - C|) of B - C.
+    So B - C is within a + s1 + s2 of the axis if any P passes. Tested as cosines, with
+    1e-9 to spare; where a spread is wide (a sine of 1/2 or more, so that a + s1 + s2 could
+    pass a half turn, where cosines no longer order angles) the tile is kept."""
+    v0, v1, v2 = b0 - center[0], b1 - center[1], b2 - center[2]
+    dist = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    if not dist > rad + rho:
+        return False
+    x1 = rad / (dist - rho)
+    x2 = rho / dist
+    if not (x1 < 0.5 and x2 < 0.5):
+        return False
+    c1 = math.sqrt(1.0 - x1 * x1)
+    c2 = math.sqrt(1.0 - x2 * x2)
+    cos_s = c1 * c2 - x1 * x2  # cos(s1 + s2)
+    sin_s = x1 * c2 + c1 * x2
+    c = (v0 * axis[0] + v1 * axis[1] + v2 * axis[2]) / dist
+    return c < cos_a * cos_s - sin_a * sin_s - 1e-9
 
 
 @njit(cache=True, inline="always", error_model="numpy")

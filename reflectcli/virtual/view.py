@@ -6,6 +6,7 @@ only, so it is kept while neither changes (a still camera, a rigid reflector).""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -14,10 +15,30 @@ from numba import njit, prange
 from ..camera import Camera
 from ..raster.rasterize import rasterize
 from .refine import reflector_grid
+from .screen import screen_from_world
 from .shape import ReflectorShape
 from .tiles import PartTiles
 
 CACHE_SIZE = 8  # views kept before the cache starts over (each holds a few screen buffers)
+
+
+@dataclass
+class PointsOnScreen:
+    """The scene points' screen positions in one view, shared by the reflector's parts:
+    each part looks up the same points (a part's subset indexes them; projecting each
+    subset anew gave the same numbers, 14 times a frame on the mask)."""
+
+    points: np.ndarray | None = None  # the array last projected (kept: compared by identity)
+    screen: np.ndarray | None = None  # (N, 3) screen_from_world of it
+
+    def of(self, points: np.ndarray, clip_from_world: np.ndarray, width: int,
+           height: int) -> np.ndarray:
+        """screen_from_world(points, ...) (the view's camera), made once per points array
+        (scene points are not written after they are made)."""
+        if self.points is not points:
+            self.screen = screen_from_world(points, clip_from_world, width, height)
+            self.points = points
+        return self.screen
 
 
 @dataclass(frozen=True)
@@ -32,10 +53,36 @@ class PartView:
     triangle: np.ndarray  # (H, W) int32 screen: the reflector face under each pixel, or -1
     local: np.ndarray  # (F + 1,) int32: reflector face -> this part's face, or -1 (last: -1)
     tiles: PartTiles | None  # (with refinement only)
+    points: PointsOnScreen  # the scene points on the screen (one for the whole reflector)
 
     def hidden_faces(self, ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
         """The paper's hidden map at pixels (ys, xs): the part's face under each, or -1."""
         return self.local[self.triangle[ys, xs]]
+
+    def faces_behind(self, screen: np.ndarray, depth: np.ndarray) -> np.ndarray:
+        """(N,) int64: for points at `screen` (N, 3: screen x, y, eye depth) behind the
+        reflector alone (deeper than `depth` (H, W) at their pixel, in front of the eye),
+        the part's face in front of them (the hidden map), else -1."""
+        out = np.empty(screen.shape[0], np.int64)
+        _faces_behind(np.ascontiguousarray(screen, np.float64), depth, self.triangle,
+                      self.local, out)
+        return out
+
+
+@njit(cache=True)
+def _faces_behind(screen, depth, triangle, local, out):
+    """PartView.faces_behind. A point counts if its depth is > 0 and its x, y lie in
+    [0, W) x [0, H) (the same as flooring them first; NaN fails every test). One thread:
+    a few ns a point."""
+    h, w = depth.shape
+    for i in range(screen.shape[0]):
+        out[i] = -1
+        x, y, z = screen[i, 0], screen[i, 1], screen[i, 2]
+        if not (z > 0.0 and x >= 0.0 and y >= 0.0 and x < w and y < h):
+            continue
+        xi, yi = int(math.floor(x)), int(math.floor(y))
+        if z > depth[yi, xi]:
+            out[i] = local[triangle[yi, xi]]
 
 
 @dataclass(frozen=True)
@@ -66,12 +113,13 @@ def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorSha
     marks = np.zeros((parts, h // TILE + 1, w // TILE + 1), np.bool_)
     part_views(alone.triangle, part_of, TILE, owner, marks)
     views = []
+    on_screen = PointsOnScreen()
     for p in range(parts):
         tiles = None
         if grid is not None:
             tiles = PartTiles(owner, grid[0], grid[1], TILE, tiles=np.flatnonzero(marks[p]),
                               part=p)
-        views.append(PartView(owner, p, alone.triangle, local[p], tiles))
+        views.append(PartView(owner, p, alone.triangle, local[p], tiles, on_screen))
     return ReflectorView(alone.depth, grid, tuple(views))
 
 

@@ -8,6 +8,7 @@ import pytest
 from conftest import compiled_only
 from naive import (
     explosion_virtual,
+    faces_behind,
     fill_extensions,
     fill_faces,
     fill_triangle,
@@ -39,7 +40,7 @@ from naive import part_views as naive_part_views
 from reflectcli.camera import Camera
 from reflectcli.raster.rasterize import FLAG_MIRROR, FLAG_SKIP
 from reflectcli.scene import primitives
-from reflectcli.virtual import circle, compose, direct, explosion, mapfill, refine
+from reflectcli.virtual import circle, compose, direct, explosion, mapfill, refine, tiles
 from reflectcli.virtual.mesh import weld
 from reflectcli.virtual.tiles import PartTiles, joined
 
@@ -375,6 +376,48 @@ def test_tile_scan_matches_twin():
     np.testing.assert_array_equal(culled_seeds[todo], full_seeds[todo])
 
 
+def test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them():
+    """_scan_reached (blocks of points skip tiles by the block's ball) against _scan (every
+    tile meets every point): the same reach, and the same seeds wherever a tile reaches, on
+    tight clusters of points (blocks with small balls, so that tiles are skipped) scattered
+    around the sphere, many of them at the edges of the tiles' cones; and _block_misses
+    never skips a tile one of the ball's points passes (points sampled in the ball, up to
+    its surface)."""
+    rng = np.random.default_rng(5)
+    _, inside, q, r = sphere_grid()
+    part = PartTiles(inside, q, r, size=4)
+    centres = rng.normal(size=(24, 3)) * 3.0
+    pts = np.concatenate([c + rng.normal(size=(128, 3)) * 10.0 ** rng.uniform(-4, -1)
+                          for c in centres])
+    rows = np.arange(len(pts))
+    args = (part.center, part.radius, part.axis, part.half, part.pixel, part.margin, q, r)
+    want_reach, want_seeds = np.zeros(len(pts), bool), np.full((len(pts), 2), np.nan)
+    tiles._scan(pts, rows, *args[:6], q, r, want_reach, want_seeds)
+    reach, seeds = np.zeros(len(pts), bool), np.full((len(pts), 2), np.nan)
+    tiles._scan_reached(pts, rows, *args[:6], q, r, reach, seeds, 2)
+    np.testing.assert_array_equal(reach, want_reach)
+    np.testing.assert_array_equal(seeds[reach], want_seeds[reach])
+    assert np.isnan(seeds[~reach]).all() and reach.any() and not reach.all()
+    a = part.half + part.margin
+    skipped = 0
+    for c in centres:
+        for rho in (1e-3, 0.05, 0.3):
+            for j in range(len(part.center)):
+                if a[j] >= 0.5 * np.pi or not tiles._block_misses(
+                        c[0], c[1], c[2], rho, part.center[j], part.radius[j] * 1.001,
+                        part.axis[j], np.cos(a[j]), np.sin(a[j])):
+                    continue
+                skipped += 1
+                d = rng.normal(size=(64, 3))
+                d *= rho * rng.uniform(0.0, 1.0, (64, 1)) ** 0.3 / np.linalg.norm(
+                    d, axis=1, keepdims=True)
+                got, _ = scan(c + d, part.center[j:j + 1], part.radius[j:j + 1],
+                              part.axis[j:j + 1], part.half[j:j + 1], part.pixel[j:j + 1],
+                              part.margin, q, r)
+                assert not got.any()
+    assert skipped > 100
+
+
 def test_part_candidates_and_join_match_twins():
     """The part's cull (ball and cone) and the polygon join, against their twins, on points
     near the cone's edge too."""
@@ -575,6 +618,61 @@ def test_fill_kernels_match_twin(sphere_maps):
                     explosion.EXTENSION_REACH * maps.s)
     np.testing.assert_array_equal(ids, want)
     assert (ids >= len(f)).any()
+
+
+def test_ids_at_marked_texels_match_the_fill_twins(sphere_maps):
+    """mapfill._ids_at_marked (faces and quads sorted into cells, each marked texel tested
+    alone) against drawing the whole map with the fill twins: at every marked texel the
+    same id (the last face holding it, else the first quad) and core (a face holds it);
+    True exactly when no marked texel is left empty. On the sphere's maps, with extra
+    degenerate, NaN, tiny and map-wide triangles and quads, texels marked scattered, in
+    clusters and on the map's edges, inside boxes of several sizes."""
+    mesh, _, maps = sphere_maps
+    rng = np.random.default_rng(8)
+    res, half = maps.res, maps.res / 2.0
+    reach = explosion.EXTENSION_REACH * maps.s
+    for case in range(12):
+        layer = maps.layers[case % len(maps.layers)]
+        coords = layer.coords.copy()
+        extra = np.concatenate([rng.uniform(-10, res + 10, (20, 2)),
+                                coords[:5] + rng.normal(size=(5, 2)) * 0.3])
+        extra[3] = np.nan
+        coords = np.concatenate([coords, extra])
+        v = len(layer.coords)
+        faces = np.concatenate([mesh.faces, rng.integers(0, len(coords), (30, 3)),
+                                [[v, v, v + 1], [v + 3, v + 4, v + 5]]]).astype(np.int64)
+        faces[-3:, :] = np.where(np.isnan(coords[faces[-3:]]).any(axis=2), 0, faces[-3:])
+        drawn = rng.permutation(len(faces))[: int(len(faces) * rng.uniform(0.3, 1.0))]
+        extensions = np.concatenate([maps.extensions, np.column_stack(
+            [np.zeros(15, np.int64), rng.integers(0, len(coords), (15, 2))])])
+        marks = rng.random((res, res)) < rng.choice([0.002, 0.02, 0.2])
+        marks[rng.integers(0, res - 6):, :3] = True  # an edge, a cluster
+        marks[0, rng.integers(0, res)] = True
+        y0, y1, x0, x1 = mapfill._marked_box(marks)
+        ids = np.full((res, res), -1, np.int32)
+        core = np.zeros((res, res), bool)
+        full = mapfill._ids_at_marked(ids, core, marks, coords, faces, drawn, extensions,
+                                      len(faces), half, reach, y0, y1, x0, x1)
+        want = np.full((res, res), -1, np.int32)
+        fill_faces(want, coords, faces, drawn)
+        want_core = want >= 0
+        fill_extensions(want, coords, extensions, len(faces), half, reach)
+        np.testing.assert_array_equal(ids[marks], want[marks])
+        np.testing.assert_array_equal(core[marks], want_core[marks])
+        assert (ids[~marks] == -1).all() and not core[~marks].any()
+        assert full == bool((want[marks] >= 0).all())
+        filled = marks & (want >= 0)  # only filled texels marked: none left empty
+        again = np.full((res, res), -1, np.int32)
+        assert mapfill._ids_at_marked(again, core, filled, coords, faces, drawn, extensions,
+                                      len(faces), half, reach, *mapfill._marked_box(filled))
+        np.testing.assert_array_equal(again[filled], want[filled])
+        hole = mapfill._hole_box(ids, marks, y0, y1, x0, x1)
+        empty = np.argwhere(marks & (ids < 0))
+        if len(empty):
+            assert hole == (empty[:, 0].min(), empty[:, 0].max(), empty[:, 1].min(),
+                            empty[:, 1].max())
+        else:
+            assert hole[0] > hole[1]
 
 
 def test_plane_and_screen_lookups_match_twin(sphere_maps):
@@ -796,11 +894,38 @@ def test_part_stencil_matches_twin():
     assert want.sum() > 5
 
 
+def test_faces_behind_match_twin():
+    """PartView.faces_behind (the hidden map's faces of points behind the reflector alone)
+    against its twin: points on and off the image, on its edges, behind the eye, deeper and
+    shallower than the depth, NaN and infinite."""
+    from reflectcli.virtual.view import PartView, PointsOnScreen
+
+    rng = np.random.default_rng(4)
+    h, w, count = 23, 31, 12
+    triangle = rng.integers(-1, count, (h, w)).astype(np.int32)
+    local = np.full(count + 1, -1, np.int32)
+    local[[1, 4, 5, 9]] = np.arange(4)
+    depth = rng.uniform(1.0, 3.0, (h, w))
+    depth[0, :5] = np.inf  # no reflector there
+    n = 400
+    screen = np.column_stack([rng.uniform(-3, w + 3, n), rng.uniform(-3, h + 3, n),
+                              rng.uniform(-1.0, 4.0, n)])
+    screen[:40, :2] = np.floor(screen[:40, :2])  # on pixel edges
+    edges = [[0.0, 0.0, 5.0], [w, 3.0, 5.0], [w - 1e-9, 3.0, 5.0], [3.0, h, 5.0],
+             [-1e-12, 2.0, 5.0], [np.nan, 2.0, 5.0], [2.0, np.inf, 5.0], [2.0, 2.0, np.nan],
+             [2.0, 2.0, np.inf], [2.0, 2.0, 0.0], [-np.inf, 1.0, 5.0], [1.0, 1.0, -2.0]]
+    screen = np.concatenate([screen, edges])
+    view = PartView(np.zeros((h, w), np.int16), 0, triangle, local, None, PointsOnScreen())
+    got = view.faces_behind(screen, depth)
+    np.testing.assert_array_equal(got, faces_behind(screen, depth, triangle, local))
+    assert (got >= 0).sum() > 20 and (got < 0).sum() > 20
+
+
 def test_part_views_match_twin():
     """view.part_views (one pass, every part, one owner plane) against its twin part by
     part: each part's face under each pixel (PartView.hidden_faces), its pixels, and its
     tiles as np.unique of the pixels' tile ids."""
-    from reflectcli.virtual.view import PartView, part_views
+    from reflectcli.virtual.view import PartView, PointsOnScreen, part_views
 
     rng = np.random.default_rng(12)
     h, w, count, size = 37, 50, 40, 12
@@ -818,7 +943,7 @@ def test_part_views_match_twin():
     ys, xs = np.indices((h, w))
     for p, (want, want_inside, want_tiles) in enumerate(naive_part_views(triangle, local,
                                                                           size)):
-        view = PartView(owner, p, triangle, local[p], None)
+        view = PartView(owner, p, triangle, local[p], None, PointsOnScreen())
         np.testing.assert_array_equal(view.hidden_faces(ys, xs), want)
         np.testing.assert_array_equal(owner == p, want_inside)
         np.testing.assert_array_equal(np.flatnonzero(marks[p]), want_tiles)
