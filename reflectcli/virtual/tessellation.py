@@ -16,8 +16,13 @@ class Tessellation:
     computation (virtual vertices) runs once per point, not once per corner."""
 
     triangles: Triangles  # corners == points[corner_index]
-    points: np.ndarray  # (P, 3) float64
+    points: np.ndarray  # (P, 3) float64, read-only
     corner_index: np.ndarray  # (T, 3) int64
+
+    def __post_init__(self) -> None:
+        # read-only: a view's projection of these points is kept by the array's identity
+        # (view.PointsOnScreen), which a write in place would leave stale
+        self.points.flags.writeable = False
 
 
 def _grid(n: int):

@@ -33,11 +33,12 @@ class PointsOnScreen:
 
     def of(self, points: np.ndarray, clip_from_world: np.ndarray, width: int,
            height: int) -> np.ndarray:
-        """screen_from_world(points, ...) (the view's camera), made once per points array
-        (scene points are not written after they are made)."""
+        """screen_from_world(points, ...) (the view's camera), made once per read-only
+        points array (a tessellation's: never written after it is made); a writable one is
+        projected on every call."""
         if self.points is not points:
             self.screen = screen_from_world(points, clip_from_world, width, height)
-            self.points = points
+            self.points = None if points.flags.writeable else points
         return self.screen
 
 

@@ -641,7 +641,6 @@ def test_ids_at_marked_texels_match_the_fill_twins(sphere_maps):
         v = len(layer.coords)
         faces = np.concatenate([mesh.faces, rng.integers(0, len(coords), (30, 3)),
                                 [[v, v, v + 1], [v + 3, v + 4, v + 5]]]).astype(np.int64)
-        faces[-3:, :] = np.where(np.isnan(coords[faces[-3:]]).any(axis=2), 0, faces[-3:])
         drawn = rng.permutation(len(faces))[: int(len(faces) * rng.uniform(0.3, 1.0))]
         extensions = np.concatenate([maps.extensions, np.column_stack(
             [np.zeros(15, np.int64), rng.integers(0, len(coords), (15, 2))])])
