@@ -411,6 +411,12 @@ def test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them():
                 d = rng.normal(size=(64, 3))
                 d *= rho * rng.uniform(0.0, 1.0, (64, 1)) ** 0.3 / np.linalg.norm(
                     d, axis=1, keepdims=True)
+                # and the ball's point turned furthest toward the tile's axis (seen from
+                # the tile's centre): the one the bound must still keep out
+                out = (c - part.center[j]) / np.linalg.norm(c - part.center[j])
+                toward = part.axis[j] - np.dot(part.axis[j], out) * out
+                if np.linalg.norm(toward) > 0:
+                    d = np.concatenate([d, [rho * toward / np.linalg.norm(toward)]])
                 got, _ = scan(c + d, part.center[j:j + 1], part.radius[j:j + 1],
                               part.axis[j:j + 1], part.half[j:j + 1], part.pixel[j:j + 1],
                               part.margin, q, r)
