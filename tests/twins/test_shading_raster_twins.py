@@ -429,3 +429,105 @@ def test_prefetch_changes_no_value():
     a = rng.random((500, 3, 3)).astype(np.float32)
     ids = rng.integers(0, 500, 300).astype(np.int32)
     np.testing.assert_array_equal(gather(a, ids, 8), a[ids, 1, 2])
+
+
+def _pass_case(rng, counts):
+    """Passes of random triangles (counts each), a label image of 0..P with the passes'
+    boxes, and a depth floor."""
+    cam = camera()
+    m = cam.projection_matrix() @ cam.view_matrix()
+    corners = np.concatenate([random_triangles(cam, n, rng) for n in counts])
+    flags = np.where(rng.random(len(corners)) < 0.25, FLAG_MIRROR, 0).astype(np.uint8)
+    flags[rng.random(len(corners)) < 0.05] |= FLAG_SKIP
+    labels = rng.integers(0, len(counts) + 1, (H, W)).astype(np.uint8)
+    labels[:, :2] = 0  # boxes smaller than the screen, and of different sizes
+    labels[:3][labels[:3] == 1] = 0
+    labels[:, -5:][labels[:, -5:] == 2] = 0
+    boxes = np.zeros((len(counts), 4), np.int64)
+    for p in range(len(counts)):
+        ys, xs = np.nonzero(labels == p + 1)
+        boxes[p] = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+    floor = np.where(rng.random((H, W)) < 0.5, rng.uniform(0.0, 9.0, (H, W)), 0.0).astype(
+        np.float32)
+    return m, corners, flags, labels, boxes, floor, np.cumsum([0, *counts])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_rasterize_passes_match_twin(seed):
+    """Each pass of rasterize_passes, on its own label's pixels: the twin's triangles (ids
+    offset by the pass's start), with and without a depth floor."""
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.raster.rasterize.passes import rasterize_passes
+
+    rng = np.random.default_rng(seed)
+    m, corners, flags, labels, boxes, floor, starts = _pass_case(rng, (12, 16, 9))
+    for depth_floor in (None, floor):
+        ws = RasterWorkspace(outputs=True)
+        got = rasterize_passes(corners, flags, m, W, H, starts, boxes, labels, depth_floor, ws)
+        covered = 0.0
+        for p in range(len(boxes)):
+            s, e = starts[p], starts[p + 1]
+            mine = labels == p + 1
+            tri, b1, b2, depth, ambiguous = rasterize(corners[s:e], flags[s:e], m, W, H,
+                                                      mask=mine, depth_floor=depth_floor)
+            local = np.where(got.triangle >= 0, got.triangle - s, -1)
+            assert np.all((local[mine] == tri[mine]) | ambiguous[mine])
+            both = mine & (local == tri) & (tri >= 0)
+            np.testing.assert_allclose(got.depth[both], depth[both], rtol=1e-4)
+            assert np.all(np.isinf(got.depth[mine & (got.triangle < 0)]))
+            assert np.all((got.triangle[mine] < 0) | ((got.triangle[mine] >= s)
+                                                      & (got.triangle[mine] < e)))
+            covered += (tri[mine] >= 0).mean()
+        assert covered > 0.3  # not vacuous
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_rasterize_passes_are_the_passes_one_at_a_time(seed):
+    """rasterize_passes gives every labelled pixel the very bytes (id offset, depth) that
+    rasterize gives it in its pass alone (mask: its label, clear_outside False), for
+    passes longer than a run of triangles, triangles the near plane cuts, and with the
+    corners gathered from shared points as it draws (gather)."""
+    from naive import gather_corners as naive_gather_corners
+
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.raster.rasterize.constants import _CHUNK
+    from reflectcli.raster.rasterize.passes import rasterize_passes
+
+    rng = np.random.default_rng(seed)
+    m, corners, flags, labels, boxes, floor, starts = _pass_case(rng, (_CHUNK + 37, 20, 300))
+    cam = camera()
+    _, _, back = cam.basis()
+    cut = rng.choice(len(corners), 40, replace=False)  # one corner behind the eye
+    corners[cut, 0] = (cam.eye + 0.5 * back).astype(np.float32)
+    flags[cut] &= ~np.uint8(FLAG_SKIP)
+    for depth_floor in (None, floor):
+        ws = RasterWorkspace(outputs=True)
+        got = rasterize_passes(corners, flags, m, W, H, starts, boxes, labels, depth_floor, ws)
+        tri, depth = got.triangle.copy(), got.depth.copy()
+        one = RasterWorkspace(outputs=True)
+        for p in range(len(boxes)):
+            s, e = starts[p], starts[p + 1]
+            mine = labels == p + 1
+            alone = fast_rasterize(corners[s:e], flags[s:e], m, W, H, mask=mine,
+                                   depth_floor=depth_floor, workspace=one, clear_outside=False)
+            want = np.where(alone.triangle >= 0, alone.triangle + s, -1).astype(np.int32)
+            assert tri[mine].tobytes() == want[mine].tobytes()
+            assert depth[mine].tobytes() == alone.depth[mine].tobytes()
+    # the same triangles as indices into shared points, gathered as they are drawn
+    points = corners.reshape(-1, 3).astype(np.float64)
+    hidden = rng.random(len(points)) < 0.1
+    index = np.arange(len(points)).reshape(-1, 3)
+    surface = np.where(flags & FLAG_MIRROR, 7, 3).astype(np.int32)
+    out_corners = np.empty_like(corners)
+    out_flags = np.empty_like(flags)
+    ws = RasterWorkspace(outputs=True)
+    gathered = rasterize_passes(out_corners, out_flags, m, W, H, starts, boxes, labels, floor,
+                                ws, gather=(points, hidden, index, surface, 5))
+    want_corners, want_flags = naive_gather_corners(points, hidden, index, surface, 5)
+    assert out_corners.tobytes() == want_corners.tobytes()
+    assert out_flags.tobytes() == want_flags.tobytes()
+    plain = rasterize_passes(want_corners, want_flags, m, W, H, starts, boxes, labels, floor,
+                             RasterWorkspace(outputs=True))
+    on = labels > 0
+    assert gathered.triangle[on].tobytes() == plain.triangle[on].tobytes()
+    assert gathered.depth[on].tobytes() == plain.depth[on].tobytes()
