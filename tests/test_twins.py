@@ -77,6 +77,10 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "prefetch.py:prefetch": (RECOVER + [SR + "test_prefetch_changes_no_value"], "_shade_row"),
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
+    # held to _resolve then _shade_stencil, each held to its twin
+    "raster/shade.py:_shade_stencil_resolving": (
+        [SR + "test_shading_that_merges_the_threads_buffers_is_merge_then_shade"],
+        "shade_buffers"),
     "raster/shade.py:_shade_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade"),
     "raster/shade.py:_object_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade_pixel"),
     "raster/shade.py:_shade_row": (RECOVER, "_shade"),
@@ -102,6 +106,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize/clip.py:_clip_polygon": (CLIP, "_draw_clipped"),
     "raster/rasterize/resolve.py:_resolve": (
         RASTER + [R + "test_clear_outside_false_keeps_pixels_outside_the_box"], "rasterize"),
+    "raster/rasterize/resolve.py:_resolve_row": (
+        RASTER + [SR + "test_shading_that_merges_the_threads_buffers_is_merge_then_shade"],
+        "_resolve"),
     "raster/rasterize/stencil.py:stencil_box": ([R + "test_stencil_box_matches_twin"], None),
     "raster/rasterize/clip.py:_box_misses": (
         [R + "test_skipping_chunks_by_their_boxes_changes_nothing"], "_draw"),

@@ -1,8 +1,9 @@
 """The sphere mirrors of a frame drawn together: their virtual vertices found in one call,
 their triangles gathered, rasterized, shaded and composed once for all of them, each only
 on its own pixels (a label image). Drawn one at a time, four-spheres' frame held 20 parallel
-regions for its four spheres with Python between them; on two cores each region's start
-and join cost about as much as its work. The bytes are those of the passes one at a time."""
+regions for its four spheres with Python between them (now 3: the search, the draw, the
+merge with the shading); on two cores each region's start and join cost about as much as
+its work. The bytes are those of the passes one at a time."""
 
 from __future__ import annotations
 
@@ -105,8 +106,8 @@ def draw_spheres(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_worl
     pixels; their virtual points from `spheres_vertices`) added to the primary frame's rgb,
     as `draw_virtual` and `add_reflection` give them one at a time: one rasterization of
     all passes over a label image, gathering the corners as it goes (the depth floor where
-    `zbuffer`, the reflector test), one shading, cracks filled and reflections added per
-    label."""
+    `zbuffer`, the reflector test), one shading, merging the threads' buffers as it goes,
+    cracks filled and reflections added per label."""
     joined = group.joined
     mirrors = scene.mirrors
     count = len(group.ks)
@@ -124,15 +125,17 @@ def draw_spheres(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_worl
     floor = ws.get("virtual_floor", (h, w), np.float32)
     pass_labels(frame.surface, primary.buffers.depth, scene.n_objects, label_of, y0, y1, x0,
                 x1, labels, stencil, floor)
-    buffers = rasterize_passes(corners, flags, clip_from_world, w, h, group.tri_starts, boxes,
-                               labels, floor if zbuffer else None, ws,
-                               gather=(virtual, hidden, joined.corner_index,
-                                       joined.triangles.surface, scene.n_objects))
+    # the threads' buffers merged row by row as the rows are shaded (one region less)
+    buffers, pending = rasterize_passes(corners, flags, clip_from_world, w, h, group.tri_starts,
+                                        boxes, labels, floor if zbuffer else None, ws,
+                                        gather=(virtual, hidden, joined.corner_index,
+                                                joined.triangles.surface, scene.n_objects),
+                                        resolve=False)
     colors, _ = shade_buffers(buffers, joined.triangles, scene, eye, incoming,
                               stencil=stencil,
                               out=(ws.get("virtual_rgb", (h, w, 3), np.float32),
                                    ws.get("virtual_surface", (h, w), np.int32)),
-                              box=(y0, y1, x0, x1))
+                              box=(y0, y1, x0, x1), pending=pending)
     compose_passes(frame.rgb, colors, buffers.triangle, labels,
                    np.ascontiguousarray(mirrors.reflectance[list(group.ks)]), y0, y1, x0, x1)
 

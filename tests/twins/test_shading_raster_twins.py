@@ -531,3 +531,63 @@ def test_rasterize_passes_are_the_passes_one_at_a_time(seed):
     on = labels > 0
     assert gathered.triangle[on].tobytes() == plain.triangle[on].tobytes()
     assert gathered.depth[on].tobytes() == plain.depth[on].tobytes()
+
+
+@pytest.mark.parametrize("shading", [UNLIT, LAMBERT])
+def test_shading_that_merges_the_threads_buffers_is_merge_then_shade(shading):
+    """_shade_stencil_resolving (rasterize_passes(resolve=False)'s buffers merged row by
+    row as the rows are shaded): the very ids, depths, colours and surface ids of
+    _resolve, then _shade_stencil (each held to its twin), lit with per-pixel rays and
+    unlit, at 1 and 2 threads."""
+    import numba
+
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.raster.rasterize.passes import rasterize_passes
+    from reflectcli.raster.shade import _shade_stencil_resolving
+
+    rng = np.random.default_rng(11)
+    m, corners, flags, labels, boxes, floor, starts = _pass_case(rng, (300, 40, 90))
+    n_tri, n_objects = len(corners), 3
+    _, uvs, normals, surface = random_scene_arrays(rng, n_tri, n_objects, 2)
+    mat_i, mat_f, texels = materials(rng)
+    material = rng.integers(0, len(mat_i), n_tri).astype(np.int32)
+    light_f = lights(rng)
+    eye = camera().eye.astype(np.float64)
+    background = rng.random(3).astype(np.float32)
+    refl = rng.random((2, 3)).astype(np.float32)
+    base = rng.random((2, 3)).astype(np.float32)
+    stencil = labels > 0
+    y0, y1, x0, x1 = boxes[:, 0].min(), boxes[:, 1].max(), boxes[:, 2].min(), boxes[:, 3].max()
+    dirs = rng.normal(size=(H, W, 3))
+    dummy = np.zeros((1, 1), np.float32)
+    before = numba.get_num_threads()
+    try:
+        for threads in (1, 2):
+            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+            results = []
+            for resolve in (True, False):
+                ws = RasterWorkspace(outputs=True)
+                ws.get("tri", (H, W), np.int32)[:] = -5  # outside the box: left as found
+                out = rasterize_passes(corners, flags, m, W, H, starts, boxes, labels, floor, ws,
+                                       resolve=resolve)
+                buffers, pending = (out, None) if resolve else out
+                rgb = np.full((H, W, 3), -7.0, np.float32)
+                surf = np.full((H, W), -9, np.int32)
+                args = (stencil, buffers.triangle, dummy, dummy, True, buffers.clip_from_world,
+                        buffers.corners, corners, uvs, normals, material, surface, n_objects,
+                        eye, dirs, True, mat_i, mat_f, texels, light_f, shading, 0.1,
+                        background, refl, base, rgb, surf, y0, y1, x0, x1, threads)
+                if resolve:
+                    _shade_stencil(*args)
+                else:
+                    _shade_stencil_resolving(*args, *pending)
+                results.append((buffers.triangle.copy(), buffers.depth.copy(), rgb, surf))
+            (tri_a, depth_a, rgb_a, surf_a), (tri_b, depth_b, rgb_b, surf_b) = results
+            assert tri_a.tobytes() == tri_b.tobytes()
+            inside = np.zeros((H, W), bool)
+            inside[y0:y1, x0:x1] = True
+            assert depth_a[inside].tobytes() == depth_b[inside].tobytes()
+            assert rgb_a.tobytes() == rgb_b.tobytes() and surf_a.tobytes() == surf_b.tobytes()
+            assert (tri_a[stencil] >= 0).mean() > 0.3
+    finally:
+        numba.set_num_threads(before)

@@ -26,7 +26,8 @@ MAX_PASSES = 255  # labels are uint8, 0 for no pass
 def rasterize_passes(corners: np.ndarray, flags: np.ndarray, world_to_clip: np.ndarray,
                      width: int, height: int, starts: np.ndarray, boxes: np.ndarray,
                      labels: np.ndarray, depth_floor: np.ndarray | None,
-                     workspace: RasterWorkspace, gather: tuple | None = None) -> RasterBuffers:
+                     workspace: RasterWorkspace, gather: tuple | None = None,
+                     resolve: bool = True):
     """Passes p = 0 .. P - 1 at once: triangles starts[p] .. starts[p + 1] - 1 of `corners`
     (T, 3, 3 world, float32; `flags` as in rasterize) drawn where `labels` (H, W uint8)
     is p + 1, each clipped to its box boxes[p] (rows y0, y1, columns x0, x1, exclusive
@@ -41,7 +42,12 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, world_to_clip: np.n
     `gather` (points (N, 3) float64, hidden (N,) bool, corner_index (T, 3), surface (T,),
     n_objects): the triangles as indices into shared points, `corners` and `flags` then
     the arrays to gather them into (`gather_triangle`) as each run is drawn: no pass of
-    its own over the triangles, and no parallel region of its own."""
+    its own over the triangles, and no parallel region of its own.
+
+    Returns the RasterBuffers; with `resolve` False, (buffers, pending): the threads'
+    buffers are not merged here, and `pending` is what `shade_buffers(pending=...)` needs
+    to merge each row as it shades it (the buffers' ids and depths inside the box are
+    valid only after that)."""
     ws = workspace
     assert ws.outputs and boxes.shape[0] <= MAX_PASSES
     planes = standard_planes()
@@ -77,8 +83,11 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, world_to_clip: np.n
                  np.ascontiguousarray(labels, np.uint8), floor, depth_floor is not None,
                  y0, x0, own_tri, own_key, drew, gather is not None, points, hidden,
                  corner_index, surface, n_objects)
+    buffers = RasterBuffers(tri, None, None, depth, corners, m, out)
+    if not resolve:
+        return buffers, (flags, x0, x1, y0, y1, own_tri, own_key, drew, depth)
     _resolve(flags, x0, x1, y0, y1, own_tri, own_key, drew, tri, depth, False)
-    return RasterBuffers(tri, None, None, depth, corners, m, out)
+    return buffers
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

@@ -152,7 +152,7 @@ class Virtual(Technique):
             incoming = reflected_rays(primary, camera.eye, box, state.virtual_raster)
         seconds["virtual_raster"] += time.perf_counter() - t_start
         ws = state.virtual_raster
-        # sphere mirrors drawn together (virtual/together.py): the same bytes, in 6
+        # sphere mirrors drawn together (virtual/together.py): the same bytes, in 3
         # parallel regions for all of them instead of 5 each
         together = [int(k) for k in seen if self.params.reflector_test != "clip_planes"
                     and choose_method(self.params.method, int(scene.mirrors.kind[k]),
