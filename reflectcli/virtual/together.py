@@ -69,12 +69,14 @@ class TogetherCache:
 
 def worth_together(boxes: np.ndarray) -> bool:
     """Whether passes with boxes (P, 4: y0, y1, x0, x1) share a box small enough (see
-    MAX_SPREAD) to be drawn together."""
-    if boxes.shape[0] > MAX_PASSES:
+    MAX_SPREAD) to be drawn together. (Python ints: numpy's reductions on a few numbers
+    cost more than the arithmetic, every frame.)"""
+    rows = boxes.tolist()
+    if len(rows) > MAX_PASSES:
         return False
-    area = float(np.sum((boxes[:, 1] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 2])))
-    common = float((boxes[:, 1].max() - boxes[:, 0].min())
-                   * (boxes[:, 3].max() - boxes[:, 2].min()))
+    area = sum((y1 - y0) * (x1 - x0) for y0, y1, x0, x1 in rows)
+    common = ((max(r[1] for r in rows) - min(r[0] for r in rows))
+              * (max(r[3] for r in rows) - min(r[2] for r in rows)))
     return common <= MAX_SPREAD * area
 
 
@@ -116,8 +118,9 @@ def draw_spheres(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_worl
     flags = ws.get("virtual_flags", (n_tris,), np.uint8)
     frame = primary.frame
     h, w = frame.surface.shape
-    y0, y1 = int(boxes[:, 0].min()), int(boxes[:, 1].max())
-    x0, x1 = int(boxes[:, 2].min()), int(boxes[:, 3].max())
+    rows = boxes.tolist()
+    y0, y1 = min(r[0] for r in rows), max(r[1] for r in rows)
+    x0, x1 = min(r[2] for r in rows), max(r[3] for r in rows)
     label_of = np.zeros(mirrors.count, np.uint8)
     label_of[list(group.ks)] = np.arange(1, count + 1)
     labels = ws.get("together_labels", (h, w), np.uint8)

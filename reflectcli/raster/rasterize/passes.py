@@ -69,8 +69,9 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, world_to_clip: np.n
     depth = ws.get("depth", (height, width), np.float32)
     out = (ws.get("b1", (height, width), np.float32), ws.get("b2", (height, width), np.float32))
     boxes = np.ascontiguousarray(boxes, np.int64)
-    y0, y1 = int(boxes[:, 0].min()), int(boxes[:, 1].max())
-    x0, x1 = int(boxes[:, 2].min()), int(boxes[:, 3].max())
+    rows = boxes.tolist()  # a few numbers: Python's min and max beat numpy's reductions
+    y0, y1 = min(r[0] for r in rows), max(r[1] for r in rows)
+    x0, x1 = min(r[2] for r in rows), max(r[3] for r in rows)
     threads = max(1, numba.get_num_threads())
     padded = (max(y1 - y0, 0), max(x1 - x0, 0) + _BLOCK - 1)
     own_tri = ws.get("own_tri", (threads, *padded), np.int32)
