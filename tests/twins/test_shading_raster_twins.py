@@ -591,3 +591,59 @@ def test_shading_that_merges_the_threads_buffers_is_merge_then_shade(shading):
             assert (tri_a[stencil] >= 0).mean() > 0.3
     finally:
         numba.set_num_threads(before)
+
+
+@pytest.mark.parametrize("shading", [UNLIT, LAMBERT])
+def test_whole_image_shading_that_merges_is_merge_then_shade(shading):
+    """_shade_resolving (rasterize(resolve=False)'s buffers merged row by row as the rows
+    are shaded, the whole image): the very ids, depths, colours and surface ids of
+    _resolve (clear), then _shade (each held to its twin), at 1 and 2 threads, and with
+    no triangle at all."""
+    import numba
+
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.raster.shade import _shade_resolving
+
+    rng = np.random.default_rng(12)
+    cam = camera()
+    m = cam.projection_matrix() @ cam.view_matrix()
+    corners = random_triangles(cam, 700, rng)
+    _, _, back = cam.basis()
+    corners[::60, 0] = (cam.eye + 0.5 * back).astype(np.float32)  # some cut by the near plane
+    n_tri, n_objects = len(corners), 3
+    flags = np.where(rng.random(n_tri) < 0.25, FLAG_MIRROR, 0).astype(np.uint8)
+    _, uvs, normals, surface = random_scene_arrays(rng, n_tri, n_objects, 2)
+    mat_i, mat_f, texels = materials(rng)
+    material = rng.integers(0, len(mat_i), n_tri).astype(np.int32)
+    light_f = lights(rng)
+    eye = cam.eye.astype(np.float64)
+    background = rng.random(3).astype(np.float32)
+    refl = rng.random((2, 3)).astype(np.float32)
+    base = rng.random((2, 3)).astype(np.float32)
+    dummy = np.zeros((1, 1), np.float32)
+    before = numba.get_num_threads()
+    try:
+        for threads, count in ((1, n_tri), (2, n_tri), (2, 0)):
+            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+            results = []
+            for resolve in (True, False):
+                ws = RasterWorkspace()
+                out = fast_rasterize(corners[:count], flags[:count], m, W, H, workspace=ws,
+                                     resolve=resolve)
+                buffers, pending = (out, None) if resolve else out
+                rgb = np.full((H, W, 3), -7.0, np.float32)
+                surf = np.full((H, W), -9, np.int32)
+                args = (buffers.triangle, dummy, dummy, True, buffers.clip_from_world,
+                        buffers.corners, corners, uvs, normals, material, surface, n_objects,
+                        eye, np.zeros((1, 1, 3)), False, mat_i, mat_f, texels, light_f,
+                        shading, 0.1, background, refl, base, rgb, surf, threads)
+                if resolve:
+                    _shade(*args)
+                else:
+                    _shade_resolving(*args, *pending)
+                results.append((buffers.triangle, buffers.depth, rgb, surf))
+            for a, b in zip(*results, strict=True):
+                assert a.tobytes() == b.tobytes()
+            assert count == 0 or (results[0][0] >= 0).mean() > 0.5
+    finally:
+        numba.set_num_threads(before)
