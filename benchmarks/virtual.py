@@ -81,9 +81,9 @@ def captured_passes(scene: str, threads: int) -> list[tuple]:
                     depth_floor=depth_floor, **kw)
 
     def spy_passes(corners, flags, m, width, height, starts, boxes, labels, depth_floor,
-                   workspace, gather=None):
+                   workspace, **kw):
         out = real_passes(corners, flags, m, width, height, starts, boxes, labels,
-                          depth_floor, workspace, gather=gather)
+                          depth_floor, workspace, **kw)
         for p in range(len(boxes)):  # corners gathered by the call: copied after it
             s, e = starts[p], starts[p + 1]
             y0, y1, x0, x1 = boxes[p]  # labels are set only in the passes' boxes
