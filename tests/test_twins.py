@@ -78,8 +78,6 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
     # held to _resolve then _shade_stencil, each held to its twin
-    "raster/shade.py:_shade_resolving": (
-        [SR + "test_whole_image_shading_that_merges_is_merge_then_shade"], "shade_buffers"),
     "raster/shade.py:_shade_stencil_resolving": (
         [SR + "test_shading_that_merges_the_threads_buffers_is_merge_then_shade"],
         "shade_buffers"),

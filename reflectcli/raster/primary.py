@@ -23,20 +23,17 @@ class Primary:
 
 
 def render_primary(scene: Scene, frame_index: int, camera: Camera,
-                   workspace: RasterWorkspace | None = None, merged: bool = False) -> Primary:
+                   workspace: RasterWorkspace | None = None) -> Primary:
     """`workspace`: the rasterizer's scratch kept across frames (outputs stay fresh: the
-    frame keeps the depth buffer). `merged`: the rasterizer's per-thread buffers merged
-    row by row as the shading reaches them (one parallel region less, the same bytes;
-    the `rasterize` timing then leaves the merge to `shade`)."""
+    frame keeps the depth buffer)."""
     t0 = time.perf_counter()
     tris = scene.geometry(frame_index).all_triangles()
     flags = (tris.surface >= scene.n_objects).astype(np.uint8) * np.uint8(FLAG_MIRROR)
     world_to_clip = camera.clip_from_world()
-    out = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height,
-                    workspace=workspace, resolve=not merged)
-    buffers, pending = out if merged else (out, None)
+    buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height,
+                        workspace=workspace)
     t1 = time.perf_counter()
-    rgb, surface = shade_buffers(buffers, tris, scene, camera.eye, pending=pending)
+    rgb, surface = shade_buffers(buffers, tris, scene, camera.eye)
     t2 = time.perf_counter()
     result = Frame(
         rgb=rgb, depth=buffers.depth, surface=surface, mirror_mask=surface >= scene.n_objects,

@@ -36,10 +36,10 @@ def shade_buffers(
     (rgb, surface arrays to write into, e.g. kept from the last frame) held. `box` (rows
     y0..y1-1, columns x0..x1-1, screen) must hold every stencil pixel: only it is visited
     (a small reflector's pass then scans its box, not the image).
-    `pending` (`rasterize_passes(resolve=False)`'s, with a stencil and their box; or
-    `rasterize(resolve=False)`'s, without): the pass's per-thread buffers not yet merged;
-    each row is merged (`_resolve`'s row) just before it is shaded, in the same parallel
-    region: one region less, and the row still in cache.
+    `pending` (with a stencil and a box; `rasterize_passes(resolve=False)`'s): the pass's
+    per-thread buffers not yet merged; each row is merged (`_resolve`'s row, clear False)
+    just before it is shaded, in the same parallel region: one region less, and the row
+    still in cache.
     """
     h, w = buffers.triangle.shape
     if out is None:
@@ -70,11 +70,8 @@ def shade_buffers(
     # each pixel is written once, from its row alone: which thread shades a row (claimed
     # in pieces of _ROWS, parallel.py) never changes the result
     threads = max(1, numba.get_num_threads())  # workers, each with its own scratch
-    if pending is not None and stencil is None:
-        assert buffers.recover and box is None
-        _shade_resolving(*args, threads, *pending)
-    elif pending is not None:
-        assert box is not None and buffers.recover
+    if pending is not None:
+        assert stencil is not None and box is not None and buffers.recover
         assert tuple(box) == tuple(pending[3:5]) + tuple(pending[1:3])  # the pass's box
         _shade_stencil_resolving(np.ascontiguousarray(stencil, dtype=np.bool_), *args, *box,
                                  threads, *pending)
@@ -157,35 +154,6 @@ def _shade_stencil(stencil, tri, b1, b2, recover, m, drawn, corners, uvs, normal
                                      surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
                                      texels, light_f, shading, ambient, background, refl, base,
                                      rgb, surf)
-
-
-@njit(cache=True, parallel=True)
-def _shade_resolving(tri, b1, b2, recover, m, drawn, corners, uvs, normals, material, surface,
-                     n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading,
-                     ambient, background, refl, base, rgb, surf, threads, flags, col0, col1,
-                     top, bottom, own_tri, own_key, drew, depth):
-    """_shade (barycentrics recovered) of a whole-image pass whose threads' buffers are
-    merged here: rows claimed _ROWS at a time, each merged into `tri` and `depth`
-    (`_resolve`'s row, clear True: the same bytes) and then shaded."""
-    h, w = tri.shape
-    owners = np.flatnonzero(drew)
-    no_stencil = np.zeros((1, 1), np.bool_)
-    g = np.empty((threads, 12, w))
-    xs = np.empty((threads, w), np.int64)
-    claimed = np.zeros(1, np.int64)
-    pieces = (h + _ROWS - 1) // _ROWS
-    for me in prange(threads):
-        while True:
-            k = claim(claimed)
-            if k >= pieces:
-                break
-            for y in range(k * _ROWS, min(h, (k + 1) * _ROWS)):
-                _resolve_row(flags, y, col0, col1, top, bottom, 0, w, owners, own_tri,
-                             own_key, tri, depth)
-                _shade_row(y, 0, w, no_stencil, False, g[me], xs[me], tri, m, drawn, corners,
-                           uvs, normals, material, surface, n_objects, eye, dirs, per_pixel,
-                           mat_i, mat_f, texels, light_f, shading, ambient, background, refl,
-                           base, rgb, surf)
 
 
 @njit(cache=True, parallel=True)

@@ -683,20 +683,3 @@ def test_spheres_spread_apart_are_drawn_one_at_a_time():
     assert worth_together(near)
     apart = np.array([[0, 20, 0, 20], [400, 420, 400, 420]])
     assert not worth_together(apart)
-
-
-@pytest.mark.parametrize("scene", ["four-spheres-lit", "teapot-box"])
-def test_primary_pass_merged_as_it_is_shaded_is_the_same_pass(scene):
-    """render_primary(merged=True) (virtual's: the rasterizer's per-thread buffers merged
-    row by row by the shading) gives the very colours, depths, ids and surfaces of the
-    pass merged first."""
-    from reflectcli.raster.primary import render_primary
-    from reflectcli.raster.rasterize import RasterWorkspace
-
-    o = open_scene(scene, "raster", ["camera.width=200", "camera.height=150"])
-    cam = o.camera(0)
-    a = render_primary(o.scene, 0, cam, workspace=RasterWorkspace())
-    b = render_primary(o.scene, 0, cam, workspace=RasterWorkspace(), merged=True)
-    for x, y in ((a.frame.rgb, b.frame.rgb), (a.frame.depth, b.frame.depth),
-                 (a.frame.surface, b.frame.surface), (a.buffers.triangle, b.buffers.triangle)):
-        assert x.tobytes() == y.tobytes()

@@ -26,8 +26,7 @@ def rasterize(
     depth_floor: np.ndarray | None = None,
     workspace: RasterWorkspace | None = None,
     clear_outside: bool = True,
-    resolve: bool = True,
-):
+) -> RasterBuffers:
     """Rasterize world-space triangles (T, 3, 3) with an OpenGL-style world->clip matrix.
 
     `flags` per triangle: bit 0 (FLAG_MIRROR, or a bool array) marks mirrors, which win
@@ -42,9 +41,6 @@ def rasterize(
     `clear_outside` False (a masked pass into a workspace's outputs, read only inside the
     stencil's box): the pixels outside that box keep what the last call left, not cleared
     (a 512^2 pass over a small reflector's box wrote the whole image: 2 MB a pass).
-    `resolve` False (no mask): returns (buffers, pending), the threads' buffers not yet
-    merged; `shade_buffers(pending=...)` merges each row as it shades it (one parallel
-    region less), and the buffers' ids and depths are valid only after that.
     """
     ws = workspace if workspace is not None else RasterWorkspace()
     if planes is None:
@@ -104,11 +100,7 @@ def rasterize(
     else:
         own_tri = ws.get("own_tri", (0, *box), np.int32)
         own_key = ws.get("own_key", (0, *box), np.float32)
-    buffers = RasterBuffers(tri, None, None, depth, corners, m, out)
-    if not resolve:
-        assert mask is None  # the whole image: each row merged as it is shaded
-        return buffers, (flags, x0, x1, y0, y1, own_tri, own_key, drew, depth)
     _resolve(flags, x0, x1, y0, y1, own_tri, own_key, drew, tri, depth,
              clear_outside or mask is None)
-    return buffers
+    return RasterBuffers(tri, None, None, depth, corners, m, out)
 

@@ -132,9 +132,7 @@ class Virtual(Technique):
         primary frame's masks, loop overhead), so that the stages add up to the frame."""
         t_frame = time.perf_counter()
         scene = state.scene
-        # the primary pass's threads' buffers merged as its rows are shaded (merged)
-        primary = render_primary(scene, frame_index, camera, workspace=state.primary_raster,
-                                 merged=True)
+        primary = render_primary(scene, frame_index, camera, workspace=state.primary_raster)
         result = primary.frame
         geometry = scene.geometry(frame_index)
         clip_from_world = primary.buffers.clip_from_world  # the camera's (85 us to make)
