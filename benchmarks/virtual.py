@@ -63,11 +63,15 @@ def alternate(runs: dict, repeats: int, clock=time.perf_counter) -> dict:
 
 def captured_passes(scene: str, threads: int) -> list[tuple]:
     """The rasterize calls of a virtual frame's passes: (corners, flags, clip_from_world,
-    width, height, planes, mask, depth_floor), copied."""
+    width, height, planes, mask, depth_floor), copied; passes drawn together
+    (`rasterize_passes`, sphere mirrors) as one call each."""
     import reflectcli.virtual.raster as vr
+    import reflectcli.virtual.together as vt
+    from reflectcli.raster.rasterize import standard_planes
 
     calls = []
     real = vr.rasterize
+    real_passes = vt.rasterize_passes
 
     def spy(corners, flags, m, width, height, planes, mask=None, depth_floor=None, **kw):
         calls.append((corners.copy(), flags.copy(), m.copy(), width, height, planes.copy(),
@@ -76,12 +80,28 @@ def captured_passes(scene: str, threads: int) -> list[tuple]:
         return real(corners, flags, m, width, height, planes, mask=mask,
                     depth_floor=depth_floor, **kw)
 
+    def spy_passes(corners, flags, m, width, height, starts, boxes, labels, depth_floor,
+                   workspace, **kw):
+        out = real_passes(corners, flags, m, width, height, starts, boxes, labels,
+                          depth_floor, workspace, **kw)
+        for p in range(len(boxes)):  # corners gathered by the call: copied after it
+            s, e = starts[p], starts[p + 1]
+            y0, y1, x0, x1 = boxes[p]  # labels are set only in the passes' boxes
+            mask = np.zeros(labels.shape, np.uint8)
+            mask[y0:y1, x0:x1] = labels[y0:y1, x0:x1] == p + 1
+            calls.append((corners[s:e].copy(), flags[s:e].copy(), m.copy(), width, height,
+                          standard_planes(), mask,
+                          None if depth_floor is None else depth_floor.copy()))
+        return out
+
     o = opened(scene, "virtual", [], threads)
     vr.rasterize = spy
+    vt.rasterize_passes = spy_passes
     try:
         o.render_frame(0)
     finally:
         vr.rasterize = real
+        vt.rasterize_passes = real_passes
     return calls
 
 

@@ -1167,7 +1167,9 @@ def part_views(triangle, local, size):
 
 
 def gather_corners(virtual, hidden, corner_index, surface, n_objects):
-    """Twin of virtual.compose.gather_corners: (corners (T, 3, 3) float32, flags (T,))."""
+    """Twin of virtual.compose.gather_corners (and of its per-triangle step
+    raster.rasterize.passes.gather_triangle, which rasterize_passes runs as it draws):
+    (corners (T, 3, 3) float32, flags (T,))."""
     corners = virtual[corner_index].astype(np.float32)
     flags = np.where(surface >= n_objects, FLAG_MIRROR, 0).astype(np.uint8)
     flags[hidden[corner_index].all(axis=1)] |= FLAG_SKIP
@@ -1823,3 +1825,25 @@ def weld_within(points, tolerance=1e-9):
     first = np.full(label.max() + 1, len(flat))
     np.minimum.at(first, label, np.arange(len(flat)))
     return flat[first[label]].reshape(points.shape)
+
+
+def pass_labels(surface, depth, n_objects, label_of):
+    """Twin of virtual.compose.pass_labels over the whole image (the box is an
+    optimisation): (labels uint8, stencil bool, floor float32)."""
+    k = surface.astype(np.int64) - n_objects
+    mirror = (k >= 0) & (k < len(label_of))
+    labels = np.where(mirror, label_of[np.clip(k, 0, len(label_of) - 1)], 0).astype(np.uint8)
+    stencil = labels != 0
+    return labels, stencil, np.where(stencil, depth, 0.0).astype(np.float32)
+
+
+def compose_passes(rgb, colors, triangle, labels, reflectance):
+    """Twin of virtual.compose.compose_passes (the whole image): per label p + 1, the
+    twins of fill_cracks (covered: that label's pixels with a triangle) and add_reflection
+    with reflectance[p], one label at a time. Returns the new rgb; fills `colors`."""
+    out = rgb.copy()
+    for p in range(len(reflectance)):
+        stencil = labels == p + 1
+        fill_cracks(colors, stencil & (triangle >= 0), stencil)
+        out = add_reflection(out, colors, stencil, reflectance[p])
+    return out

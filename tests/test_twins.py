@@ -39,13 +39,16 @@ SPREAD = [W + "test_spread_matches_the_reference"]
 ANALYTIC = [E + "test_analytic_matches_closed_forms"]
 SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
                  V + "test_cylinder_virtual_vertices_match_twin",
-                 V + "test_sphere_blocks_do_not_change_answers"]
+                 V + "test_sphere_blocks_do_not_change_answers",
+                 V + "test_spheres_together_give_each_sphere_s_bytes"]
 PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
 REFINE = [V + "test_screen_refinement_matches_twin",
           V + "test_refinement_walks_match_twin",
           V + "test_refinement_lanes_match_walks_one_at_a_time",
           V + "test_refinement_skips_only_retries_that_cannot_matter"]
 FILL = [V + "test_fill_kernels_match_twin"]
+PASSES = [SR + "test_rasterize_passes_match_twin",
+          SR + "test_rasterize_passes_are_the_passes_one_at_a_time"]
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
 LOOKUP = [V + "test_explosion_lookup_matches_twin"]
 IDS_AT = [V + "test_ids_at_marked_texels_match_the_fill_twins"]
@@ -75,6 +78,10 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "prefetch.py:prefetch": (RECOVER + [SR + "test_prefetch_changes_no_value"], "_shade_row"),
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
+    # held to _resolve then _shade_stencil, each held to its twin
+    "raster/shade.py:_shade_stencil_resolving": (
+        [SR + "test_shading_that_merges_the_threads_buffers_is_merge_then_shade"],
+        "shade_buffers"),
     "raster/shade.py:_shade_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade"),
     "raster/shade.py:_object_pixel": ([SR + "test_shade_pass_matches_twin"], "_shade_pixel"),
     "raster/shade.py:_shade_row": (RECOVER, "_shade"),
@@ -92,10 +99,17 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize/rows.py:_fill": (RASTER, "_draw"),
     "raster/rasterize/setup.py:_setup": (RASTER, "_fill"),
     "raster/rasterize/rows.py:_rows": (RASTER, "_fill"),
+    "raster/rasterize/rows.py:_fill_at": (RASTER, "_fill"),
+    "raster/rasterize/passes.py:_draw_passes": (PASSES, "rasterize_passes"),
+    "raster/rasterize/passes.py:gather_triangle": (
+        [V + "test_gather_corners_match_twin"] + PASSES, "gather_corners"),
     "raster/rasterize/draw.py:_draw_clipped": (CLIP, "_draw"),
     "raster/rasterize/clip.py:_clip_polygon": (CLIP, "_draw_clipped"),
     "raster/rasterize/resolve.py:_resolve": (
         RASTER + [R + "test_clear_outside_false_keeps_pixels_outside_the_box"], "rasterize"),
+    "raster/rasterize/resolve.py:_resolve_row": (
+        RASTER + [SR + "test_shading_that_merges_the_threads_buffers_is_merge_then_shade"],
+        "_resolve"),
     "raster/rasterize/stencil.py:stencil_box": ([R + "test_stencil_box_matches_twin"], None),
     "raster/rasterize/clip.py:_box_misses": (
         [R + "test_skipping_chunks_by_their_boxes_changes_nothing"], "_draw"),
@@ -193,6 +207,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/compose.py:part_stencil": ([V + "test_part_stencil_matches_twin"], None),
     "virtual/compose.py:gather_corners": ([V + "test_gather_corners_match_twin"], None),
     "virtual/compose.py:fill_cracks": ([V + "test_fill_cracks_match_twin"], None),
+    "virtual/compose.py:pass_labels": ([V + "test_pass_labels_match_twin"], None),
+    "virtual/compose.py:compose_passes": ([V + "test_compose_passes_match_twin"], None),
+    "virtual/compose.py:_same": ([V + "test_compose_passes_match_twin"], "compose_passes"),
     "virtual/compose.py:_covered": ([V + "test_fill_cracks_match_twin"], "fill_cracks"),
     "virtual/refine.py:_ray_at": ([V + "test_reflector_grid_matches_twin",
                                    V + "test_mirror_rays_match_reflector_grid"], "_grid"),

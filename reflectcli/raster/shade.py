@@ -13,6 +13,7 @@ from ..prefetch import prefetch
 from ..scene.types import POINT, UNLIT, Scene, Triangles
 from ..shading import material_albedo, surface_color
 from .rasterize import RasterBuffers, clip_corners
+from .rasterize.resolve import _resolve_row
 
 
 def shade_buffers(
@@ -20,6 +21,7 @@ def shade_buffers(
     incoming: np.ndarray | None = None, stencil: np.ndarray | None = None,
     out: tuple[np.ndarray, np.ndarray] | None = None,
     box: tuple[int, int, int, int] | None = None,
+    pending: tuple | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(rgb (H, W, 3) float32, surface id (H, W) int32).
 
@@ -34,6 +36,10 @@ def shade_buffers(
     (rgb, surface arrays to write into, e.g. kept from the last frame) held. `box` (rows
     y0..y1-1, columns x0..x1-1, screen) must hold every stencil pixel: only it is visited
     (a small reflector's pass then scans its box, not the image).
+    `pending` (with a stencil and a box; `rasterize_passes(resolve=False)`'s): the pass's
+    per-thread buffers not yet merged; each row is merged (`_resolve`'s row, clear False)
+    just before it is shaded, in the same parallel region: one region less, and the row
+    still in cache.
     """
     h, w = buffers.triangle.shape
     if out is None:
@@ -64,7 +70,12 @@ def shade_buffers(
     # each pixel is written once, from its row alone: which thread shades a row (claimed
     # in pieces of _ROWS, parallel.py) never changes the result
     threads = max(1, numba.get_num_threads())  # workers, each with its own scratch
-    if stencil is None:
+    if pending is not None:
+        assert stencil is not None and box is not None and buffers.recover
+        assert tuple(box) == tuple(pending[3:5]) + tuple(pending[1:3])  # the pass's box
+        _shade_stencil_resolving(np.ascontiguousarray(stencil, dtype=np.bool_), *args, *box,
+                                 threads, *pending)
+    elif stencil is None:
         _shade(*args, threads)
     else:
         y0, y1, x0, x1 = (0, h, 0, w) if box is None else box
@@ -143,6 +154,36 @@ def _shade_stencil(stencil, tri, b1, b2, recover, m, drawn, corners, uvs, normal
                                      surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
                                      texels, light_f, shading, ambient, background, refl, base,
                                      rgb, surf)
+
+
+@njit(cache=True, parallel=True)
+def _shade_stencil_resolving(stencil, tri, b1, b2, recover, m, drawn, corners, uvs, normals,
+                             material, surface, n_objects, eye, dirs, per_pixel, mat_i, mat_f,
+                             texels, light_f, shading, ambient, background, refl, base, rgb,
+                             surf, y0, y1, x0, x1, threads, flags, col0, col1, top, bottom,
+                             own_tri, own_key, drew, depth):
+    """_shade_stencil (barycentrics recovered) of a pass whose threads' buffers are merged
+    here: rows y0..y1-1 (the pass's box [top, bottom) x [col0, col1)) are claimed _ROWS at
+    a time, each merged into `tri` and `depth` (`_resolve`'s row, clear False: the same
+    bytes) and then shaded. A row's shading reads only that row's ids."""
+    w = tri.shape[1]
+    owners = np.flatnonzero(drew)
+    g = np.empty((threads, 12, w))
+    xs = np.empty((threads, w), np.int64)
+    claimed = np.zeros(1, np.int64)
+    pieces = (max(y1 - y0, 0) + _ROWS - 1) // _ROWS
+    for me in prange(threads):
+        while True:
+            k = claim(claimed)
+            if k >= pieces:
+                break
+            for y in range(y0 + k * _ROWS, min(y1, y0 + (k + 1) * _ROWS)):
+                _resolve_row(flags, y, col0, col1, top, bottom, col0, col1, owners, own_tri,
+                             own_key, tri, depth)
+                _shade_row(y, x0, x1, stencil, True, g[me], xs[me], tri, m, drawn, corners,
+                           uvs, normals, material, surface, n_objects, eye, dirs, per_pixel,
+                           mat_i, mat_f, texels, light_f, shading, ambient, background, refl,
+                           base, rgb, surf)
 
 
 @njit(cache=True, inline="always")

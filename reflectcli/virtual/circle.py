@@ -175,12 +175,25 @@ def _circle_reflection(ex, qx, qy, r):
 def sphere_virtual_vertices(points: np.ndarray, eye: np.ndarray, center: np.ndarray,
                             radius: float) -> tuple[np.ndarray, np.ndarray]:
     """(virtual points (N, 3), hidden (N,) bool) for a sphere mirror."""
+    points = np.ascontiguousarray(points, np.float64)
     out = np.empty(points.shape, np.float64)
     hidden = np.empty(points.shape[0], np.bool_)
-    _blocks(np.ascontiguousarray(points, np.float64), np.asarray(eye, np.float64),
-            np.asarray(center, np.float64), float(radius), np.zeros(3), False, out, hidden,
-            *_scratch())
+    spheres_virtual_vertices(points, eye, np.asarray(center, np.float64).reshape(1, 3),
+                             np.array([float(radius)]), np.array([0, points.shape[0]]), out,
+                             hidden, block_scratch())
     return out, hidden
+
+
+def spheres_virtual_vertices(points: np.ndarray, eye: np.ndarray, centers: np.ndarray,
+                             radii: np.ndarray, starts: np.ndarray, out: np.ndarray,
+                             hidden: np.ndarray, scratch: np.ndarray) -> None:
+    """Into out (N, 3), hidden (N,): the virtual points of several sphere mirrors' points
+    at once, points[starts[s]:starts[s + 1]] (N, 3 world, float64) reflected in sphere s
+    (centers (S, 3), radii (S,)): one parallel region for every sphere of a frame, not one
+    each. Each point's answer is the one `sphere_virtual_vertices` gives it alone.
+    `scratch`: `block_scratch()`'s, or kept from an earlier call of the same thread count."""
+    _blocks(points, np.asarray(eye, np.float64), centers, radii,
+            np.ascontiguousarray(starts, np.int64), np.zeros(3), False, out, hidden, scratch)
 
 
 def cylinder_virtual_vertices(points: np.ndarray, eye: np.ndarray, origin: np.ndarray,
@@ -190,15 +203,16 @@ def cylinder_virtual_vertices(points: np.ndarray, eye: np.ndarray, origin: np.nd
     hidden = np.empty(points.shape[0], np.bool_)
     a = np.asarray(axis, np.float64)
     _blocks(np.ascontiguousarray(points, np.float64), np.asarray(eye, np.float64),
-            np.asarray(origin, np.float64), float(radius), a / np.linalg.norm(a), True, out,
-            hidden, *_scratch())
+            np.asarray(origin, np.float64).reshape(1, 3), np.array([float(radius)]),
+            np.array([0, points.shape[0]]), a / np.linalg.norm(a), True, out, hidden,
+            block_scratch())
     return out, hidden
 
 
-def _scratch() -> tuple[np.ndarray]:
+def block_scratch() -> np.ndarray:
     """Per-thread block scratch for _blocks (a few tens of kilobytes)."""
     threads = max(1, numba.get_num_threads())
-    return (np.empty((threads, _ROWS, BLOCK)),)
+    return np.empty((threads, _ROWS, BLOCK))
 
 
 # rows of a block's scratch (one array, rows BLOCK apart: the compiler sees they never
@@ -209,23 +223,30 @@ _ROWS = 21
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _blocks(points, eye, center, r, axis, use_axis, out, hidden, scratch):
-    """(Q', hidden) of every point, BLOCK points at a time (see the module docstring);
-    `scratch` (workers, _ROWS, BLOCK): per-worker scratch. Blocks are claimed one at a time
-    by whichever worker is free (parallel.py): a block's cost varies with how many of its
-    points fall back to the one-at-a-time search, and on a shared machine a worker may lose
-    its core. A point's answer never depends on its block or worker."""
-    n = points.shape[0]
-    blocks = (n + BLOCK - 1) // BLOCK
+def _blocks(points, eye, centers, radii, starts, axis, use_axis, out, hidden, scratch):
+    """(Q', hidden) of every point, BLOCK points at a time (see the module docstring):
+    points starts[s] .. starts[s + 1] - 1 on circle s (centers[s], radii[s]), a block never
+    spanning two; `scratch` (workers, _ROWS, BLOCK): per-worker scratch. Blocks are claimed
+    one at a time by whichever worker is free (parallel.py): a block's cost varies with how
+    many of its points fall back to the one-at-a-time search, and on a shared machine a
+    worker may lose its core. A point's answer never depends on its block or worker."""
+    circles = radii.shape[0]
+    first = np.zeros(circles + 1, np.int64)  # each circle's first block
+    for s in range(circles):
+        first[s + 1] = first[s] + (starts[s + 1] - starts[s] + BLOCK - 1) // BLOCK
     claimed = np.zeros(1, np.int64)
     for me in prange(scratch.shape[0]):
+        s = 0
         while True:
             b = claim(claimed)
-            if b >= blocks:
+            if b >= first[circles]:
                 break
-            i0 = b * BLOCK
-            count = min(n, i0 + BLOCK) - i0
-            _block(points, i0, count, eye, center, r, axis, use_axis, scratch[me], out, hidden)
+            while b >= first[s + 1]:  # claims only grow: a worker's circle only advances
+                s += 1
+            i0 = starts[s] + (b - first[s]) * BLOCK
+            count = min(starts[s + 1], i0 + BLOCK) - i0
+            _block(points, i0, count, eye, centers[s], radii[s], axis, use_axis, scratch[me],
+                   out, hidden)
 
 
 @njit(cache=True, error_model="numpy")

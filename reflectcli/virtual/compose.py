@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..raster.rasterize import FLAG_MIRROR, FLAG_SKIP
+from ..raster.rasterize.passes import gather_triangle
 
 
 @njit(cache=True)
@@ -62,16 +62,10 @@ def gather_corners(virtual, hidden, corner_index, surface, n_objects, corners, f
     """corners[t, i] = virtual[corner_index[t, i]] in float32 (what the rasterizer takes),
     and the rasterizer's flags[t]: FLAG_MIRROR for a mirror's triangle (surface[t] >=
     n_objects), FLAG_SKIP where all three of its points are hidden (the paper drops polygons
-    wholly in the hidden region; mixed ones keep their doubly virtual vertices)."""
+    wholly in the hidden region; mixed ones keep their doubly virtual vertices). The same
+    per triangle as `rasterize_passes` gathers them as it draws (`gather_triangle`)."""
     for t in prange(corner_index.shape[0]):
-        every = True
-        for i in range(3):
-            p = corner_index[t, i]
-            every &= hidden[p]
-            for q in range(3):
-                corners[t, i, q] = np.float32(virtual[p, q])
-        flags[t] = ((FLAG_MIRROR if surface[t] >= n_objects else 0)
-                    | (FLAG_SKIP if every else 0))
+        gather_triangle(virtual, hidden, corner_index, surface, n_objects, corners, flags, t)
 
 
 @njit(cache=True, inline="always")
@@ -128,3 +122,71 @@ def fill_cracks(colors, triangle, stencil, y0, y1, x0, x1):
                 colors[y, x, 0] = np.float32(t0 / count)
                 colors[y, x, 1] = np.float32(t1 / count)
                 colors[y, x, 2] = np.float32(t2 / count)
+
+
+@njit(cache=True)
+def pass_labels(surface, depth, n_objects, label_of, y0, y1, x0, x1, labels, stencil, floor):
+    """Within rows y0..y1-1 and columns x0..x1-1: labels (uint8) = label_of[k] on mirror
+    k's pixels (surface n_objects + k; 0 for a mirror not drawn together, and for objects
+    and background), `stencil` = labels != 0, and the depth floor `floor` = `depth` on
+    the labelled pixels, 0 elsewhere (as `draw_virtual` sets it for each pass alone).
+    One thread: a few tens of thousands of pixels, less than a parallel region costs."""
+    m = label_of.shape[0]
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            k = surface[y, x] - n_objects
+            label = label_of[k] if 0 <= k < m else np.uint8(0)
+            labels[y, x] = label
+            stencil[y, x] = label != 0
+            floor[y, x] = depth[y, x] if label != 0 else np.float32(0.0)
+
+
+@njit(cache=True, inline="always")
+def _same(triangle, labels, label, y, x):
+    return labels[y, x] == label and triangle[y, x] >= 0
+
+
+@njit(cache=True)
+def compose_passes(rgb, colors, triangle, labels, reflectance, y0, y1, x0, x1):
+    """Several reflectors' passes drawn at once (labels p + 1, reflectance[p]) composed
+    within rows y0..y1-1 and columns x0..x1-1: `fill_cracks` on each label's pixels with
+    only that label's pixels counted as covered, then `add_reflection` (rgb +=
+    reflectance[p] * colors on label p + 1): the bytes of the passes done one at a time.
+    Filling first, then adding, as those do: a crack's neighbours are covered, never
+    filled, so the order of the pixels does not matter."""
+    h, w = triangle.shape
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            label = labels[y, x]
+            if label == 0 or triangle[y, x] >= 0:
+                continue
+            t0 = t1 = t2 = 0.0
+            count = 0
+            if (y >= 1 and y + 1 < h and _same(triangle, labels, label, y - 1, x)
+                    and _same(triangle, labels, label, y + 1, x)):
+                t0 += np.float64(colors[y - 1, x, 0])
+                t1 += np.float64(colors[y - 1, x, 1])
+                t2 += np.float64(colors[y - 1, x, 2])
+                t0 += np.float64(colors[y + 1, x, 0])
+                t1 += np.float64(colors[y + 1, x, 1])
+                t2 += np.float64(colors[y + 1, x, 2])
+                count += 2
+            if (x >= 1 and x + 1 < w and _same(triangle, labels, label, y, x - 1)
+                    and _same(triangle, labels, label, y, x + 1)):
+                t0 += np.float64(colors[y, x - 1, 0])
+                t1 += np.float64(colors[y, x - 1, 1])
+                t2 += np.float64(colors[y, x - 1, 2])
+                t0 += np.float64(colors[y, x + 1, 0])
+                t1 += np.float64(colors[y, x + 1, 1])
+                t2 += np.float64(colors[y, x + 1, 2])
+                count += 2
+            if count:
+                colors[y, x, 0] = np.float32(t0 / count)
+                colors[y, x, 1] = np.float32(t1 / count)
+                colors[y, x, 2] = np.float32(t2 / count)
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            label = labels[y, x]
+            if label != 0:
+                for c in range(3):
+                    rgb[y, x, c] += reflectance[label - 1, c] * colors[y, x, c]

@@ -653,3 +653,33 @@ def test_turned_away_marks_faces_whose_plane_hides_the_whole_ball():
     gap = np.einsum("ij,ij->i", normal, center - c[:, 0])  # the ball center above the plane
     np.testing.assert_array_equal(got[:n], gap + radius * (1.0 + BALL_MARGIN) < 0.0)
     assert 0.3 * n < got[:n].sum() < 0.7 * n
+
+
+@pytest.mark.parametrize(("scene", "overrides"), [
+    ("four-spheres", ()), ("four-spheres-lit", ()),
+    ("four-spheres", ('technique.reflector_test="none"',)),
+])
+def test_spheres_drawn_together_are_the_passes_one_at_a_time(scene, overrides, monkeypatch):
+    """The sphere mirrors of a frame drawn together (virtual/together.py: one search, one
+    rasterization over a label image, one shading, one composition) give the very bytes of
+    one pass per sphere, lit and unlit, with and without the depth floor."""
+    import reflectcli.techniques.virtual.technique as technique
+
+    size = ["camera.width=256", "camera.height=256", *overrides]
+    together = open_scene(scene, "virtual", size).render_frame(0)
+    monkeypatch.setattr(technique, "worth_together", lambda boxes: False)
+    alone = open_scene(scene, "virtual", size).render_frame(0)
+    assert together.rgb.tobytes() == alone.rgb.tobytes()
+    assert together.stats == alone.stats
+    assert together.stats["reflector_parts"] == 4
+
+
+def test_spheres_spread_apart_are_drawn_one_at_a_time():
+    """worth_together: passes whose common box is much larger than their own boxes (each
+    thread would clear and merge the common box) are drawn one at a time."""
+    from reflectcli.virtual.together import worth_together
+
+    near = np.array([[10, 60, 10, 60], [10, 60, 60, 110], [60, 110, 10, 60]])
+    assert worth_together(near)
+    apart = np.array([[0, 20, 0, 20], [400, 420, 400, 420]])
+    assert not worth_together(apart)

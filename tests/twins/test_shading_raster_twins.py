@@ -429,3 +429,165 @@ def test_prefetch_changes_no_value():
     a = rng.random((500, 3, 3)).astype(np.float32)
     ids = rng.integers(0, 500, 300).astype(np.int32)
     np.testing.assert_array_equal(gather(a, ids, 8), a[ids, 1, 2])
+
+
+def _pass_case(rng, counts):
+    """Passes of random triangles (counts each), a label image of 0..P with the passes'
+    boxes, and a depth floor."""
+    cam = camera()
+    m = cam.projection_matrix() @ cam.view_matrix()
+    corners = np.concatenate([random_triangles(cam, n, rng) for n in counts])
+    flags = np.where(rng.random(len(corners)) < 0.25, FLAG_MIRROR, 0).astype(np.uint8)
+    flags[rng.random(len(corners)) < 0.05] |= FLAG_SKIP
+    labels = rng.integers(0, len(counts) + 1, (H, W)).astype(np.uint8)
+    labels[:, :2] = 0  # boxes smaller than the screen, and of different sizes
+    labels[:3][labels[:3] == 1] = 0
+    labels[:, -5:][labels[:, -5:] == 2] = 0
+    boxes = np.zeros((len(counts), 4), np.int64)
+    for p in range(len(counts)):
+        ys, xs = np.nonzero(labels == p + 1)
+        boxes[p] = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+    floor = np.where(rng.random((H, W)) < 0.5, rng.uniform(0.0, 9.0, (H, W)), 0.0).astype(
+        np.float32)
+    return m, corners, flags, labels, boxes, floor, np.cumsum([0, *counts])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_rasterize_passes_match_twin(seed):
+    """Each pass of rasterize_passes, on its own label's pixels: the twin's triangles (ids
+    offset by the pass's start), with and without a depth floor."""
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.raster.rasterize.passes import rasterize_passes
+
+    rng = np.random.default_rng(seed)
+    m, corners, flags, labels, boxes, floor, starts = _pass_case(rng, (12, 16, 9))
+    for depth_floor in (None, floor):
+        ws = RasterWorkspace(outputs=True)
+        got = rasterize_passes(corners, flags, m, W, H, starts, boxes, labels, depth_floor, ws)
+        covered = 0.0
+        for p in range(len(boxes)):
+            s, e = starts[p], starts[p + 1]
+            mine = labels == p + 1
+            tri, b1, b2, depth, ambiguous = rasterize(corners[s:e], flags[s:e], m, W, H,
+                                                      mask=mine, depth_floor=depth_floor)
+            local = np.where(got.triangle >= 0, got.triangle - s, -1)
+            assert np.all((local[mine] == tri[mine]) | ambiguous[mine])
+            both = mine & (local == tri) & (tri >= 0)
+            np.testing.assert_allclose(got.depth[both], depth[both], rtol=1e-4)
+            assert np.all(np.isinf(got.depth[mine & (got.triangle < 0)]))
+            assert np.all((got.triangle[mine] < 0) | ((got.triangle[mine] >= s)
+                                                      & (got.triangle[mine] < e)))
+            covered += (tri[mine] >= 0).mean()
+        assert covered > 0.3  # not vacuous
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_rasterize_passes_are_the_passes_one_at_a_time(seed):
+    """rasterize_passes gives every labelled pixel the very bytes (id offset, depth) that
+    rasterize gives it in its pass alone (mask: its label, clear_outside False), for
+    passes longer than a run of triangles, triangles the near plane cuts, and with the
+    corners gathered from shared points as it draws (gather)."""
+    from naive import gather_corners as naive_gather_corners
+
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.raster.rasterize.constants import _CHUNK
+    from reflectcli.raster.rasterize.passes import rasterize_passes
+
+    rng = np.random.default_rng(seed)
+    m, corners, flags, labels, boxes, floor, starts = _pass_case(rng, (_CHUNK + 37, 20, 300))
+    cam = camera()
+    _, _, back = cam.basis()
+    cut = rng.choice(len(corners), 40, replace=False)  # one corner behind the eye
+    corners[cut, 0] = (cam.eye + 0.5 * back).astype(np.float32)
+    flags[cut] &= ~np.uint8(FLAG_SKIP)
+    for depth_floor in (None, floor):
+        ws = RasterWorkspace(outputs=True)
+        got = rasterize_passes(corners, flags, m, W, H, starts, boxes, labels, depth_floor, ws)
+        tri, depth = got.triangle.copy(), got.depth.copy()
+        one = RasterWorkspace(outputs=True)
+        for p in range(len(boxes)):
+            s, e = starts[p], starts[p + 1]
+            mine = labels == p + 1
+            alone = fast_rasterize(corners[s:e], flags[s:e], m, W, H, mask=mine,
+                                   depth_floor=depth_floor, workspace=one, clear_outside=False)
+            want = np.where(alone.triangle >= 0, alone.triangle + s, -1).astype(np.int32)
+            assert tri[mine].tobytes() == want[mine].tobytes()
+            assert depth[mine].tobytes() == alone.depth[mine].tobytes()
+    # the same triangles as indices into shared points, gathered as they are drawn
+    points = corners.reshape(-1, 3).astype(np.float64)
+    hidden = rng.random(len(points)) < 0.1
+    index = np.arange(len(points)).reshape(-1, 3)
+    surface = np.where(flags & FLAG_MIRROR, 7, 3).astype(np.int32)
+    out_corners = np.empty_like(corners)
+    out_flags = np.empty_like(flags)
+    ws = RasterWorkspace(outputs=True)
+    gathered = rasterize_passes(out_corners, out_flags, m, W, H, starts, boxes, labels, floor,
+                                ws, gather=(points, hidden, index, surface, 5))
+    want_corners, want_flags = naive_gather_corners(points, hidden, index, surface, 5)
+    assert out_corners.tobytes() == want_corners.tobytes()
+    assert out_flags.tobytes() == want_flags.tobytes()
+    plain = rasterize_passes(want_corners, want_flags, m, W, H, starts, boxes, labels, floor,
+                             RasterWorkspace(outputs=True))
+    on = labels > 0
+    assert gathered.triangle[on].tobytes() == plain.triangle[on].tobytes()
+    assert gathered.depth[on].tobytes() == plain.depth[on].tobytes()
+
+
+@pytest.mark.parametrize("shading", [UNLIT, LAMBERT])
+def test_shading_that_merges_the_threads_buffers_is_merge_then_shade(shading):
+    """_shade_stencil_resolving (rasterize_passes(resolve=False)'s buffers merged row by
+    row as the rows are shaded): the very ids, depths, colours and surface ids of
+    _resolve, then _shade_stencil (each held to its twin), lit with per-pixel rays and
+    unlit, at 1 and 2 threads."""
+    import numba
+
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.raster.rasterize.passes import rasterize_passes
+    from reflectcli.raster.shade import _shade_stencil_resolving
+
+    rng = np.random.default_rng(11)
+    m, corners, flags, labels, boxes, floor, starts = _pass_case(rng, (300, 40, 90))
+    n_tri, n_objects = len(corners), 3
+    _, uvs, normals, surface = random_scene_arrays(rng, n_tri, n_objects, 2)
+    mat_i, mat_f, texels = materials(rng)
+    material = rng.integers(0, len(mat_i), n_tri).astype(np.int32)
+    light_f = lights(rng)
+    eye = camera().eye.astype(np.float64)
+    background = rng.random(3).astype(np.float32)
+    refl = rng.random((2, 3)).astype(np.float32)
+    base = rng.random((2, 3)).astype(np.float32)
+    stencil = labels > 0
+    y0, y1, x0, x1 = boxes[:, 0].min(), boxes[:, 1].max(), boxes[:, 2].min(), boxes[:, 3].max()
+    dirs = rng.normal(size=(H, W, 3))
+    dummy = np.zeros((1, 1), np.float32)
+    before = numba.get_num_threads()
+    try:
+        for threads in (1, 2):
+            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+            results = []
+            for resolve in (True, False):
+                ws = RasterWorkspace(outputs=True)
+                ws.get("tri", (H, W), np.int32)[:] = -5  # outside the box: left as found
+                out = rasterize_passes(corners, flags, m, W, H, starts, boxes, labels, floor, ws,
+                                       resolve=resolve)
+                buffers, pending = (out, None) if resolve else out
+                rgb = np.full((H, W, 3), -7.0, np.float32)
+                surf = np.full((H, W), -9, np.int32)
+                args = (stencil, buffers.triangle, dummy, dummy, True, buffers.clip_from_world,
+                        buffers.corners, corners, uvs, normals, material, surface, n_objects,
+                        eye, dirs, True, mat_i, mat_f, texels, light_f, shading, 0.1,
+                        background, refl, base, rgb, surf, y0, y1, x0, x1, threads)
+                if resolve:
+                    _shade_stencil(*args)
+                else:
+                    _shade_stencil_resolving(*args, *pending)
+                results.append((buffers.triangle.copy(), buffers.depth.copy(), rgb, surf))
+            (tri_a, depth_a, rgb_a, surf_a), (tri_b, depth_b, rgb_b, surf_b) = results
+            assert tri_a.tobytes() == tri_b.tobytes()
+            inside = np.zeros((H, W), bool)
+            inside[y0:y1, x0:x1] = True
+            assert depth_a[inside].tobytes() == depth_b[inside].tobytes()
+            assert rgb_a.tobytes() == rgb_b.tobytes() and surf_a.tobytes() == surf_b.tobytes()
+            assert (tri_a[stencil] >= 0).mean() > 0.3
+    finally:
+        numba.set_num_threads(before)

@@ -952,3 +952,72 @@ def test_part_views_match_twin():
         np.testing.assert_array_equal(view.hidden_faces(ys, xs), want)
         np.testing.assert_array_equal(owner == p, want_inside)
         np.testing.assert_array_equal(np.flatnonzero(marks[p]), want_tiles)
+
+
+def test_pass_labels_match_twin():
+    from naive import pass_labels as naive_pass_labels
+
+    rng = np.random.default_rng(8)
+    h, w = 21, 17
+    surface = rng.integers(-1, 9, (h, w)).astype(np.int32)  # objects 0..3, mirrors 4..8
+    depth = rng.uniform(0.5, 9.0, (h, w)).astype(np.float32)
+    label_of = np.array([2, 0, 1, 3, 0], np.uint8)  # mirror 1 and 4 not drawn together
+    labels = np.full((h, w), 99, np.uint8)
+    stencil = np.zeros((h, w), np.bool_)
+    floor = np.full((h, w), -1.0, np.float32)
+    compose.pass_labels(surface, depth, 4, label_of, 2, h - 3, 1, w - 2, labels, stencil,
+                        floor)
+    want = naive_pass_labels(surface, depth, 4, label_of)
+    box = (slice(2, h - 3), slice(1, w - 2))
+    for got, expect in zip((labels, stencil, floor), want, strict=True):
+        assert got[box].tobytes() == expect[box].tobytes()
+    assert labels[0, 0] == 99 and floor[-1, -1] == -1.0  # outside the box: untouched
+    assert set(np.unique(labels[box])) == {0, 1, 2, 3}
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_compose_passes_match_twin(seed):
+    """Cracks filled within each label only (a neighbour of another label never counts as
+    covered), then each label's reflectance added: the twins one label at a time."""
+    from naive import compose_passes as naive_compose_passes
+
+    rng = np.random.default_rng(seed)
+    h, w = 19, 23
+    labels = rng.integers(0, 4, (h, w)).astype(np.uint8)
+    labels[:2] = 0
+    labels[5:9, 4:12] = 2  # wide runs of one label: cracks to fill
+    triangle = np.where(rng.random((h, w)) < 0.7, rng.integers(0, 50, (h, w)), -1)
+    triangle = triangle.astype(np.int32)
+    colors = rng.random((h, w, 3)).astype(np.float32)
+    rgb = rng.random((h, w, 3)).astype(np.float32)
+    reflectance = rng.random((3, 3)).astype(np.float32)
+    want_colors = colors.copy()
+    want = naive_compose_passes(rgb, want_colors, triangle, labels, reflectance)
+    got = rgb.copy()
+    ys, xs = np.nonzero(labels)
+    compose.compose_passes(got, colors, triangle, labels, reflectance, ys.min(), ys.max() + 1,
+                           xs.min(), xs.max() + 1)
+    assert colors.tobytes() == want_colors.tobytes()
+    assert got.tobytes() == want.tobytes()
+    assert not np.array_equal(got, rgb)
+
+
+def test_spheres_together_give_each_sphere_s_bytes():
+    """Several spheres' points in one call (spheres_virtual_vertices): each point the very
+    bytes of its sphere's call alone, with empty spheres and spheres shorter than a block."""
+    eye, pts = circle_cases(np.random.default_rng(6))
+    rng = np.random.default_rng(7)
+    more = rng.normal(size=(3 * circle.BLOCK + 11, 3)) * 3.0
+    centers = np.array([[0.0, 0.0, 0.0], [0.5, -0.2, 0.1], [9.0, 9.0, 9.0], [-0.3, 0.2, 0.4]])
+    radii = np.array([1.0, 0.7, 0.5, 1.2])
+    parts = [pts, more[:circle.BLOCK + 5], np.zeros((0, 3)), more[circle.BLOCK + 5:]]
+    points = np.ascontiguousarray(np.concatenate(parts))
+    starts = np.cumsum([0] + [len(p) for p in parts])
+    out = np.empty_like(points)
+    hidden = np.empty(len(points), np.bool_)
+    circle.spheres_virtual_vertices(points, eye, centers, radii, starts, out, hidden,
+                                    circle.block_scratch())
+    for s, part in enumerate(parts):
+        want, want_hidden = circle.sphere_virtual_vertices(part, eye, centers[s], radii[s])
+        assert out[starts[s]:starts[s + 1]].tobytes() == want.tobytes()
+        assert hidden[starts[s]:starts[s + 1]].tobytes() == want_hidden.tobytes()

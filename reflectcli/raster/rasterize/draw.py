@@ -10,7 +10,7 @@ from ...scene.types import MIRROR_TIE
 from .clip import _box_misses, _clip_polygon
 from .constants import _CHUNK, _CLIPPED, _MAX_POLY, CULL_BACK, CULL_FRONT, CULL_NONE, FLAG_MIRROR
 from .fixed import _snap
-from .rows import _fill, _rows
+from .rows import _fill_at, _rows
 from .setup import _run_setup
 
 
@@ -81,7 +81,7 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
                       ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
                       floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
                       MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
-                      use_stencil, floor, use_floor, tri, key, True)
+                      use_stencil, floor, use_floor, tri, key, True, -1)
             if clipped:
                 for j in range(count):
                     if st[j] == _CLIPPED:
@@ -89,15 +89,18 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
                         _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
                                       else 1.0, m, planes, width, height, bits, cull, scale,
                                       xyw[me], top, bottom, col0, col1, stencil, use_stencil,
-                                      floor, use_floor, tri, key)
+                                      floor, use_floor, tri, key, top, col0, -1)
 
 
 
 @njit(cache=True, error_model="numpy")
 def _draw_clipped(corners, t, key_scale, m, planes, width, height, bits, cull, scale, xyw,
-                  row0, row1, col0, col1, stencil, use_stencil, floor, use_floor, tri, zbuf):
+                  row0, row1, col0, col1, stencil, use_stencil, floor, use_floor, tri, zbuf,
+                  origin_y, origin_x, want):
     """A triangle some plane cuts: its clipped polygon, culled by its winding, drawn as a
-    fan of snapped triangles (sharing snapped corners: no cracks between them)."""
+    fan of snapped triangles (sharing snapped corners: no cracks between them) into the box
+    [row0, row1) x [col0, col1) of buffers whose corner is (origin_y, origin_x); `want` as
+    in `_rows`."""
     n = _clip_polygon(corners, t, m, planes, width, height, xyw)
     if n < 3:
         return
@@ -109,9 +112,8 @@ def _draw_clipped(corners, t, key_scale, m, planes, width, height, bits, cull, s
         if (cull == CULL_BACK and a > 0.0) or (cull == CULL_FRONT and a < 0.0):
             return
     for i in range(1, n - 1):
-        _fill(t, key_scale, CULL_NONE, _snap(xyw[0, 0], scale), _snap(xyw[0, 1], scale),
-              xyw[0, 2], _snap(xyw[i, 0], scale), _snap(xyw[i, 1], scale), xyw[i, 2],
-              _snap(xyw[i + 1, 0], scale), _snap(xyw[i + 1, 1], scale), xyw[i + 1, 2],
-              bits, row0, row1, col0, col1, stencil, use_stencil, floor, use_floor,
-              tri, zbuf)
-
+        _fill_at(t, key_scale, CULL_NONE, _snap(xyw[0, 0], scale), _snap(xyw[0, 1], scale),
+                 xyw[0, 2], _snap(xyw[i, 0], scale), _snap(xyw[i, 1], scale), xyw[i, 2],
+                 _snap(xyw[i + 1, 0], scale), _snap(xyw[i + 1, 1], scale), xyw[i + 1, 2],
+                 bits, row0, row1, col0, col1, stencil, use_stencil, floor, use_floor,
+                 tri, zbuf, origin_y, origin_x, want)

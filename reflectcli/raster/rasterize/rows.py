@@ -11,14 +11,17 @@ from .setup import _setup
 @njit(cache=True, inline="always")
 def _rows(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2, z_ref,
           dzdx, dzdy, zx0, tie, top, col0, stencil, use_stencil, floor, use_floor, tri, key,
-          blocks):
+          blocks, want):
     """Draw the pixels of rows ys..ye, columns xs..xs+n-1 whose centers are inside (every
     edge function >= 0) into the box buffers (pixel (py, px) at [py - top, px - col0]).
 
     `blocks`: the buffers have _BLOCK - 1 columns to spare past the box, so a plain row is
     walked in whole blocks of _BLOCK. A row's pixels are read through views starting at
     column xs, indexed from 0: indexed [r, xs - col0 + k], numba's negative-index
-    wraparound kept the plain loop scalar (with spills); this way it vectorises."""
+    wraparound kept the plain loop scalar (with spills); this way it vectorises.
+
+    `want` < 0: a pixel is on the stencil where it is not 0; else where it equals `want`
+    (a stencil of labels, several passes drawn at once: `rasterize_passes`)."""
     plain = not use_stencil and not use_floor
     c = xs - col0
     n4 = (n + _BLOCK - 1) & -_BLOCK if blocks else n
@@ -51,7 +54,8 @@ def _rows(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2,
                 z = np.float32(zf)
                 old = key[r, c + k]
                 if (z > old or (z == old and t32 < tri[r, c + k])) and (
-                        plain or ((not use_stencil or stencil[py, xs + k] != 0)
+                        plain or ((not use_stencil or (stencil[py, xs + k] != 0 if want < 0
+                                                       else stencil[py, xs + k] == want))
                                   and (not use_floor or zf * tie * floor[py, xs + k] < 1.0))):
                     key[r, c + k] = z
                     tri[r, c + k] = t32
@@ -73,13 +77,22 @@ def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bot
     where its center is inside (top-left rule), its stencil is set (`use_stencil`), its
     depth w is beyond floor's (`use_floor`), and its key 1/w * key_scale is greater than
     the stored one, or equal to it with a lower triangle index. `cull` as in rasterize."""
+    _fill_at(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bottom, col0,
+             col1, stencil, use_stencil, floor, use_floor, tri, key, top, col0, -1)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _fill_at(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bottom, col0,
+             col1, stencil, use_stencil, floor, use_floor, tri, key, origin_y, origin_x, want):
+    """`_fill` into buffers holding a box with corner (origin_y, origin_x) that holds the
+    box [top, bottom) x [col0, col1) the triangle is clipped to (pixel (py, px) at
+    [py - origin_y, px - origin_x]); `want` as in `_rows`."""
     s = _setup(np.int64(x0), np.int64(y0), np.float64(w0), np.int64(x1), np.int64(y1),
                np.float64(w1), np.int64(x2), np.int64(y2), np.float64(w2),
                np.float64(key_scale), cull, bits, top, bottom, col0, col1)
     if not s[0]:
         return
     _rows(np.int32(t), s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], s[10], s[11],
-          s[12], s[13], s[14], s[15], s[16], s[17], s[18], 1.0 / key_scale, top, col0,
-          stencil, use_stencil, floor, use_floor, tri, key,
-          key.shape[1] >= col1 - col0 + _BLOCK - 1)
-
+          s[12], s[13], s[14], s[15], s[16], s[17], s[18], 1.0 / key_scale, origin_y,
+          origin_x, stencil, use_stencil, floor, use_floor, tri, key,
+          key.shape[1] >= col1 - origin_x + _BLOCK - 1, want)

@@ -1,0 +1,188 @@
+"""Several masked passes drawn as one (`rasterize_passes`): each pass's triangles only on
+its own label of a label stencil, inside its own box, in one parallel draw and one merge.
+A virtual frame drew each sphere mirror's reflection as a pass of its own, two parallel
+regions each; on two cores each region's start and join cost more than its work."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+from ...camera import standard_planes
+from ...parallel import claim
+from ...scene.types import MIRROR_TIE
+from .buffers import RasterBuffers, RasterWorkspace
+from .constants import _BLOCK, _CHUNK, _CLIPPED, _MAX_POLY, CULL_NONE, FLAG_MIRROR, FLAG_SKIP
+from .draw import _draw_clipped
+from .fixed import _subpixel_bits
+from .resolve import _resolve
+from .rows import _rows
+from .setup import _run_setup
+
+MAX_PASSES = 255  # labels are uint8, 0 for no pass
+
+
+def rasterize_passes(corners: np.ndarray, flags: np.ndarray, world_to_clip: np.ndarray,
+                     width: int, height: int, starts: np.ndarray, boxes: np.ndarray,
+                     labels: np.ndarray, depth_floor: np.ndarray | None,
+                     workspace: RasterWorkspace, gather: tuple | None = None,
+                     resolve: bool = True):
+    """Passes p = 0 .. P - 1 at once: triangles starts[p] .. starts[p + 1] - 1 of `corners`
+    (T, 3, 3 world, float32; `flags` as in rasterize) drawn where `labels` (H, W uint8)
+    is p + 1, each clipped to its box boxes[p] (rows y0, y1, columns x0, x1, exclusive
+    ends; holding every pixel of its label), near and far planes only, no culling.
+
+    Every pixel of pass p gets exactly what `rasterize(corners[starts[p]:starts[p + 1]],
+    ..., mask=labels == p + 1, clear_outside=False)` gives it (its ids offset by
+    starts[p]): the same set-up clipped to the same box, the same tests. The buffers are
+    the workspace's (outputs=True) and are set only inside the passes' common box; read
+    them only on the labelled pixels.
+
+    `gather` (points (N, 3) float64, hidden (N,) bool, corner_index (T, 3), surface (T,),
+    n_objects): the triangles as indices into shared points, `corners` and `flags` then
+    the arrays to gather them into (`gather_triangle`) as each run is drawn: no pass of
+    its own over the triangles, and no parallel region of its own.
+
+    Returns the RasterBuffers; with `resolve` False, (buffers, pending): the threads'
+    buffers are not merged here, and `pending` is what `shade_buffers(pending=...)` needs
+    to merge each row as it shades it (the buffers' ids and depths inside the box are
+    valid only after that)."""
+    ws = workspace
+    assert ws.outputs and boxes.shape[0] <= MAX_PASSES
+    planes = standard_planes()
+    bits, guard = _subpixel_bits(width, height)
+    gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
+    all_planes = np.ascontiguousarray(np.vstack([planes, [[1.0, 0, 0, gx], [-1.0, 0, 0, gx],
+                                                          [0, 1.0, 0, gy], [0, -1.0, 0, gy]]]))
+    if gather is None:
+        corners = np.ascontiguousarray(corners, dtype=np.float32)
+        flags = np.ascontiguousarray(flags, dtype=np.uint8)
+        points, hidden = np.zeros((1, 3)), np.zeros(1, np.bool_)
+        corner_index, surface, n_objects = np.zeros((1, 3), np.int64), np.zeros(1, np.int32), 0
+    else:
+        points, hidden, corner_index, surface, n_objects = gather
+        assert corners.dtype == np.float32 and flags.dtype == np.uint8
+        assert corners.flags.c_contiguous and corners.shape[0] == corner_index.shape[0]
+    m = np.ascontiguousarray(world_to_clip, dtype=np.float64)
+    tri = ws.get("tri", (height, width), np.int32)
+    depth = ws.get("depth", (height, width), np.float32)
+    out = (ws.get("b1", (height, width), np.float32), ws.get("b2", (height, width), np.float32))
+    boxes = np.ascontiguousarray(boxes, np.int64)
+    rows = boxes.tolist()  # a few numbers: Python's min and max beat numpy's reductions
+    y0, y1 = min(r[0] for r in rows), max(r[1] for r in rows)
+    x0, x1 = min(r[2] for r in rows), max(r[3] for r in rows)
+    threads = max(1, numba.get_num_threads())
+    padded = (max(y1 - y0, 0), max(x1 - x0, 0) + _BLOCK - 1)
+    own_tri = ws.get("own_tri", (threads, *padded), np.int32)
+    own_key = ws.get("own_key", (threads, *padded), np.float32)
+    drew = np.zeros(threads, np.bool_)
+    floor = (ws.constant("floor", (1, 1), np.float32, 0.0) if depth_floor is None
+             else np.ascontiguousarray(depth_floor, dtype=np.float32))
+    _draw_passes(corners, flags, m, all_planes, planes.shape[0], width, height, bits,
+                 np.ascontiguousarray(starts, np.int64), boxes,
+                 np.ascontiguousarray(labels, np.uint8), floor, depth_floor is not None,
+                 y0, x0, own_tri, own_key, drew, gather is not None, points, hidden,
+                 corner_index, surface, n_objects)
+    buffers = RasterBuffers(tri, None, None, depth, corners, m, out)
+    if not resolve:
+        return buffers, (flags, x0, x1, y0, y1, own_tri, own_key, drew, depth)
+    _resolve(flags, x0, x1, y0, y1, own_tri, own_key, drew, tri, depth, False)
+    return buffers
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, boxes, labels,
+                 floor, use_floor, top, col0, own_tri, own_key, drew, gather, points, hidden,
+                 corner_index, surface, n_objects):
+    """`_draw` for several passes: runs of _CHUNK triangles within one pass (a run never
+    spans two), claimed by whichever thread is free, each set up against its pass's box and
+    filled where the label is its pass's, into per-thread buffers holding the passes'
+    common box (corner top, col0). Who drew what never matters (see `_draw`). `gather`:
+    each run's corners and flags are first gathered (`gather_triangle`) by the thread
+    drawing it."""
+    passes = starts.shape[0] - 1
+    first = np.zeros(passes + 1, np.int64)  # each pass's first run
+    for p in range(passes):
+        first[p + 1] = first[p] + (starts[p + 1] - starts[p] + _CHUNK - 1) // _CHUNK
+    scale = float(1 << bits)
+    threads = own_tri.shape[0]
+    soa = np.empty((threads, 9, _CHUNK), np.float32)
+    clip = np.empty((threads, 12, _CHUNK))
+    work_i = np.empty((threads, 21 * _CHUNK), np.int64)
+    work_f = np.empty((threads, 7 * _CHUNK))
+    status = np.empty((threads, _CHUNK), np.uint8)
+    chosen = np.empty((threads, _CHUNK), np.int64)
+    xyw = np.empty((threads, _MAX_POLY, 3))
+    claimed = np.zeros(1, np.int64)
+    for me in prange(threads):
+        p = 0
+        while True:
+            chunk = claim(claimed)
+            if chunk >= first[passes]:
+                break
+            while chunk >= first[p + 1]:  # claims only grow: a worker's pass only advances
+                p += 1
+            row0, row1, c0, c1 = boxes[p, 0], boxes[p, 1], boxes[p, 2], boxes[p, 3]
+            want = p + 1
+            tri = own_tri[me]
+            key = own_key[me]
+            if not drew[me]:
+                drew[me] = True
+                for r in range(tri.shape[0]):
+                    for c in range(tri.shape[1]):
+                        tri[r, c] = -1
+                        key[r, c] = 0.0
+            t0 = starts[p] + (chunk - first[p]) * _CHUNK
+            count = min(starts[p + 1], t0 + _CHUNK) - t0
+            if gather:
+                for t in range(t0, t0 + count):
+                    gather_triangle(points, hidden, corner_index, surface, n_objects, corners,
+                                    flags, t)
+            _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, CULL_NONE,
+                       row0, row1, c0, c1, t0, count, soa[me], clip[me], work_i[me],
+                       work_f[me], status[me])
+            ints = work_i[me]
+            floats = work_f[me]
+            st = status[me]
+            sel = chosen[me]
+            c = _CHUNK
+            k = 0
+            clipped = 0
+            for j in range(count):
+                sel[k] = j
+                k += ints[20 * c + j]
+                clipped += st[j] == _CLIPPED
+            for i in range(k):
+                j = sel[i]
+                t = t0 + j
+                _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+                      ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+                      ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+                      ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+                      floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
+                      MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, labels,
+                      True, floor, use_floor, tri, key, True, want)
+            if clipped:
+                for j in range(count):
+                    if st[j] == _CLIPPED:
+                        t = t0 + j
+                        _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
+                                      else 1.0, m, planes, width, height, bits, CULL_NONE,
+                                      scale, xyw[me], row0, row1, c0, c1, labels, True,
+                                      floor, use_floor, tri, key, top, col0, want)
+
+
+@njit(cache=True, inline="always")
+def gather_triangle(points, hidden, corner_index, surface, n_objects, corners, flags, t):
+    """corners[t, i] = points[corner_index[t, i]] in float32 (what the rasterizer takes),
+    and flags[t]: FLAG_MIRROR for a mirror's triangle (surface[t] >= n_objects), FLAG_SKIP
+    where all three of its points are `hidden` (virtual: the paper drops polygons wholly in
+    the hidden region)."""
+    every = True
+    for i in range(3):
+        q = corner_index[t, i]
+        every &= hidden[q]
+        for c in range(3):
+            corners[t, i, c] = np.float32(points[q, c])
+    flags[t] = (FLAG_MIRROR if surface[t] >= n_objects else 0) | (FLAG_SKIP if every else 0)

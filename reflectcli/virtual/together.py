@@ -1,0 +1,144 @@
+"""The sphere mirrors of a frame drawn together: their virtual vertices found in one call,
+their triangles gathered, rasterized, shaded and composed once for all of them, each only
+on its own pixels (a label image). Drawn one at a time, four-spheres' frame held 20 parallel
+regions for its four spheres with Python between them (now 3: the search, the draw, the
+merge with the shading); on two cores each region's start and join cost about as much as
+its work. The bytes are those of the passes one at a time."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from ..raster.primary import Primary
+from ..raster.rasterize import RasterWorkspace
+from ..raster.rasterize.passes import MAX_PASSES, rasterize_passes
+from ..raster.shade import shade_buffers
+from ..scene.types import Scene
+from .circle import block_scratch, spheres_virtual_vertices
+from .compose import compose_passes, pass_labels
+from .tessellation import Tessellation, concatenate_tessellations
+
+# drawn together only while the passes' common box is at most this many times the area of
+# their own boxes (each thread clears, and the merge visits, the common box)
+MAX_SPREAD = 2.0
+
+
+@dataclass
+class Together:
+    """Reflectors ks' tessellations joined: points and triangles of reflector ks[p] at
+    point_starts[p] .. and tri_starts[p] .., corner indices into the joined points."""
+
+    ks: tuple[int, ...]
+    parts: tuple[Tessellation, ...]  # what it was joined from (identity: still current?)
+    joined: Tessellation
+    point_starts: np.ndarray  # (P + 1,) int64
+    tri_starts: np.ndarray  # (P + 1,) int64
+
+
+@dataclass
+class TogetherCache:
+    """The last joined group (a still scene asks for the same one every frame)."""
+
+    last: Together | None = None
+    scratch: dict = field(default_factory=dict)
+
+    def get(self, ks: tuple[int, ...], parts: tuple[Tessellation, ...]) -> Together:
+        last = self.last
+        if (last is None or last.ks != ks or len(last.parts) != len(parts)
+                or any(a is not b for a, b in zip(last.parts, parts, strict=True))):
+            point_starts = np.cumsum([0] + [len(t.points) for t in parts]).astype(np.int64)
+            tri_starts = np.cumsum([0] + [t.triangles.count for t in parts]).astype(np.int64)
+            joined = concatenate_tessellations(list(parts))
+            joined = Tessellation(joined.triangles, np.ascontiguousarray(joined.points,
+                                                                         np.float64),
+                                  np.ascontiguousarray(joined.corner_index, np.int64))
+            self.last = Together(ks, parts, joined, point_starts, tri_starts)
+        return self.last
+
+    def block_scratch(self) -> np.ndarray:
+        """circle._blocks' per-thread scratch, kept per thread count."""
+        threads = max(1, numba.get_num_threads())
+        s = self.scratch.get(threads)
+        if s is None:
+            s = self.scratch[threads] = block_scratch()
+        return s
+
+
+def worth_together(boxes: np.ndarray) -> bool:
+    """Whether passes with boxes (P, 4: y0, y1, x0, x1) share a box small enough (see
+    MAX_SPREAD) to be drawn together. (Python ints: numpy's reductions on a few numbers
+    cost more than the arithmetic, every frame.)"""
+    rows = boxes.tolist()
+    if len(rows) > MAX_PASSES:
+        return False
+    area = sum((y1 - y0) * (x1 - x0) for y0, y1, x0, x1 in rows)
+    common = ((max(r[1] for r in rows) - min(r[0] for r in rows))
+              * (max(r[3] for r in rows) - min(r[2] for r in rows)))
+    return common <= MAX_SPREAD * area
+
+
+def spheres_vertices(scene: Scene, eye: np.ndarray, group: Together, cache: TogetherCache,
+                     ws: RasterWorkspace) -> tuple[np.ndarray, np.ndarray]:
+    """(virtual (N, 3) world, hidden (N,)) of the joined points of sphere mirrors
+    group.ks, each point in its own sphere, in one call (workspace arrays: valid until the
+    next call)."""
+    joined = group.joined
+    count = len(group.ks)
+    centers = np.empty((count, 3))
+    radii = np.empty(count)
+    for p, k in enumerate(group.ks):
+        center, radius = scene.mirrors.sphere(k)
+        centers[p] = center
+        radii[p] = radius
+    n_points = joined.points.shape[0]
+    virtual = ws.get("together_virtual", (n_points, 3), np.float64)
+    hidden = ws.get("together_hidden", (n_points,), np.bool_)
+    spheres_virtual_vertices(joined.points, eye, centers, radii, group.point_starts, virtual,
+                             hidden, cache.block_scratch())
+    return virtual, hidden
+
+
+def draw_spheres(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_world: np.ndarray,
+                 group: Together, virtual: np.ndarray, hidden: np.ndarray, boxes: np.ndarray,
+                 zbuffer: bool, incoming: np.ndarray | None, ws: RasterWorkspace) -> None:
+    """The reflections of sphere mirrors group.ks (each seen, boxes (P, 4) of their
+    pixels; their virtual points from `spheres_vertices`) added to the primary frame's rgb,
+    as `draw_virtual` and `add_reflection` give them one at a time: one rasterization of
+    all passes over a label image, gathering the corners as it goes (the depth floor where
+    `zbuffer`, the reflector test), one shading, merging the threads' buffers as it goes,
+    cracks filled and reflections added per label."""
+    joined = group.joined
+    mirrors = scene.mirrors
+    count = len(group.ks)
+    n_tris = joined.triangles.count
+    corners = ws.get("virtual_corners", (n_tris, 3, 3), np.float32)
+    flags = ws.get("virtual_flags", (n_tris,), np.uint8)
+    frame = primary.frame
+    h, w = frame.surface.shape
+    rows = boxes.tolist()
+    y0, y1 = min(r[0] for r in rows), max(r[1] for r in rows)
+    x0, x1 = min(r[2] for r in rows), max(r[3] for r in rows)
+    label_of = np.zeros(mirrors.count, np.uint8)
+    label_of[list(group.ks)] = np.arange(1, count + 1)
+    labels = ws.get("together_labels", (h, w), np.uint8)
+    stencil = ws.get("together_stencil", (h, w), np.bool_)
+    floor = ws.get("virtual_floor", (h, w), np.float32)
+    pass_labels(frame.surface, primary.buffers.depth, scene.n_objects, label_of, y0, y1, x0,
+                x1, labels, stencil, floor)
+    # the threads' buffers merged row by row as the rows are shaded (one region less)
+    buffers, pending = rasterize_passes(corners, flags, clip_from_world, w, h, group.tri_starts,
+                                        boxes, labels, floor if zbuffer else None, ws,
+                                        gather=(virtual, hidden, joined.corner_index,
+                                                joined.triangles.surface, scene.n_objects),
+                                        resolve=False)
+    colors, _ = shade_buffers(buffers, joined.triangles, scene, eye, incoming,
+                              stencil=stencil,
+                              out=(ws.get("virtual_rgb", (h, w, 3), np.float32),
+                                   ws.get("virtual_surface", (h, w), np.int32)),
+                              box=(y0, y1, x0, x1), pending=pending)
+    compose_passes(frame.rgb, colors, buffers.triangle, labels,
+                   np.ascontiguousarray(mirrors.reflectance[list(group.ks)]), y0, y1, x0, x1)
+
