@@ -96,14 +96,16 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize/clip.py:_clip_xyzw": (RASTER, "_draw"),
     "raster/rasterize/clip.py:_outside": (RASTER, "_box_misses"),
     "raster/rasterize/setup.py:_run_setup": (RASTER, "_draw"),
-    "raster/rasterize/rows.py:_fill": (RASTER, "_draw"),
-    "raster/rasterize/setup.py:_setup": (RASTER, "_fill"),
-    "raster/rasterize/rows.py:_rows": (RASTER, "_fill"),
-    "raster/rasterize/rows.py:_fill_at": (RASTER, "_fill"),
+    # the one-triangle entry (_fill_at into a box of its own) the exact twin drives
+    "raster/rasterize/rows.py:_fill": ([R + "test_fill_matches_the_exact_pixel_by_pixel_twin"],
+                                       None),
+    "raster/rasterize/setup.py:_setup": (RASTER + PASSES, "_fill_at"),
+    "raster/rasterize/rows.py:_rows": (RASTER + PASSES, "_draw"),
+    "raster/rasterize/rows.py:_fill_at": (CLIP + PASSES, "_draw_clipped"),
     "raster/rasterize/passes.py:_draw_passes": (PASSES, "rasterize_passes"),
     "raster/rasterize/passes.py:gather_triangle": (
         [V + "test_gather_corners_match_twin"] + PASSES, "gather_corners"),
-    "raster/rasterize/draw.py:_draw_clipped": (CLIP, "_draw"),
+    "raster/rasterize/draw.py:_draw_clipped": (CLIP + PASSES, "_draw"),
     "raster/rasterize/clip.py:_clip_polygon": (CLIP, "_draw_clipped"),
     "raster/rasterize/resolve.py:_resolve": (
         RASTER + [R + "test_clear_outside_false_keeps_pixels_outside_the_box"], "rasterize"),

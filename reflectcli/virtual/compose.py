@@ -143,6 +143,7 @@ def pass_labels(surface, depth, n_objects, label_of, y0, y1, x0, x1, labels, ste
 
 @njit(cache=True, inline="always")
 def _same(triangle, labels, label, y, x):
+    """Pixel (y, x) covered by a triangle of pass `label` (a crack's neighbour)."""
     return labels[y, x] == label and triangle[y, x] >= 0
 
 
@@ -153,8 +154,7 @@ def compose_passes(rgb, colors, triangle, labels, reflectance, y0, y1, x0, x1):
     only that label's pixels counted as covered, then `add_reflection` (rgb +=
     reflectance[p] * colors on label p + 1): the bytes of the passes done one at a time.
     Filling first, then adding, as those do: a crack's neighbours are covered, never
-    filled, so the order of the pixels does not matter."""
-    h, w = triangle.shape
+    filled, so the order of the pixels does not matter. Nothing outside the box is read."""
     for y in range(y0, y1):
         for x in range(x0, x1):
             label = labels[y, x]
@@ -162,7 +162,9 @@ def compose_passes(rgb, colors, triangle, labels, reflectance, y0, y1, x0, x1):
                 continue
             t0 = t1 = t2 = 0.0
             count = 0
-            if (y >= 1 and y + 1 < h and _same(triangle, labels, label, y - 1, x)
+            # neighbours inside the box only: outside it labels and triangles are another
+            # frame's or pass's (each label's pixels all lie inside the box)
+            if (y - 1 >= y0 and y + 1 < y1 and _same(triangle, labels, label, y - 1, x)
                     and _same(triangle, labels, label, y + 1, x)):
                 t0 += np.float64(colors[y - 1, x, 0])
                 t1 += np.float64(colors[y - 1, x, 1])
@@ -171,7 +173,7 @@ def compose_passes(rgb, colors, triangle, labels, reflectance, y0, y1, x0, x1):
                 t1 += np.float64(colors[y + 1, x, 1])
                 t2 += np.float64(colors[y + 1, x, 2])
                 count += 2
-            if (x >= 1 and x + 1 < w and _same(triangle, labels, label, y, x - 1)
+            if (x - 1 >= x0 and x + 1 < x1 and _same(triangle, labels, label, y, x - 1)
                     and _same(triangle, labels, label, y, x + 1)):
                 t0 += np.float64(colors[y, x - 1, 0])
                 t1 += np.float64(colors[y, x - 1, 1])

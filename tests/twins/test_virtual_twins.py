@@ -991,12 +991,19 @@ def test_compose_passes_match_twin(seed):
     colors = rng.random((h, w, 3)).astype(np.float32)
     rgb = rng.random((h, w, 3)).astype(np.float32)
     reflectance = rng.random((3, 3)).astype(np.float32)
+    labels[:, -2:] = 0  # and a box short of the image's right edge
     want_colors = colors.copy()
     want = naive_compose_passes(rgb, want_colors, triangle, labels, reflectance)
     got = rgb.copy()
     ys, xs = np.nonzero(labels)
-    compose.compose_passes(got, colors, triangle, labels, reflectance, ys.min(), ys.max() + 1,
-                           xs.min(), xs.max() + 1)
+    y0, y1, x0, x1 = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+    # outside the box the buffers hold another frame's or pass's labels and triangles:
+    # never read (a crack on the box's edge must not be filled from them)
+    outside = np.ones((h, w), bool)
+    outside[y0:y1, x0:x1] = False
+    labels[outside] = rng.integers(1, 4, outside.sum())
+    triangle[outside] = rng.integers(0, 50, outside.sum())
+    compose.compose_passes(got, colors, triangle, labels, reflectance, y0, y1, x0, x1)
     assert colors.tobytes() == want_colors.tobytes()
     assert got.tobytes() == want.tobytes()
     assert not np.array_equal(got, rgb)

@@ -1,5 +1,6 @@
 """Drawing a set-up triangle's pixels: the row walk (`_rows`) with the depth test, and
-`_fill` (setup then rows) for one triangle."""
+`_fill_at` (setup then rows) for one triangle (clipped triangles' fans); `_fill` is the same
+into buffers of the triangle's own box, the entry its exact pixel-by-pixel twin drives."""
 
 import numpy as np
 from numba import njit
