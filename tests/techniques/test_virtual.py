@@ -666,10 +666,19 @@ def test_spheres_drawn_together_are_the_passes_one_at_a_time(scene, overrides, m
     import reflectcli.techniques.virtual.technique as technique
 
     size = ["camera.width=256", "camera.height=256", *overrides]
-    together = open_scene(scene, "virtual", size).render_frame(0)
+    calls = []
+    draw = technique.draw_spheres
+    monkeypatch.setattr(technique, "draw_spheres", lambda *a, **k: calls.append(1) or draw(*a, **k))
+    opened = open_scene(scene, "virtual", size)
+    together = opened.render_frame(0)
+    again = opened.render_frame(0)  # the buffers a frame left behind reused
+    one_thread = open_scene(scene, "virtual", size, threads=1).render_frame(0)
+    assert len(calls) == 3  # the together path ran each time
     monkeypatch.setattr(technique, "worth_together", lambda boxes: False)
     alone = open_scene(scene, "virtual", size).render_frame(0)
-    assert together.rgb.tobytes() == alone.rgb.tobytes()
+    assert len(calls) == 3
+    for got in (together, again, one_thread):
+        assert got.rgb.tobytes() == alone.rgb.tobytes()
     assert together.stats == alone.stats
     assert together.stats["reflector_parts"] == 4
 
