@@ -34,7 +34,8 @@ SPLAT = [W + "test_splat_matches_the_reference",
          M + "test_splat_both_modes_match_sequential_twin"]
 PIXELS = [W + "test_pixel_splat_matches_the_reference",
           M + "test_pixel_splat_both_modes_match_sequential_twin",
-          M + "test_splat_projecting_inside_matches_project_then_splat"]
+          M + "test_splat_projecting_inside_matches_project_then_splat",
+          W + "test_pixel_splat_matches_with_bands_claimed_and_a_partly_full_stencil"]
 SPREAD = [W + "test_spread_matches_the_reference"]
 ANALYTIC = [E + "test_analytic_matches_closed_forms"]
 SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
