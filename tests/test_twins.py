@@ -165,6 +165,11 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp/squares.py:_write": (SPLAT, "_splat"),
     "maps/warp/pixels.py:_splat_pixels": (PIXELS, "splat_pixels"),
     "maps/warp/pixels.py:_scatter_run": (PIXELS, "_splat_pixels"),
+    "maps/warp/pixels.py:_all_set": (
+        [W + "test_pixel_splat_matches_with_bands_claimed_and_a_partly_full_stencil",
+         W + "test_pixel_splat_matches_the_reference"], "_splat_pixels"),
+    "maps/warp/pixels.py:_reaches": (
+        PIXELS + [M + "test_row_reach_bounds_the_twin_projection"], "_splat_pixels"),
     "maps/warp/spreading.py:_spread": (SPREAD, "spread"),
     "maps/warp/spreading.py:_spread_band": (SPREAD, "_spread"),
     "maps/warp/spreading.py:_key_row": (SPREAD, "_spread_band"),
