@@ -78,8 +78,7 @@ def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, 
     n_rows = row_lo.shape[0]
     stencil_bytes = stencil.view(np.uint8)
     if from_depth:  # each map row's reach, bounded from its depths without projecting it
-        first, last = _reaches(depth.view(np.int32), m, ymin, ymax, workers, row_lo, row_hi,
-                               count)
+        first, last = _reaches(depth.view(np.int32), m, ymin, ymax, row_lo, row_hi, count)
     else:  # the projection's rows are exact
         first, last = row_lo, row_hi
     # band weights over rows [y0, y1): a map row's zexels spread evenly over the screen rows
@@ -191,29 +190,21 @@ def _all_set(stencil_bytes, r0, r1, x0, x1, width) -> bool:
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _reaches(depth_bits, m, ymin, ymax, workers, row_lo, row_hi, count):
+def _reaches(depth_bits, m, ymin, ymax, row_lo, row_hi, count):
     """`_row_reach` of every map row into row_lo, row_hi (1 << 40, -1: no usable zexel) and
-    count; returns the rows their zexels spread over (first, last). A parallel loop of its
-    own before the bands' (0.05 ms for 512 rows at one thread), in chunks claimed by
-    whichever thread is free: a worker still waking leaves them to the other, and is awake
-    for the bands."""
+    count; returns the rows their zexels spread over (first, last). Serial (0.05 ms for 512
+    rows): a parallel loop of its own would be a second parallel region a call, and with
+    OpenMP on a busy machine each region can wait for a worker that lost its core."""
     n_rows = row_lo.shape[0]
     first = np.empty(n_rows, np.int64)
     last = np.empty(n_rows, np.int64)
-    chunks = (n_rows + 31) // 32
-    next_chunk = np.zeros(1, np.int64)
-    for _ in prange(min(workers, chunks)):
-        while True:
-            c = claim(next_chunk)
-            if c >= chunks:
-                break
-            for v in range(32 * c, min(32 * c + 32, n_rows)):
-                lo, hi, usable, f, la = _row_reach(depth_bits, m, v, ymin, ymax)
-                row_lo[v] = lo if usable > 0 else 1 << 40
-                row_hi[v] = hi if usable > 0 else -1
-                count[v] = usable
-                first[v] = f
-                last[v] = la
+    for v in range(n_rows):
+        lo, hi, usable, f, la = _row_reach(depth_bits, m, v, ymin, ymax)
+        row_lo[v] = lo if usable > 0 else 1 << 40
+        row_hi[v] = hi if usable > 0 else -1
+        count[v] = usable
+        first[v] = f
+        last[v] = la
     return first, last
 
 
