@@ -1,9 +1,9 @@
 """The one-pixel splat: each zexel at the pixel it lands in, by the visibility rule.
 
 It projects the map itself, row by row into buffers each task keeps in cache (no
-projection arrays), in bands of screen rows of about equal landings, each claimed by
-whichever thread is free, and writes each reached pixel's payload row (colour, triangle)
-as it goes, so no gather pass follows."""
+projection arrays), in bands of screen rows of about equal landings, one a task, and
+writes each reached pixel's payload row (colour, triangle) as it goes, so no gather pass
+follows."""
 
 from __future__ import annotations
 
@@ -11,7 +11,6 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ...parallel import claim
 from .payload import _copy_row, _payload_args
 from .projection import Projection, _project_row, _row_reach, screen_matrix_cached
 from .visibility import SAME_SURFACE
@@ -28,13 +27,12 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
     not checked again) and `positions=False` (the distances). `clear`: reset the region
     first (inside the kernel, each band its rows; a cleared pixel is (inf, inf), -1, which
     the rule reads as empty without looking at its id). Bands of rows of about equal
-    landings (each map row's zexels spread over the screen rows they reach), claimed by
-    whichever thread is free; each band visits every run but skips the map rows that cannot
-    reach it, so the result depends neither on the thread count nor on which thread ran a
-    band. `bands`: how many (default: two a thread). A band whose stencil rows are all set
-    skips the stencil test. `runs` step by one column (+1 or -1). `payload` (n, c): a row
-    per zexel, copied into `payload_out` (H, W, c) with
-    each zexel that takes a pixel (so a reached pixel ends with its kept zexel's row; other
+    landings (each map row's zexels spread over the screen rows they reach), one a task;
+    each band visits every run but skips the map rows that cannot reach it, so the result
+    does not depend on the thread count. `bands`: how many (default: two a thread). A band
+    whose stencil rows are all set skips the stencil test. `runs` step by one column (+1 or
+    -1). `payload` (n, c): a row per zexel, copied into `payload_out` (H, W, c) with each
+    zexel that takes a pixel (so a reached pixel ends with its kept zexel's row; other
     pixels are left alone). `source` = (depth (mh, mw), W, near, (x0, x1, y0, y1) the grown
     box): project the map inside the kernel instead (each task the rows that reach its band,
     into buffers it keeps in cache; the same arithmetic and results as `project_map` with
@@ -57,7 +55,7 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
         m = (screen_matrix_cached(w, h) @ wm).astype(np.float32)
     return _splat_pixels(proj.pix, proj.d, proj.z, runs, mw, proj.row_lo, proj.row_hi, proj.count,
                          base, ordered, stencil.reshape(-1), use_stencil, x0, x1, y0, y1, w,
-                         clear, bands, max(1, numba.get_num_threads()), best_zd.reshape(-1),
+                         clear, bands, best_zd.reshape(-1),
                          best_id.reshape(-1),
                          payload is not None, pay,
                          pay_out, from_depth, depth, m, near, grown[0], grown[1], grown[2],
@@ -66,7 +64,7 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
-                  use_stencil, x0, x1, y0, y1, width, clear, bands, workers, zd, ids,
+                  use_stencil, x0, x1, y0, y1, width, clear, bands, zd, ids,
                   with_payload, pay,
                   pay_out, from_depth, depth, m, near, xmin, xmax, ymin, ymax, height):
     # zd: (depth, squared distance) per pixel, one 8-byte record.
@@ -83,7 +81,12 @@ def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, 
         first, last = row_lo, row_hi
     # band weights over rows [y0, y1): a map row's zexels spread evenly over the screen rows
     # they reach (a difference array of zexels a row; those beyond [y0, y1) weigh nothing)
-    rate = np.zeros(y1 - y0 + 1, np.float64)
+    # (no array expressions here, np.zeros or .sum(): in a parallel kernel each becomes a
+    # parallel region of its own, and with OpenMP on a busy machine every region can wait
+    # for a worker that lost its core; the bands are the kernel's one parallel loop)
+    rate = np.empty(y1 - y0 + 1, np.float64)
+    for y in range(y1 - y0 + 1):
+        rate[y] = 0.0
     for v in range(n_rows):
         a = max(first[v], y0)
         b = min(last[v], y1 - 1)
@@ -92,11 +95,12 @@ def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, 
             rate[a - y0] += per
             rate[b - y0 + 1] -= per
     weight = np.empty(y1 - y0, np.float64)
+    running = 0.0
     total = 0.0
     for y in range(y1 - y0):
-        total += rate[y]
-        weight[y] = total
-    total = weight.sum()
+        running += rate[y]
+        weight[y] = running
+        total += running
     edges = np.empty(bands + 1, np.int64)
     edges[0] = y0
     edges[bands] = y1
@@ -111,66 +115,63 @@ def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, 
         edges[k] = y1
         k += 1
     inf = np.float32(np.inf)
-    landed = np.zeros(bands, np.int64)
-    # one task a thread, each claiming the next band until none is left (a thread that
-    # lost its core, or woke late, leaves its bands to the other)
-    next_band = np.zeros(1, np.int64)
-    for _ in prange(min(workers, bands)):
+    landed = np.empty(bands, np.int64)
+    # one band a task (numba's OpenMP layer gives each thread a fixed share of them: with
+    # bands of about equal landings the shares balance)
+    for b in prange(bands):
         bp = np.empty(mw, np.int32)
         bz = np.empty(mw, np.float32)
         bd = np.empty(mw, np.float32)
-        while True:
-            b = claim(next_band)
-            if b >= bands:
-                break
-            r0 = edges[b]
-            r1 = edges[b + 1]
-            if r1 <= r0:
+        r0 = edges[b]
+        r1 = edges[b + 1]
+        landed[b] = 0
+        if r1 <= r0:
+            continue
+        n_landed = 0
+        # rows as views indexed from 0: the loops vectorize (with indices that could be
+        # negative they did not: 2.5 times as long)
+        if clear:
+            for y in range(r0, r1):
+                zd_row = zd[2 * (y * width + x0):2 * (y * width + x1)]
+                for i in range(zd_row.shape[0]):
+                    zd_row[i] = inf  # depth and distance: no zexel lands this far off
+                id_row = ids[y * width + x0:y * width + x1]
+                for i in range(id_row.shape[0]):
+                    id_row[i] = -1
+        # a band whose rows of the stencil are all set (a mirror seen whole and
+        # unoccluded) needs no test
+        test = use_stencil and not _all_set(stencil_bytes, r0, r1, x0, x1, width)
+        p0 = r0 * width
+        p1 = r1 * width
+        projected = -1
+        for run in range(runs.shape[0]):
+            v = runs[run, 0]
+            if row_hi[v] < r0 or row_lo[v] >= r1:
                 continue
-            n_landed = 0
-            # rows as views indexed from 0: the loops vectorize (with indices that could be
-            # negative they did not: 2.5 times as long)
-            if clear:
-                for y in range(r0, r1):
-                    zd_row = zd[2 * (y * width + x0):2 * (y * width + x1)]
-                    for i in range(zd_row.shape[0]):
-                        zd_row[i] = inf  # depth and distance: no zexel lands this far off
-                    id_row = ids[y * width + x0:y * width + x1]
-                    for i in range(id_row.shape[0]):
-                        id_row[i] = -1
-            # a band whose rows of the stencil are all set (a mirror seen whole and
-            # unoccluded) needs no test
-            test = use_stencil and not _all_set(stencil_bytes, r0, r1, x0, x1, width)
-            p0 = r0 * width
-            p1 = r1 * width
-            projected = -1
-            for run in range(runs.shape[0]):
-                v = runs[run, 0]
-                if row_hi[v] < r0 or row_lo[v] >= r1:
-                    continue
-                if v != projected:  # the row into the task's buffers
-                    if from_depth:
-                        _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width, height,
-                                     False, bd, bd, bz, bp, bd)
-                    else:
-                        bp[:] = pix[v * mw:(v + 1) * mw]
-                        bz[:] = z[v * mw:(v + 1) * mw]
-                        bd[:] = dist[v * mw:(v + 1) * mw]
-                    projected = v
-                # the step as a constant (runs go one column at a time): the scatter's loop
-                # then compiles for it (a fifth faster than for a step known only at run time)
-                if runs[run, 3] == 1:
-                    n_landed += _scatter_run(bp, bz, bd, runs[run, 1], runs[run, 2], 1, v * mw,
-                                             base, p0, p1, ordered, test, stencil, zd,
-                                             ids, with_payload, pay, pay_out)
+            if v != projected:  # the row into the task's buffers
+                if from_depth:
+                    _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width, height,
+                                 False, bd, bd, bz, bp, bd)
                 else:
-                    n_landed += _scatter_run(bp, bz, bd, runs[run, 1], runs[run, 2], -1, v * mw,
-                                             base, p0, p1, ordered, test, stencil, zd,
-                                             ids, with_payload, pay, pay_out)
-            landed[b] = n_landed
-    return landed.sum()
-
-
+                    bp[:] = pix[v * mw:(v + 1) * mw]
+                    bz[:] = z[v * mw:(v + 1) * mw]
+                    bd[:] = dist[v * mw:(v + 1) * mw]
+                projected = v
+            # the step as a constant (runs go one column at a time): the scatter's loop
+            # then compiles for it (a fifth faster than for a step known only at run time)
+            if runs[run, 3] == 1:
+                n_landed += _scatter_run(bp, bz, bd, runs[run, 1], runs[run, 2], 1, v * mw,
+                                         base, p0, p1, ordered, test, stencil, zd,
+                                         ids, with_payload, pay, pay_out)
+            else:
+                n_landed += _scatter_run(bp, bz, bd, runs[run, 1], runs[run, 2], -1, v * mw,
+                                         base, p0, p1, ordered, test, stencil, zd,
+                                         ids, with_payload, pay, pay_out)
+        landed[b] = n_landed
+    n_landed = 0
+    for b in range(bands):
+        n_landed += landed[b]
+    return n_landed
 
 
 @njit(cache=True, error_model="numpy")

@@ -10,7 +10,6 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ...parallel import claim
 from .payload import _copy_zexel_rows, _payload_args
 from .visibility import SAME_SURFACE
 
@@ -43,41 +42,33 @@ def spread(best_zd, best_id, radius: int, stencil, box, out_z, out_id, payloads=
         rows = tuple(np.ascontiguousarray(p) for p in payloads)
         _, pay_out = _payload_args(rows[0], payload_out)
     zd = np.ascontiguousarray(best_zd).reshape(-1)
-    threads = max(1, numba.get_num_threads())
     if bands is None:
-        bands = threads * 4
+        bands = max(1, numba.get_num_threads()) * 4
     _spread(zd, zd.view(np.int32), np.ascontiguousarray(best_id).reshape(-1), radius,
             stencil, x0, x1, y0, y1, best_id.shape[0], best_id.shape[1], out_z, out_id,
-            payloads is not None, rows, stride.bit_length() - 1, pay_out, bands, threads)
+            payloads is not None, rows, stride.bit_length() - 1, pay_out, bands)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _spread(zd, bits, idf, r, stencil, x0, x1, y0, y1, h, w, out_z, out_id, with_payload, rows,
-            shift, pay_out, bands, workers):
+            shift, pay_out, bands):
     # bands of rows, each run top to bottom with a ring of the 2r + 1 rows' keys around its
-    # row (each pixel's key made once a band); a pixel's result depends on its square only.
-    # One task a thread, each claiming the next band until none is left (a thread that lost
-    # its core, or woke late, leaves its bands to the other)
-    next_band = np.zeros(1, np.int64)
-    for _ in prange(min(workers, bands)):
-        while True:
-            b = claim(next_band)
-            if b >= bands:
-                break
-            ya = y0 + (y1 - y0) * b // bands
-            yb = y0 + (y1 - y0) * (b + 1) // bands
-            if yb <= ya:
-                continue
-            # the common radii as constants: their loops unroll
-            if r == 1:
-                _spread_band(zd, bits, idf, 1, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
-                             with_payload, rows, shift, pay_out)
-            elif r == 2:
-                _spread_band_rings(zd, bits, idf, 2, stencil, x0, x1, ya, yb, h, w, out_z,
-                                   out_id, with_payload, rows, shift, pay_out)
-            else:
-                _spread_band_rings(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z,
-                                   out_id, with_payload, rows, shift, pay_out)
+    # row (each pixel's key made once a band); a pixel's result depends on its square only
+    for b in prange(bands):
+        ya = y0 + (y1 - y0) * b // bands
+        yb = y0 + (y1 - y0) * (b + 1) // bands
+        if yb <= ya:
+            continue
+        # the common radii as constants: their loops unroll
+        if r == 1:
+            _spread_band(zd, bits, idf, 1, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
+                         with_payload, rows, shift, pay_out)
+        elif r == 2:
+            _spread_band_rings(zd, bits, idf, 2, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
+                               with_payload, rows, shift, pay_out)
+        else:
+            _spread_band_rings(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
+                               with_payload, rows, shift, pay_out)
 
 
 @njit(cache=True, inline="always")
