@@ -35,7 +35,7 @@ SPLAT = [W + "test_splat_matches_the_reference",
 PIXELS = [W + "test_pixel_splat_matches_the_reference",
           M + "test_pixel_splat_both_modes_match_sequential_twin",
           M + "test_splat_projecting_inside_matches_project_then_splat",
-          W + "test_pixel_splat_matches_with_bands_claimed_and_a_partly_full_stencil"]
+          W + "test_pixel_splat_matches_at_thread_counts_with_a_partly_full_stencil"]
 SPREAD = [W + "test_spread_matches_the_reference"]
 ANALYTIC = [E + "test_analytic_matches_closed_forms"]
 SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
@@ -166,7 +166,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp/pixels.py:_splat_pixels": (PIXELS, "splat_pixels"),
     "maps/warp/pixels.py:_scatter_run": (PIXELS, "_splat_pixels"),
     "maps/warp/pixels.py:_all_set": (
-        [W + "test_pixel_splat_matches_with_bands_claimed_and_a_partly_full_stencil",
+        [W + "test_pixel_splat_matches_at_thread_counts_with_a_partly_full_stencil",
          W + "test_pixel_splat_matches_the_reference"], "_splat_pixels"),
     "maps/warp/pixels.py:_reaches": (
         PIXELS + [M + "test_row_reach_bounds_the_twin_projection"], "_splat_pixels"),

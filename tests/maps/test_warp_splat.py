@@ -141,10 +141,10 @@ def test_pixel_splat_does_not_depend_on_the_band_split(bands, radius):
 
 
 @pytest.mark.parametrize("threads", [1, 2])
-def test_pixel_splat_matches_with_bands_claimed_and_a_partly_full_stencil(threads):
-    """Bands go to whichever thread claims them first, and a band whose stencil rows are all
-    set skips the stencil test: neither changes the result (a stencil full in its top half,
-    sparse in its bottom half, so some bands test and some do not)."""
+def test_pixel_splat_matches_at_thread_counts_with_a_partly_full_stencil(threads):
+    """Bands of about equal landings run on either thread, and a band whose stencil rows are
+    all set skips the stencil test: neither changes the result (a stencil full in its top
+    half, sparse in its bottom half, so some bands test and some do not)."""
     import numba
 
     sx, sy, z, mh, mw, shape = _zexels(11)
