@@ -34,7 +34,8 @@ SPLAT = [W + "test_splat_matches_the_reference",
          M + "test_splat_both_modes_match_sequential_twin"]
 PIXELS = [W + "test_pixel_splat_matches_the_reference",
           M + "test_pixel_splat_both_modes_match_sequential_twin",
-          M + "test_splat_projecting_inside_matches_project_then_splat"]
+          M + "test_splat_projecting_inside_matches_project_then_splat",
+          W + "test_pixel_splat_matches_at_thread_counts_with_a_partly_full_stencil"]
 SPREAD = [W + "test_spread_matches_the_reference"]
 ANALYTIC = [E + "test_analytic_matches_closed_forms"]
 SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
@@ -181,6 +182,11 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp/squares.py:_write": (SPLAT, "_splat"),
     "maps/warp/pixels.py:_splat_pixels": (PIXELS, "splat_pixels"),
     "maps/warp/pixels.py:_scatter_run": (PIXELS, "_splat_pixels"),
+    "maps/warp/pixels.py:_all_set": (
+        [W + "test_pixel_splat_matches_at_thread_counts_with_a_partly_full_stencil",
+         W + "test_pixel_splat_matches_the_reference"], "_splat_pixels"),
+    "maps/warp/pixels.py:_reaches": (
+        PIXELS + [M + "test_row_reach_bounds_the_twin_projection"], "_splat_pixels"),
     "maps/warp/spreading.py:_spread": (SPREAD, "spread"),
     "maps/warp/spreading.py:_spread_band": (SPREAD, "_spread"),
     "maps/warp/spreading.py:_key_row": (SPREAD, "_spread_band"),

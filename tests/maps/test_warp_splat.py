@@ -140,6 +140,27 @@ def test_pixel_splat_does_not_depend_on_the_band_split(bands, radius):
                                                bands=bands)[1])
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_pixel_splat_matches_at_thread_counts_with_a_partly_full_stencil(threads):
+    """Bands of about equal landings run on either thread, and a band whose stencil rows are
+    all set skips the stencil test: neither changes the result (a stencil full in its top
+    half, sparse in its bottom half, so some bands test and some do not)."""
+    import numba
+
+    sx, sy, z, mh, mw, shape = _zexels(11)
+    stencil = np.random.default_rng(12).random(shape) < 0.7
+    stencil[: shape[0] // 2] = True
+    want = splat_zbuffer(sx, sy, z, np.zeros(sx.size), mw, stencil)
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        for bands in (1, 4, 9):
+            got = _pixels(sx, sy, z, mh, mw, shape, stencil, 0, bands=bands)[1]
+            np.testing.assert_array_equal(got, want)
+    finally:
+        numba.set_num_threads(before)
+
+
 def test_projection_drops_nan_and_non_positive_depths():
     from reflectcli.maps.warp import project_map
 

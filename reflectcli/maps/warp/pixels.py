@@ -1,8 +1,9 @@
 """The one-pixel splat: each zexel at the pixel it lands in, by the visibility rule.
 
 It projects the map itself, row by row into buffers each task keeps in cache (no
-projection arrays), one band of screen rows per task balanced by zexel count, and writes
-each reached pixel's payload row (colour, triangle) as it goes, so no gather pass follows."""
+projection arrays), in bands of screen rows of about equal landings, one a task, and
+writes each reached pixel's payload row (colour, triangle) as it goes, so no gather pass
+follows."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 from numba import njit, prange
 
 from .payload import _copy_row, _payload_args
-from .projection import Projection, _project_row, _row_reach, screen_matrix
+from .projection import Projection, _project_row, _row_reach, screen_matrix_cached
 from .visibility import SAME_SURFACE
 
 
@@ -25,11 +26,13 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
     `proj` must come from `project_map` with that region as its grown box (its columns are
     not checked again) and `positions=False` (the distances). `clear`: reset the region
     first (inside the kernel, each band its rows; a cleared pixel is (inf, inf), -1, which
-    the rule reads as empty without looking at its id). One band of rows per task, balanced
-    by zexel count; each band visits every run but skips the map rows that cannot reach it,
-    so the result does not depend on the thread count. `bands`: how many (default: two a
-    thread). `payload` (n, c): a row per zexel, copied into `payload_out` (H, W, c) with
-    each zexel that takes a pixel (so a reached pixel ends with its kept zexel's row; other
+    the rule reads as empty without looking at its id). Bands of rows of about equal
+    landings (each map row's zexels spread over the screen rows they reach), one a task;
+    each band visits every run but skips the map rows that cannot reach it, so the result
+    does not depend on the thread count. `bands`: how many (default: two a thread). A band
+    whose stencil rows are all set skips the stencil test. `runs` step by one column (+1 or
+    -1). `payload` (n, c): a row per zexel, copied into `payload_out` (H, W, c) with each
+    zexel that takes a pixel (so a reached pixel ends with its kept zexel's row; other
     pixels are left alone). `source` = (depth (mh, mw), W, near, (x0, x1, y0, y1) the grown
     box): project the map inside the kernel instead (each task the rows that reach its band,
     into buffers it keeps in cache; the same arithmetic and results as `project_map` with
@@ -49,10 +52,11 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
         depth, wm, near, grown = source
         from_depth = True
         depth = np.ascontiguousarray(depth, np.float32)
-        m = np.ascontiguousarray(screen_matrix(w, h) @ wm, np.float32)
+        m = (screen_matrix_cached(w, h) @ wm).astype(np.float32)
     return _splat_pixels(proj.pix, proj.d, proj.z, runs, mw, proj.row_lo, proj.row_hi, proj.count,
                          base, ordered, stencil.reshape(-1), use_stencil, x0, x1, y0, y1, w,
-                         clear, bands, best_zd.reshape(-1), best_id.reshape(-1),
+                         clear, bands, best_zd.reshape(-1),
+                         best_id.reshape(-1),
                          payload is not None, pay,
                          pay_out, from_depth, depth, m, near, grown[0], grown[1], grown[2],
                          grown[3], h)
@@ -60,85 +64,149 @@ def splat_pixels(proj: Projection, runs, mw, base, stencil, best_zd, best_id, or
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _splat_pixels(pix, dist, z, runs, mw, row_lo, row_hi, count, base, ordered, stencil,
-                  use_stencil, x0, x1, y0, y1, width, clear, bands, zd, ids, with_payload, pay,
+                  use_stencil, x0, x1, y0, y1, width, clear, bands, zd, ids,
+                  with_payload, pay,
                   pay_out, from_depth, depth, m, near, xmin, xmax, ymin, ymax, height):
     # zd: (depth, squared distance) per pixel, one 8-byte record.
     # from_depth: project the map (depth, m: as `_project` with positions=False) here, row by
     # row into buffers each task keeps in cache, instead of reading pix, dist, z: each band
     # projects the rows that can reach it, by bounds on each row's screen rows (into row_lo,
-    # row_hi; count: its zexels of usable depth, the bands' weights) taken from its depths.
+    # row_hi; count: its zexels of usable depth) taken from its depths.
     # Returns how many zexels landed in the region (stencil or not).
-    depth_bits = depth.view(np.int32)
+    n_rows = row_lo.shape[0]
+    stencil_bytes = stencil.view(np.uint8)
     if from_depth:  # each map row's reach, bounded from its depths without projecting it
-        # (serial: 0.05 ms for 512 rows, less than a thread's wake-up on a busy machine; the
-        # bands are then the kernel's one parallel loop)
-        for v in range(row_lo.shape[0]):
-            lo, hi, usable = _row_reach(depth_bits, m, v, ymin, ymax)
-            row_lo[v] = lo if usable > 0 else 1 << 40
-            row_hi[v] = hi if usable > 0 else -1
-            count[v] = usable
-    # band edges over rows [y0, y1): each map row's zexels counted at its middle row
-    hist = np.zeros(y1 - y0 + 1, np.int64)
-    total = 0
-    for v in range(row_lo.shape[0]):
-        if count[v] > 0:
-            mid = min(max((row_lo[v] + row_hi[v]) // 2, y0), y1) - y0
-            hist[mid] += count[v]
-            total += count[v]
+        first, last = _reaches(depth.view(np.int32), m, ymin, ymax, row_lo, row_hi, count)
+    else:  # the projection's rows are exact
+        first, last = row_lo, row_hi
+    # band weights over rows [y0, y1): a map row's zexels spread evenly over the screen rows
+    # they reach (a difference array of zexels a row; those beyond [y0, y1) weigh nothing)
+    # (no array expressions here, np.zeros or .sum(): in a parallel kernel each becomes a
+    # parallel region of its own, and with OpenMP on a busy machine every region can wait
+    # for a worker that lost its core; the bands are the kernel's one parallel loop)
+    rate = np.empty(y1 - y0 + 1, np.float64)
+    for y in range(y1 - y0 + 1):
+        rate[y] = 0.0
+    for v in range(n_rows):
+        a = max(first[v], y0)
+        b = min(last[v], y1 - 1)
+        if count[v] > 0 and a <= b:
+            per = count[v] / (last[v] - first[v] + 1)
+            rate[a - y0] += per
+            rate[b - y0 + 1] -= per
+    weight = np.empty(y1 - y0, np.float64)
+    running = 0.0
+    total = 0.0
+    for y in range(y1 - y0):
+        running += rate[y]
+        weight[y] = running
+        total += running
     edges = np.empty(bands + 1, np.int64)
     edges[0] = y0
     edges[bands] = y1
-    acc = 0
-    b = 1
+    acc = 0.0
+    k = 1
     for y in range(y1 - y0):
-        acc += hist[y]
-        while b < bands and acc * bands >= total * b:
-            edges[b] = y0 + y + 1
-            b += 1
-    while b < bands:
-        edges[b] = y1
-        b += 1
+        acc += weight[y]
+        while k < bands and acc * bands >= total * k:
+            edges[k] = y0 + y + 1
+            k += 1
+    while k < bands:
+        edges[k] = y1
+        k += 1
     inf = np.float32(np.inf)
-    landed = np.zeros(bands, np.int64)
+    landed = np.empty(bands, np.int64)
+    # one band a task (numba's OpenMP layer gives each thread a fixed share of them: with
+    # bands of about equal landings the shares balance)
     for b in prange(bands):
-        r0 = edges[b]
-        r1 = edges[b + 1]
-        if r1 <= r0:
-            continue
-        n_landed = 0
-        if clear:
-            for y in range(r0, r1):
-                for p in range(y * width + x0, y * width + x1):
-                    zd[2 * p] = inf
-                    zd[2 * p + 1] = inf  # no zexel lands this far from a center: empty
-                    ids[p] = -1
-        p0 = r0 * width
-        p1 = r1 * width
         bp = np.empty(mw, np.int32)
         bz = np.empty(mw, np.float32)
         bd = np.empty(mw, np.float32)
+        r0 = edges[b]
+        r1 = edges[b + 1]
+        landed[b] = 0
+        if r1 <= r0:
+            continue
+        n_landed = 0
+        # rows as views indexed from 0: the loops vectorize (with indices that could be
+        # negative they did not: 2.5 times as long)
+        if clear:
+            for y in range(r0, r1):
+                zd_row = zd[2 * (y * width + x0):2 * (y * width + x1)]
+                for i in range(zd_row.shape[0]):
+                    zd_row[i] = inf  # depth and distance: no zexel lands this far off
+                id_row = ids[y * width + x0:y * width + x1]
+                for i in range(id_row.shape[0]):
+                    id_row[i] = -1
+        # a band whose rows of the stencil are all set (a mirror seen whole and
+        # unoccluded) needs no test
+        test = use_stencil and not _all_set(stencil_bytes, r0, r1, x0, x1, width)
+        p0 = r0 * width
+        p1 = r1 * width
         projected = -1
         for run in range(runs.shape[0]):
             v = runs[run, 0]
             if row_hi[v] < r0 or row_lo[v] >= r1:
                 continue
-            if from_depth:
-                if v != projected:
+            if v != projected:  # the row into the task's buffers
+                if from_depth:
                     _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width, height,
                                  False, bd, bd, bz, bp, bd)
-                    projected = v
-                rp, rz, rd = bp, bz, bd
+                else:
+                    bp[:] = pix[v * mw:(v + 1) * mw]
+                    bz[:] = z[v * mw:(v + 1) * mw]
+                    bd[:] = dist[v * mw:(v + 1) * mw]
+                projected = v
+            # the step as a constant (runs go one column at a time): the scatter's loop
+            # then compiles for it (a fifth faster than for a step known only at run time)
+            if runs[run, 3] == 1:
+                n_landed += _scatter_run(bp, bz, bd, runs[run, 1], runs[run, 2], 1, v * mw,
+                                         base, p0, p1, ordered, test, stencil, zd,
+                                         ids, with_payload, pay, pay_out)
             else:
-                rp = pix[v * mw:(v + 1) * mw]
-                rz = z[v * mw:(v + 1) * mw]
-                rd = dist[v * mw:(v + 1) * mw]
-            n_landed += _scatter_run(rp, rz, rd, runs[run, 1], runs[run, 2], runs[run, 3],
-                                     v * mw, base, p0, p1, ordered, use_stencil, stencil, zd,
-                                     ids, with_payload, pay, pay_out)
+                n_landed += _scatter_run(bp, bz, bd, runs[run, 1], runs[run, 2], -1, v * mw,
+                                         base, p0, p1, ordered, test, stencil, zd,
+                                         ids, with_payload, pay, pay_out)
         landed[b] = n_landed
-    return landed.sum()
+    n_landed = 0
+    for b in range(bands):
+        n_landed += landed[b]
+    return n_landed
 
 
+@njit(cache=True, error_model="numpy")
+def _all_set(stencil_bytes, r0, r1, x0, x1, width) -> bool:
+    """Every stencil pixel of rows [r0, r1), columns [x0, x1) is set (`stencil_bytes`: the
+    flat stencil as 0/1 bytes). Counted a row at a time through views indexed from 0, in a
+    function of its own: so the loop vectorizes (in the band loop it did not, and took
+    0.1 ms for a whole screen)."""
+    set_count = 0
+    for y in range(r0, r1):
+        on_row = stencil_bytes[y * width + x0:y * width + x1]
+        row_count = np.uint32(0)
+        for i in range(on_row.shape[0]):
+            row_count += np.uint32(on_row[i])
+        set_count += row_count
+    return set_count == (r1 - r0) * (x1 - x0)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _reaches(depth_bits, m, ymin, ymax, row_lo, row_hi, count):
+    """`_row_reach` of every map row into row_lo, row_hi (1 << 40, -1: no usable zexel) and
+    count; returns the rows their zexels spread over (first, last). Serial (0.05 ms for 512
+    rows): a parallel loop of its own would be a second parallel region a call, and with
+    OpenMP on a busy machine each region can wait for a worker that lost its core."""
+    n_rows = row_lo.shape[0]
+    first = np.empty(n_rows, np.int64)
+    last = np.empty(n_rows, np.int64)
+    for v in range(n_rows):
+        lo, hi, usable, f, la = _row_reach(depth_bits, m, v, ymin, ymax)
+        row_lo[v] = lo if usable > 0 else 1 << 40
+        row_hi[v] = hi if usable > 0 else -1
+        count[v] = usable
+        first[v] = f
+        last[v] = la
+    return first, last
 
 
 @njit(cache=True, error_model="numpy")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numba import njit, prange
@@ -44,6 +45,15 @@ def screen_matrix(width: int, height: int) -> np.ndarray:
     return s
 
 
+@lru_cache(maxsize=16)
+def screen_matrix_cached(width: int, height: int) -> np.ndarray:
+    """`screen_matrix`, made once a screen size (read-only): the warp asks for it every
+    frame."""
+    s = screen_matrix(width, height)
+    s.flags.writeable = False
+    return s
+
+
 @dataclass
 class Projection:
     """One map's projected zexels (reused from frame to frame for maps of one size)."""
@@ -79,7 +89,7 @@ def project_map(depth: np.ndarray, w: np.ndarray, width: int, height: int, near:
     if out is None:
         out = Projection.empty(*depth.shape)
     x0, x1, y0, y1 = box if box is not None else (0, width, 0, height)
-    m = np.ascontiguousarray(screen_matrix(width, height) @ w, np.float32)
+    m = np.ascontiguousarray(screen_matrix_cached(width, height) @ w, np.float32)
     _project(np.ascontiguousarray(depth, np.float32), m, near, x0 - margin, x1 + margin,
              y0 - margin, y1 + margin, width, height, positions, out.sx, out.sy, out.z, out.pix,
              out.d, out.row_lo, out.row_hi, out.count)
@@ -164,9 +174,11 @@ def _project_row(depth, m, v, near, xmin, xmax, ymin, ymax, width, height, posit
 
 @njit(cache=True, inline="always")
 def _row_reach(depth_bits, m, v, ymin, ymax):
-    """(first, last, count): screen rows [ymin, ymax) that map row v's zexels can reach, and
-    how many have a usable depth (positive: finite or infinite), bounded without projecting
-    them (a superset of `_project_row`'s rows, for skipping rows a band cannot receive).
+    """(first, last, count, spread first, spread last): screen rows [ymin, ymax) that map row
+    v's zexels can reach, and how many have a usable depth (positive: finite or infinite),
+    bounded without projecting them (a superset of `_project_row`'s rows, for skipping rows
+    a band cannot receive); and the rows they spread over, not limited to [ymin, ymax) nor
+    grown by the margin (where zexels land, for weighing bands: only an estimate).
     `depth_bits`: the depths' float32 bits as int32 (positive floats order as their bits
     do: integer minima vectorize, float ones do not).
 
@@ -193,7 +205,7 @@ def _row_reach(depth_bits, m, v, ymin, ymax):
     usable = np.int64(n_finite) + np.int64(n_inf)
     lo, hi = ymin, ymax - 1
     if usable == 0:
-        return lo, hi, 0
+        return lo, hi, 0, lo, hi
     # the float32 values of those bits, exactly: 2^(e - 150) (2^23 + mantissa), subnormal: e 1
     e_min, e_max = max(b_min >> 23, 1), max(b_max >> 23, 1)
     d_min = math.ldexp(np.float64((b_min & 0x7FFFFF) | (0x800000 if b_min >> 23 else 0)),
@@ -217,7 +229,10 @@ def _row_reach(depth_bits, m, v, ymin, ymax):
         y = num / den if den > 0.0 else 0.0
         y_min = min(y_min, y)
         y_max = max(y_max, y)
+    first, last = lo, hi
     if positive and np.isfinite(y_min) and np.isfinite(y_max) and y_min > -1e9 and y_max < 1e9:
-        lo = max(lo, np.int64(math.floor(y_min)) - 1)
-        hi = min(hi, np.int64(math.floor(y_max)) + 1)
-    return lo, hi, usable
+        first = np.int64(math.floor(y_min))
+        last = np.int64(math.floor(y_max))
+        lo = max(lo, first - 1)
+        hi = min(hi, last + 1)
+    return lo, hi, usable, first, last
