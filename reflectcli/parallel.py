@@ -12,6 +12,7 @@ change the result (each kernel says why it does not).
 from __future__ import annotations
 
 import numba
+import numpy as np
 from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
@@ -43,3 +44,13 @@ def claim(counter):
         counter[0] = k + 1
         return k
     return _fetch_add_one(counter)
+
+
+@njit(cache=True)
+def counter():
+    """A `claim` counter at zero. Made here, in a plain function: written as np.zeros(1) in
+    a parallel kernel it would be a parallel loop of its own (numba turns array constructors
+    there into parallel loops), one more wake of every worker a call."""
+    c = np.empty(1, np.int64)
+    c[0] = 0
+    return c

@@ -153,6 +153,10 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "parallel.py:claim": (WAVE + FRAMES + [R + "test_deterministic_across_thread_counts",
                                            R + "test_claim_hands_out_each_piece_once"],
                           "trace_segments"),
+    # the counter every claim loop starts from: held by the same tests
+    "parallel.py:counter": (WAVE + FRAMES + [R + "test_deterministic_across_thread_counts",
+                                             R + "test_claim_hands_out_each_piece_once"],
+                            "trace_segments"),
     "trace/wave.py:_wave": (WAVE + FRAMES, "_segment"),
     "trace/wave.py:_misses": (WAVE, "_wave"),
     "trace/wave.py:_rows2": (WAVE + FRAMES, "trace_segments"),

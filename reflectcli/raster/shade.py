@@ -8,7 +8,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import claim
+from ..parallel import claim, counter
 from ..prefetch import prefetch
 from ..scene.types import POINT, UNLIT, Scene, Triangles
 from ..shading import material_albedo, surface_color
@@ -101,10 +101,11 @@ def _shade(tri, b1, b2, recover, m, drawn, corners, uvs, normals, material, surf
     shaded background. (The row loop is written out in each kernel: called as a function
     instead of inlined it ran at half the speed.)"""
     h, w = tri.shape
-    no_stencil = np.zeros((1, 1), np.bool_)
+    no_stencil = np.empty((1, 1), np.bool_)  # never read (np.zeros: a parallel loop)
+    no_stencil[0, 0] = False
     g = np.empty((threads, 12, w))
     xs = np.empty((threads, w), np.int64)
-    claimed = np.zeros(1, np.int64)
+    claimed = counter()
     pieces = (h + _ROWS - 1) // _ROWS
     for me in prange(threads):
         while True:
@@ -134,7 +135,7 @@ def _shade_stencil(stencil, tri, b1, b2, recover, m, drawn, corners, uvs, normal
     w = tri.shape[1]
     g = np.empty((threads, 12, w))
     xs = np.empty((threads, w), np.int64)
-    claimed = np.zeros(1, np.int64)
+    claimed = counter()
     pieces = (max(y1 - y0, 0) + _ROWS - 1) // _ROWS
     for me in prange(threads):
         while True:
@@ -170,7 +171,7 @@ def _shade_stencil_resolving(stencil, tri, b1, b2, recover, m, drawn, corners, u
     owners = np.flatnonzero(drew)
     g = np.empty((threads, 12, w))
     xs = np.empty((threads, w), np.int64)
-    claimed = np.zeros(1, np.int64)
+    claimed = counter()
     pieces = (max(y1 - y0, 0) + _ROWS - 1) // _ROWS
     for me in prange(threads):
         while True:

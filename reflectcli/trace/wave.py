@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import claim
+from ..parallel import claim, counter
 from .analytic import intersect_range as analytic_range
 from .analytic import intersect_rows as analytic_rows
 from .embree import intersect_range as embree_range
@@ -58,7 +58,7 @@ def trace_segments(seg_len, counts, rows_per_seg, cam, buffers, tfars, objects, 
     rays_a, rays_b = buffers  # (tuples of tuples do not enter the parallel loop)
     first_hits, hits = hits
     # one item per thread, each claiming the next segment until none is left (parallel.py)
-    claimed = np.zeros(1, np.int64)
+    claimed = counter()
     whole = 1 << 62  # a view's length reaching the end of any array (slices clamp)
     for w in prange(threads):
         while True:

@@ -35,7 +35,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import claim
+from ..parallel import claim, counter
 
 BLOCK = 256  # points set side by side
 VECTOR_STEPS = 5  # Newton steps taken side by side (about 4 evaluations converge a point)
@@ -231,10 +231,11 @@ def _blocks(points, eye, centers, radii, starts, axis, use_axis, out, hidden, sc
     many of its points fall back to the one-at-a-time search, and on a shared machine a
     worker may lose its core. A point's answer never depends on its block or worker."""
     circles = radii.shape[0]
-    first = np.zeros(circles + 1, np.int64)  # each circle's first block
+    first = np.empty(circles + 1, np.int64)  # each circle's first block (np.zeros: a parallel loop)
+    first[0] = 0
     for s in range(circles):
         first[s + 1] = first[s] + (starts[s + 1] - starts[s] + BLOCK - 1) // BLOCK
-    claimed = np.zeros(1, np.int64)
+    claimed = counter()
     for me in prange(scratch.shape[0]):
         s = 0
         while True:

@@ -29,7 +29,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import claim
+from ..parallel import claim, counter
 from .mapfill import (
     _fill_extensions,
     _fill_faces,
@@ -226,7 +226,7 @@ def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, e
             circle[y, x] = cx ** 2 + cy ** 2 <= half ** 2
             reach[y, x] = gx * gx + gy * gy <= (half + 1e-6) ** 2
     count = radii.shape[0]
-    claimed = np.zeros(1, np.int64)
+    claimed = counter()
     for _worker in prange(min(threads, count)):
         while True:
             k = claim(claimed)

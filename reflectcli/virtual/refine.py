@@ -24,7 +24,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import claim
+from ..parallel import claim, counter
 from ..raster.rasterize import recover_barycentrics
 from .tiles import owner_plane
 
@@ -344,7 +344,7 @@ def _refine(points, seeds, owner, part, q, r, eye, iterations, retry, reach, out
     point's retry, or the chunk's next point."""
     n = points.shape[0]
     chunks = (n + _CHUNK - 1) // _CHUNK
-    claimed = np.zeros(1, np.int64)
+    claimed = counter()
     for _worker in prange(min(threads, chunks)):
         # per lane: point (-1: idle), phase (0: from the seed, 1: the retry), steps taken,
         # the first walk's answer; the walk's state: (sx, sy, status, e, R)

@@ -10,7 +10,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import claim
+from ..parallel import claim, counter
 
 
 class PartTiles:
@@ -301,7 +301,7 @@ def _scan_reached(points, rows, center, radius, axis, half, pixel, margin, q, r,
     sin_a = np.sin(half + margin)
     seed, wide = _seed_rays(pixel, margin, half, q, r)
     blocks = (n + _BLOCK - 1) // _BLOCK
-    claimed = np.zeros(1, np.int64)
+    claimed = counter()
     for _worker in prange(min(threads, blocks)):
         while True:
             b = claim(claimed)

@@ -5,7 +5,7 @@ polygon (`_draw_clipped`)."""
 import numpy as np
 from numba import njit, prange
 
-from ...parallel import claim
+from ...parallel import claim, counter
 from ...scene.types import MIRROR_TIE
 from .clip import _box_misses, _clip_polygon
 from .constants import _CHUNK, _CLIPPED, _MAX_POLY, CULL_BACK, CULL_FRONT, CULL_NONE, FLAG_MIRROR
@@ -38,7 +38,7 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     xyw = np.empty((threads, _MAX_POLY, 3))
     # one item per thread, each claiming the next chunk until none is left (parallel.py);
     # a worker draws into its own buffers, merged by key: who drew what never matters
-    claimed = np.zeros(1, np.int64)
+    claimed = counter()
     for me in prange(threads):
         while True:
             chunk = claim(claimed)

@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit, prange
 
 from ...camera import standard_planes
-from ...parallel import claim
+from ...parallel import claim, counter
 from ...scene.types import MIRROR_TIE
 from .buffers import RasterBuffers, RasterWorkspace
 from .constants import _BLOCK, _CHUNK, _CLIPPED, _MAX_POLY, CULL_NONE, FLAG_MIRROR, FLAG_SKIP
@@ -102,7 +102,8 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
     each run's corners and flags are first gathered (`gather_triangle`) by the thread
     drawing it."""
     passes = starts.shape[0] - 1
-    first = np.zeros(passes + 1, np.int64)  # each pass's first run
+    first = np.empty(passes + 1, np.int64)  # each pass's first run (np.zeros: a parallel loop)
+    first[0] = 0
     for p in range(passes):
         first[p + 1] = first[p] + (starts[p + 1] - starts[p] + _CHUNK - 1) // _CHUNK
     scale = float(1 << bits)
@@ -114,7 +115,7 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
     status = np.empty((threads, _CHUNK), np.uint8)
     chosen = np.empty((threads, _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
-    claimed = np.zeros(1, np.int64)
+    claimed = counter()
     for me in prange(threads):
         p = 0
         while True:
