@@ -223,6 +223,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/compose.py:compose_passes": ([V + "test_compose_passes_match_twin"], None),
     "virtual/compose.py:_same": ([V + "test_compose_passes_match_twin"], "compose_passes"),
     "virtual/compose.py:_covered": ([V + "test_fill_cracks_match_twin"], "fill_cracks"),
+    "virtual/compose.py:_fill_crack": (
+        [V + "test_fill_cracks_match_twin", V + "test_compose_passes_match_twin"], "fill_cracks"),
     "virtual/refine.py:_ray_at": ([V + "test_reflector_grid_matches_twin",
                                    V + "test_mirror_rays_match_reflector_grid"], "_grid"),
     "virtual/refine.py:mirror_rays": ([V + "test_mirror_rays_match_reflector_grid"], None),

@@ -98,30 +98,37 @@ def fill_cracks(colors, triangle, stencil, y0, y1, x0, x1):
         for x in range(x0, x1):
             if not stencil[y, x] or triangle[y, x] >= 0:
                 continue
-            t0 = t1 = t2 = 0.0
-            count = 0
-            if (y >= 1 and y + 1 < h and _covered(triangle, stencil, y - 1, x)
-                    and _covered(triangle, stencil, y + 1, x)):
-                t0 += np.float64(colors[y - 1, x, 0])
-                t1 += np.float64(colors[y - 1, x, 1])
-                t2 += np.float64(colors[y - 1, x, 2])
-                t0 += np.float64(colors[y + 1, x, 0])
-                t1 += np.float64(colors[y + 1, x, 1])
-                t2 += np.float64(colors[y + 1, x, 2])
-                count += 2
-            if (x >= 1 and x + 1 < w and _covered(triangle, stencil, y, x - 1)
-                    and _covered(triangle, stencil, y, x + 1)):
-                t0 += np.float64(colors[y, x - 1, 0])
-                t1 += np.float64(colors[y, x - 1, 1])
-                t2 += np.float64(colors[y, x - 1, 2])
-                t0 += np.float64(colors[y, x + 1, 0])
-                t1 += np.float64(colors[y, x + 1, 1])
-                t2 += np.float64(colors[y, x + 1, 2])
-                count += 2
-            if count:
-                colors[y, x, 0] = np.float32(t0 / count)
-                colors[y, x, 1] = np.float32(t1 / count)
-                colors[y, x, 2] = np.float32(t2 / count)
+            _fill_crack(colors, y, x,
+                        y >= 1 and y + 1 < h and _covered(triangle, stencil, y - 1, x)
+                        and _covered(triangle, stencil, y + 1, x),
+                        x >= 1 and x + 1 < w and _covered(triangle, stencil, y, x - 1)
+                        and _covered(triangle, stencil, y, x + 1))
+
+
+@njit(cache=True, inline="always")
+def _fill_crack(colors, y, x, vertical, horizontal):
+    """colors[y, x] = the mean of the pairs of neighbours across it that count (`vertical`:
+    above and below; `horizontal`: left and right), summed in float64 in that order; left
+    as it is when neither does. Shared by fill_cracks and compose_passes, which differ only
+    in what counts as a covered neighbour."""
+    t0 = t1 = t2 = 0.0
+    count = 0
+    if vertical:
+        for dy in (-1, 1):
+            t0 += np.float64(colors[y + dy, x, 0])
+            t1 += np.float64(colors[y + dy, x, 1])
+            t2 += np.float64(colors[y + dy, x, 2])
+        count += 2
+    if horizontal:
+        for dx in (-1, 1):
+            t0 += np.float64(colors[y, x + dx, 0])
+            t1 += np.float64(colors[y, x + dx, 1])
+            t2 += np.float64(colors[y, x + dx, 2])
+        count += 2
+    if count:
+        colors[y, x, 0] = np.float32(t0 / count)
+        colors[y, x, 1] = np.float32(t1 / count)
+        colors[y, x, 2] = np.float32(t2 / count)
 
 
 @njit(cache=True)
@@ -160,32 +167,13 @@ def compose_passes(rgb, colors, triangle, labels, reflectance, y0, y1, x0, x1):
             label = labels[y, x]
             if label == 0 or triangle[y, x] >= 0:
                 continue
-            t0 = t1 = t2 = 0.0
-            count = 0
             # neighbours inside the box only: outside it labels and triangles are another
             # frame's or pass's (each label's pixels all lie inside the box)
-            if (y - 1 >= y0 and y + 1 < y1 and _same(triangle, labels, label, y - 1, x)
-                    and _same(triangle, labels, label, y + 1, x)):
-                t0 += np.float64(colors[y - 1, x, 0])
-                t1 += np.float64(colors[y - 1, x, 1])
-                t2 += np.float64(colors[y - 1, x, 2])
-                t0 += np.float64(colors[y + 1, x, 0])
-                t1 += np.float64(colors[y + 1, x, 1])
-                t2 += np.float64(colors[y + 1, x, 2])
-                count += 2
-            if (x - 1 >= x0 and x + 1 < x1 and _same(triangle, labels, label, y, x - 1)
-                    and _same(triangle, labels, label, y, x + 1)):
-                t0 += np.float64(colors[y, x - 1, 0])
-                t1 += np.float64(colors[y, x - 1, 1])
-                t2 += np.float64(colors[y, x - 1, 2])
-                t0 += np.float64(colors[y, x + 1, 0])
-                t1 += np.float64(colors[y, x + 1, 1])
-                t2 += np.float64(colors[y, x + 1, 2])
-                count += 2
-            if count:
-                colors[y, x, 0] = np.float32(t0 / count)
-                colors[y, x, 1] = np.float32(t1 / count)
-                colors[y, x, 2] = np.float32(t2 / count)
+            _fill_crack(colors, y, x,
+                        y - 1 >= y0 and y + 1 < y1 and _same(triangle, labels, label, y - 1, x)
+                        and _same(triangle, labels, label, y + 1, x),
+                        x - 1 >= x0 and x + 1 < x1 and _same(triangle, labels, label, y, x - 1)
+                        and _same(triangle, labels, label, y, x + 1))
     for y in range(y0, y1):
         for x in range(x0, x1):
             label = labels[y, x]
