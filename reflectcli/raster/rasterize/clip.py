@@ -77,18 +77,6 @@ def _box_misses(bounds, chunk, m, planes, n_cut, width, height, col0, col1, top,
     of the first n_cut planes (a half-space is convex), or all in front of the eye (w > 0)
     and projecting, with a pixel to spare, beside the box (the projection of a convex set
     in front of the eye lies in the hull of its corners' projections)."""
-    outside, in_front, lo_x, hi_x, lo_y, hi_y = _box_screen(bounds, chunk, m, planes, n_cut,
-                                                            width, height)
-    return outside or (in_front and (hi_x < col0 - 1.0 or lo_x > col1 + 1.0
-                                     or hi_y < top - 1.0 or lo_y > bottom + 1.0))
-
-
-@njit(cache=True, inline="always", error_model="numpy")
-def _box_screen(bounds, chunk, m, planes, n_cut, width, height):
-    """What `_box_misses` tests of the world box bounds[chunk]: (outside: its 8 corners all
-    outside one side of the frustum or one of the first n_cut planes, in_front: all in
-    front of the eye, then the screen box lo_x, hi_x, lo_y, hi_y of their projections,
-    meaningful where in_front)."""
     out = np.zeros(4 + n_cut, np.int64)
     in_front = True
     lo_x = lo_y = np.inf
@@ -110,7 +98,9 @@ def _box_screen(bounds, chunk, m, planes, n_cut, width, height):
             lo_y, hi_y = min(lo_y, sy), max(hi_y, sy)
         else:
             in_front = False
-    outside = False
     for q in range(4 + n_cut):
-        outside |= out[q] == 8
-    return outside, in_front, lo_x, hi_x, lo_y, hi_y
+        if out[q] == 8:
+            return True
+    return in_front and (hi_x < col0 - 1.0 or lo_x > col1 + 1.0 or hi_y < top - 1.0
+                         or lo_y > bottom + 1.0)
+

@@ -21,5 +21,3 @@ _CHUNK = 256  # triangles per parallel task (and per box of chunk_bounds)
 # a detailed mesh) mispredict. 202k triangles, 1 thread: culled 1.03 -> 0.95x the anchor,
 # unculled 1.41 -> 1.26x (8 was slower than 4)
 _BLOCK = 4
-# pieces of rows a chunk covering much of the box is drawn in, each a work item (draw.py)
-_PIECES = 8

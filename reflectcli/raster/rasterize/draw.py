@@ -7,17 +7,8 @@ from numba import njit, prange
 
 from ...parallel import claim, counter
 from ...scene.types import MIRROR_TIE
-from .clip import _box_misses, _box_screen, _clip_polygon
-from .constants import (
-    _CHUNK,
-    _CLIPPED,
-    _MAX_POLY,
-    _PIECES,
-    CULL_BACK,
-    CULL_FRONT,
-    CULL_NONE,
-    FLAG_MIRROR,
-)
+from .clip import _box_misses, _clip_polygon
+from .constants import _CHUNK, _CLIPPED, _MAX_POLY, CULL_BACK, CULL_FRONT, CULL_NONE, FLAG_MIRROR
 from .fixed import _snap
 from .rows import _fill_at, _rows
 from .setup import _run_setup
@@ -34,13 +25,7 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     A chunk goes in two phases: `_run_setup` (clip space, classification, projection and
     snapping: loops without branches over the run, which the compiler vectorises, into
     small per-thread arrays), then per triangle `_fill` (culling, box, edge functions, key
-    plane, pixels) or `_draw_clipped`.
-
-    A chunk whose box (`bounds`) may cover a quarter of the box or more (a room's walls:
-    one chunk held 237k of four-spheres' 262k pixels, and one thread drew them while the
-    other idled) is split into _PIECES pieces of rows, each its own work item, set up
-    against its rows alone: the set-up clamped to fewer rows steps the same edge functions
-    and key plane, so every pixel gets the same key and the same bytes."""
+    plane, pixels) or `_draw_clipped`."""
     n = corners.shape[0]
     scale = float(1 << bits)
     threads = own_tri.shape[0]
@@ -53,33 +38,14 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     xyw = np.empty((threads, _MAX_POLY, 3))
     # one item per thread, each claiming the next chunk until none is left (parallel.py);
     # a worker draws into its own buffers, merged by key: who drew what never matters
-    first = np.empty((threads, chunks + 1), np.int64)  # each chunk's first work item
     claimed = counter()
     for me in prange(threads):
-        # the work items (each worker works them out for itself: no barrier between them)
-        items = first[me]
-        items[0] = 0
-        for chunk in range(chunks):
-            items[chunk + 1] = items[chunk] + (
-                _PIECES if bounds.shape[0] > 0 and _covers_much(
-                    bounds, chunk, m, planes, n_cut, width, height, col0, col1, top, bottom)
-                else 1)
-        chunk = 0
         while True:
-            item = claim(claimed)
-            if item >= items[chunks]:
+            chunk = claim(claimed)
+            if chunk >= chunks:
                 break
-            while item >= items[chunk + 1]:  # claims only grow: a worker's chunk advances
-                chunk += 1
             if bounds.shape[0] > 0 and _box_misses(bounds, chunk, m, planes, n_cut, width,
                                                     height, col0, col1, top, bottom):
-                continue
-            # the rows of this piece of the chunk (all of the box's for an unsplit chunk)
-            pieces = items[chunk + 1] - items[chunk]
-            piece = item - items[chunk]
-            row0 = top + (bottom - top) * piece // pieces
-            row1 = top + (bottom - top) * (piece + 1) // pieces
-            if row0 >= row1:
                 continue
             tri = own_tri[me]
             key = own_key[me]
@@ -91,8 +57,8 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
                         key[r, c] = 0.0
             t0 = chunk * _CHUNK
             count = min(n, t0 + _CHUNK) - t0
-            _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, row0,
-                       row1, col0, col1, t0, count, soa[me], clip[me], work_i[me], work_f[me],
+            _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
+                       bottom, col0, col1, t0, count, soa[me], clip[me], work_i[me], work_f[me],
                        status[me])
             ints = work_i[me]
             floats = work_f[me]
@@ -122,24 +88,8 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
                         t = t0 + j
                         _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
                                       else 1.0, m, planes, width, height, bits, cull, scale,
-                                      xyw[me], row0, row1, col0, col1, stencil, use_stencil,
+                                      xyw[me], top, bottom, col0, col1, stencil, use_stencil,
                                       floor, use_floor, tri, key, top, col0, -1)
-
-
-@njit(cache=True, inline="always", error_model="numpy")
-def _covers_much(bounds, chunk, m, planes, n_cut, width, height, col0, col1, top, bottom):
-    """Whether chunk's world box may cover a quarter of the box [top, bottom) x [col0,
-    col1) or more: it reaches the box and some corner is not in front of the eye (no screen
-    box is known), or its corners' screen box, clamped to the box, is that large."""
-    outside, in_front, lo_x, hi_x, lo_y, hi_y = _box_screen(bounds, chunk, m, planes, n_cut,
-                                                            width, height)
-    if outside:
-        return False
-    if not in_front:
-        return True
-    w = min(hi_x, float(col1)) - max(lo_x, float(col0))
-    h = min(hi_y, float(bottom)) - max(lo_y, float(top))
-    return w > 0.0 and h > 0.0 and 4.0 * w * h >= float((col1 - col0) * (bottom - top))
 
 
 
