@@ -40,6 +40,8 @@ from ...raster.shade import add_reflection
 from ...scene.types import PLANAR, SPHERE, UNLIT, Scene
 from ...virtual.compose import gather_corners, mirror_boxes
 from ...virtual.dispatch import choose_method, facing_plane, reflector_parts
+from ...virtual.part import ExplosionPart
+from ...virtual.parts import parts_vertices
 from ...virtual.raster import draw_virtual, reflected_rays
 from ...virtual.reflected import ReflectedCache
 from ...virtual.shape import ShapeCache
@@ -185,17 +187,23 @@ class Virtual(Technique):
             mirror_plane = None
             if scene.mirrors.kind[k] == PLANAR:
                 mirror_plane = np.append(*facing_plane(scene.mirrors, k, camera.eye))
-            parts = reflector_parts(self.params, scene, primary, k, camera, state.scene_points,
-                                    state.shapes, state.views)
-            while True:
-                t_start = time.perf_counter()  # building a part's maps happens in next()
-                item = next(parts, None)
-                seconds["maps"] += time.perf_counter() - t_start
-                if item is None:
-                    break
-                stencil, vertices_of = item
+            t_start = time.perf_counter()
+            # a reflector's parts, each with its vertex function (an explosion part's maps
+            # are built when its points are known, in the vertex functions)
+            parts = list(reflector_parts(self.params, scene, primary, k, camera,
+                                         state.scene_points, state.shapes, state.views))
+            seconds["maps"] += time.perf_counter() - t_start
+            answers = [None] * len(parts)
+            if len(parts) > 1 and all(isinstance(fn, ExplosionPart) for _, fn in parts):
+                # every part's stages at once (virtual/parts.py): the same answers
                 t0 = time.perf_counter()
-                virtual, hidden = vertices_of(tess.points, tess.corner_index)
+                answers = parts_vertices([fn for _, fn in parts], tess.points,
+                                         tess.corner_index)
+                seconds["virtual_vertices"] += time.perf_counter() - t0
+            for (stencil, vertices_of), answer in zip(parts, answers, strict=True):
+                t0 = time.perf_counter()
+                virtual, hidden = (vertices_of(tess.points, tess.corner_index)
+                                   if answer is None else answer)
                 t1 = time.perf_counter()
                 # corners gathered in float32 (what the rasterizer takes): half the bytes;
                 # polygons wholly in the hidden region are not reflected (the paper drops
