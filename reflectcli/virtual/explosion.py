@@ -648,71 +648,80 @@ def _through_maps(points, i, v, n, faces, extensions, ids_near, ids_far, coords_
         out[i, k] = (wn * xn[k] + wf * xf[k]) / (wn + wf)
 
 
-def virtual_vertices_together(joined: JoinedMaps, points: list[np.ndarray],
-                              hidden_face: list[np.ndarray], hidden_screen: list[np.ndarray],
+def virtual_vertices_together(joined: JoinedMaps, points: np.ndarray, point_start: np.ndarray,
+                              hidden_face: np.ndarray, hidden_screen: np.ndarray,
                               screen_coords: list[np.ndarray],
-                              flip_axes: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
-    """virtual_vertices for each part of `joined` (its points, hidden faces, their screen
-    positions, the part's vertices on the screen, its flip axis), all in one parallel
-    region (_virtual_parts): each part's answers are what virtual_vertices gives it."""
-    counts = [len(x) for x in points]
-    point_start = np.zeros(len(points) + 1, np.int64)
-    point_start[1:] = np.cumsum(counts)
-    total = int(point_start[-1])
-    point_part = np.repeat(np.arange(len(points), dtype=np.int64), counts)
+                              flip_axes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """virtual_vertices for every part of `joined` at once (part p's points rows
+    point_start[p] .. of `points` (M, 3), with their hidden faces (M,) and screen positions
+    `hidden_screen` (M, 2 or more: x, y first); the part's vertices on the screen
+    screen_coords[p], its flip axis flip_axes[p]), in one parallel region
+    (_virtual_parts): (virtual (M, 3), flags (M,)), each part's rows what virtual_vertices
+    gives it."""
+    counts = np.diff(point_start)
+    chunk_start = np.zeros(len(counts) + 1, np.int64)
+    chunk_start[1:] = np.cumsum((counts + _LOOKUP_CHUNK - 1) // _LOOKUP_CHUNK)
+    total = points.shape[0]
     out = np.empty((total, 3))
     unreflected = np.zeros(total, np.bool_)
-    faces_behind = np.concatenate(hidden_face)
-    _virtual_parts(np.concatenate(points).astype(np.float64, copy=False), point_part,
+    _virtual_parts(np.ascontiguousarray(points, np.float64), point_start, chunk_start,
                    joined.v, joined.n, joined.faces, joined.extensions, joined.starts,
                    joined.layer_start, joined.ids, joined.coords, joined.coord_start,
                    joined.radii, joined.centers, np.array(flip_axes, np.float64),
-                   joined.frames, joined.res, joined.s, faces_behind,
-                   np.ascontiguousarray(np.concatenate(hidden_screen), np.float64),
+                   joined.frames, joined.res, joined.s, hidden_face, hidden_screen,
                    np.ascontiguousarray(np.concatenate(screen_coords), np.float64),
                    joined.core, out, unreflected, numba.get_num_threads())
-    hidden = (faces_behind >= 0) | unreflected
-    return [(out[a:b], hidden[a:b]) for a, b in zip(point_start[:-1], point_start[1:],
-                                                   strict=True)]
+    return out, (hidden_face >= 0) | unreflected
 
 
 _LOOKUP_CHUNK = 256  # points claimed at a time by a thread in _virtual_parts
 
 
 @njit(cache=True, parallel=True)
-def _virtual_parts(points, point_part, v, n, faces, extensions, starts, layer_start, ids,
-                   coords, coord_start, radii, centers, flips, frames, res, s, hidden_face,
-                   hidden_screen, screen, cores, out, unreflected, threads):
-    """_virtual for the points of several parts (point i: part point_part[i], whose
-    vertices (and their screen positions `screen`), faces and extensions are its rows of
-    the joined arrays, starts as in _build_layers, its layers layer_start[p] ..), the same
-    arithmetic point by point. Points go in chunks claimed by whichever thread is free
-    (parallel.py): hidden points cost a few ns, the others two map reads far apart."""
-    total = points.shape[0]
-    chunks = (total + _LOOKUP_CHUNK - 1) // _LOOKUP_CHUNK
+def _virtual_parts(points, point_start, chunk_start, v, n, faces, extensions, starts,
+                   layer_start, ids, coords, coord_start, radii, centers, flips, frames, res,
+                   s, hidden_face, hidden_screen, screen, cores, out, unreflected, threads):
+    """_virtual for the points of several parts (part p's points rows point_start[p] ..;
+    its vertices (and their screen positions `screen`), faces and extensions its rows of
+    the joined arrays, starts as in _build_layers; its layers layer_start[p] ..), the same
+    arithmetic point by point. Each part's points go in chunks (chunk_start[p] ..) claimed
+    by whichever thread is free (parallel.py): hidden points cost a few ns, the others two
+    map reads far apart."""
+    chunks = chunk_start[-1]
     claimed = counter()
     for _worker in prange(min(threads, chunks)):
         while True:
             c = claim(claimed)
             if c >= chunks:
                 break
-            for i in range(c * _LOOKUP_CHUNK, min(total, (c + 1) * _LOOKUP_CHUNK)):
-                p = point_part[i]
-                v0, v1 = starts[p, 0], starts[p + 1, 0]
-                f0, f1 = starts[p, 1], starts[p + 1, 1]
-                pv, pn, pf = v[v0:v1], n[v0:v1], faces[f0:f1]
-                h = hidden_face[i]
-                if h >= 0 and _through_hidden(points, i, pf, h, screen[v0:v1], pv, pn,
-                                              hidden_screen, out):
-                    continue
-                k0, k1 = layer_start[p], layer_start[p + 1]
-                tx, ty, cx, cy, dist, lo = _lookup_at(points[i, 0], points[i, 1],
-                                                      points[i, 2], centers[p], flips[p],
-                                                      frames[p], res, s, radii[k0:k1])
-                k = k0 + lo
-                _through_maps(points, i, pv, pn, pf,
-                              extensions[starts[p, 3]:starts[p + 1, 3]], ids[k], ids[k + 1],
-                              coords[coord_start[k]:coord_start[k + 1]],
-                              coords[coord_start[k + 1]:coord_start[k + 2]], cores[k],
-                              cores[k + 1], tx, ty, cx, cy, dist, radii[k], radii[k + 1], out,
-                              unreflected)
+            p = 0
+            while chunk_start[p + 1] <= c:
+                p += 1
+            a = point_start[p] + (c - chunk_start[p]) * _LOOKUP_CHUNK
+            _virtual_chunk(points[a:min(point_start[p + 1], a + _LOOKUP_CHUNK)],
+                           v[starts[p, 0]:starts[p + 1, 0]], n[starts[p, 0]:starts[p + 1, 0]],
+                           faces[starts[p, 1]:starts[p + 1, 1]],
+                           extensions[starts[p, 3]:starts[p + 1, 3]], ids, coords,
+                           coord_start, layer_start[p], radii[layer_start[p]:layer_start[p + 1]],
+                           centers[p], flips[p], frames[p], res, s, hidden_face[a:],
+                           hidden_screen[a:], screen[starts[p, 0]:starts[p + 1, 0]], cores,
+                           out[a:], unreflected[a:])
+
+
+@njit(cache=True)
+def _virtual_chunk(points, v, n, faces, extensions, ids, coords, coord_start, k0, radii, center,
+                   flip_axis, frame, res, s, hidden_face, hidden_screen, screen, cores, out,
+                   unreflected):
+    """_virtual's loop over one chunk of one part's points (its layers k0 .. of the joined
+    ids, coords and cores)."""
+    for i in range(points.shape[0]):
+        h = hidden_face[i]
+        if h >= 0 and _through_hidden(points, i, faces, h, screen, v, n, hidden_screen, out):
+            continue
+        tx, ty, cx, cy, dist, lo = _lookup_at(points[i, 0], points[i, 1], points[i, 2],
+                                              center, flip_axis, frame, res, s, radii)
+        k = k0 + lo
+        _through_maps(points, i, v, n, faces, extensions, ids[k], ids[k + 1],
+                      coords[coord_start[k]:coord_start[k + 1]],
+                      coords[coord_start[k + 1]:coord_start[k + 2]], cores[k], cores[k + 1],
+                      tx, ty, cx, cy, dist, radii[lo], radii[lo + 1], out, unreflected)

@@ -1,117 +1,119 @@
 """All parts of a mesh reflector worked stage by stage: each stage (tile scan, explosion
-maps, map lookups, refinement) done for every part before the next, the maps of all parts
-built in one parallel region and all parts' points refined in one. Part by part, the
-mask's 14 parts made each stage 14 short parallel regions one after another, the small
-parts' ends leaving a thread idle; each part's answers are what it gives alone
+maps, map lookups, refinement) done for every part before the next, each in one parallel
+region for all parts, on the parts' points joined in one set of arrays (part p's rows
+row_start[p] ..). Part by part, the mask's 14 parts made each stage 14 short parallel
+regions one after another, the small parts' ends leaving a thread idle, with about 20
+numpy calls a part between them. Each part's answers are what it gives alone
 (ExplosionPart.__call__)."""
 
 from __future__ import annotations
 
 import numpy as np
+from numba import njit, prange
 
-from .explosion import (
-    build_maps_together,
-    map_setup,
-    virtual_vertices,
-    virtual_vertices_together,
-)
-from .part import ExplosionPart, merge_refined
-from .refine import refine_parts
+from .explosion import build_maps_together, map_setup, virtual_vertices_together
+from .part import ExplosionPart
+from .refine import BOUNDARY, EXACT, NONE, refine_parts
 from .screen import screen_from_world
+from .tiles import rows_of, scan_parts
+from .view import face_behind
 
 
 def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
                    polygons: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
     """[part(points, polygons) for part in parts] (virtual points (N, 3) world, flags (N,)),
-    the parts being one reflector's in one view (their views' owner plane and ray grid
-    shared)."""
+    the parts being one reflector's in one view. Stage by stage where they refine on one
+    owner plane and ray grid with polygons given and maps built for their lookups (the
+    technique's frames); else part by part."""
+    first = parts[0]
+    if (polygons is None or first.grid is None or any(
+            part.view.tiles is None or part.grid is not first.grid
+            or part.view.owner is not first.view.owner or part.built is not None
+            for part in parts)):
+        return [part(points, polygons) for part in parts]
+    count = len(parts)
     n = len(points)
-    out = []
-    todo_rows = []
-    for part in parts:
-        todo = retry = reach = None
-        tiles = part.view.tiles
-        if tiles is not None:
-            reach, retry, todo = tiles.scan_needed(points, part.grid[0], part.grid[1],
-                                                   polygons)
-        rows = np.arange(n) if todo is None else np.flatnonzero(todo)
-        todo_rows.append((rows, retry, reach))
-        out.append((points.astype(np.float64), np.ones(n, bool)))
-    busy = [p for p, (rows, _, _) in enumerate(todo_rows) if rows.size]
-    if not busy:
-        return out
-    first = parts[busy[0]]
+    points = np.ascontiguousarray(points, np.float64)
+    q, r = first.grid
+    reach, retry, todo = scan_parts([part.view.tiles for part in parts], points, q, r,
+                                    polygons)
+    rows, row_start, _ = rows_of(todo)  # each part's points to find, joined
     camera = first.camera
-    screen = first.view.points.of(points, first.clip_from_world, camera.width, camera.height)
-    # per part: its points, their screen positions, the part's face in front of hidden ones
-    work = {}
-    for p in busy:
-        part = parts[p]
-        rows, retry, reach = todo_rows[p]
-        pts = points.take(rows, axis=0)
-        proj = screen.take(rows, axis=0)
-        work[p] = (pts, proj, part.view.faces_behind(proj, part.depth),
-                   None if retry is None else retry.take(rows, axis=0),
-                   None if reach is None else reach.take(rows))
-    # the maps of every part whose maps are not built whole, in one region
-    build = [p for p in busy if parts[p].built is None]
-    found = {}
-    if build:
-        joined = build_maps_together([map_setup(*parts[p].build_args, lookups=work[p][0],
-                                                flip_axis=parts[p].flip) for p in build])
-        # and their lookups, in one region too
-        answers = virtual_vertices_together(
-            joined, [work[p][0] for p in build], [work[p][2] for p in build],
-            [work[p][1][:, :2] for p in build], [parts[p].screen for p in build],
-            [parts[p].flip for p in build])
-        found.update(zip(build, answers, strict=True))
-    for p in busy:
-        if p not in found:  # maps built whole before (ExplosionPart.maps)
-            part = parts[p]
-            pts, proj, face, _, _ = work[p]
-            found[p] = virtual_vertices(part.built, pts, face, proj[:, :2].copy(),
-                                        part.screen, part.flip)
-    refining = [p for p in busy if parts[p].grid is not None]
-    if refining:
-        _refine_all(parts, refining, work, found)
-    for p in busy:
-        rows = todo_rows[p][0]
-        virtual, flags = out[p]
-        virtual[rows], flags[rows] = found[p]
-    return out
+    out = np.empty((count, n, 3))
+    flags = np.empty((count, n), np.bool_)
+    if rows.size:
+        screen = first.view.points.of(points, first.clip_from_world, camera.width,
+                                      camera.height)
+        m = rows.size
+        row_part = np.repeat(np.arange(count, dtype=np.int64), np.diff(row_start))
+        pts, proj = np.empty((m, 3)), np.empty((m, 3))
+        seeds_retry, reach_m = np.empty((m, 2)), np.empty(m, np.bool_)
+        face = np.empty(m, np.int64)
+        _gather_parts(points, np.ascontiguousarray(screen, np.float64), retry, reach, rows,
+                      row_part, first.depth, first.view.triangle,
+                      np.stack([part.view.local for part in parts]), pts, proj, seeds_retry,
+                      reach_m, face)
+        # every part's explosion layers in one region, then their lookups in one
+        joined = build_maps_together([
+            map_setup(*part.build_args, lookups=pts[a:b], flip_axis=part.flip)
+            for part, a, b in zip(parts, row_start[:-1], row_start[1:], strict=True)])
+        virtual, hidden = virtual_vertices_together(
+            joined, pts, row_start, face, proj, [part.screen for part in parts],
+            [part.flip for part in parts])
+        # seeds where the maps' virtual vertices land, each part's projected as it alone
+        # projects them; then every part's points refined in one region
+        seeds = np.concatenate([
+            screen_from_world(virtual[a:b], first.clip_from_world, camera.width,
+                              camera.height)[:, :2]
+            for a, b in zip(row_start[:-1], row_start[1:], strict=True)])
+        label = np.array([part.view.part for part in parts], np.int32)[row_part]
+        refined, status = refine_parts(pts, seeds, first.view.owner, label, q, r,
+                                       camera.eye, seeds_retry, reach=reach_m)
+    else:
+        virtual = refined = np.empty((0, 3))
+        hidden = np.empty(0, np.bool_)
+        status = np.empty(0, np.int8)
+    _scatter_parts(points, rows, row_start, virtual, hidden, refined, status, out, flags)
+    return [(out[p], flags[p]) for p in range(count)]
 
 
-def _refine_all(parts: list[ExplosionPart], refining: list[int], work: dict,
-                found: dict) -> None:
-    """The refinement of parts `refining` (their work: points, screen, faces, retry,
-    reach; found: their map answers, replaced by the refined ones) in one call when they
-    share an owner plane and ray grid (one reflector's view), else part by part."""
-    first = parts[refining[0]]
-    shared = all(parts[p].view.owner is first.view.owner and parts[p].grid is first.grid
-                 for p in refining)
-    groups = [refining] if shared else [[p] for p in refining]
-    for group in groups:
-        part = parts[group[0]]
-        camera = part.camera
-        pts = np.concatenate([work[p][0] for p in group])
-        # seeds per part, as a part alone projects them (the same rows: the same numbers)
-        seeds = np.concatenate([screen_from_world(found[p][0], part.clip_from_world,
-                                                  camera.width, camera.height)[:, :2]
-                                for p in group])
-        label = np.concatenate([np.full(len(work[p][0]), parts[p].view.part, np.int32)
-                                for p in group])
-        retry = reach = None
-        if any(work[p][3] is not None for p in group):
-            retry = np.concatenate([np.full((len(work[p][0]), 2), np.nan) if work[p][3] is None
-                                    else work[p][3] for p in group])
-        if any(work[p][4] is not None for p in group):
-            reach = np.concatenate([np.ones(len(work[p][0]), bool) if work[p][4] is None
-                                    else work[p][4] for p in group])
-        refined, status = refine_parts(pts, seeds, part.view.owner, label, part.grid[0],
-                                       part.grid[1], camera.eye, retry, reach=reach)
-        k = 0
-        for p in group:
-            m = len(work[p][0])
-            virtual, flags = found[p]
-            found[p] = merge_refined(virtual, flags, refined[k:k + m], status[k:k + m])
-            k += m
+@njit(cache=True, parallel=True)
+def _gather_parts(points, screen, retry, reach, rows, row_part, depth, triangle, local, pts,
+                  proj, retry_out, reach_out, face):
+    """Row m of the joined points (point rows[m] of part row_part[m]): its point, screen
+    position, retry seed and reach (part p's rows of retry (P, N, 2) and reach (P, N)), and
+    the part's face in front of it where it lies behind the reflector alone (PartView.
+    faces_behind: depth, triangle, the part's local[p] face ids)."""
+    for m in prange(rows.shape[0]):
+        i = rows[m]
+        p = row_part[m]
+        for c in range(3):
+            pts[m, c] = points[i, c]
+            proj[m, c] = screen[i, c]
+        retry_out[m, 0] = retry[p, i, 0]
+        retry_out[m, 1] = retry[p, i, 1]
+        reach_out[m] = reach[p, i]
+        face[m] = face_behind(screen[i, 0], screen[i, 1], screen[i, 2], depth, triangle,
+                              local[p])
+
+
+@njit(cache=True, parallel=True)
+def _scatter_parts(points, rows, row_start, virtual, hidden, refined, status, out, flags):
+    """out[p] (N, 3) and flags[p] (N,): part p's answers, as ExplosionPart.__call__ makes
+    them: the points themselves, flagged, where the part skips them; on its rows of the
+    joined arrays the maps' answer (virtual, hidden), replaced by the refinement's where
+    it found one (status not NONE), flagged unless exact, and where it ended at the
+    part's boundary."""
+    n = points.shape[0]
+    for p in prange(out.shape[0]):
+        for i in range(n):
+            for c in range(3):
+                out[p, i, c] = points[i, c]
+            flags[p, i] = True
+        for m in range(row_start[p], row_start[p + 1]):
+            i = rows[m]
+            st = status[m]
+            src = refined if st != NONE else virtual
+            for c in range(3):
+                out[p, i, c] = src[m, c]
+            flags[p, i] = (hidden[m] and st != EXACT) or st == BOUNDARY
