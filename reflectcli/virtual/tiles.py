@@ -36,13 +36,40 @@ class PartTiles:
             ys, xs = np.nonzero(owner == part)
             tiles = np.unique((ys // size) * (w // size + 1) + xs // size)
         n = tiles.size
-        self.center = np.empty((n, 3))
-        self.radius = np.empty(n)
-        self.axis = np.empty((n, 3))
-        self.half = np.empty(n)
-        self.pixel = np.empty((n, 2))
-        _tile_bounds(owner, part, q, r, tiles, size, self.center, self.radius, self.axis,
-                     self.half, self.pixel)
+        bounds = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)), np.empty(n),
+                  np.empty((n, 2)))
+        _tile_bounds(owner, np.full(n, part, np.int64), q, r, np.asarray(tiles, np.int64),
+                     size, *bounds)
+        self._set(bounds, margin_degrees)
+
+    @classmethod
+    def of_parts(cls, owner: np.ndarray, q: np.ndarray, r: np.ndarray, size: int,
+                 tiles: list[np.ndarray], margin_degrees: float = 1.0) -> list[PartTiles]:
+        """[PartTiles(owner, q, r, size, margin_degrees, tiles[p], part=p) for each p],
+        every part's tile bounds in one parallel region (the same bounds: each tile's are
+        its own)."""
+        counts = [len(t) for t in tiles]
+        n = sum(counts)
+        bounds = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)), np.empty(n),
+                  np.empty((n, 2)))
+        _tile_bounds(owner, np.repeat(np.arange(len(tiles), dtype=np.int64), counts), q, r,
+                     np.concatenate(tiles).astype(np.int64), size, *bounds)
+        out = []
+        start = 0
+        for count in counts:
+            part = cls.__new__(cls)
+            # copies: fresh arrays, as PartTiles makes them (numpy's reductions below then
+            # meet the same memory layout)
+            part._set(tuple(b[start:start + count].copy() for b in bounds), margin_degrees)
+            out.append(part)
+            start += count
+        return out
+
+    def _set(self, bounds: tuple, margin_degrees: float) -> None:
+        """The tiles' bounds (center, radius, axis, half, pixel: _tile_bounds), and the
+        part's ball and cone holding them."""
+        self.center, self.radius, self.axis, self.half, self.pixel = bounds
+        n = self.radius.size
         self.margin = math.radians(margin_degrees)
         # one ball and cone holding every tile's (with their margins): a point outside the
         # part's cone is outside every tile's (see candidates)
@@ -164,8 +191,9 @@ def _candidate(points, k, center, radius, axis, cos_a, sin_a, a):
 
 
 @njit(cache=True, parallel=True)
-def _tile_bounds(owner, part, q, r, tiles, size, center, radius, axis, half, pixel):
-    """Per tile (id ty * (W // size + 1) + tx): over its part pixels (owner == part) grown
+def _tile_bounds(owner, tile_part, q, r, tiles, size, center, radius, axis, half, pixel):
+    """Per tile j (id tiles[j] = ty * (W // size + 1) + tx, of part tile_part[j]): over its
+    part pixels (owner == part) grown
     by the row above and the column left, the ball (mean of Q, farthest Q from it), the
     cone (unit sum of R, widest angle from it) and the seed (its own pixel, not the grown
     ones, whose Q is nearest the mean; the first in row-major order on ties), as numpy's
@@ -174,6 +202,7 @@ def _tile_bounds(owner, part, q, r, tiles, size, center, radius, axis, half, pix
     w = owner.shape[1]
     across = w // size + 1
     for j in prange(tiles.shape[0]):
+        part = tile_part[j]
         ty, tx = divmod(tiles[j], across)
         y0, x0 = ty * size, tx * size
         ey, ex = max(y0 - 1, 0), max(x0 - 1, 0)  # grown up and left by a pixel

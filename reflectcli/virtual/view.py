@@ -120,12 +120,12 @@ def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorSha
     part_views(alone.triangle, part_of, TILE, owner, marks)
     views = []
     on_screen = PointsOnScreen()
+    tiles = [None] * parts
+    if grid is not None:  # every part's tiles in one region
+        tiles = PartTiles.of_parts(owner, grid[0], grid[1], TILE,
+                                   [np.flatnonzero(marks[p]) for p in range(parts)])
     for p in range(parts):
-        tiles = None
-        if grid is not None:
-            tiles = PartTiles(owner, grid[0], grid[1], TILE, tiles=np.flatnonzero(marks[p]),
-                              part=p)
-        views.append(PartView(owner, p, alone.triangle, local[p], tiles, on_screen))
+        views.append(PartView(owner, p, alone.triangle, local[p], tiles[p], on_screen))
     return ReflectorView(alone.depth, grid, tuple(views))
 
 
