@@ -20,9 +20,9 @@ from .view import face_behind
 
 
 def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
-                   polygons: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
-    """[part(points, polygons) for part in parts] (virtual points (N, 3) world, flags (N,)),
-    the parts being one reflector's in one view. Stage by stage where they refine on one
+                   polygons: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(virtual (P, N, 3) world, flags (P, N)): row p is parts[p](points, polygons), the
+    parts being one reflector's in one view. Stage by stage where they refine on one
     owner plane and ray grid with polygons given and maps built for their lookups (the
     technique's frames); else part by part."""
     first = parts[0]
@@ -30,7 +30,8 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
             part.view.tiles is None or part.grid is not first.grid
             or part.view.owner is not first.view.owner or part.built is not None
             for part in parts)):
-        return [part(points, polygons) for part in parts]
+        answers = [part(points, polygons) for part in parts]
+        return np.stack([a for a, _ in answers]), np.stack([f for _, f in answers])
     count = len(parts)
     n = len(points)
     points = np.ascontiguousarray(points, np.float64)
@@ -74,7 +75,7 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
         hidden = np.empty(0, np.bool_)
         status = np.empty(0, np.int8)
     _scatter_parts(points, rows, row_start, virtual, hidden, refined, status, out, flags)
-    return [(out[p], flags[p]) for p in range(count)]
+    return out, flags
 
 
 @njit(cache=True, parallel=True)
