@@ -236,13 +236,23 @@ class JoinedMaps:
     core: np.ndarray  # (L, res, res)
     res: int
     s: float
+    # with joined lookups: per point, where it is looked up (_lookup_at: tx, ty, distance;
+    # texel x, y and the part's layer lo)
+    at: np.ndarray | None = None  # (M, 3) float64
+    cell: np.ndarray | None = None  # (M, 3) int64
 
 
-def build_maps_together(setups: list[MapSetup]) -> JoinedMaps:
+def build_maps_together(setups: list[MapSetup],
+                        joined_lookups: tuple[np.ndarray, np.ndarray] | None = None
+                        ) -> JoinedMaps:
     """The explosion maps of several parts (map_setup: the same eye and resolution, all
     with lookups or all without), every layer of every part in one parallel region
     (_build_layers): each layer is what building its part alone makes. The mask's 14
-    parts made 14 regions of 6 layers each, each region waiting for its slowest layer."""
+    parts made 14 regions of 6 layers each, each region waiting for its slowest layer.
+    `joined_lookups` (points (M, 3) float64, point_start (P + 1,)): the setups' lookups
+    joined (part p's rows point_start[p] ..): their texels are then marked in one
+    region for all parts (_mark_parts), and where each point is looked up kept
+    (JoinedMaps.at, .cell) for virtual_vertices_together."""
     res = setups[0].res
     s = res - 2.0
     whole = setups[0].lookups is None
@@ -275,8 +285,18 @@ def build_maps_together(setups: list[MapSetup]) -> JoinedMaps:
     ids = np.empty((count, res, res), np.int32)
     core = np.empty((count, res, res), np.bool_)
     tally = np.zeros((count, 2), np.int64)
+    at = cell = None
     if whole:
         needed = np.zeros((count, 0, 0), np.bool_)  # no restriction
+    elif joined_lookups is not None:
+        needed = np.zeros((count, res, res), np.bool_)
+        points, point_start = joined_lookups
+        at = np.empty((points.shape[0], 3))
+        cell = np.empty((points.shape[0], 3), np.int64)
+        layer_start = np.zeros(len(setups) + 1, np.int64)
+        layer_start[1:] = np.cumsum([len(u.radii) for u in setups])
+        _mark_parts(points, point_start, centers, np.array([u.flip for u in setups]), frames,
+                    res, s, radii, layer_start, needed, at, cell)
     else:
         needed = np.zeros((count, res, res), np.bool_)
         k = 0
@@ -304,7 +324,7 @@ def build_maps_together(setups: list[MapSetup]) -> JoinedMaps:
                                  u.extensions, res, s, all_ids, all_coords, all_cores))
         k += layers
     return JoinedMaps(out, v, n, faces, extensions, starts, layer_start, radii, centers,
-                      frames, ids, coords, coord_start, core, res, s)
+                      frames, ids, coords, coord_start, core, res, s, at, cell)
 
 
 @njit(cache=True, parallel=True)
@@ -496,6 +516,25 @@ def _mark_lookups(points, center, flip_axis, frame, res, s, radii, needed):
         needed[lo + 1, cy, cx] = True
 
 
+@njit(cache=True, parallel=True, error_model="numpy")
+def _mark_parts(points, point_start, centers, flips, frames, res, s, radii, layer_start,
+                needed, at, cell):
+    """_mark_lookups for several parts at once (part p's points rows point_start[p] ..,
+    its layers layer_start[p] ..), one part a worker (each writes its own layers'
+    marks), and each point's _lookup_at answer kept in at (tx, ty, distance) and cell
+    (texel x, y, lo), which _virtual_parts then reads instead of finding it again."""
+    for p in prange(point_start.shape[0] - 1):
+        k0, k1 = layer_start[p], layer_start[p + 1]
+        for i in range(point_start[p], point_start[p + 1]):
+            tx, ty, cx, cy, dist, lo = _lookup_at(points[i, 0], points[i, 1], points[i, 2],
+                                                  centers[p], flips[p], frames[p], res, s,
+                                                  radii[k0:k1])
+            needed[k0 + lo, cy, cx] = True
+            needed[k0 + lo + 1, cy, cx] = True
+            at[i, 0], at[i, 1], at[i, 2] = tx, ty, dist
+            cell[i, 0], cell[i, 1], cell[i, 2] = cx, cy, lo
+
+
 def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.ndarray,
                      hidden_screen: np.ndarray, screen_coords: np.ndarray,
                      flip_axis: np.ndarray | None = None):
@@ -650,14 +689,12 @@ def _through_maps(points, i, v, n, faces, extensions, ids_near, ids_far, coords_
 
 def virtual_vertices_together(joined: JoinedMaps, points: np.ndarray, point_start: np.ndarray,
                               hidden_face: np.ndarray, hidden_screen: np.ndarray,
-                              screen_coords: list[np.ndarray],
-                              flip_axes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """virtual_vertices for every part of `joined` at once (part p's points rows
-    point_start[p] .. of `points` (M, 3), with their hidden faces (M,) and screen positions
-    `hidden_screen` (M, 2 or more: x, y first); the part's vertices on the screen
-    screen_coords[p], its flip axis flip_axes[p]), in one parallel region
-    (_virtual_parts): (virtual (M, 3), flags (M,)), each part's rows what virtual_vertices
-    gives it."""
+                              screen_coords: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """virtual_vertices for every part of `joined` at once (built with joined_lookups
+    `points` (M, 3), part p's rows point_start[p] ..; with their hidden faces (M,) and
+    screen positions `hidden_screen` (M, 2 or more: x, y first); the part's vertices on
+    the screen screen_coords[p]), in one parallel region (_virtual_parts): (virtual (M, 3),
+    flags (M,)), each part's rows what virtual_vertices gives it."""
     counts = np.diff(point_start)
     chunk_start = np.zeros(len(counts) + 1, np.int64)
     chunk_start[1:] = np.cumsum((counts + _LOOKUP_CHUNK - 1) // _LOOKUP_CHUNK)
@@ -667,8 +704,7 @@ def virtual_vertices_together(joined: JoinedMaps, points: np.ndarray, point_star
     _virtual_parts(np.ascontiguousarray(points, np.float64), point_start, chunk_start,
                    joined.v, joined.n, joined.faces, joined.extensions, joined.starts,
                    joined.layer_start, joined.ids, joined.coords, joined.coord_start,
-                   joined.radii, joined.centers, np.array(flip_axes, np.float64),
-                   joined.frames, joined.res, joined.s, hidden_face, hidden_screen,
+                   joined.radii, joined.at, joined.cell, hidden_face, hidden_screen,
                    np.ascontiguousarray(np.concatenate(screen_coords), np.float64),
                    joined.core, out, unreflected, numba.get_num_threads())
     return out, (hidden_face >= 0) | unreflected
@@ -679,14 +715,15 @@ _LOOKUP_CHUNK = 256  # points claimed at a time by a thread in _virtual_parts
 
 @njit(cache=True, parallel=True)
 def _virtual_parts(points, point_start, chunk_start, v, n, faces, extensions, starts,
-                   layer_start, ids, coords, coord_start, radii, centers, flips, frames, res,
-                   s, hidden_face, hidden_screen, screen, cores, out, unreflected, threads):
+                   layer_start, ids, coords, coord_start, radii, at, cell, hidden_face,
+                   hidden_screen, screen, cores, out, unreflected, threads):
     """_virtual for the points of several parts (part p's points rows point_start[p] ..;
     its vertices (and their screen positions `screen`), faces and extensions its rows of
-    the joined arrays, starts as in _build_layers; its layers layer_start[p] ..), the same
-    arithmetic point by point. Each part's points go in chunks (chunk_start[p] ..) claimed
-    by whichever thread is free (parallel.py): hidden points cost a few ns, the others two
-    map reads far apart."""
+    the joined arrays, starts as in _build_layers; its layers layer_start[p] ..; where
+    each point is looked up, at and cell: _mark_parts'), the same arithmetic point by
+    point. Each part's points go in chunks (chunk_start[p] ..) claimed by whichever
+    thread is free (parallel.py): hidden points cost a few ns, the others two map reads
+    far apart."""
     chunks = chunk_start[-1]
     claimed = counter()
     for _worker in prange(min(threads, chunks)):
@@ -698,30 +735,28 @@ def _virtual_parts(points, point_start, chunk_start, v, n, faces, extensions, st
             while chunk_start[p + 1] <= c:
                 p += 1
             a = point_start[p] + (c - chunk_start[p]) * _LOOKUP_CHUNK
-            _virtual_chunk(points[a:min(point_start[p + 1], a + _LOOKUP_CHUNK)],
-                           v[starts[p, 0]:starts[p + 1, 0]], n[starts[p, 0]:starts[p + 1, 0]],
-                           faces[starts[p, 1]:starts[p + 1, 1]],
+            v0, v1 = starts[p, 0], starts[p + 1, 0]
+            _virtual_chunk(points[a:min(point_start[p + 1], a + _LOOKUP_CHUNK)], v[v0:v1],
+                           n[v0:v1], faces[starts[p, 1]:starts[p + 1, 1]],
                            extensions[starts[p, 3]:starts[p + 1, 3]], ids, coords,
                            coord_start, layer_start[p], radii[layer_start[p]:layer_start[p + 1]],
-                           centers[p], flips[p], frames[p], res, s, hidden_face[a:],
-                           hidden_screen[a:], screen[starts[p, 0]:starts[p + 1, 0]], cores,
-                           out[a:], unreflected[a:])
+                           at[a:], cell[a:], hidden_face[a:], hidden_screen[a:],
+                           screen[v0:v1], cores, out[a:], unreflected[a:])
 
 
 @njit(cache=True)
-def _virtual_chunk(points, v, n, faces, extensions, ids, coords, coord_start, k0, radii, center,
-                   flip_axis, frame, res, s, hidden_face, hidden_screen, screen, cores, out,
-                   unreflected):
+def _virtual_chunk(points, v, n, faces, extensions, ids, coords, coord_start, k0, radii, at,
+                   cell, hidden_face, hidden_screen, screen, cores, out, unreflected):
     """_virtual's loop over one chunk of one part's points (its layers k0 .. of the joined
-    ids, coords and cores)."""
+    ids, coords and cores; radii its own)."""
     for i in range(points.shape[0]):
         h = hidden_face[i]
         if h >= 0 and _through_hidden(points, i, faces, h, screen, v, n, hidden_screen, out):
             continue
-        tx, ty, cx, cy, dist, lo = _lookup_at(points[i, 0], points[i, 1], points[i, 2],
-                                              center, flip_axis, frame, res, s, radii)
+        lo = cell[i, 2]
         k = k0 + lo
         _through_maps(points, i, v, n, faces, extensions, ids[k], ids[k + 1],
                       coords[coord_start[k]:coord_start[k + 1]],
                       coords[coord_start[k + 1]:coord_start[k + 2]], cores[k], cores[k + 1],
-                      tx, ty, cx, cy, dist, radii[lo], radii[lo + 1], out, unreflected)
+                      at[i, 0], at[i, 1], cell[i, 0], cell[i, 1], at[i, 2], radii[lo],
+                      radii[lo + 1], out, unreflected)

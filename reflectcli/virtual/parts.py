@@ -55,12 +55,12 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
                       np.stack([part.view.local for part in parts]), pts, proj, seeds_retry,
                       reach_m, face)
         # every part's explosion layers in one region, then their lookups in one
-        joined = build_maps_together([
-            map_setup(*part.build_args, lookups=pts[a:b], flip_axis=part.flip)
-            for part, a, b in zip(parts, row_start[:-1], row_start[1:], strict=True)])
-        virtual, hidden = virtual_vertices_together(
-            joined, pts, row_start, face, proj, [part.screen for part in parts],
-            [part.flip for part in parts])
+        joined = build_maps_together(
+            [map_setup(*part.build_args, lookups=pts[a:b], flip_axis=part.flip)
+             for part, a, b in zip(parts, row_start[:-1], row_start[1:], strict=True)],
+            joined_lookups=(pts, row_start))
+        virtual, hidden = virtual_vertices_together(joined, pts, row_start, face, proj,
+                                                    [part.screen for part in parts])
         # seeds where the maps' virtual vertices land, each part's projected as it alone
         # projects them; then every part's points refined in one region
         seeds = np.concatenate([
