@@ -520,12 +520,17 @@ def _mark_lookups(points, center, flip_axis, frame, res, s, radii, needed):
 def _mark_parts(points, point_start, centers, flips, frames, res, s, radii, layer_start,
                 needed, at, cell):
     """_mark_lookups for several parts at once (part p's points rows point_start[p] ..,
-    its layers layer_start[p] ..), one part a worker (each writes its own layers'
-    marks), and each point's _lookup_at answer kept in at (tx, ty, distance) and cell
-    (texel x, y, lo), which _virtual_parts then reads instead of finding it again."""
-    for p in prange(point_start.shape[0] - 1):
-        k0, k1 = layer_start[p], layer_start[p + 1]
-        for i in range(point_start[p], point_start[p + 1]):
+    its layers layer_start[p] ..), in blocks of points, and each point's _lookup_at
+    answer kept in at (tx, ty, distance) and cell (texel x, y, lo), which _virtual_parts
+    then reads instead of finding it again. Two threads may mark one texel: both store
+    True (a benign race; no value depends on which store lands)."""
+    total = points.shape[0]
+    for b in prange((total + 1023) // 1024):
+        p = 0
+        for i in range(b * 1024, min(total, (b + 1) * 1024)):
+            while point_start[p + 1] <= i:
+                p += 1
+            k0, k1 = layer_start[p], layer_start[p + 1]
             tx, ty, cx, cy, dist, lo = _lookup_at(points[i, 0], points[i, 1], points[i, 2],
                                                   centers[p], flips[p], frames[p], res, s,
                                                   radii[k0:k1])
