@@ -87,6 +87,12 @@ class ExplosionMaps:
         return self.layers[-1]
 
 
+def scratch(ws, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """An array of `shape` and `dtype`, contents undefined: the workspace's `name` (kept
+    from call to call) if a RasterWorkspace is given, else a fresh one."""
+    return np.empty(shape, dtype) if ws is None else ws.get(name, shape, dtype)
+
+
 def ray_focus(mesh: IndexedMesh, eye: np.ndarray) -> np.ndarray:
     """The point nearest (least squares) to the lines of the front-facing vertices'
     reflection rays: where a concave reflector focuses them, or where a convex one seems to
@@ -243,8 +249,8 @@ class JoinedMaps:
 
 
 def build_maps_together(setups: list[MapSetup],
-                        joined_lookups: tuple[np.ndarray, np.ndarray] | None = None
-                        ) -> JoinedMaps:
+                        joined_lookups: tuple[np.ndarray, np.ndarray] | None = None,
+                        ws=None) -> JoinedMaps:
     """The explosion maps of several parts (map_setup: the same eye and resolution, all
     with lookups or all without), every layer of every part in one parallel region
     (_build_layers): each layer is what building its part alone makes. The mask's 14
@@ -252,7 +258,9 @@ def build_maps_together(setups: list[MapSetup],
     `joined_lookups` (points (M, 3) float64, point_start (P + 1,)): the setups' lookups
     joined (part p's rows point_start[p] ..): their texels are then marked in one
     region for all parts (_mark_parts), and where each point is looked up kept
-    (JoinedMaps.at, .cell) for virtual_vertices_together."""
+    (JoinedMaps.at, .cell) for virtual_vertices_together. `ws`: a RasterWorkspace whose
+    arrays hold the maps (tens of megabytes a frame: fresh, their page faults cost more
+    than the work in them); they are then valid until its next use."""
     res = setups[0].res
     s = res - 2.0
     whole = setups[0].lookups is None
@@ -281,18 +289,19 @@ def build_maps_together(setups: list[MapSetup],
     centers = np.array([u.center for u in setups])
     frames = np.array([u.frame for u in setups])
     radii = np.concatenate([u.radii for u in setups])
-    coords = np.empty((int(coord_start[-1]), 2))
-    ids = np.empty((count, res, res), np.int32)
-    core = np.empty((count, res, res), np.bool_)
+    coords = scratch(ws, "maps_coords", (int(coord_start[-1]), 2), np.float64)
+    ids = scratch(ws, "maps_ids", (count, res, res), np.int32)
+    core = scratch(ws, "maps_core", (count, res, res), np.bool_)
     tally = np.zeros((count, 2), np.int64)
     at = cell = None
     if whole:
         needed = np.zeros((count, 0, 0), np.bool_)  # no restriction
     elif joined_lookups is not None:
-        needed = np.zeros((count, res, res), np.bool_)
+        needed = scratch(ws, "maps_needed", (count, res, res), np.bool_)
+        needed.fill(False)
         points, point_start = joined_lookups
-        at = np.empty((points.shape[0], 3))
-        cell = np.empty((points.shape[0], 3), np.int64)
+        at = scratch(ws, "maps_at", (points.shape[0], 3), np.float64)
+        cell = scratch(ws, "maps_cell", (points.shape[0], 3), np.int64)
         layer_start = np.zeros(len(setups) + 1, np.int64)
         layer_start[1:] = np.cumsum([len(u.radii) for u in setups])
         _mark_parts(points, point_start, centers, np.array([u.flip for u in setups]), frames,
@@ -694,18 +703,21 @@ def _through_maps(points, i, v, n, faces, extensions, ids_near, ids_far, coords_
 
 def virtual_vertices_together(joined: JoinedMaps, points: np.ndarray, point_start: np.ndarray,
                               hidden_face: np.ndarray, hidden_screen: np.ndarray,
-                              screen_coords: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+                              screen_coords: list[np.ndarray],
+                              ws=None) -> tuple[np.ndarray, np.ndarray]:
     """virtual_vertices for every part of `joined` at once (built with joined_lookups
     `points` (M, 3), part p's rows point_start[p] ..; with their hidden faces (M,) and
     screen positions `hidden_screen` (M, 2 or more: x, y first); the part's vertices on
     the screen screen_coords[p]), in one parallel region (_virtual_parts): (virtual (M, 3),
-    flags (M,)), each part's rows what virtual_vertices gives it."""
+    flags (M,)), each part's rows what virtual_vertices gives it (`ws`: as
+    build_maps_together's)."""
     counts = np.diff(point_start)
     chunk_start = np.zeros(len(counts) + 1, np.int64)
     chunk_start[1:] = np.cumsum((counts + _LOOKUP_CHUNK - 1) // _LOOKUP_CHUNK)
     total = points.shape[0]
-    out = np.empty((total, 3))
-    unreflected = np.zeros(total, np.bool_)
+    out = scratch(ws, "lookup_out", (total, 3), np.float64)
+    unreflected = scratch(ws, "lookup_unreflected", (total,), np.bool_)
+    unreflected.fill(False)
     _virtual_parts(np.ascontiguousarray(points, np.float64), point_start, chunk_start,
                    joined.v, joined.n, joined.faces, joined.extensions, joined.starts,
                    joined.layer_start, joined.ids, joined.coords, joined.coord_start,

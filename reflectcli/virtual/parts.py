@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .explosion import build_maps_together, map_setup, virtual_vertices_together
+from ..raster.rasterize import RasterWorkspace
+from .explosion import build_maps_together, map_setup, scratch, virtual_vertices_together
 from .part import ExplosionPart
 from .refine import BOUNDARY, EXACT, NONE, refine_parts
 from .screen import screen_from_world
@@ -20,11 +21,14 @@ from .view import face_behind
 
 
 def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
-                   polygons: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   polygons: np.ndarray | None = None,
+                   ws: RasterWorkspace | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(virtual (P, N, 3) world, flags (P, N)): row p is parts[p](points, polygons), the
     parts being one reflector's in one view. Stage by stage where they refine on one
     owner plane and ray grid with polygons given and maps built for their lookups (the
-    technique's frames); else part by part."""
+    technique's frames); else part by part. `ws`: a workspace to hold the arrays of the
+    stages (tens of megabytes a frame: fresh, their page faults cost more than the work
+    in them) and the answers, valid until its next use; else fresh arrays."""
     first = parts[0]
     if (polygons is None or first.grid is None or any(
             part.view.tiles is None or part.grid is not first.grid
@@ -37,19 +41,21 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
     points = np.ascontiguousarray(points, np.float64)
     q, r = first.grid
     reach, retry, todo = scan_parts([part.view.tiles for part in parts], points, q, r,
-                                    polygons)
+                                    polygons, ws)
     rows, row_start, _ = rows_of(todo)  # each part's points to find, joined
     camera = first.camera
-    out = np.empty((count, n, 3))
-    flags = np.empty((count, n), np.bool_)
+    out = scratch(ws, "parts_out", (count, n, 3), np.float64)
+    flags = scratch(ws, "parts_flags", (count, n), np.bool_)
     if rows.size:
         screen = first.view.points.of(points, first.clip_from_world, camera.width,
                                       camera.height)
         m = rows.size
         row_part = np.repeat(np.arange(count, dtype=np.int64), np.diff(row_start))
-        pts, proj = np.empty((m, 3)), np.empty((m, 3))
-        seeds_retry, reach_m = np.empty((m, 2)), np.empty(m, np.bool_)
-        face = np.empty(m, np.int64)
+        pts = scratch(ws, "parts_points", (m, 3), np.float64)
+        proj = scratch(ws, "parts_screen", (m, 3), np.float64)
+        seeds_retry = scratch(ws, "parts_retry", (m, 2), np.float64)
+        reach_m = scratch(ws, "parts_reach", (m,), np.bool_)
+        face = scratch(ws, "parts_face", (m,), np.int64)
         _gather_parts(points, np.ascontiguousarray(screen, np.float64), retry, reach, rows,
                       row_part, first.depth, first.view.triangle,
                       np.stack([part.view.local for part in parts]), pts, proj, seeds_retry,
@@ -58,9 +64,9 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
         joined = build_maps_together(
             [map_setup(*part.build_args, lookups=pts[a:b], flip_axis=part.flip)
              for part, a, b in zip(parts, row_start[:-1], row_start[1:], strict=True)],
-            joined_lookups=(pts, row_start))
+            joined_lookups=(pts, row_start), ws=ws)
         virtual, hidden = virtual_vertices_together(joined, pts, row_start, face, proj,
-                                                    [part.screen for part in parts])
+                                                    [part.screen for part in parts], ws)
         # seeds where the maps' virtual vertices land, each part's projected as it alone
         # projects them; then every part's points refined in one region
         seeds = np.concatenate([
@@ -69,7 +75,9 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
             for a, b in zip(row_start[:-1], row_start[1:], strict=True)])
         label = np.array([part.view.part for part in parts], np.int32)[row_part]
         refined, status = refine_parts(pts, seeds, first.view.owner, label, q, r,
-                                       camera.eye, seeds_retry, reach=reach_m)
+                                       camera.eye, seeds_retry, reach=reach_m,
+                                       out=(scratch(ws, "parts_refined", (m, 3), np.float64),
+                                            scratch(ws, "parts_status", (m,), np.int8)))
     else:
         virtual = refined = np.empty((0, 3))
         hidden = np.empty(0, np.bool_)

@@ -151,14 +151,20 @@ def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q:
 def refine_parts(points: np.ndarray, seeds: np.ndarray, owner: np.ndarray, parts: np.ndarray,
                  q: np.ndarray, r: np.ndarray, eye: np.ndarray,
                  retry_seeds: np.ndarray | None = None, iterations: int = 20,
-                 reach: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 reach: np.ndarray | None = None,
+                 out: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """refine_virtual for points of several parts of one reflector at once: point i
     searched within part parts[i] (N,) int32 of the owner plane `owner` (view.part_views).
     Each point's answer is the one refine_virtual gives it alone; one parallel region for
     all parts (parts.py: the mask's 14 parts made 14 regions, the small ones' walks left
-    a thread idle at their ends)."""
-    out = np.full(points.shape, np.nan)
-    ok = np.zeros(points.shape[0], np.int8)
+    a thread idle at their ends). `out`: (N, 3) float64 and (N,) int8 arrays to answer
+    in (reused across frames), else fresh ones."""
+    if out is None:
+        out = np.empty(points.shape), np.empty(points.shape[0], np.int8)
+    out, ok = out
+    out.fill(np.nan)
+    ok.fill(0)
     if retry_seeds is None:
         retry_seeds = np.full(points.shape[:1] + (2,), np.nan)
     if reach is None:

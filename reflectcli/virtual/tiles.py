@@ -476,14 +476,15 @@ def _scan_tile(s, count, j, center, radius, axis, half, margin, cos_a, sin_a, se
 
 
 def scan_parts(parts: list[PartTiles], points: np.ndarray, q: np.ndarray, r: np.ndarray,
-               polygons: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+               polygons: np.ndarray, ws=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(reach (P, N), seeds (P, N, 2), todo (P, N)): row p is part p's
     scan_needed(points, q, r, polygons) (the parts of one reflector: q and r their ray
     grid, one margin), each pass one parallel region for all
     parts: the cull by each part's ball and cone (_candidates_parts), the tiles reaching
     each point (_scan_reached_parts), the polygon join (_join_parts), the seeds of the
     points needed but reached by none (_scan_parts). Each point's answers in each part
-    are the part's alone: the same tests in the same order."""
+    are the part's alone: the same tests in the same order. `ws`: a RasterWorkspace to
+    hold the arrays (valid until its next use), else fresh ones."""
     count = len(parts)
     n = points.shape[0]
     points = np.ascontiguousarray(points, np.float64)
@@ -498,7 +499,7 @@ def scan_parts(parts: list[PartTiles], points: np.ndarray, q: np.ndarray, r: np.
         ball[p, 3:6] = part.part_axis
         ball[p, 6:] = math.cos(a), math.sin(a), a
     radius = np.array([part.part_radius for part in parts])
-    near = np.empty((count, n), np.bool_)
+    near = _scratch(ws, "scan_near", (count, n), np.bool_)
     _candidates_parts(points, ball, radius, near)
     # the parts' tiles joined: part p's are rows tile_start[p] ..
     tile_start = np.zeros(count + 1, np.int64)
@@ -508,18 +509,26 @@ def scan_parts(parts: list[PartTiles], points: np.ndarray, q: np.ndarray, r: np.
              np.concatenate([part.axis for part in parts]),
              np.concatenate([part.half for part in parts]),
              np.concatenate([part.pixel for part in parts]))
-    reach = np.zeros((count, n), np.bool_)
-    seeds = np.full((count, n, 2), np.nan)
+    reach = _scratch(ws, "scan_reach", (count, n), np.bool_)
+    reach.fill(False)
+    seeds = _scratch(ws, "scan_seeds", (count, n, 2), np.float64)
+    seeds.fill(np.nan)
     rows, row_start, block_start = rows_of(near)
     _scan_reached_parts(points, rows, row_start, block_start, tile_start, *tiles, margin, q,
                         r, reach, seeds, numba.get_num_threads())
-    todo = reach.copy()
+    todo = _scratch(ws, "scan_todo", (count, n), np.bool_)
+    todo[:] = reach
     _join_parts(reach, polygons, todo)
     rows, row_start, block_start = rows_of(todo & ~reach)
     if rows.size:
         _scan_parts(points, rows, row_start, block_start, tile_start, *tiles, margin, q, r,
                     reach, seeds)
     return reach, seeds, todo
+
+
+def _scratch(ws, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """The workspace's array `name` if a RasterWorkspace is given, else a fresh one."""
+    return np.empty(shape, dtype) if ws is None else ws.get(name, shape, dtype)
 
 
 def rows_of(marks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

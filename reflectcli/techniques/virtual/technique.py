@@ -202,7 +202,8 @@ class Virtual(Technique):
                 seconds["maps"] += time.perf_counter() - t_start
                 explosion, labelled = group
                 t0 = time.perf_counter()
-                virtual, hidden = parts_vertices(explosion, tess.points, tess.corner_index)
+                virtual, hidden = parts_vertices(explosion, tess.points, tess.corner_index,
+                                                 ws)
                 t1 = time.perf_counter()
                 draw_parts(scene, primary, camera.eye, clip_from_world, k, tess,
                            state.part_passes.get(tess, len(explosion)), labelled, virtual,
