@@ -163,8 +163,8 @@ def reflection_pass_matrices(
         # near plane = mirror plane; clip far against the original far plane, not the tilted one
         planes = np.array([[0.0, 0.0, 1.0, 1.0], far_plane_clip(proj, camera.far)])
         return proj @ view, planes
-    world_to_clip = proj @ view
+    clip_from_world = proj @ view
     if clip == "plane":
-        extra = transform_plane(plane, world_to_clip)
-        return world_to_clip, np.vstack([standard_planes(), extra / np.abs(extra).max()])
-    return world_to_clip, standard_planes()
+        extra = transform_plane(plane, clip_from_world)
+        return clip_from_world, np.vstack([standard_planes(), extra / np.abs(extra).max()])
+    return clip_from_world, standard_planes()

@@ -129,7 +129,7 @@ def linear_march(r, depth, surface_ids, own, thickness, steps, p00, p11):
     return 0, -1
 
 
-def ppr_buffer(tri, b1, b2, surface_ids, n_objects, corners, plane, sid, world_to_clip):
+def ppr_buffer(tri, b1, b2, surface_ids, n_objects, corners, plane, sid, clip_from_world):
     """Twin of screenspace.project.project_sources followed by scatter_min: a dict target
     index -> min key, from a Python loop."""
     h, w = tri.shape
@@ -148,7 +148,7 @@ def ppr_buffer(tri, b1, b2, surface_ids, n_objects, corners, plane, sid, world_t
             dist = n[0] * p[0] + n[1] * p[1] + n[2] * p[2] + d
             if not dist > 0:
                 continue
-            clip = world_to_clip @ np.append(p - 2 * dist * n, 1.0)
+            clip = clip_from_world @ np.append(p - 2 * dist * n, 1.0)
             if clip[3] <= 0 or not (-clip[3] <= clip[2] <= clip[3]):
                 continue
             sx = (clip[0] / clip[3] + 1.0) * 0.5 * w

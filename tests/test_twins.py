@@ -20,6 +20,8 @@ SR = "tests/twins/test_shading_raster_twins.py::"
 T = "tests/twins/test_trace_twins.py::"
 M = "tests/twins/test_maps_twins.py::"
 V = "tests/twins/test_virtual_twins.py::"
+VR = "tests/twins/test_virtual_refine_twins.py::"
+VE = "tests/twins/test_virtual_explosion_twins.py::"
 D = "tests/maps/test_distance_search.py::"
 
 RASTER = [R + "test_matches_reference_on_random_scenes",
@@ -43,16 +45,16 @@ SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
                  V + "test_sphere_blocks_do_not_change_answers",
                  V + "test_spheres_together_give_each_sphere_s_bytes"]
 PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
-REFINE = [V + "test_screen_refinement_matches_twin",
-          V + "test_refinement_walks_match_twin",
-          V + "test_refinement_lanes_match_walks_one_at_a_time",
-          V + "test_refinement_skips_only_retries_that_cannot_matter"]
-FILL = [V + "test_fill_kernels_match_twin"]
+REFINE = [VR + "test_screen_refinement_matches_twin",
+          VR + "test_refinement_walks_match_twin",
+          VR + "test_refinement_lanes_match_walks_one_at_a_time",
+          VR + "test_refinement_skips_only_retries_that_cannot_matter"]
+FILL = [VE + "test_fill_kernels_match_twin"]
 PASSES = [SR + "test_rasterize_passes_match_twin",
           SR + "test_rasterize_passes_are_the_passes_one_at_a_time"]
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
-LOOKUP = [V + "test_explosion_lookup_matches_twin"]
-IDS_AT = [V + "test_ids_at_marked_texels_match_the_fill_twins"]
+LOOKUP = [VE + "test_explosion_lookup_matches_twin"]
+IDS_AT = [VE + "test_ids_at_marked_texels_match_the_fill_twins"]
 # a reflector's parts stage by stage, against each part's own call (its stages twin-tested)
 PARTS = [V + "test_parts_together_give_each_part_s_answers"]
 PART_PASSES = [V + "test_part_passes_together_give_the_frame_part_by_part"]
@@ -228,12 +230,12 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/compose.py:_covered": ([V + "test_fill_cracks_match_twin"], "fill_cracks"),
     "virtual/compose.py:_fill_crack": (
         [V + "test_fill_cracks_match_twin", V + "test_compose_passes_match_twin"], "fill_cracks"),
-    "virtual/refine.py:_ray_at": ([V + "test_reflector_grid_matches_twin",
+    "virtual/refine.py:_ray_at": ([VR + "test_reflector_grid_matches_twin",
                                    V + "test_mirror_rays_match_reflector_grid"], "_grid"),
     "virtual/refine.py:mirror_rays": ([V + "test_mirror_rays_match_reflector_grid"], None),
-    "virtual/refine.py:_grid": ([V + "test_reflector_grid_matches_twin"], "reflector_grid"),
-    "virtual/refine.py:_sample_slope": ([V + "test_grid_sample_matches_twin",
-                                         V + "test_grid_sample_slope_matches_twin"] + REFINE,
+    "virtual/refine.py:_grid": ([VR + "test_reflector_grid_matches_twin"], "reflector_grid"),
+    "virtual/refine.py:_sample_slope": ([VR + "test_grid_sample_matches_twin",
+                                         VR + "test_grid_sample_slope_matches_twin"] + REFINE,
                                         None),
     "virtual/refine.py:_walk": (REFINE, None),  # the serial walk, held to refine_walk
     "virtual/refine.py:_refine": (REFINE + PARTS, "refine_virtual"),
@@ -242,52 +244,52 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/refine.py:_begin": (REFINE, "_refine"),
     "virtual/refine.py:_start": (REFINE, "_refine"),
     "virtual/refine.py:_finish": (REFINE, "_refine"),
-    "virtual/tiles.py:_scan": ([V + "test_tile_scan_matches_twin",
-                                V + "test_tile_scan_with_a_wide_cone_matches_twin"],
+    "virtual/tiles.py:_scan": ([VR + "test_tile_scan_matches_twin",
+                                VR + "test_tile_scan_with_a_wide_cone_matches_twin"],
                                "PartTiles.scan"),
-    "virtual/tiles.py:_scan_tile": ([V + "test_tile_scan_matches_twin",
-                                     V + "test_tile_scan_with_a_wide_cone_matches_twin"],
+    "virtual/tiles.py:_scan_tile": ([VR + "test_tile_scan_matches_twin",
+                                     VR + "test_tile_scan_with_a_wide_cone_matches_twin"],
                                     "_scan"),
-    "virtual/tiles.py:_scan_reached": ([V + "test_tile_scan_matches_twin",
-                                        V + "test_tile_scan_with_a_wide_cone_matches_twin",
-                                        V + "test_tile_scan_blocks_skip_only_tiles_that_reach_"
+    "virtual/tiles.py:_scan_reached": ([VR + "test_tile_scan_matches_twin",
+                                        VR + "test_tile_scan_with_a_wide_cone_matches_twin",
+                                        VR + "test_tile_scan_blocks_skip_only_tiles_that_reach_"
                                         "none_of_them"], "PartTiles.scan"),
     "virtual/tiles.py:_reached_block": (
-        [V + "test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them"], "_scan_reached"),
+        [VR + "test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them"], "_scan_reached"),
     "virtual/tiles.py:_block_misses": (
-        [V + "test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them"], "_scan_reached"),
-    "virtual/tiles.py:_seed_rays": ([V + "test_tile_scan_matches_twin"], "_scan"),
-    "virtual/tiles.py:_load_block": ([V + "test_tile_scan_matches_twin"], "_scan"),
-    "virtual/tiles.py:_candidates": ([V + "test_part_candidates_and_join_match_twins"],
+        [VR + "test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them"], "_scan_reached"),
+    "virtual/tiles.py:_seed_rays": ([VR + "test_tile_scan_matches_twin"], "_scan"),
+    "virtual/tiles.py:_load_block": ([VR + "test_tile_scan_matches_twin"], "_scan"),
+    "virtual/tiles.py:_candidates": ([VR + "test_part_candidates_and_join_match_twins"],
                                      "PartTiles.candidates"),
-    "virtual/tiles.py:_join": ([V + "test_part_candidates_and_join_match_twins"], "joined"),
+    "virtual/tiles.py:_join": ([VR + "test_part_candidates_and_join_match_twins"], "joined"),
     "virtual/view.py:_faces_behind": ([V + "test_faces_behind_match_twin"],
                                       "PartView.faces_behind"),
     "virtual/view.py:part_views": ([V + "test_part_views_match_twin"], "reflector_view"),
-    "virtual/tiles.py:_tile_bounds": ([V + "test_tile_bounds_match_twin"], "PartTiles"),
-    "virtual/explosion.py:map_coords": ([V + "test_map_coords_and_vertex_coords_match_twin"],
+    "virtual/tiles.py:_tile_bounds": ([VR + "test_tile_bounds_match_twin"], "PartTiles"),
+    "virtual/explosion.py:map_coords": ([VE + "test_map_coords_and_vertex_coords_match_twin"],
                                         None),
     "virtual/explosion.py:_vertex_coords": (
-        [V + "test_map_coords_and_vertex_coords_match_twin"], "build_explosion_maps"),
+        [VE + "test_map_coords_and_vertex_coords_match_twin"], "build_explosion_maps"),
     "virtual/mapfill.py:_span": (FILL, "_fill_triangle"),
-    "virtual/mapfill.py:_nearest_filled": ([V + "test_nearest_filled_matches_twin"],
+    "virtual/mapfill.py:_nearest_filled": ([VE + "test_nearest_filled_matches_twin"],
                                              "_build_layers"),
-    "virtual/explosion.py:_build_layers": ([V + "test_explosion_layers_match_twin"] + PARTS,
+    "virtual/explosion.py:_build_layers": ([VE + "test_explosion_layers_match_twin"] + PARTS,
                                            "build_explosion_maps"),
-    "virtual/explosion.py:_build_layer": ([V + "test_explosion_layers_match_twin"],
+    "virtual/explosion.py:_build_layer": ([VE + "test_explosion_layers_match_twin"],
                                           "_build_layers"),
     "virtual/mapfill.py:_marked_box": (
-        [V + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
+        [VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
     "virtual/explosion.py:_lookup_at": (
-        [V + "test_maps_built_for_their_lookups_match_whole_maps_there"] + LOOKUP, "_virtual"),
+        [VE + "test_maps_built_for_their_lookups_match_whole_maps_there"] + LOOKUP, "_virtual"),
     "virtual/explosion.py:_mark_lookups": (
-        [V + "test_maps_built_for_their_lookups_match_whole_maps_there"],
+        [VE + "test_maps_built_for_their_lookups_match_whole_maps_there"],
         "build_explosion_maps"),
     "virtual/mapfill.py:_nearest_in_box": (
-        [V + "test_nearest_near_marked_texels_matches_twin"], "_fill_marked_nearest"),
+        [VE + "test_nearest_near_marked_texels_matches_twin"], "_fill_marked_nearest"),
     "virtual/mapfill.py:_fill_marked_nearest": (
-        [V + "test_nearest_near_marked_texels_matches_twin",
-         V + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
+        [VE + "test_nearest_near_marked_texels_matches_twin",
+         VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
     "virtual/mapfill.py:_ids_at_marked": (IDS_AT, "_build_layer"),
     "virtual/mapfill.py:_holds": (IDS_AT, "_ids_at_marked"),
     "virtual/mapfill.py:_texel_range": (IDS_AT, "_ids_at_marked"),
@@ -298,13 +300,13 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/mapfill.py:_extend": (FILL, "_fill_extensions"),
     "virtual/mapfill.py:_fill_extensions": (FILL, None),
     "virtual/explosion.py:_plane_from_map": (
-        [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
+        [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
     "virtual/explosion.py:_screen_plane": (
-        [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
+        [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
     "virtual/explosion.py:_blend3": (
-        [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, "_plane_from_map"),
+        [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, "_plane_from_map"),
     "virtual/explosion.py:_unit_or_zero": (
-        [V + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, "_plane_from_map"),
+        [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, "_plane_from_map"),
     "virtual/explosion.py:_mirror": (LOOKUP, "_virtual"),
     "virtual/explosion.py:_virtual": (LOOKUP, "virtual_vertices"),
     "virtual/explosion.py:_through_hidden": (LOOKUP + PARTS, "_virtual"),
@@ -312,8 +314,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/explosion.py:_mark_parts": (PARTS, "build_maps_together"),
     "virtual/explosion.py:_virtual_parts": (PARTS, "virtual_vertices_together"),
     "virtual/explosion.py:_virtual_chunk": (PARTS, "_virtual_parts"),
-    "virtual/tiles.py:_scan_block": ([V + "test_tile_scan_matches_twin"] + PARTS, "_scan"),
-    "virtual/tiles.py:_candidate": ([V + "test_part_candidates_and_join_match_twins"] + PARTS,
+    "virtual/tiles.py:_scan_block": ([VR + "test_tile_scan_matches_twin"] + PARTS, "_scan"),
+    "virtual/tiles.py:_candidate": ([VR + "test_part_candidates_and_join_match_twins"] + PARTS,
                                     "_candidates"),
     "virtual/tiles.py:_candidates_parts": (PARTS, "scan_parts"),
     "virtual/tiles.py:_join_parts": (PARTS, "scan_parts"),

@@ -107,12 +107,12 @@ def capture_map(scene: Scene, k: int, camera: Camera, frame_index: int = 0) -> Z
     if plane[:3] @ camera.eye + plane[3] > 0:
         raise ValueError("map viewpoint must lie behind the mirror")
     offset = 1e-4 * (1.0 + abs(plane[3]) + float(np.abs(camera.eye).max()))
-    world_to_clip, planes = reflection_pass_matrices(
+    clip_from_world, planes = reflection_pass_matrices(
         camera, np.eye(4), plane - np.array([0, 0, 0, offset]), "oblique")
     tris = scene.geometry(frame_index).all_triangles()
     flags = np.where(tris.surface >= scene.n_objects, FLAG_MIRROR, 0).astype(np.uint8)
     flags |= np.where(tris.surface == scene.n_objects + k, FLAG_SKIP, 0).astype(np.uint8)
-    buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height, planes)
+    buffers = rasterize(tris.corners, flags, clip_from_world, camera.width, camera.height, planes)
     color, _ = shade_buffers(buffers, tris, scene, camera.eye)
     depth = buffers.depth.copy()
     depth[buffers.triangle < 0] = np.inf

@@ -29,8 +29,8 @@ def render_primary(scene: Scene, frame_index: int, camera: Camera,
     t0 = time.perf_counter()
     tris = scene.geometry(frame_index).all_triangles()
     flags = (tris.surface >= scene.n_objects).astype(np.uint8) * np.uint8(FLAG_MIRROR)
-    world_to_clip = camera.clip_from_world()
-    buffers = rasterize(tris.corners, flags, world_to_clip, camera.width, camera.height,
+    clip_from_world = camera.clip_from_world()
+    buffers = rasterize(tris.corners, flags, clip_from_world, camera.width, camera.height,
                         workspace=workspace)
     t1 = time.perf_counter()
     rgb, surface = shade_buffers(buffers, tris, scene, camera.eye)

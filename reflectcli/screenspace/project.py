@@ -24,12 +24,12 @@ EMPTY = np.uint64(0xFFFFFFFFFFFFFFFF)
 
 
 @njit(cache=True, parallel=True)
-def project_sources(tri, b1, b2, surface_ids, n_objects, corners, plane, sid, world_to_clip,
+def project_sources(tri, b1, b2, surface_ids, n_objects, corners, plane, sid, clip_from_world,
                     targets, keys):
     """Per source pixel (row-major index): its target pixel index (or -1) and key."""
     h, w = tri.shape
     nx, ny, nz, d = plane[0], plane[1], plane[2], plane[3]
-    m = world_to_clip
+    m = clip_from_world
     for y in prange(h):
         for x in range(w):
             i = y * w + x

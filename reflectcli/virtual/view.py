@@ -56,10 +56,6 @@ class PartView:
     tiles: PartTiles | None  # (with refinement only)
     points: PointsOnScreen  # the scene points on the screen (one for the whole reflector)
 
-    def hidden_faces(self, ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
-        """The paper's hidden map at pixels (ys, xs): the part's face under each, or -1."""
-        return self.local[self.triangle[ys, xs]]
-
     def faces_behind(self, screen: np.ndarray, depth: np.ndarray) -> np.ndarray:
         """(N,) int64: for points at `screen` (N, 3: screen x, y, eye depth) behind the
         reflector alone (deeper than `depth` (H, W) at their pixel, in front of the eye),

@@ -28,7 +28,7 @@ def camera(w=W, h=H, near=0.5, far=50.0) -> Camera:
                   np.array([0.1, 1.0, 0.0]), 60.0, w, h, near, far)
 
 
-def world_to_clip(cam: Camera) -> np.ndarray:
+def clip_from_world(cam: Camera) -> np.ndarray:
     return cam.projection_matrix() @ cam.view_matrix()
 
 
@@ -53,7 +53,7 @@ def test_matches_reference_on_random_scenes(seed):
     cam = camera()
     corners = random_triangles(cam, 20, rng)
     flags = np.where(rng.random(20) < 0.25, FLAG_MIRROR, 0).astype(np.uint8)
-    m = world_to_clip(cam)
+    m = clip_from_world(cam)
     got = rasterize(corners, flags, m, W, H)
     tri, b1, b2, depth, ambiguous = reference(corners, flags, m, W, H)
     assert (tri >= 0).mean() > 0.3  # not a vacuous comparison: much of the view is covered
@@ -73,7 +73,7 @@ def test_matches_reference_on_random_scenes(seed):
 def test_reference_agreement_over_many_scenes():
     """Aggregate over 40 scenes: the figure the per-scene test bounds, measured overall."""
     cam = camera()
-    m = world_to_clip(cam)
+    m = clip_from_world(cam)
     total = agree_n = amb_n = 0
     for seed in range(100, 140):
         rng = np.random.default_rng(seed)
@@ -121,7 +121,7 @@ def test_near_plane_clipping_matches_ray_casting(seed):
         # drawn somewhere, and near clipping removes part of it
         if hit.sum() > 50 and (inside & (t > 0) & (t < cam.near)).sum() > 20:
             break
-    got = rasterize(corners, np.zeros(1, np.uint8), world_to_clip(cam), cam.width, cam.height)
+    got = rasterize(corners, np.zeros(1, np.uint8), clip_from_world(cam), cam.width, cam.height)
     # within 1e-6 of an edge or of the near plane: either answer is fine
     marginal = ((np.minimum(np.minimum(np.abs(u), np.abs(v)), np.abs(w)) < 1e-6)
                 | (np.abs(t - cam.near) < 1e-6 * cam.near))
@@ -145,7 +145,7 @@ def test_deterministic_across_thread_counts():
     corners = np.concatenate([corners, corners[::7]])
     corners[::50, 0] = cam.eye - 0.2 * (cam.target - cam.eye)
     flags = np.where(rng.random(len(corners)) < 0.1, FLAG_MIRROR, 0).astype(np.uint8)
-    m = world_to_clip(cam)
+    m = clip_from_world(cam)
     before = numba.get_num_threads()
     try:
         results = []
@@ -175,17 +175,17 @@ def test_mirror_wins_coplanar_tie(mirror_first):
     parts = [mirror, wall] if mirror_first else [wall, mirror]
     corners = np.concatenate(parts).astype(np.float32)
     is_mirror = np.array([1, 1, 0, 0] if mirror_first else [0, 0, 1, 1], np.uint8)
-    got = rasterize(corners, is_mirror * FLAG_MIRROR, world_to_clip(cam), cam.width,
+    got = rasterize(corners, is_mirror * FLAG_MIRROR, clip_from_world(cam), cam.width,
                     cam.height)
     covered = got.triangle >= 0
     assert covered.sum() > 500
     assert np.all(is_mirror[got.triangle[covered]] == 1)
     # the depth buffer holds the true eye-space depth, not the tie-breaking key
     np.testing.assert_allclose(got.depth[covered], reference(
-        corners[is_mirror == 0], np.zeros(2, np.uint8), world_to_clip(cam), cam.width,
+        corners[is_mirror == 0], np.zeros(2, np.uint8), clip_from_world(cam), cam.width,
         cam.height)[3][covered], rtol=1e-6)
     # a bool array works as the mirror flag too
-    got_bool = rasterize(corners, is_mirror.astype(bool), world_to_clip(cam), cam.width,
+    got_bool = rasterize(corners, is_mirror.astype(bool), clip_from_world(cam), cam.width,
                          cam.height)
     assert got_bool.triangle.tobytes() == got.triangle.tobytes()
 
@@ -295,7 +295,7 @@ def test_skipping_chunks_by_their_boxes_changes_nothing(masked):
     corners = random_triangles(cam, 8 * _CHUNK, rng, spread=3.0, size=(0.05, 0.3))
     # sorted along the screen's x so that runs of triangles are compact
     corners = corners[np.argsort(corners.mean(axis=1) @ cam.basis()[0])]
-    m = world_to_clip(cam)
+    m = clip_from_world(cam)
     right, _, back = cam.basis()
     extra = np.append(right, -right @ (cam.eye - 3 * back))  # keep world x-right of a point
     planes = np.vstack([standard_planes(), np.linalg.inv(m).T @ extra])  # clip space
@@ -406,7 +406,7 @@ def test_clear_outside_false_keeps_pixels_outside_the_box(threads):
     rng = np.random.default_rng(5)
     cam = camera(w=80, h=60)
     corners = random_triangles(cam, 400, rng, spread=3.0, size=(0.05, 0.3))
-    m = world_to_clip(cam)
+    m = clip_from_world(cam)
     flags = np.zeros(len(corners), np.uint8)
     mask = np.zeros((60, 80), bool)
     mask[12:37, 20:61] = True

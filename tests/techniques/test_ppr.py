@@ -22,17 +22,17 @@ def _buffer(primary, built, camera, k=0):
     plane = np.append(n, d)
     if plane[:3] @ camera.eye + plane[3] < 0:
         plane = -plane
-    world_to_clip = camera.projection_matrix() @ camera.view_matrix()
+    clip_from_world = camera.projection_matrix() @ camera.view_matrix()
     targets = np.empty(h * w, np.int32)
     keys = np.empty(h * w, np.uint64)
     buf = primary.buffers
     project_sources(buf.triangle, buf.b1, buf.b2, f.surface, built.n_objects,
-                    primary.triangles.corners, plane, built.n_objects + k, world_to_clip,
+                    primary.triangles.corners, plane, built.n_objects + k, clip_from_world,
                     targets, keys)
     buffer = np.full(h * w, EMPTY, np.uint64)
     scatter_min(targets, keys, buffer)
     slow = ppr_buffer(buf.triangle, buf.b1, buf.b2, f.surface, built.n_objects,
-                      primary.triangles.corners, plane, built.n_objects + k, world_to_clip)
+                      primary.triangles.corners, plane, built.n_objects + k, clip_from_world)
     return buffer, slow
 
 

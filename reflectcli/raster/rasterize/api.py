@@ -17,7 +17,7 @@ from .stencil import stencil_box
 def rasterize(
     corners: np.ndarray,
     flags: np.ndarray,
-    world_to_clip: np.ndarray,
+    clip_from_world: np.ndarray,
     width: int,
     height: int,
     planes: np.ndarray | None = None,
@@ -55,7 +55,7 @@ def rasterize(
     all_planes = np.ascontiguousarray(np.vstack([planes, guard_planes]))
     corners = np.ascontiguousarray(corners, dtype=np.float32)
     flags = np.ascontiguousarray(flags, dtype=np.uint8)
-    m = np.ascontiguousarray(world_to_clip, dtype=np.float64)
+    m = np.ascontiguousarray(clip_from_world, dtype=np.float64)
     if ws.outputs:
         tri = ws.get("tri", (height, width), np.int32)
         depth = ws.get("depth", (height, width), np.float32)

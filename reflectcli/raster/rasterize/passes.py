@@ -23,7 +23,7 @@ from .setup import _run_setup
 MAX_PASSES = 255  # labels are uint8, 0 for no pass
 
 
-def rasterize_passes(corners: np.ndarray, flags: np.ndarray, world_to_clip: np.ndarray,
+def rasterize_passes(corners: np.ndarray, flags: np.ndarray, clip_from_world: np.ndarray,
                      width: int, height: int, starts: np.ndarray, boxes: np.ndarray,
                      labels: np.ndarray, depth_floor: np.ndarray | None,
                      workspace: RasterWorkspace, gather: tuple | None = None,
@@ -64,7 +64,7 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, world_to_clip: np.n
         points, hidden, corner_index, surface, n_objects = gather
         assert corners.dtype == np.float32 and flags.dtype == np.uint8
         assert corners.flags.c_contiguous and corners.shape[0] == corner_index.shape[0]
-    m = np.ascontiguousarray(world_to_clip, dtype=np.float64)
+    m = np.ascontiguousarray(clip_from_world, dtype=np.float64)
     tri = ws.get("tri", (height, width), np.int32)
     depth = ws.get("depth", (height, width), np.float32)
     out = (ws.get("b1", (height, width), np.float32), ws.get("b2", (height, width), np.float32))

@@ -27,7 +27,7 @@ def project_frame(primary, scene: Scene, camera: Camera, fill: bool) -> dict:
     t0 = time.perf_counter()
     buf = primary.buffers
     tris = primary.triangles
-    world_to_clip = camera.projection_matrix() @ camera.view_matrix()
+    clip_from_world = camera.projection_matrix() @ camera.view_matrix()
     buffer = np.full(h * w, EMPTY, np.uint64)
     targets = np.empty(h * w, np.int32)
     keys = np.empty(h * w, np.uint64)
@@ -43,7 +43,7 @@ def project_frame(primary, scene: Scene, camera: Camera, fill: bool) -> dict:
         if plane[:3] @ eye + plane[3] < 0:  # face the plane toward the eye
             plane = -plane
         project_sources(buf.triangle, buf.b1, buf.b2, frame.surface, scene.n_objects,
-                        tris.corners, plane, sid, world_to_clip, targets, keys)
+                        tris.corners, plane, sid, clip_from_world, targets, keys)
         scatter_min(targets, keys, buffer)
         projected += int((targets >= 0).sum())
     t1 = time.perf_counter()

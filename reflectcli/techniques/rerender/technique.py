@@ -80,11 +80,11 @@ class Rerender(Technique):
             # with it) must not be drawn over the reflection (the ray tracer likewise starts
             # reflected rays a little off the surface)
             offset = 1e-4 * (1.0 + abs(d) + float(np.abs(eye).max()))
-            world_to_clip, planes = reflection_pass_matrices(
+            clip_from_world, planes = reflection_pass_matrices(
                 camera, new_chain, np.append(n, d - offset), self.params.clip)
             pass_flags = flags.copy()
             pass_flags[tris.surface == sid] |= FLAG_SKIP
-            buffers = rasterize(tris.corners, pass_flags, world_to_clip, camera.width,
+            buffers = rasterize(tris.corners, pass_flags, clip_from_world, camera.width,
                                 camera.height, planes, mask=stencil, workspace=self._pass_ws)
             # only the stencil's pixels are shaded (and read below): the rest of the pass's
             # buffers is never looked at

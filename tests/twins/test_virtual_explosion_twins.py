@@ -1,0 +1,417 @@
+"""Explosion maps (layers, the maps built for their lookups, fills, nearest fill,
+lookups) against their slow twins."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from naive import (
+    explosion_virtual,
+    fill_extensions,
+    fill_faces,
+    fill_triangle,
+    map_coords,
+    nearest_filled_distance,
+    nearest_filled_texel,
+    plane_from_map,
+    screen_plane,
+    vertex_coords,
+)
+
+from reflectcli.scene import primitives
+from reflectcli.virtual import explosion, mapfill
+from reflectcli.virtual.mesh import weld
+
+
+@pytest.fixture(scope="module")
+def sphere_maps():
+    m = primitives.uv_sphere(1.0, 12)
+    mesh = weld(m.corners, m.normals)
+    eye = np.array([0.4, 1.0, 6.0])
+    return mesh, eye, explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 48,
+                                                     layers=3)
+
+
+@pytest.mark.parametrize("layers", [2, 5])
+def test_explosion_layers_match_twin(layers):
+    """_build_layers (every layer at once, a layer per thread) against the twins of its
+    steps layer by layer: vertex coordinates, faces, the tally inside the circle, the
+    extensions, and for each texel left empty an id of a filled texel at the nearest
+    distance (ties between equally near ones are the transform's to break), unless no
+    texel a lookup can reach was left empty (then the fill is skipped)."""
+    m = primitives.uv_sphere(1.0, 10)
+    mesh = weld(m.corners[:150], m.normals[:150])  # open: boundary edges give extensions
+    eye = np.array([0.4, 1.0, 6.0])
+    maps = explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 40, layers)
+    assert len(maps.extensions)
+    res, s = maps.res, maps.s
+    c = np.arange(res) + 0.5 - res / 2.0
+    circle_in = (c[None, :] ** 2 + c[:, None] ** 2) <= (s / 2.0) ** 2
+    used = ~np.isnan(maps.layers[0].coords[:, 0])
+    drawn = np.flatnonzero(used[mesh.faces].all(axis=1)
+                           & (maps.front[mesh.faces].any(axis=1)))
+    for layer in maps.layers:
+        coords = vertex_coords(mesh.vertices, maps.normals, used, eye, maps.center,
+                               layer.radius, maps.frame, res, s)
+        np.testing.assert_allclose(layer.coords, coords, rtol=1e-12, atol=1e-9)
+        ids = np.full((res, res), -1, np.int32)
+        fill_faces(ids, layer.coords, mesh.faces, drawn)
+        np.testing.assert_array_equal(layer.core, ids >= 0)
+        assert layer.filled_before_extension == int(((ids >= 0) & circle_in).sum())
+        fill_extensions(ids, layer.coords, maps.extensions, len(mesh.faces), res / 2.0,
+                        explosion.EXTENSION_REACH * s)
+        empty = ids < 0
+        assert layer.empty_after_extension == int((empty & circle_in).sum())
+        np.testing.assert_array_equal(layer.ids[~empty], ids[~empty])
+        # texels a lookup can land in: their squares meet the disk of radius s / 2
+        g = np.maximum(np.abs(c) - 0.5, 0.0)
+        reachable = (g[None, :] ** 2 + g[:, None] ** 2) <= (s / 2.0 + 1e-6) ** 2
+        if not (empty & reachable).any():
+            continue  # nothing a lookup reaches is empty: the fill is skipped
+        dist = nearest_filled_distance(empty)
+        fy, fx = np.nonzero(~empty)
+        for y, x in zip(*np.nonzero(empty), strict=True):
+            near = (fy - y) ** 2 + (fx - x) ** 2 == round(dist[y, x] ** 2)
+            assert layer.ids[y, x] in set(ids[fy[near], fx[near]]), (y, x)
+
+
+def test_maps_for_lookups_of_a_patch_seen_from_behind():
+    """A patch facing away from the eye fills no texel of any layer: built for lookups
+    spread over a 200^2 map (the grown box the whole map), the build returns (the search
+    for a nearest filled texel once never ended here) with the whole build's ids."""
+    corners = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                        [[1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    normals = np.zeros_like(corners)
+    normals[..., 2] = -1.0  # facing away from the eye at z = 6
+    mesh = weld(corners, normals)
+    eye, center = np.array([0.4, 1.0, 6.0]), np.array([0.5, 0.5, 0.0])
+    pts = np.random.default_rng(0).normal(size=(200, 3)) * 3.0 + [0.5, 0.5, 4.0]
+    whole = explosion.build_explosion_maps(mesh, eye, center, 0.5, 5.0, 200)
+    some = explosion.build_explosion_maps(mesh, eye, center, 0.5, 5.0, 200, lookups=pts)
+    for a, b in zip(whole.layers, some.layers, strict=True):
+        assert (a.ids < 0).all() and (b.ids < 0).all()
+
+
+@pytest.mark.parametrize("open_mesh", [False, True])
+def test_maps_built_for_their_lookups_match_whole_maps_there(open_mesh):
+    """build_explosion_maps with `lookups`: at every texel those points are looked up at
+    (layers lo and lo + 1 of each, found by the twins' map_coords and radii), the ids and
+    core of the whole build, and the same virtual vertices, bit for bit; on a closed
+    sphere (extensions close the circle) and an open patch off the map's center (its
+    extensions leave texels empty that lookups land in: the fill runs), points near and
+    far, some flipped."""
+    if open_mesh:
+        corners = np.array([[[2, 0, 0], [2.5, 0, 0], [2.5, 0.5, 0]],
+                            [[2, 0, 0], [2.5, 0.5, 0], [2, 0.5, 0]]], float)
+        normals = np.zeros_like(corners)
+        normals[..., 2] = 1.0
+        normals[0, 0] = [0.3, 0.0, 1.0]  # a bend, so the patch's image is not a line
+        normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    else:
+        m = primitives.uv_sphere(1.0, 10)
+        corners, normals = m.corners, m.normals
+    mesh = weld(corners, normals)
+    eye = np.array([0.4, 1.0, 6.0])
+    rng = np.random.default_rng(12)
+    pts = np.concatenate([rng.normal(size=(40, 3)) * 4.0,
+                          [0.0, 0.0, 3.0] + rng.normal(size=(20, 3)) * 0.3])
+    for flip_axis in (None, np.array([0.0, 0.0, 1.0])):
+        whole = explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 40, 4)
+        some = explosion.build_explosion_maps(mesh, eye, np.zeros(3), 1.1, 30.0, 40, 4,
+                                              lookups=pts, flip_axis=flip_axis)
+        radii = np.array([layer.radius for layer in whole.layers])
+        flip = np.zeros(3) if flip_axis is None else flip_axis
+        marked = np.zeros((len(radii), 40, 40), bool)
+        for p in pts:
+            d = p - whole.center
+            d = -d if d @ flip < 0 else d
+            tx, ty = map_coords(whole.frame, whole.res, whole.s, d)
+            dist = np.linalg.norm(p - whole.center)
+            lo = min(int(np.searchsorted(radii[1:], dist)), len(radii) - 2)
+            x, y = (min(max(int(np.floor(t)), 0), 39) for t in (tx, ty))
+            marked[[lo, lo + 1], y, x] = True
+        for k, (a, b) in enumerate(zip(whole.layers, some.layers, strict=True)):
+            np.testing.assert_array_equal(a.ids[marked[k]], b.ids[marked[k]])
+            np.testing.assert_array_equal(a.core[marked[k]], b.core[marked[k]])
+            np.testing.assert_array_equal(a.coords, b.coords)
+        if open_mesh:  # a lookup lands where faces and extensions leave a texel empty
+            used = ~np.isnan(whole.layers[0].coords[:, 0])
+            drawn = np.flatnonzero(used[mesh.faces].all(axis=1)
+                                   & whole.front[mesh.faces].any(axis=1))
+            holes = False
+            for k, layer in enumerate(whole.layers):
+                ids = np.full((40, 40), -1, np.int32)
+                fill_faces(ids, layer.coords, mesh.faces, drawn)
+                fill_extensions(ids, layer.coords, whole.extensions, len(mesh.faces), 20.0,
+                                explosion.EXTENSION_REACH * whole.s)
+                holes |= bool((ids[marked[k]] < 0).any())
+            assert holes
+        none = np.full(len(pts), -1)
+        got = explosion.virtual_vertices(some, pts, none, np.zeros((len(pts), 2)),
+                                         np.zeros((len(mesh.vertices), 2)), flip_axis)
+        want = explosion.virtual_vertices(whole, pts, none, np.zeros((len(pts), 2)),
+                                          np.zeros((len(mesh.vertices), 2)), flip_axis)
+        assert got[0].tobytes() == want[0].tobytes()
+        np.testing.assert_array_equal(got[1], want[1])
+
+
+def test_map_coords_and_vertex_coords_match_twin(sphere_maps):
+    mesh, eye, maps = sphere_maps
+    rng = np.random.default_rng(4)
+    for d in list(rng.normal(size=(100, 3))) + [maps.frame[2], maps.frame[0]]:  # not -z: the rim
+        np.testing.assert_allclose(explosion.map_coords(maps.frame, maps.res, maps.s, *d),
+                                   map_coords(maps.frame, maps.res, maps.s, d), atol=1e-9)
+    for layer in maps.layers:
+        used = ~np.isnan(layer.coords[:, 0])
+        want = vertex_coords(mesh.vertices, maps.normals, used, eye, maps.center,
+                             layer.radius, maps.frame, maps.res, maps.s)
+        np.testing.assert_allclose(layer.coords, want, atol=1e-9)
+
+
+def test_fill_kernels_match_twin(sphere_maps):
+    mesh, _, maps = sphere_maps
+    rng = np.random.default_rng(5)
+    for _ in range(40):  # single triangles, both windings, some degenerate or NaN
+        tri = rng.uniform(-5, 30, (3, 2))
+        if rng.random() < 0.1:
+            tri[2] = tri[0] + 0.5 * (tri[1] - tri[0])
+        if rng.random() < 0.05:
+            tri[1, 0] = np.nan
+        only_empty = bool(rng.random() < 0.5)
+        ids = np.where(rng.random((24, 24)) < 0.3, 7, -1).astype(np.int32)
+        want = ids.copy()
+        mapfill._fill_triangle(ids, *tri.reshape(-1), 3, only_empty)
+        fill_triangle(want, *tri, 3, only_empty)
+        np.testing.assert_array_equal(ids, want)
+    layer = maps.layers[1]
+    f = mesh.faces
+    drawn = rng.permutation(len(f))[: len(f) // 2].astype(np.int64)
+    ids = np.full((maps.res, maps.res), -1, np.int32)
+    want = ids.copy()
+    explosion._fill_faces(ids, layer.coords, f, drawn)
+    fill_faces(want, layer.coords, f, drawn)
+    np.testing.assert_array_equal(ids, want)
+    half = maps.res / 2.0
+    explosion._fill_extensions(ids, layer.coords, maps.extensions, len(f), half,
+                               explosion.EXTENSION_REACH * maps.s)
+    fill_extensions(want, layer.coords, maps.extensions, len(f), half,
+                    explosion.EXTENSION_REACH * maps.s)
+    np.testing.assert_array_equal(ids, want)
+    assert (ids >= len(f)).any()
+
+
+def test_ids_at_marked_texels_match_the_fill_twins(sphere_maps):
+    """mapfill._ids_at_marked (faces and quads sorted into cells, each marked texel tested
+    alone) against drawing the whole map with the fill twins: at every marked texel the
+    same id (the last face holding it, else the first quad) and core (a face holds it);
+    True exactly when no marked texel is left empty. On the sphere's maps, with extra
+    degenerate, NaN, tiny and map-wide triangles and quads, texels marked scattered, in
+    clusters and on the map's edges, inside boxes of several sizes."""
+    mesh, _, maps = sphere_maps
+    rng = np.random.default_rng(8)
+    res, half = maps.res, maps.res / 2.0
+    reach = explosion.EXTENSION_REACH * maps.s
+    for case in range(12):
+        layer = maps.layers[case % len(maps.layers)]
+        coords = layer.coords.copy()
+        extra = np.concatenate([rng.uniform(-10, res + 10, (20, 2)),
+                                coords[:5] + rng.normal(size=(5, 2)) * 0.3])
+        extra[3] = np.nan
+        coords = np.concatenate([coords, extra])
+        v = len(layer.coords)
+        faces = np.concatenate([mesh.faces, rng.integers(0, len(coords), (30, 3)),
+                                [[v, v, v + 1], [v + 3, v + 4, v + 5]]]).astype(np.int64)
+        drawn = rng.permutation(len(faces))[: int(len(faces) * rng.uniform(0.3, 1.0))]
+        extensions = np.concatenate([maps.extensions, np.column_stack(
+            [np.zeros(15, np.int64), rng.integers(0, len(coords), (15, 2))])])
+        marks = rng.random((res, res)) < rng.choice([0.002, 0.02, 0.2])
+        marks[rng.integers(0, res - 6):, :3] = True  # an edge, a cluster
+        marks[0, rng.integers(0, res)] = True
+        y0, y1, x0, x1 = mapfill._marked_box(marks)
+        ids = np.full((res, res), -1, np.int32)
+        core = np.zeros((res, res), bool)
+        full = mapfill._ids_at_marked(ids, core, marks, coords, faces, drawn, extensions,
+                                      len(faces), half, reach, y0, y1, x0, x1)
+        want = np.full((res, res), -1, np.int32)
+        fill_faces(want, coords, faces, drawn)
+        want_core = want >= 0
+        fill_extensions(want, coords, extensions, len(faces), half, reach)
+        np.testing.assert_array_equal(ids[marks], want[marks])
+        np.testing.assert_array_equal(core[marks], want_core[marks])
+        assert (ids[~marks] == -1).all() and not core[~marks].any()
+        assert full == bool((want[marks] >= 0).all())
+        filled = marks & (want >= 0)  # only filled texels marked: none left empty
+        again = np.full((res, res), -1, np.int32)
+        assert mapfill._ids_at_marked(again, core, filled, coords, faces, drawn, extensions,
+                                      len(faces), half, reach, *mapfill._marked_box(filled))
+        np.testing.assert_array_equal(again[filled], want[filled])
+        hole = mapfill._hole_box(ids, marks, y0, y1, x0, x1)
+        empty = np.argwhere(marks & (ids < 0))
+        if len(empty):
+            assert hole == (empty[:, 0].min(), empty[:, 0].max(), empty[:, 1].min(),
+                            empty[:, 1].max())
+        else:
+            assert hole[0] > hole[1]
+
+
+def test_ids_at_marked_leave_marks_outside_their_box(sphere_maps):
+    """_ids_at_marked given a box smaller than its marks: the marked texels inside the box
+    get the fill twins' ids, the marks outside it stay untouched, and True means that every
+    marked texel inside the box is filled (not those outside)."""
+    mesh, _, maps = sphere_maps
+    rng = np.random.default_rng(9)
+    res, half = maps.res, maps.res / 2.0
+    reach = explosion.EXTENSION_REACH * maps.s
+    layer = maps.layers[0]
+    faces = np.ascontiguousarray(mesh.faces, np.int64)
+    drawn = np.arange(len(faces))
+    want = np.full((res, res), -1, np.int32)
+    fill_faces(want, layer.coords, faces, drawn)
+    want_core = want >= 0
+    fill_extensions(want, layer.coords, maps.extensions, len(faces), half, reach)
+    for case in range(6):
+        marks = rng.random((res, res)) < 0.05
+        marks[0, :] = marks[:, 0] = marks[-1, :] = marks[:, -1] = True
+        if case % 2:  # every marked texel inside the box filled, some outside it not
+            marks &= want >= 0
+            marks[0, 0] = marks[-1, -1] = True
+        y0, x0 = rng.integers(1, res // 3, 2)
+        y1, x1 = rng.integers(2 * res // 3, res - 1, 2)
+        box = np.zeros((res, res), bool)
+        box[y0:y1 + 1, x0:x1 + 1] = True
+        ids = np.full((res, res), -7, np.int32)
+        core = np.zeros((res, res), bool)
+        full = mapfill._ids_at_marked(ids, core, marks, layer.coords, faces, drawn,
+                                      maps.extensions, len(faces), half, reach, y0, y1, x0,
+                                      x1)
+        inside = marks & box
+        np.testing.assert_array_equal(ids[inside], want[inside])
+        np.testing.assert_array_equal(core[inside], want_core[inside])
+        assert (ids[~inside] == -7).all() and not core[~inside].any()
+        assert full == bool((want[inside] >= 0).all())
+        if case % 2:
+            assert full and not (want[marks & ~box] >= 0).all()
+
+
+def test_plane_and_screen_lookups_match_twin(sphere_maps):
+    mesh, _, maps = sphere_maps
+    rng = np.random.default_rng(6)
+    layer = maps.layers[0]
+    ids = layer.ids.copy()
+    ids[:2] = -1  # some empty texels
+    for t in list(rng.uniform(-2, maps.res + 2, (300, 2))):
+        p, n = explosion._plane_from_map(ids, layer.coords, mesh.vertices, maps.normals,
+                                         mesh.faces, maps.extensions, *t)
+        wp, wn = plane_from_map(ids, layer.coords, mesh.vertices, maps.normals, mesh.faces,
+                                maps.extensions, t)
+        np.testing.assert_allclose(p, wp, atol=1e-8)
+        np.testing.assert_allclose(n, wn, atol=1e-8)
+    screen = rng.uniform(0, 50, (len(mesh.vertices), 2))
+    screen[mesh.faces[0, 2]] = screen[mesh.faces[0, 0]]  # a degenerate face on screen
+    for f in list(rng.integers(0, len(mesh.faces), 100)) + [0]:
+        s = rng.uniform(0, 50, 2)
+        p, n = explosion._screen_plane(mesh.faces, f, screen, mesh.vertices, maps.normals, *s)
+        wp, wn = screen_plane(mesh.faces, f, screen, mesh.vertices, maps.normals, s)
+        np.testing.assert_allclose(p, wp, atol=1e-8, rtol=1e-8)
+        np.testing.assert_allclose(n, wn, atol=1e-8)
+
+
+@pytest.mark.parametrize("flip", [False, True])
+def test_explosion_lookup_matches_twin(sphere_maps, flip):
+    mesh, eye, maps = sphere_maps
+    rng = np.random.default_rng(7)
+    n = 200
+    pts = rng.normal(size=(n, 3)) * 4.0
+    pts[:3] = [[0.0, 0.0, 40.0], [0.0, 0.0, 1.05], [0.5, 0.5, 0.0]]  # beyond far, near, inside
+    hidden_face = np.where(rng.random(n) < 0.2, rng.integers(0, len(mesh.faces), n), -1)
+    hidden_screen = rng.uniform(0, 50, (n, 2))
+    screen = rng.uniform(0, 50, (len(mesh.vertices), 2))
+    flip_axis = np.array([0.0, 0.0, 1.0]) if flip else None
+    got, flags = explosion.virtual_vertices(maps, pts, hidden_face, hidden_screen, screen,
+                                            flip_axis)
+    ids = np.stack([layer.ids for layer in maps.layers])
+    want, unreflected = explosion_virtual(
+        pts, mesh.vertices, maps.normals, mesh.faces, maps.extensions, ids,
+        np.stack([layer.coords for layer in maps.layers]),
+        np.array([layer.radius for layer in maps.layers]), maps.center,
+        np.zeros(3) if flip_axis is None else flip_axis, maps.frame, maps.res, maps.s,
+        hidden_face, hidden_screen, screen, np.stack([layer.core for layer in maps.layers]))
+    np.testing.assert_allclose(got, want, atol=1e-8, rtol=1e-9)
+    np.testing.assert_array_equal(flags, (hidden_face >= 0) | unreflected)
+    assert not unreflected.all() and (unreflected.any() or flip)
+
+
+def test_nearest_filled_matches_twin():
+    """The feature transform behind _fill_nearest names, for every texel, a filled texel at
+    the least distance (ties may go either way), on sparse, dense, one-row and one-column
+    maps and a map with one filled texel."""
+    rng = np.random.default_rng(8)
+    cases = [rng.random(tuple(rng.integers(1, 30, 2))) < p for p in (0.3, 0.8, 0.97)
+             for _ in range(10)]
+    cases += [rng.random((1, 25)) < 0.7, rng.random((25, 1)) < 0.7,
+              np.arange(400).reshape(20, 20) != 137]
+    for empty in cases:
+        if empty.all():
+            continue
+        h, w = empty.shape
+        rows = np.empty((h, w), np.int32)
+        cols = np.empty((h, w), np.int32)
+        explosion._nearest_filled(empty, rows, cols)
+        assert not empty[rows, cols].any()
+        got = np.hypot(rows - np.arange(h)[:, None], cols - np.arange(w)[None, :])
+        np.testing.assert_allclose(got, nearest_filled_distance(empty), rtol=0, atol=1e-12)
+
+
+def test_nearest_near_marked_texels_matches_twin():
+    """_nearest_in_box answers as the whole map's rule would (nearest, then least column,
+    then least row), or not at all when a texel outside its box could be as near; and
+    _fill_marked_nearest fills the marked empty texels as _nearest_filled does over the
+    whole map (which the rule matches), or leaves the layer alone."""
+    rng = np.random.default_rng(13)
+    answered = declined = 0
+    for _ in range(60):
+        h, w = (int(v) for v in rng.integers(8, 40, 2))
+        layer = np.where(rng.random((h, w)) < rng.choice([0.02, 0.1, 0.5]),
+                         rng.integers(0, 50, (h, w)), -1).astype(np.int32)
+        y0, x0 = int(rng.integers(0, h)), int(rng.integers(0, w))
+        y1, x1 = int(rng.integers(y0, h)), int(rng.integers(x0, w))
+        for y, x in zip(*np.nonzero(layer[y0:y1 + 1, x0:x1 + 1] < 0), strict=True):
+            y, x = int(y + y0), int(x + x0)
+            got = mapfill._nearest_in_box(layer, y0, y1, x0, x1, y, x)
+            want = nearest_filled_texel(layer, y, x)
+            if got != (-1, -1):
+                assert got == want
+                answered += 1
+                continue
+            declined += 1
+            sides = [(y - y0 + 1) ** 2 if y0 > 0 else np.inf,
+                     (y1 + 1 - y) ** 2 if y1 < h - 1 else np.inf,
+                     (x - x0 + 1) ** 2 if x0 > 0 else np.inf,
+                     (x1 + 1 - x) ** 2 if x1 < w - 1 else np.inf]
+            assert want is None or (want[0] - y) ** 2 + (want[1] - x) ** 2 >= min(sides)
+        marks = rng.random((h, w)) < 0.2
+        reach = np.ones((h, w), bool)
+        filled = layer.copy()
+        if mapfill._fill_marked_nearest(filled, marks, reach, y0, y1, x0, x1, 4):
+            empty = layer < 0
+            rows = np.empty((h, w), np.int32)
+            cols = np.empty((h, w), np.int32)
+            if not empty.all():
+                mapfill._nearest_filled(empty, rows, cols)
+            box = np.zeros((h, w), bool)
+            box[y0:y1 + 1, x0:x1 + 1] = True
+            sel = marks & box & empty
+            np.testing.assert_array_equal(filled[sel], layer[rows[sel], cols[sel]])
+            np.testing.assert_array_equal(filled[~sel], layer[~sel])
+        else:
+            np.testing.assert_array_equal(filled, layer)
+    assert answered > 100 and declined > 10
+    # a layer with no filled texel (a part seen only from behind), the box the whole map or
+    # a part of it: no answer (the whole layer's build takes over), and no endless search
+    empty = np.full((12, 12), -1, np.int32)
+    marks = np.zeros((12, 12), bool)
+    marks[5, 5] = True
+    for box in ((0, 11, 0, 11), (5, 5, 5, 5), (2, 9, 0, 11)):
+        assert mapfill._nearest_in_box(empty, *box, 5, 5) == (-1, -1)
+        assert not mapfill._fill_marked_nearest(empty.copy(), marks, np.ones((12, 12), bool),
+                                                5, 5, 5, 5, 48)
