@@ -278,6 +278,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                            "build_explosion_maps"),
     "virtual/explosion.py:_build_layer": ([VE + "test_explosion_layers_match_twin"],
                                           "_build_layers"),
+    "virtual/explosion.py:_clear_unmarked": (
+        [VE + "test_maps_built_for_their_lookups_match_whole_maps_there",
+         VE + "test_maps_for_lookups_of_a_patch_seen_from_behind"] + PARTS, "_build_layer"),
     "virtual/mapfill.py:_marked_box": (
         [VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
     "virtual/explosion.py:_lookup_at": (

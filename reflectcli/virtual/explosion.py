@@ -152,9 +152,10 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     alone, so a caller that keeps the mesh keeps them too). `lookups` (N, 3 world), if
     given: the only points virtual_vertices will look up in these maps (with `flip_axis`
     as it will be given there). Each layer is then right (ids and core as a whole build
-    gives them) at the texels those points look up; elsewhere it may lack faces,
-    extensions and the nearest fill, and its counts (filled_before_extension,
-    empty_after_extension) are -1 where they were not counted."""
+    gives them) at the texels those points look up; elsewhere its ids and core are
+    undefined (not cleared: nothing reads them), and its counts
+    (filled_before_extension, empty_after_extension) are -1 where they were not
+    counted."""
     return build_maps_together([map_setup(mesh, eye, center, near_radius, far_radius, res,
                                           layers, boundary, lookups, flip_axis)]).maps[0]
 
@@ -394,22 +395,22 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
     vectorise; the nearest fill runs only where a lookup could land in an empty texel.
     With `needed` (res, res) marks, the ids and core of the marked texels alone are found,
     texel by texel (_ids_at_marked: the last face holding the texel, else the first
-    extension quad, each by the fill's own tests); elsewhere ids stay -1 and core False,
-    and the counts are -1 (not counted). If a marked texel is still empty, the faces and
-    extensions are drawn over the box of such texels grown by NEAR_MARGINS (a small margin,
-    then a larger one) and the nearest fill searched for there; only where that cannot be
-    sure is the whole layer made (drawing over texels already found changes nothing: a
-    face's texel takes its last face again, and the extensions fill only texels no face
-    holds)."""
+    extension quad, each by the fill's own tests); elsewhere ids and core are left as
+    they were (not cleared), and the counts are -1 (not counted). If a marked texel is
+    still empty, the faces and extensions are drawn over the box of such texels grown by
+    NEAR_MARGINS (a small margin, then a larger one) and the nearest fill searched for
+    there; only where that cannot be sure is the whole layer made (drawing over texels
+    already found changes nothing: a face's texel takes its last face again, and the
+    extensions fill only texels no face holds)."""
     for i in range(coords.shape[0]):
         coords[i, 0] = np.nan
         coords[i, 1] = np.nan
     _vertex_coords(v, n, used, eye, center, radius, frame, res, s, coords)
-    layer[:, :] = -1
     if needed.shape[0] > 0:
         tally[k, 0] = -1
         tally[k, 1] = -1
-        core[:, :] = False
+        # only the marked texels are read: the layer is not cleared first (17 MB a mask
+        # frame); _ids_at_marked writes every marked texel's id and core
         y0, y1, x0, x1 = _marked_box(needed)
         if y0 > y1:
             return  # nothing looked up here
@@ -419,8 +420,12 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
         # a looked-up texel stays empty: its nearest filled texel is most often close by,
         # so the faces and extensions are drawn over the box of such texels grown by each
         # of NEAR_MARGINS in turn, and the fill searched for there (where no box can be
-        # sure, the whole layer is made)
+        # sure, the whole layer is made); the texels there but the marked ones are
+        # cleared first, as in a layer cleared whole
         y0, y1, x0, x1 = _hole_box(layer, needed, y0, y1, x0, x1)
+        grow = NEAR_MARGINS[-1]
+        _clear_unmarked(layer, needed, max(y0 - grow, 0), min(y1 + grow, res - 1),
+                        max(x0 - grow, 0), min(x1 + grow, res - 1))
         for margin in NEAR_MARGINS:
             gy0, gy1 = max(y0 - margin, 0), min(y1 + margin, res - 1)
             gx0, gx1 = max(x0 - margin, 0), min(x1 + margin, res - 1)
@@ -429,6 +434,12 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
                              gy1, gx0, gx1)
             if _fill_marked_nearest(layer, needed, reach, y0, y1, x0, x1, margin):
                 return
+        # the whole layer: the marked texels keep what _ids_at_marked found, which the
+        # whole draw finds again; the others as cleared (drawing over the boxes' texels
+        # again gives them the same ids)
+        _clear_unmarked(layer, needed, 0, res - 1, 0, res - 1)
+    else:
+        layer[:, :] = -1
     _fill_faces(layer, coords, faces, drawn)
     filled = 0
     for y in range(res):
@@ -465,6 +476,15 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
         for x in range(res):
             if empty[y, x]:
                 layer[y, x] = layer[rows[y, x], cols[y, x]]
+
+
+@njit(cache=True)
+def _clear_unmarked(layer, marks, y0, y1, x0, x1):
+    """layer = -1 at the texels of rows y0..y1, columns x0..x1 that are not marked."""
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            if not marks[y, x]:
+                layer[y, x] = -1
 
 
 def boundary_edges(faces: np.ndarray) -> np.ndarray:
