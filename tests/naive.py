@@ -1138,7 +1138,8 @@ def part_stencil(triangle, surface, sid, first, faces, count):
 
 
 def faces_behind(screen, depth, triangle, local):
-    """Twin of virtual.view._faces_behind (PartView.faces_behind): pixels by flooring the
+    """Twin of virtual.view._faces_behind (PartView.faces_behind; view.face_behind one
+    point at a time, as parts._gather_parts takes it): pixels by flooring the
     finite screen positions of points in front of the eye, kept on the image; where the
     point is deeper than `depth` there, the part's face under it (local[triangle]), else
     -1."""
@@ -1825,6 +1826,23 @@ def weld_within(points, tolerance=1e-9):
     first = np.full(label.max() + 1, len(flat))
     np.minimum.at(first, label, np.arange(len(flat)))
     return flat[first[label]].reshape(points.shape)
+
+
+def part_labels(triangle, surface, sid, first, label_of, depth):
+    """Twin of virtual.partpasses.part_labels over the whole image: (labels uint8, stencil
+    bool, floor float32, boxes (L, 4) y0, y1, x0, x1 of each label's pixels, zeros for a
+    label with none)."""
+    count = len(label_of) - 1
+    face = triangle.astype(np.int64) - first
+    face = np.where((face >= 0) & (face < count), face, count)
+    labels = np.where(surface == sid, label_of[face], 0).astype(np.uint8)
+    stencil = labels != 0
+    boxes = np.zeros((int(label_of.max()), 4), np.int64)
+    for b in range(len(boxes)):
+        ys, xs = np.nonzero(labels == b + 1)
+        if ys.size:
+            boxes[b] = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+    return labels, stencil, np.where(stencil, depth, 0.0).astype(np.float32), boxes
 
 
 def pass_labels(surface, depth, n_objects, label_of):

@@ -55,6 +55,9 @@ PASSES = [SR + "test_rasterize_passes_match_twin",
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
 LOOKUP = [VE + "test_explosion_lookup_matches_twin"]
 IDS_AT = [VE + "test_ids_at_marked_texels_match_the_fill_twins"]
+# a reflector's parts stage by stage, against each part's own call (its stages twin-tested)
+PARTS = [V + "test_parts_together_give_each_part_s_answers"]
+PART_PASSES = [V + "test_part_passes_together_give_the_frame_part_by_part"]
 S = "tests/techniques/test_ssr.py::"
 P = "tests/techniques/test_ppr.py::"
 HIZ = [S + "test_hiz_equals_pixel_walk_on_random_buffers",
@@ -235,7 +238,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                          VR + "test_grid_sample_slope_matches_twin"] + REFINE,
                                         None),
     "virtual/refine.py:_walk": (REFINE, None),  # the serial walk, held to refine_walk
-    "virtual/refine.py:_refine": (REFINE, "refine_virtual"),
+    "virtual/refine.py:_refine": (REFINE + PARTS, "refine_virtual"),
     "virtual/refine.py:_step": (REFINE, "_refine"),
     "virtual/refine.py:_walk_end": (REFINE, "_refine"),
     "virtual/refine.py:_begin": (REFINE, "_refine"),
@@ -271,10 +274,13 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/mapfill.py:_span": (FILL, "_fill_triangle"),
     "virtual/mapfill.py:_nearest_filled": ([VE + "test_nearest_filled_matches_twin"],
                                              "_build_layers"),
-    "virtual/explosion.py:_build_layers": ([VE + "test_explosion_layers_match_twin"],
+    "virtual/explosion.py:_build_layers": ([VE + "test_explosion_layers_match_twin"] + PARTS,
                                            "build_explosion_maps"),
     "virtual/explosion.py:_build_layer": ([VE + "test_explosion_layers_match_twin"],
                                           "_build_layers"),
+    "virtual/explosion.py:_clear_unmarked": (
+        [VE + "test_maps_built_for_their_lookups_match_whole_maps_there",
+         VE + "test_maps_for_lookups_of_a_patch_seen_from_behind"] + PARTS, "_build_layer"),
     "virtual/mapfill.py:_marked_box": (
         [VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
     "virtual/explosion.py:_lookup_at": (
@@ -306,6 +312,26 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
         [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, "_plane_from_map"),
     "virtual/explosion.py:_mirror": (LOOKUP, "_virtual"),
     "virtual/explosion.py:_virtual": (LOOKUP, "virtual_vertices"),
+    "virtual/explosion.py:_through_hidden": (LOOKUP + PARTS, "_virtual"),
+    "virtual/explosion.py:_through_maps": (LOOKUP + PARTS, "_virtual"),
+    "virtual/explosion.py:_mark_parts": (PARTS, "build_maps_together"),
+    "virtual/explosion.py:_virtual_parts": (PARTS, "virtual_vertices_together"),
+    "virtual/explosion.py:_virtual_chunk": (PARTS, "_virtual_parts"),
+    "virtual/tiles.py:_scan_block": ([VR + "test_tile_scan_matches_twin"] + PARTS, "_scan"),
+    "virtual/tiles.py:_candidate": ([VR + "test_part_candidates_and_join_match_twins"] + PARTS,
+                                    "_candidates"),
+    "virtual/tiles.py:_candidates_parts": (PARTS, "scan_parts"),
+    "virtual/tiles.py:_join_parts": (PARTS, "scan_parts"),
+    "virtual/tiles.py:_part_of_block": (PARTS, "_scan_parts"),
+    "virtual/tiles.py:_tile_rays": (PARTS, "_scan_parts"),
+    "virtual/tiles.py:_scan_reached_parts": (PARTS, "scan_parts"),
+    "virtual/tiles.py:_scan_parts": (PARTS, "scan_parts"),
+    "virtual/view.py:face_behind": ([V + "test_faces_behind_match_twin"] + PARTS,
+                                    "_faces_behind"),
+    "virtual/parts.py:_gather_parts": (PARTS, "parts_vertices"),
+    "virtual/parts.py:_scatter_parts": (PARTS, "parts_vertices"),
+    "virtual/partpasses.py:part_labels": ([V + "test_part_labels_match_twin"] + PART_PASSES,
+                                          None),
     "maps/distance_search.py:search_ray": (SEARCH, "_search_pixels"),
     "maps/distance_search.py:_search_pixels": (SEARCH, None),
     "maps/distance_search.py:sample_layer": (SEARCH, "search_ray"),

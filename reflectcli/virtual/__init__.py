@@ -12,12 +12,14 @@ One idea per module, in the order a frame uses them (reflectcli/techniques/virtu
     shape         per reflector shape, once: mesh, parts, boundary edges (cached)
     view          per shape and view: hidden map, reflection-ray grid, tiles (cached)
     part          one part's virtual vertices: explosion maps, then the refinement
+    parts         all parts of a reflector stage by stage, each stage one region for all
     explosion     explosion maps and their lookup (numba), built where looked up
     mapfill       the maps' texel fills: faces, extensions, nearest filled texel (numba)
     refine        Gauss-Newton on the reflector's pixels (numba)
     tiles         tile culling and seeds for the refinement (numba)
     screen        world points to screen pixels
     raster        drawing virtual polygons over the reflector's pixels
+    partpasses    a reflector's part passes drawn together over a label image
     compose       a frame's glue as kernels: mirrors in view and their screen boxes, part
                   stencils, corners gathered with flags, cracks closed over a box
 """

@@ -13,11 +13,14 @@ import numpy as np
 from ..camera import Camera
 from ..geometry import reflect_point
 from ..raster.primary import Primary
+from ..raster.rasterize import RasterWorkspace
+from ..raster.rasterize.passes import MAX_PASSES
 from ..scene.types import CYLINDER, PLANAR, SPHERE, Mirrors, Scene
 from .circle import cylinder_virtual_vertices, sphere_virtual_vertices
 from .compose import part_stencil
 from .direct import profile_virtual_vertices
 from .part import ExplosionPart
+from .partpasses import label_parts
 from .shape import ShapeCache
 from .view import ViewCache
 
@@ -107,18 +110,8 @@ def explosion_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, ca
     """Mesh reflector k split into parts (unless `decompose` says no), each with its
     explosion maps, stencil restricted to the part's faces."""
     sid = scene.n_objects + k
-    tris = primary.triangles
-    first = int(np.flatnonzero(tris.surface == sid)[0])  # the reflector's triangles are
-    count = int(np.count_nonzero(tris.surface == sid))  # contiguous in the soup
-    corners = tris.corners[first:first + count]
-    normals = tris.normals[first:first + count]
-    mode = rule.decompose_overrides.get(scene.mirrors.names[k], rule.decompose)
-    soup = shapes.soup_key(tris.corners, tris.normals, first, count)
-    shape = shapes.get(soup, corners, normals, mode == "auto")
-    clip_from_world = camera.clip_from_world()
-    params = rule.explosion
-    view = views.get((soup, mode == "auto"), corners, normals, shape, camera, clip_from_world,
-                     params.refine == "screen")
+    reflector = _explosion_reflector(rule, scene, primary, k, camera, shapes, views)
+    first, count, shape, view = reflector[:4]
     for part, part_view in zip(shape.parts, view.parts, strict=True):
         # the part's pixels: the reflector's, with a face of the part under them
         in_part = np.zeros(count + 1, bool)
@@ -128,6 +121,62 @@ def explosion_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, ca
                      stencil)
         if not stencil.any():
             continue
-        yield stencil, ExplosionPart(part, part_view, view.depth, view.grid, camera,
-                                     clip_from_world, scene_points, params.center,
-                                     params.near_scale, params.resolution, params.layers)
+        yield stencil, _explosion_part(rule, camera, scene_points, reflector, part, part_view)
+
+
+def explosion_group(rule: MethodRule, scene: Scene, primary: Primary, k: int, camera: Camera,
+                    scene_points: np.ndarray, shapes: ShapeCache, views: ViewCache,
+                    box: tuple[int, int, int, int], ws: RasterWorkspace):
+    """explosion_parts' parts of mesh reflector k (those with pixels, in order) for their
+    passes drawn together (partpasses.py): (parts, label_parts' (labels, stencil, floor,
+    boxes) with part p's pixels labelled p + 1), no stencil of their own; None for a
+    reflector of one part, or of more than MAX_PASSES. `box`: the reflector's pixels'."""
+    sid = scene.n_objects + k
+    reflector = _explosion_reflector(rule, scene, primary, k, camera, shapes, views)
+    first, count, shape, view = reflector[:4]
+    if not 1 < len(shape.parts) <= MAX_PASSES:
+        return None
+    label_of = np.zeros(count + 1, np.uint8)  # reflector face -> its part's label
+    for p, part in enumerate(shape.parts):
+        label_of[part.faces] = p + 1
+    labelled = label_parts(primary, sid, first, label_of, box, ws)
+    seen = [p for p in range(len(shape.parts)) if labelled[3][p, 1] > 0]
+    if len(seen) < len(shape.parts):  # parts with no pixels are left out: labels anew
+        label_of[:] = 0
+        for j, p in enumerate(seen):
+            label_of[shape.parts[p].faces] = j + 1
+        labelled = label_parts(primary, sid, first, label_of, box, ws)
+    if len(seen) < 2:
+        return None  # drawn as one part
+    parts = [_explosion_part(rule, camera, scene_points, reflector, shape.parts[p],
+                             view.parts[p]) for p in seen]
+    return parts, labelled
+
+
+def _explosion_reflector(rule: MethodRule, scene: Scene, primary: Primary, k: int,
+                         camera: Camera, shapes: ShapeCache, views: ViewCache) -> tuple:
+    """(first soup triangle, face count, shape, view, clip_from_world) of mesh reflector
+    k."""
+    sid = scene.n_objects + k
+    tris = primary.triangles
+    first = int(np.flatnonzero(tris.surface == sid)[0])  # the reflector's triangles are
+    count = int(np.count_nonzero(tris.surface == sid))  # contiguous in the soup
+    corners = tris.corners[first:first + count]
+    normals = tris.normals[first:first + count]
+    mode = rule.decompose_overrides.get(scene.mirrors.names[k], rule.decompose)
+    soup = shapes.soup_key(tris.corners, tris.normals, first, count)
+    shape = shapes.get(soup, corners, normals, mode == "auto")
+    clip_from_world = camera.clip_from_world()
+    view = views.get((soup, mode == "auto"), corners, normals, shape, camera, clip_from_world,
+                     rule.explosion.refine == "screen")
+    return first, count, shape, view, clip_from_world
+
+
+def _explosion_part(rule: MethodRule, camera: Camera, scene_points: np.ndarray,
+                    reflector: tuple, part, part_view) -> ExplosionPart:
+    """One part's ExplosionPart (reflector: _explosion_reflector's)."""
+    view, clip_from_world = reflector[3], reflector[4]
+    params = rule.explosion
+    return ExplosionPart(part, part_view, view.depth, view.grid, camera, clip_from_world,
+                         scene_points, params.center, params.near_scale, params.resolution,
+                         params.layers)

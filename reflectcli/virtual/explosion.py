@@ -87,6 +87,12 @@ class ExplosionMaps:
         return self.layers[-1]
 
 
+def scratch(ws, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """An array of `shape` and `dtype`, contents undefined: the workspace's `name` (kept
+    from call to call) if a RasterWorkspace is given, else a fresh one."""
+    return np.empty(shape, dtype) if ws is None else ws.get(name, shape, dtype)
+
+
 def ray_focus(mesh: IndexedMesh, eye: np.ndarray) -> np.ndarray:
     """The point nearest (least squares) to the lines of the front-facing vertices'
     reflection rays: where a concave reflector focuses them, or where a convex one seems to
@@ -146,9 +152,41 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     alone, so a caller that keeps the mesh keeps them too). `lookups` (N, 3 world), if
     given: the only points virtual_vertices will look up in these maps (with `flip_axis`
     as it will be given there). Each layer is then right (ids and core as a whole build
-    gives them) at the texels those points look up; elsewhere it may lack faces,
-    extensions and the nearest fill, and its counts (filled_before_extension,
-    empty_after_extension) are -1 where they were not counted."""
+    gives them) at the texels those points look up; elsewhere its ids and core are
+    undefined (not cleared: nothing reads them), and its counts
+    (filled_before_extension, empty_after_extension) are -1 where they were not
+    counted."""
+    return build_maps_together([map_setup(mesh, eye, center, near_radius, far_radius, res,
+                                          layers, boundary, lookups, flip_axis)]).maps[0]
+
+
+@dataclass
+class MapSetup:
+    """One part's explosion maps before their texels (map_setup): what _build_layers
+    takes for it."""
+
+    mesh: IndexedMesh
+    eye: np.ndarray  # float64 (3,)
+    fixed: np.ndarray  # (V, 3) normals, back-facing ones of profile triangles fixed
+    front: np.ndarray  # (V,) bool
+    used: np.ndarray  # (V,) bool: vertices with map coordinates
+    drawn: np.ndarray  # (D,) int64: faces drawn into the maps
+    extensions: np.ndarray  # (X, 3) int64
+    frame: np.ndarray  # (3, 3)
+    center: np.ndarray  # float64 (3,)
+    radii: np.ndarray  # (L,)
+    res: int
+    s: float
+    lookups: np.ndarray | None  # (N, 3) float64: the points to be looked up, if known
+    flip: np.ndarray  # (3,) their lookup's flip axis
+
+
+def map_setup(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray, near_radius: float,
+              far_radius: float, res: int, layers: int = 2,
+              boundary: np.ndarray | None = None, lookups: np.ndarray | None = None,
+              flip_axis: np.ndarray | None = None) -> MapSetup:
+    """build_explosion_maps' per-vertex and per-face set-up (numpy), for
+    build_maps_together."""
     v, n, f = mesh.vertices, mesh.normals, mesh.faces
     to_eye = eye - v
     front = np.einsum("ij,ij->i", n, to_eye) >= 0.0
@@ -175,43 +213,148 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
     open_edges = boundary[drawn[boundary[:, 0]] & used[boundary[:, 1]] & used[boundary[:, 2]]]
     extensions = np.concatenate([ext.reshape(-1, 3), open_edges])
     frame = map_frame(center, eye)
-    s = res - 2.0
     radii = np.geomspace(near_radius, far_radius, max(layers, 2))
-    count = len(radii)
-    coords = np.empty((count, len(v), 2))
-    ids = np.empty((count, res, res), np.int32)
-    core = np.empty((count, res, res), np.bool_)
+    if lookups is not None:
+        lookups = np.ascontiguousarray(lookups, np.float64)
+    flip = np.zeros(3) if flip_axis is None else np.asarray(flip_axis, np.float64)
+    return MapSetup(mesh, np.asarray(eye, np.float64), fixed, front, used,
+                    np.flatnonzero(drawn), extensions, frame, np.asarray(center, np.float64),
+                    radii, res, res - 2.0, lookups, flip)
+
+
+@dataclass
+class JoinedMaps:
+    """Several parts' explosion maps (build_maps_together): each part's ExplosionMaps, and
+    the joined arrays they are views of, as _build_layers and _virtual_parts take them."""
+
+    maps: list[ExplosionMaps]
+    v: np.ndarray  # (V, 3): part p's vertices are rows starts[p, 0] .. starts[p + 1, 0]
+    n: np.ndarray  # (V, 3) the maps' normals (fixed)
+    faces: np.ndarray  # (F, 3), rows starts[p, 1] .. (vertex indices the part's own)
+    extensions: np.ndarray  # (X, 3), rows starts[p, 3] ..
+    starts: np.ndarray  # (P + 1, 4) int64
+    layer_start: np.ndarray  # (P + 1,) int64: part p's layers
+    radii: np.ndarray  # (L,)
+    centers: np.ndarray  # (P, 3)
+    frames: np.ndarray  # (P, 3, 3)
+    ids: np.ndarray  # (L, res, res)
+    coords: np.ndarray  # (sum over layers of their part's V, 2)
+    coord_start: np.ndarray  # (L + 1,) int64
+    core: np.ndarray  # (L, res, res)
+    res: int
+    s: float
+    # with joined lookups: per point, where it is looked up (_lookup_at: tx, ty, distance;
+    # texel x, y and the part's layer lo)
+    at: np.ndarray | None = None  # (M, 3) float64
+    cell: np.ndarray | None = None  # (M, 3) int64
+
+
+def build_maps_together(setups: list[MapSetup],
+                        joined_lookups: tuple[np.ndarray, np.ndarray] | None = None,
+                        ws=None) -> JoinedMaps:
+    """The explosion maps of several parts (map_setup: the same eye and resolution, all
+    with lookups or all without), every layer of every part in one parallel region
+    (_build_layers): each layer is what building its part alone makes. The mask's 14
+    parts made 14 regions of 6 layers each, each region waiting for its slowest layer.
+    `joined_lookups` (points (M, 3) float64, point_start (P + 1,)): the setups' lookups
+    joined (part p's rows point_start[p] ..): their texels are then marked in one
+    region for all parts (_mark_parts), and where each point is looked up kept
+    (JoinedMaps.at, .cell) for virtual_vertices_together. `ws`: a RasterWorkspace whose
+    arrays hold the maps (tens of megabytes a frame: fresh, their page faults cost more
+    than the work in them); they are then valid until its next use."""
+    res = setups[0].res
+    s = res - 2.0
+    whole = setups[0].lookups is None
+    count = sum(len(u.radii) for u in setups)
+    # per part: its rows of the joined vertex, face, drawn-face and extension arrays;
+    # per layer: its part, and its rows of the joined coordinates
+    starts = np.zeros((len(setups) + 1, 4), np.int64)
+    layer_part = np.empty(count, np.int64)
+    coord_start = np.zeros(count + 1, np.int64)
+    k = 0
+    for p, u in enumerate(setups):
+        starts[p + 1] = starts[p] + (len(u.mesh.vertices), len(u.mesh.faces), len(u.drawn),
+                                     len(u.extensions))
+        for _ in u.radii:
+            layer_part[k] = p
+            coord_start[k + 1] = coord_start[k] + len(u.mesh.vertices)
+            k += 1
+    one = len(setups) == 1
+    v = setups[0].mesh.vertices if one else np.concatenate([u.mesh.vertices for u in setups])
+    n = setups[0].fixed if one else np.concatenate([u.fixed for u in setups])
+    used = setups[0].used if one else np.concatenate([u.used for u in setups])
+    faces = setups[0].mesh.faces if one else np.concatenate([u.mesh.faces for u in setups])
+    drawn = setups[0].drawn if one else np.concatenate([u.drawn for u in setups])
+    extensions = (setups[0].extensions if one
+                  else np.concatenate([u.extensions for u in setups]))
+    centers = np.array([u.center for u in setups])
+    frames = np.array([u.frame for u in setups])
+    radii = np.concatenate([u.radii for u in setups])
+    coords = scratch(ws, "maps_coords", (int(coord_start[-1]), 2), np.float64)
+    ids = scratch(ws, "maps_ids", (count, res, res), np.int32)
+    core = scratch(ws, "maps_core", (count, res, res), np.bool_)
     tally = np.zeros((count, 2), np.int64)
-    center = np.asarray(center, np.float64)
-    if lookups is None:
+    at = cell = None
+    if whole:
         needed = np.zeros((count, 0, 0), np.bool_)  # no restriction
+    elif joined_lookups is not None:
+        needed = scratch(ws, "maps_needed", (count, res, res), np.bool_)
+        needed.fill(False)
+        points, point_start = joined_lookups
+        at = scratch(ws, "maps_at", (points.shape[0], 3), np.float64)
+        cell = scratch(ws, "maps_cell", (points.shape[0], 3), np.int64)
+        layer_start = np.zeros(len(setups) + 1, np.int64)
+        layer_start[1:] = np.cumsum([len(u.radii) for u in setups])
+        _mark_parts(points, point_start, centers, np.array([u.flip for u in setups]), frames,
+                    res, s, radii, layer_start, needed, at, cell)
     else:
         needed = np.zeros((count, res, res), np.bool_)
-        flip = np.zeros(3) if flip_axis is None else np.asarray(flip_axis, np.float64)
-        _mark_lookups(np.ascontiguousarray(lookups, np.float64), center, flip, frame, res, s,
-                      radii, needed)
-    _build_layers(v, fixed, used, np.asarray(eye, np.float64), center,
-                  radii, frame, res, s, f, np.flatnonzero(drawn), extensions, len(f),
-                  EXTENSION_REACH * s, coords, ids, core, tally, needed,
-                  numba.get_num_threads())
-    maps = [ExplosionMap(ids[k], coords[k], radius, int(tally[k, 0]), int(tally[k, 1]),
-                         core[k]) for k, radius in enumerate(radii)]
-    return ExplosionMaps(mesh, fixed, front, frame, np.asarray(center, float), maps,
-                         extensions, res, s, ids, coords, core)
+        k = 0
+        for u in setups:
+            layers = len(u.radii)
+            _mark_lookups(u.lookups, u.center, u.flip, u.frame, res, s, u.radii,
+                          needed[k:k + layers])
+            k += layers
+    _build_layers(v, n, used, faces, drawn, extensions, starts, setups[0].eye, centers,
+                  frames, radii, layer_part, res, s, EXTENSION_REACH * s, coords,
+                  coord_start, ids, core, tally, needed, numba.get_num_threads())
+    out = []
+    k = 0
+    layer_start = np.zeros(len(setups) + 1, np.int64)
+    for p, u in enumerate(setups):
+        layers = len(u.radii)
+        layer_start[p + 1] = layer_start[p] + layers
+        nv = len(u.mesh.vertices)
+        all_coords = coords[coord_start[k]:coord_start[k] + layers * nv].reshape(layers, nv, 2)
+        all_ids, all_cores = ids[k:k + layers], core[k:k + layers]
+        maps = [ExplosionMap(all_ids[j], all_coords[j], radius, int(tally[k + j, 0]),
+                             int(tally[k + j, 1]), all_cores[j])
+                for j, radius in enumerate(u.radii)]
+        out.append(ExplosionMaps(u.mesh, u.fixed, u.front, u.frame, u.center, maps,
+                                 u.extensions, res, s, all_ids, all_coords, all_cores))
+        k += layers
+    return JoinedMaps(out, v, n, faces, extensions, starts, layer_start, radii, centers,
+                      frames, ids, coords, coord_start, core, res, s, at, cell)
 
 
 @njit(cache=True, parallel=True)
-def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, extensions,
-                  n_faces, reach_out, coords, ids, core, tally, needed, threads):
-    """Every layer's map at once, layers claimed one at a time by whichever thread is free
-    (parallel.py; each layer is work of its own, written to its own planes, so no value
-    depends on which thread built it): vertex coordinates, faces, extension quads where
-    still empty, then the nearest filled id in the texels left empty (skipped where no
-    texel a lookup can reach is empty: the texels outside the map's disk then stay -1).
-    coords[k] (V, 2), ids[k], core[k] (res, res): layer k's; tally[k]: texels inside the
-    map's circle filled by faces alone, and left empty after the extensions. needed
-    (layers, res, res) bool: the texels lookups will read (build_explosion_maps' `lookups`),
-    or (layers, 0, 0) for whole layers. `threads`: numba.get_num_threads() of the caller."""
+def _build_layers(v, n, used, faces, drawn, extensions, starts, eye, centers, frames, radii,
+                  layer_part, res, s, reach_out, coords, coord_start, ids, core, tally,
+                  needed, threads):
+    """Every layer's map at once, of one part or several (build_maps_together), layers
+    claimed one at a time by whichever thread is free (parallel.py; each layer is work of
+    its own, written to its own planes, so no value depends on which thread built it):
+    vertex coordinates, faces, extension quads where still empty, then the nearest filled
+    id in the texels left empty (skipped where no texel a lookup can reach is empty: the
+    texels outside the map's disk then stay -1). Part p's vertices (v, n, used), faces,
+    drawn faces and extensions (their indices the part's own) are rows starts[p, 0..3] to
+    starts[p + 1, 0..3] of the joined arrays; layer k is part layer_part[k]'s, on the
+    sphere of radius radii[k] about centers[p] (map frame frames[p]).
+    coords[coord_start[k]:coord_start[k + 1]] (V, 2), ids[k], core[k] (res, res): layer
+    k's; tally[k]: texels inside the map's circle filled by faces alone, and left empty
+    after the extensions. needed (layers, res, res) bool: the texels lookups will read
+    (build_explosion_maps' `lookups`), or (layers, 0, 0) for whole layers. `threads`:
+    numba.get_num_threads() of the caller."""
     half = s / 2.0
     # per texel, once for every layer: its center inside the map's circle, and its square
     # meeting the disk of map points (with rounding to spare: only those are looked up)
@@ -232,9 +375,16 @@ def _build_layers(v, n, used, eye, center, radii, frame, res, s, faces, drawn, e
             k = claim(claimed)
             if k >= count:
                 break
-            _build_layer(k, v, n, used, eye, center, radii[k], frame, res, s, faces, drawn,
-                         extensions, n_faces, reach_out, circle, reach, coords[k], ids[k],
-                         core[k], tally, needed[k])
+            p = layer_part[k]
+            v0, v1 = starts[p, 0], starts[p + 1, 0]
+            f0, f1 = starts[p, 1], starts[p + 1, 1]
+            d0, d1 = starts[p, 2], starts[p + 1, 2]
+            e0, e1 = starts[p, 3], starts[p + 1, 3]
+            _build_layer(k, v[v0:v1], n[v0:v1], used[v0:v1], eye, centers[p], radii[k],
+                         frames[p], res, s, faces[f0:f1], drawn[d0:d1], extensions[e0:e1],
+                         f1 - f0, reach_out, circle, reach,
+                         coords[coord_start[k]:coord_start[k + 1]], ids[k], core[k], tally,
+                         needed[k])
 
 
 @njit(cache=True)
@@ -245,22 +395,22 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
     vectorise; the nearest fill runs only where a lookup could land in an empty texel.
     With `needed` (res, res) marks, the ids and core of the marked texels alone are found,
     texel by texel (_ids_at_marked: the last face holding the texel, else the first
-    extension quad, each by the fill's own tests); elsewhere ids stay -1 and core False,
-    and the counts are -1 (not counted). If a marked texel is still empty, the faces and
-    extensions are drawn over the box of such texels grown by NEAR_MARGINS (a small margin,
-    then a larger one) and the nearest fill searched for there; only where that cannot be
-    sure is the whole layer made (drawing over texels already found changes nothing: a
-    face's texel takes its last face again, and the extensions fill only texels no face
-    holds)."""
+    extension quad, each by the fill's own tests); elsewhere ids and core are left as
+    they were (not cleared), and the counts are -1 (not counted). If a marked texel is
+    still empty, the faces and extensions are drawn over the box of such texels grown by
+    NEAR_MARGINS (a small margin, then a larger one) and the nearest fill searched for
+    there; only where that cannot be sure is the whole layer made (drawing over texels
+    already found changes nothing: a face's texel takes its last face again, and the
+    extensions fill only texels no face holds)."""
     for i in range(coords.shape[0]):
         coords[i, 0] = np.nan
         coords[i, 1] = np.nan
     _vertex_coords(v, n, used, eye, center, radius, frame, res, s, coords)
-    layer[:, :] = -1
     if needed.shape[0] > 0:
         tally[k, 0] = -1
         tally[k, 1] = -1
-        core[:, :] = False
+        # only the marked texels are read: the layer is not cleared first (17 MB a mask
+        # frame); _ids_at_marked writes every marked texel's id and core
         y0, y1, x0, x1 = _marked_box(needed)
         if y0 > y1:
             return  # nothing looked up here
@@ -270,8 +420,12 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
         # a looked-up texel stays empty: its nearest filled texel is most often close by,
         # so the faces and extensions are drawn over the box of such texels grown by each
         # of NEAR_MARGINS in turn, and the fill searched for there (where no box can be
-        # sure, the whole layer is made)
+        # sure, the whole layer is made); the texels there but the marked ones are
+        # cleared first, as in a layer cleared whole
         y0, y1, x0, x1 = _hole_box(layer, needed, y0, y1, x0, x1)
+        grow = NEAR_MARGINS[-1]
+        _clear_unmarked(layer, needed, max(y0 - grow, 0), min(y1 + grow, res - 1),
+                        max(x0 - grow, 0), min(x1 + grow, res - 1))
         for margin in NEAR_MARGINS:
             gy0, gy1 = max(y0 - margin, 0), min(y1 + margin, res - 1)
             gx0, gx1 = max(x0 - margin, 0), min(x1 + margin, res - 1)
@@ -280,6 +434,12 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
                              gy1, gx0, gx1)
             if _fill_marked_nearest(layer, needed, reach, y0, y1, x0, x1, margin):
                 return
+        # the whole layer: the marked texels keep what _ids_at_marked found, which the
+        # whole draw finds again; the others as cleared (drawing over the boxes' texels
+        # again gives them the same ids)
+        _clear_unmarked(layer, needed, 0, res - 1, 0, res - 1)
+    else:
+        layer[:, :] = -1
     _fill_faces(layer, coords, faces, drawn)
     filled = 0
     for y in range(res):
@@ -316,6 +476,15 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
         for x in range(res):
             if empty[y, x]:
                 layer[y, x] = layer[rows[y, x], cols[y, x]]
+
+
+@njit(cache=True)
+def _clear_unmarked(layer, marks, y0, y1, x0, x1):
+    """layer = -1 at the texels of rows y0..y1, columns x0..x1 that are not marked."""
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            if not marks[y, x]:
+                layer[y, x] = -1
 
 
 def boundary_edges(faces: np.ndarray) -> np.ndarray:
@@ -374,6 +543,30 @@ def _mark_lookups(points, center, flip_axis, frame, res, s, radii, needed):
                                          flip_axis, frame, res, s, radii)
         needed[lo, cy, cx] = True
         needed[lo + 1, cy, cx] = True
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _mark_parts(points, point_start, centers, flips, frames, res, s, radii, layer_start,
+                needed, at, cell):
+    """_mark_lookups for several parts at once (part p's points rows point_start[p] ..,
+    its layers layer_start[p] ..), in blocks of points, and each point's _lookup_at
+    answer kept in at (tx, ty, distance) and cell (texel x, y, lo), which _virtual_parts
+    then reads instead of finding it again. Two threads may mark one texel: both store
+    True (a benign race; no value depends on which store lands)."""
+    total = points.shape[0]
+    for b in prange((total + 1023) // 1024):
+        p = 0
+        for i in range(b * 1024, min(total, (b + 1) * 1024)):
+            while point_start[p + 1] <= i:
+                p += 1
+            k0, k1 = layer_start[p], layer_start[p + 1]
+            tx, ty, cx, cy, dist, lo = _lookup_at(points[i, 0], points[i, 1], points[i, 2],
+                                                  centers[p], flips[p], frames[p], res, s,
+                                                  radii[k0:k1])
+            needed[k0 + lo, cy, cx] = True
+            needed[k0 + lo + 1, cy, cx] = True
+            at[i, 0], at[i, 1], at[i, 2] = tx, ty, dist
+            cell[i, 0], cell[i, 1], cell[i, 2] = cx, cy, lo
 
 
 def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.ndarray,
@@ -481,31 +674,126 @@ def _mirror(q, p, nn):
 def _virtual(points, v, n, faces, extensions, ids, coords, radii, center, flip_axis, frame,
              res, s, hidden_face, hidden_screen, screen, cores, out, unreflected):
     for i in prange(points.shape[0]):
-        q = points[i]
         h = hidden_face[i]
-        if h >= 0:  # the hidden map: barycentrics in the reflector triangle on screen
-            p, nn = _screen_plane(faces, h, screen, v, n, hidden_screen[i, 0],
-                                  hidden_screen[i, 1])
-            if nn[0] != 0.0 or nn[1] != 0.0 or nn[2] != 0.0:
-                out[i, 0], out[i, 1], out[i, 2] = _mirror(q, p, nn)
-                continue
+        if h >= 0 and _through_hidden(points, i, faces, h, screen, v, n, hidden_screen, out):
+            continue
         # a point between a concave reflector and the focus of its rays is reached by a ray
         # still travelling toward the focus: look up the direction that ray is going in
-        tx, ty, cx, cy, dist, lo = _lookup_at(q[0], q[1], q[2], center, flip_axis, frame, res,
-                                              s, radii)
-        r_near, r_far = radii[lo], radii[lo + 1]
-        unreflected[i] = not (cores[lo, cy, cx] and cores[lo + 1, cy, cx])
-        pn, nn_ = _plane_from_map(ids[lo], coords[lo], v, n, faces, extensions, tx, ty)
-        pf, nf_ = _plane_from_map(ids[lo + 1], coords[lo + 1], v, n, faces, extensions, tx, ty)
-        has_near = nn_[0] ** 2 + nn_[1] ** 2 + nn_[2] ** 2 > 0
-        has_far = nf_[0] ** 2 + nf_[1] ** 2 + nf_[2] ** 2 > 0
-        wn = 1.0 / max(abs(dist - r_near), 1e-12) if has_near else 0.0
-        wf = 1.0 / max(abs(dist - r_far), 1e-12) if has_far else 0.0
-        if wn + wf == 0.0:
-            out[i, 0], out[i, 1], out[i, 2] = q[0], q[1], q[2]
-            continue
-        xn = _mirror(q, pn, nn_)
-        xf = _mirror(q, pf, nf_)
-        for k in range(3):
-            out[i, k] = (wn * xn[k] + wf * xf[k]) / (wn + wf)
+        tx, ty, cx, cy, dist, lo = _lookup_at(points[i, 0], points[i, 1], points[i, 2],
+                                              center, flip_axis, frame, res, s, radii)
+        _through_maps(points, i, v, n, faces, extensions, ids[lo], ids[lo + 1], coords[lo],
+                      coords[lo + 1], cores[lo], cores[lo + 1], tx, ty, cx, cy, dist,
+                      radii[lo], radii[lo + 1], out, unreflected)
 
+
+@njit(cache=True, inline="always")
+def _through_hidden(points, i, faces, h, screen, v, n, hidden_screen, out):
+    """Point i through the hidden map (its part face h in front of it, at screen position
+    hidden_screen[i]: barycentrics in the reflector triangle on screen) into out[i]; False
+    if the triangle is degenerate there (the point then goes through the maps)."""
+    p, nn = _screen_plane(faces, h, screen, v, n, hidden_screen[i, 0], hidden_screen[i, 1])
+    if nn[0] != 0.0 or nn[1] != 0.0 or nn[2] != 0.0:
+        out[i, 0], out[i, 1], out[i, 2] = _mirror(points[i], p, nn)
+        return True
+    return False
+
+
+@njit(cache=True, inline="always")
+def _through_maps(points, i, v, n, faces, extensions, ids_near, ids_far, coords_near,
+                  coords_far, core_near, core_far, tx, ty, cx, cy, dist, r_near, r_far, out,
+                  unreflected):
+    """Point i through the two maps bracketing it (_lookup_at's answer) into out[i] and
+    unreflected[i]."""
+    q = points[i]
+    unreflected[i] = not (core_near[cy, cx] and core_far[cy, cx])
+    pn, nn_ = _plane_from_map(ids_near, coords_near, v, n, faces, extensions, tx, ty)
+    pf, nf_ = _plane_from_map(ids_far, coords_far, v, n, faces, extensions, tx, ty)
+    has_near = nn_[0] ** 2 + nn_[1] ** 2 + nn_[2] ** 2 > 0
+    has_far = nf_[0] ** 2 + nf_[1] ** 2 + nf_[2] ** 2 > 0
+    wn = 1.0 / max(abs(dist - r_near), 1e-12) if has_near else 0.0
+    wf = 1.0 / max(abs(dist - r_far), 1e-12) if has_far else 0.0
+    if wn + wf == 0.0:
+        out[i, 0], out[i, 1], out[i, 2] = q[0], q[1], q[2]
+        return
+    xn = _mirror(q, pn, nn_)
+    xf = _mirror(q, pf, nf_)
+    for k in range(3):
+        out[i, k] = (wn * xn[k] + wf * xf[k]) / (wn + wf)
+
+
+def virtual_vertices_together(joined: JoinedMaps, points: np.ndarray, point_start: np.ndarray,
+                              hidden_face: np.ndarray, hidden_screen: np.ndarray,
+                              screen_coords: list[np.ndarray],
+                              ws=None) -> tuple[np.ndarray, np.ndarray]:
+    """virtual_vertices for every part of `joined` at once (built with joined_lookups
+    `points` (M, 3), part p's rows point_start[p] ..; with their hidden faces (M,) and
+    screen positions `hidden_screen` (M, 2 or more: x, y first); the part's vertices on
+    the screen screen_coords[p]), in one parallel region (_virtual_parts): (virtual (M, 3),
+    flags (M,)), each part's rows what virtual_vertices gives it (`ws`: as
+    build_maps_together's)."""
+    counts = np.diff(point_start)
+    chunk_start = np.zeros(len(counts) + 1, np.int64)
+    chunk_start[1:] = np.cumsum((counts + _LOOKUP_CHUNK - 1) // _LOOKUP_CHUNK)
+    total = points.shape[0]
+    out = scratch(ws, "lookup_out", (total, 3), np.float64)
+    unreflected = scratch(ws, "lookup_unreflected", (total,), np.bool_)
+    unreflected.fill(False)
+    _virtual_parts(np.ascontiguousarray(points, np.float64), point_start, chunk_start,
+                   joined.v, joined.n, joined.faces, joined.extensions, joined.starts,
+                   joined.layer_start, joined.ids, joined.coords, joined.coord_start,
+                   joined.radii, joined.at, joined.cell, hidden_face, hidden_screen,
+                   np.ascontiguousarray(np.concatenate(screen_coords), np.float64),
+                   joined.core, out, unreflected, numba.get_num_threads())
+    return out, (hidden_face >= 0) | unreflected
+
+
+_LOOKUP_CHUNK = 256  # points claimed at a time by a thread in _virtual_parts
+
+
+@njit(cache=True, parallel=True)
+def _virtual_parts(points, point_start, chunk_start, v, n, faces, extensions, starts,
+                   layer_start, ids, coords, coord_start, radii, at, cell, hidden_face,
+                   hidden_screen, screen, cores, out, unreflected, threads):
+    """_virtual for the points of several parts (part p's points rows point_start[p] ..;
+    its vertices (and their screen positions `screen`), faces and extensions its rows of
+    the joined arrays, starts as in _build_layers; its layers layer_start[p] ..; where
+    each point is looked up, at and cell: _mark_parts'), the same arithmetic point by
+    point. Each part's points go in chunks (chunk_start[p] ..) claimed by whichever
+    thread is free (parallel.py): hidden points cost a few ns, the others two map reads
+    far apart."""
+    chunks = chunk_start[-1]
+    claimed = counter()
+    for _worker in prange(min(threads, chunks)):
+        while True:
+            c = claim(claimed)
+            if c >= chunks:
+                break
+            p = 0
+            while chunk_start[p + 1] <= c:
+                p += 1
+            a = point_start[p] + (c - chunk_start[p]) * _LOOKUP_CHUNK
+            v0, v1 = starts[p, 0], starts[p + 1, 0]
+            _virtual_chunk(points[a:min(point_start[p + 1], a + _LOOKUP_CHUNK)], v[v0:v1],
+                           n[v0:v1], faces[starts[p, 1]:starts[p + 1, 1]],
+                           extensions[starts[p, 3]:starts[p + 1, 3]], ids, coords,
+                           coord_start, layer_start[p], radii[layer_start[p]:layer_start[p + 1]],
+                           at[a:], cell[a:], hidden_face[a:], hidden_screen[a:],
+                           screen[v0:v1], cores, out[a:], unreflected[a:])
+
+
+@njit(cache=True)
+def _virtual_chunk(points, v, n, faces, extensions, ids, coords, coord_start, k0, radii, at,
+                   cell, hidden_face, hidden_screen, screen, cores, out, unreflected):
+    """_virtual's loop over one chunk of one part's points (its layers k0 .. of the joined
+    ids, coords and cores; radii its own)."""
+    for i in range(points.shape[0]):
+        h = hidden_face[i]
+        if h >= 0 and _through_hidden(points, i, faces, h, screen, v, n, hidden_screen, out):
+            continue
+        lo = cell[i, 2]
+        k = k0 + lo
+        _through_maps(points, i, v, n, faces, extensions, ids[k], ids[k + 1],
+                      coords[coord_start[k]:coord_start[k + 1]],
+                      coords[coord_start[k + 1]:coord_start[k + 2]], cores[k], cores[k + 1],
+                      at[i, 0], at[i, 1], cell[i, 0], cell[i, 1], at[i, 2], radii[lo],
+                      radii[lo + 1], out, unreflected)

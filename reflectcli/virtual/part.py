@@ -30,9 +30,10 @@ class ExplosionPart:
         bound = float(np.linalg.norm(part.vertices - centre, axis=1).max())
         far = float(np.linalg.norm(scene_points - centre, axis=1).max()) * 1.01
         near = max(bound * near_scale, 1e-6)
-        self._build = (part, camera.eye, centre, near, max(far, near * 1.01), resolution,
-                       layers, shape.boundary)
-        self._maps: ExplosionMaps | None = None
+        # build_explosion_maps' arguments (before lookups), and the maps once built whole
+        self.build_args = (part, camera.eye, centre, near, max(far, near * 1.01), resolution,
+                           layers, shape.boundary)
+        self.built: ExplosionMaps | None = None
         # a concave part looks maps up along its mean front normal (see virtual_vertices);
         # front-facing vertices as build_explosion_maps finds them
         front = np.einsum("ij,ij->i", part.normals, camera.eye - part.vertices) >= 0.0
@@ -51,9 +52,9 @@ class ExplosionPart:
     @property
     def maps(self) -> ExplosionMaps:
         """The part's explosion maps, whole."""
-        if self._maps is None:
-            self._maps = build_explosion_maps(*self._build)
-        return self._maps
+        if self.built is None:
+            self.built = build_explosion_maps(*self.build_args)
+        return self.built
 
     def __call__(self, points: np.ndarray, polygons: np.ndarray | None = None):
         """(virtual points, flags). With `polygons` (T, 3) point indices, points no ray of
@@ -88,9 +89,10 @@ class ExplosionPart:
         if proj is None:
             proj = screen_from_world(points, self.clip_from_world, camera.width, camera.height)
         face = self.view.faces_behind(proj, self.depth)  # part face in front of a hidden point
-        maps = self._maps
+        maps = self.built
         if maps is None:  # built for these points only (they are this part's lookups)
-            maps = build_explosion_maps(*self._build, lookups=points, flip_axis=self.flip)
+            maps = build_explosion_maps(*self.build_args, lookups=points,
+                                        flip_axis=self.flip)
         virtual, flags = virtual_vertices(maps, points, face, proj[:, :2].copy(),
                                           self.screen, self.flip)
         if self.grid is not None:
@@ -103,7 +105,15 @@ class ExplosionPart:
             refined, status = refine_virtual(points, seeds, self.view.owner, self.grid[0],
                                              self.grid[1], camera.eye, retry,
                                              reach=reach, part=self.view.part)
-            found = np.flatnonzero(status != NONE)
-            virtual[found] = refined.take(found, axis=0)
-            flags = (flags & (status != EXACT)) | (status == BOUNDARY)
+            virtual, flags = merge_refined(virtual, flags, refined, status)
         return virtual, flags
+
+
+def merge_refined(virtual: np.ndarray, flags: np.ndarray, refined: np.ndarray,
+                  status: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The map's answers (virtual (N, 3), flags (N,)) with the refinement's (refine_virtual:
+    refined, status) where it found one: virtual written in place; flags kept where the
+    refinement was not exact, and set where it ended at the part's boundary."""
+    found = np.flatnonzero(status != NONE)
+    virtual[found] = refined.take(found, axis=0)
+    return virtual, (flags & (status != EXACT)) | (status == BOUNDARY)

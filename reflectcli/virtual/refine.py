@@ -144,16 +144,35 @@ def refine_virtual(points: np.ndarray, seeds: np.ndarray, inside: np.ndarray, q:
     BOUNDARY where the search left the part (see _walk), NONE (rows NaN) where it never
     sampled the part."""
     owner, part = owner_plane(inside, part)
-    out = np.full(points.shape, np.nan)
-    ok = np.zeros(points.shape[0], np.int8)
+    return refine_parts(points, seeds, owner, np.full(points.shape[0], part, np.int32), q, r,
+                        eye, retry_seeds, iterations, reach)
+
+
+def refine_parts(points: np.ndarray, seeds: np.ndarray, owner: np.ndarray, parts: np.ndarray,
+                 q: np.ndarray, r: np.ndarray, eye: np.ndarray,
+                 retry_seeds: np.ndarray | None = None, iterations: int = 20,
+                 reach: np.ndarray | None = None,
+                 out: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """refine_virtual for points of several parts of one reflector at once: point i
+    searched within part parts[i] (N,) int32 of the owner plane `owner` (view.part_views).
+    Each point's answer is the one refine_virtual gives it alone; one parallel region for
+    all parts (parts.py: the mask's 14 parts made 14 regions, the small ones' walks left
+    a thread idle at their ends). `out`: (N, 3) float64 and (N,) int8 arrays to answer
+    in (reused across frames), else fresh ones."""
+    if out is None:
+        out = np.empty(points.shape), np.empty(points.shape[0], np.int8)
+    out, ok = out
+    out.fill(np.nan)
+    ok.fill(0)
     if retry_seeds is None:
         retry_seeds = np.full(points.shape[:1] + (2,), np.nan)
     if reach is None:
         reach = np.ones(points.shape[0], np.bool_)
     _refine(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(seeds, np.float64),
-            owner, part, q, r, np.asarray(eye, np.float64), iterations,
-            np.ascontiguousarray(retry_seeds, np.float64), np.ascontiguousarray(reach, np.bool_),
-            out, ok, numba.get_num_threads())
+            owner, np.ascontiguousarray(parts, np.int32), q, r, np.asarray(eye, np.float64),
+            iterations, np.ascontiguousarray(retry_seeds, np.float64),
+            np.ascontiguousarray(reach, np.bool_), out, ok, numba.get_num_threads())
     return out, ok
 
 
@@ -335,13 +354,14 @@ _LANES = 4  # walks run side by side by a thread
 
 
 @njit(cache=True, parallel=True)
-def _refine(points, seeds, owner, part, q, r, eye, iterations, retry, reach, out, ok, threads):
-    """refine_virtual's search, point by point. Walks take 1 to 2 x `iterations` steps, so
-    points go in chunks claimed by whichever thread is free (parallel.py); each point's
-    answer is its own, whoever finds it. A thread runs _LANES walks side by side, a step of
-    each in turn: a step is a chain of divisions and square roots, each waiting on the
-    last, and the steps of other walks fill those waits. A lane whose walk ends takes the
-    point's retry, or the chunk's next point."""
+def _refine(points, seeds, owner, parts, q, r, eye, iterations, retry, reach, out, ok,
+            threads):
+    """refine_parts' search, point by point (point i in part parts[i] of `owner`). Walks
+    take 1 to 2 x `iterations` steps, so points go in chunks claimed by whichever thread
+    is free (parallel.py); each point's answer is its own, whoever finds it. A thread runs
+    _LANES walks side by side, a step of each in turn: a step is a chain of divisions and
+    square roots, each waiting on the last, and the steps of other walks fill those waits.
+    A lane whose walk ends takes the point's retry, or the chunk's next point."""
     n = points.shape[0]
     chunks = (n + _CHUNK - 1) // _CHUNK
     claimed = counter()
@@ -371,7 +391,7 @@ def _refine(points, seeds, owner, part, q, r, eye, iterations, retry, reach, out
                     if i < 0:
                         continue
                     go, sx, sy, st, e0, e1, e2, r0, r1, r2 = _step(
-                        points[i, 0], points[i, 1], points[i, 2], owner, part, q, r,
+                        points[i, 0], points[i, 1], points[i, 2], owner, parts[i], q, r,
                         state[j, 0], state[j, 1], status[j], state[j, 2], state[j, 3],
                         state[j, 4], state[j, 5], state[j, 6], state[j, 7])
                     steps[j] += 1

@@ -36,13 +36,40 @@ class PartTiles:
             ys, xs = np.nonzero(owner == part)
             tiles = np.unique((ys // size) * (w // size + 1) + xs // size)
         n = tiles.size
-        self.center = np.empty((n, 3))
-        self.radius = np.empty(n)
-        self.axis = np.empty((n, 3))
-        self.half = np.empty(n)
-        self.pixel = np.empty((n, 2))
-        _tile_bounds(owner, part, q, r, tiles, size, self.center, self.radius, self.axis,
-                     self.half, self.pixel)
+        bounds = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)), np.empty(n),
+                  np.empty((n, 2)))
+        _tile_bounds(owner, np.full(n, part, np.int64), q, r, np.asarray(tiles, np.int64),
+                     size, *bounds)
+        self._set(bounds, margin_degrees)
+
+    @classmethod
+    def of_parts(cls, owner: np.ndarray, q: np.ndarray, r: np.ndarray, size: int,
+                 tiles: list[np.ndarray], margin_degrees: float = 1.0) -> list[PartTiles]:
+        """[PartTiles(owner, q, r, size, margin_degrees, tiles[p], part=p) for each p],
+        every part's tile bounds in one parallel region (the same bounds: each tile's are
+        its own)."""
+        counts = [len(t) for t in tiles]
+        n = sum(counts)
+        bounds = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)), np.empty(n),
+                  np.empty((n, 2)))
+        _tile_bounds(owner, np.repeat(np.arange(len(tiles), dtype=np.int64), counts), q, r,
+                     np.concatenate(tiles).astype(np.int64), size, *bounds)
+        out = []
+        start = 0
+        for count in counts:
+            part = cls.__new__(cls)
+            # copies: fresh arrays, as PartTiles makes them (numpy's reductions below then
+            # meet the same memory layout)
+            part._set(tuple(b[start:start + count].copy() for b in bounds), margin_degrees)
+            out.append(part)
+            start += count
+        return out
+
+    def _set(self, bounds: tuple, margin_degrees: float) -> None:
+        """The tiles' bounds (center, radius, axis, half, pixel: _tile_bounds), and the
+        part's ball and cone holding them."""
+        self.center, self.radius, self.axis, self.half, self.pixel = bounds
+        n = self.radius.size
         self.margin = math.radians(margin_degrees)
         # one ball and cone holding every tile's (with their margins): a point outside the
         # part's cone is outside every tile's (see candidates)
@@ -145,22 +172,28 @@ def _candidates(points, center, radius, axis, cos_a, sin_a, a, out):
     """PartTiles.candidates per point: outside the ball (radius) and the cone (axis, half-angle
     a) grown by the ball's spread, with 1e-9 to spare; cos_a, sin_a of a. One thread: a few
     ns a point, less than a parallel loop's start on a busy machine."""
-    wide_cone = a >= 0.5 * math.pi
     for k in range(points.shape[0]):
-        v0 = points[k, 0] - center[0]
-        v1 = points[k, 1] - center[1]
-        v2 = points[k, 2] - center[2]
-        dist = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-        sin_s = min(radius / dist, 1.0)
-        c = (v0 * axis[0] + v1 * axis[1] + v2 * axis[2]) / dist
-        bound = cos_a * math.sqrt(1.0 - sin_s * sin_s) - sin_a * sin_s
-        wide = wide_cone and a + math.asin(sin_s) >= math.pi
-        out[k] = not (c < bound - 1e-9) or dist <= radius or sin_s >= 1.0 or wide
+        out[k] = _candidate(points, k, center, radius, axis, cos_a, sin_a, a)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _candidate(points, k, center, radius, axis, cos_a, sin_a, a):
+    """_candidates' test of point k."""
+    v0 = points[k, 0] - center[0]
+    v1 = points[k, 1] - center[1]
+    v2 = points[k, 2] - center[2]
+    dist = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    sin_s = min(radius / dist, 1.0)
+    c = (v0 * axis[0] + v1 * axis[1] + v2 * axis[2]) / dist
+    bound = cos_a * math.sqrt(1.0 - sin_s * sin_s) - sin_a * sin_s
+    wide = a >= 0.5 * math.pi and a + math.asin(sin_s) >= math.pi
+    return not (c < bound - 1e-9) or dist <= radius or sin_s >= 1.0 or wide
 
 
 @njit(cache=True, parallel=True)
-def _tile_bounds(owner, part, q, r, tiles, size, center, radius, axis, half, pixel):
-    """Per tile (id ty * (W // size + 1) + tx): over its part pixels (owner == part) grown
+def _tile_bounds(owner, tile_part, q, r, tiles, size, center, radius, axis, half, pixel):
+    """Per tile j (id tiles[j] = ty * (W // size + 1) + tx, of part tile_part[j]): over its
+    part pixels (owner == part) grown
     by the row above and the column left, the ball (mean of Q, farthest Q from it), the
     cone (unit sum of R, widest angle from it) and the seed (its own pixel, not the grown
     ones, whose Q is nearest the mean; the first in row-major order on ties), as numpy's
@@ -169,6 +202,7 @@ def _tile_bounds(owner, part, q, r, tiles, size, center, radius, axis, half, pix
     w = owner.shape[1]
     across = w // size + 1
     for j in prange(tiles.shape[0]):
+        part = tile_part[j]
         ty, tx = divmod(tiles[j], across)
         y0, x0 = ty * size, tx * size
         ey, ex = max(y0 - 1, 0), max(x0 - 1, 0)  # grown up and left by a pixel
@@ -261,28 +295,35 @@ def _scan(points, rows, center, radius, axis, half, pixel, margin, q, r, reach, 
     other). Each point meets the tiles in the same order, with the same arithmetic, as
     one at a time."""
     n = rows.shape[0]
-    tiles = center.shape[0]
     cos_a = np.cos(half + margin)
     sin_a = np.sin(half + margin)
     seed, wide = _seed_rays(pixel, margin, half, q, r)
     blocks = (n + _BLOCK - 1) // _BLOCK
     for b in prange(blocks):
-        k0 = b * _BLOCK
-        count = min(n, k0 + _BLOCK) - k0
-        s = np.empty((7, _BLOCK))  # x, y, z, best_in, best_any, j_in, j_any
-        _load_block(points, rows, k0, count, s)
-        for j in range(tiles):
-            _scan_tile(s, count, j, center, radius, axis, half, margin, cos_a, sin_a, seed,
-                       wide[j])
-        for k in range(count):
-            j_in = int(s[5, k])
-            j_any = int(s[6, k])
-            i = rows[k0 + k]
-            reach[i] = j_in >= 0
-            jj = j_in if j_in >= 0 else j_any
-            if jj >= 0:
-                seeds[i, 0] = pixel[jj, 0]
-                seeds[i, 1] = pixel[jj, 1]
+        _scan_block(b, points, rows, n, center, radius, axis, half, pixel, margin, cos_a,
+                    sin_a, seed, wide, reach, seeds)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _scan_block(b, points, rows, n, center, radius, axis, half, pixel, margin, cos_a, sin_a,
+                seed, wide, reach, seeds):
+    """Block b of _scan."""
+    k0 = b * _BLOCK
+    count = min(n, k0 + _BLOCK) - k0
+    s = np.empty((7, _BLOCK))  # x, y, z, best_in, best_any, j_in, j_any
+    _load_block(points, rows, k0, count, s)
+    for j in range(center.shape[0]):
+        _scan_tile(s, count, j, center, radius, axis, half, margin, cos_a, sin_a, seed,
+                   wide[j])
+    for k in range(count):
+        j_in = int(s[5, k])
+        j_any = int(s[6, k])
+        i = rows[k0 + k]
+        reach[i] = j_in >= 0
+        jj = j_in if j_in >= 0 else j_any
+        if jj >= 0:
+            seeds[i, 0] = pixel[jj, 0]
+            seeds[i, 1] = pixel[jj, 1]
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -432,3 +473,165 @@ def _scan_tile(s, count, j, center, radius, axis, half, margin, cos_a, sin_a, se
         if inside and e < s[3, k]:
             s[3, k] = e
             s[5, k] = jf
+
+
+def scan_parts(parts: list[PartTiles], points: np.ndarray, q: np.ndarray, r: np.ndarray,
+               polygons: np.ndarray, ws=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(reach (P, N), seeds (P, N, 2), todo (P, N)): row p is part p's
+    scan_needed(points, q, r, polygons) (the parts of one reflector: q and r their ray
+    grid, one margin), each pass one parallel region for all
+    parts: the cull by each part's ball and cone (_candidates_parts), the tiles reaching
+    each point (_scan_reached_parts), the polygon join (_join_parts), the seeds of the
+    points needed but reached by none (_scan_parts). Each point's answers in each part
+    are the part's alone: the same tests in the same order. `ws`: a RasterWorkspace to
+    hold the arrays (valid until its next use), else fresh ones."""
+    count = len(parts)
+    n = points.shape[0]
+    points = np.ascontiguousarray(points, np.float64)
+    polygons = np.ascontiguousarray(polygons, np.int64)
+    margin = parts[0].margin
+    assert all(part.margin == margin for part in parts)
+    # each part's ball and cone, with cos and sin of its angle as candidates() takes them
+    ball = np.empty((count, 9))
+    for p, part in enumerate(parts):
+        a = part.part_half + part.margin
+        ball[p, :3] = part.part_center
+        ball[p, 3:6] = part.part_axis
+        ball[p, 6:] = math.cos(a), math.sin(a), a
+    radius = np.array([part.part_radius for part in parts])
+    near = _scratch(ws, "scan_near", (count, n), np.bool_)
+    _candidates_parts(points, ball, radius, near)
+    # the parts' tiles joined: part p's are rows tile_start[p] ..
+    tile_start = np.zeros(count + 1, np.int64)
+    tile_start[1:] = np.cumsum([len(part.radius) for part in parts])
+    tiles = (np.concatenate([part.center for part in parts]),
+             np.concatenate([part.radius for part in parts]),
+             np.concatenate([part.axis for part in parts]),
+             np.concatenate([part.half for part in parts]),
+             np.concatenate([part.pixel for part in parts]))
+    reach = _scratch(ws, "scan_reach", (count, n), np.bool_)
+    reach.fill(False)
+    seeds = _scratch(ws, "scan_seeds", (count, n, 2), np.float64)
+    seeds.fill(np.nan)
+    rows, row_start, block_start = rows_of(near)
+    _scan_reached_parts(points, rows, row_start, block_start, tile_start, *tiles, margin, q,
+                        r, reach, seeds, numba.get_num_threads())
+    todo = _scratch(ws, "scan_todo", (count, n), np.bool_)
+    todo[:] = reach
+    _join_parts(reach, polygons, todo)
+    rows, row_start, block_start = rows_of(todo & ~reach)
+    if rows.size:
+        _scan_parts(points, rows, row_start, block_start, tile_start, *tiles, margin, q, r,
+                    reach, seeds)
+    return reach, seeds, todo
+
+
+def _scratch(ws, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """The workspace's array `name` if a RasterWorkspace is given, else a fresh one."""
+    return np.empty(shape, dtype) if ws is None else ws.get(name, shape, dtype)
+
+
+def rows_of(marks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rows: the marked points of each part (P, N) joined, row_start (P + 1,): part p's
+    rows, block_start (P + 1,): the first _BLOCK of part p's rows)."""
+    per = [np.flatnonzero(m) for m in marks]
+    row_start = np.zeros(len(per) + 1, np.int64)
+    row_start[1:] = np.cumsum([len(x) for x in per])
+    block_start = np.zeros(len(per) + 1, np.int64)
+    block_start[1:] = np.cumsum([(len(x) + _BLOCK - 1) // _BLOCK for x in per])
+    return np.concatenate(per).astype(np.int64), row_start, block_start
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _candidates_parts(points, ball, radius, out):
+    """_candidates for several parts at once: out[p] (N,) the points part p's ball and cone
+    may reach (ball[p]: center, axis, cos a, sin a, a; radius[p]); one region, the parts'
+    blocks of points handed out in turn."""
+    n = points.shape[0]
+    blocks = (n + 1023) // 1024
+    for item in prange(ball.shape[0] * blocks):
+        p = item // blocks
+        k0 = (item % blocks) * 1024
+        for k in range(k0, min(n, k0 + 1024)):
+            out[p, k] = _candidate(points, k, ball[p, :3], radius[p], ball[p, 3:6],
+                                   ball[p, 6], ball[p, 7], ball[p, 8])
+
+
+@njit(cache=True, parallel=True)
+def _join_parts(flag, polygons, out):
+    """joined for several parts at once: out[p] = flag[p] and every point of a polygon one
+    of whose points has it (out starts as a copy of flag)."""
+    for p in prange(flag.shape[0]):
+        _join(flag[p], polygons, out[p])
+
+
+@njit(cache=True, inline="always")
+def _part_of_block(block_start, b):
+    """The part whose blocks hold block b (block_start: each part's first)."""
+    p = 0
+    while block_start[p + 1] <= b:
+        p += 1
+    return p
+
+
+@njit(cache=True)
+def _tile_rays(pixel, half, margin, q, r):
+    """(cos, sin of each tile's half-angle with the margin, its seed ray, its wide flag)
+    as _scan and _scan_reached make them (math.cos and np.cos of an array take the same
+    libm call), in one thread: no parallel loop of their own."""
+    tiles = pixel.shape[0]
+    cos_a = np.empty(tiles)
+    sin_a = np.empty(tiles)
+    for j in range(tiles):
+        cos_a[j] = math.cos(half[j] + margin)
+        sin_a[j] = math.sin(half[j] + margin)
+    seed = np.empty((tiles, 6))
+    wide = np.empty(tiles, np.bool_)
+    for j in range(tiles):
+        x = int(pixel[j, 0])
+        y = int(pixel[j, 1])
+        for i in range(3):
+            seed[j, i] = q[y, x, i]
+            seed[j, 3 + i] = r[y, x, i]
+        wide[j] = half[j] + margin >= 0.5 * math.pi
+    return cos_a, sin_a, seed, wide
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _scan_reached_parts(points, rows, row_start, block_start, tile_start, center, radius,
+                        axis, half, pixel, margin, q, r, reach, seeds, threads):
+    """_scan_reached for several parts at once: part p's points rows[row_start[p]:
+    row_start[p + 1]], its tiles rows tile_start[p] .. of the joined tile arrays, its
+    answers into reach[p] and seeds[p]; its blocks (block_start[p] ..) claimed with every
+    other part's by whichever thread is free. Each block is the block of _scan_reached on
+    the part alone."""
+    cos_a, sin_a, seed, wide = _tile_rays(pixel, half, margin, q, r)
+    blocks = block_start[-1]
+    claimed = counter()
+    for _worker in prange(min(threads, blocks)):
+        while True:
+            b = claim(claimed)
+            if b >= blocks:
+                break
+            p = _part_of_block(block_start, b)
+            r0, r1 = row_start[p], row_start[p + 1]
+            t0, t1 = tile_start[p], tile_start[p + 1]
+            _reached_block(b - block_start[p], points, rows[r0:r1], r1 - r0, center[t0:t1],
+                           radius[t0:t1], axis[t0:t1], half[t0:t1], pixel[t0:t1], margin,
+                           cos_a[t0:t1], sin_a[t0:t1], seed[t0:t1], wide[t0:t1], reach[p],
+                           seeds[p])
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _scan_parts(points, rows, row_start, block_start, tile_start, center, radius, axis, half,
+                pixel, margin, q, r, reach, seeds):
+    """_scan for several parts at once (as _scan_reached_parts lays them out), blocks in
+    one parallel loop."""
+    cos_a, sin_a, seed, wide = _tile_rays(pixel, half, margin, q, r)
+    for b in prange(block_start[-1]):
+        p = _part_of_block(block_start, b)
+        r0, r1 = row_start[p], row_start[p + 1]
+        t0, t1 = tile_start[p], tile_start[p + 1]
+        _scan_block(b - block_start[p], points, rows[r0:r1], r1 - r0, center[t0:t1],
+                    radius[t0:t1], axis[t0:t1], half[t0:t1], pixel[t0:t1], margin,
+                    cos_a[t0:t1], sin_a[t0:t1], seed[t0:t1], wide[t0:t1], reach[p], seeds[p])

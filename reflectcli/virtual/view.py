@@ -71,15 +71,20 @@ def _faces_behind(screen, depth, triangle, local, out):
     """PartView.faces_behind. A point counts if its depth is > 0 and its x, y lie in
     [0, W) x [0, H) (the same as flooring them first; NaN fails every test). One thread:
     a few ns a point."""
-    h, w = depth.shape
     for i in range(screen.shape[0]):
-        out[i] = -1
-        x, y, z = screen[i, 0], screen[i, 1], screen[i, 2]
-        if not (z > 0.0 and x >= 0.0 and y >= 0.0 and x < w and y < h):
-            continue
-        xi, yi = int(math.floor(x)), int(math.floor(y))
-        if z > depth[yi, xi]:
-            out[i] = local[triangle[yi, xi]]
+        out[i] = face_behind(screen[i, 0], screen[i, 1], screen[i, 2], depth, triangle, local)
+
+
+@njit(cache=True, inline="always")
+def face_behind(x, y, z, depth, triangle, local):
+    """_faces_behind's answer for one point at screen (x, y), eye depth z."""
+    h, w = depth.shape
+    if not (z > 0.0 and x >= 0.0 and y >= 0.0 and x < w and y < h):
+        return -1
+    xi, yi = int(math.floor(x)), int(math.floor(y))
+    if z > depth[yi, xi]:
+        return local[triangle[yi, xi]]
+    return -1
 
 
 @dataclass(frozen=True)
@@ -111,12 +116,12 @@ def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorSha
     part_views(alone.triangle, part_of, TILE, owner, marks)
     views = []
     on_screen = PointsOnScreen()
+    tiles = [None] * parts
+    if grid is not None:  # every part's tiles in one region
+        tiles = PartTiles.of_parts(owner, grid[0], grid[1], TILE,
+                                   [np.flatnonzero(marks[p]) for p in range(parts)])
     for p in range(parts):
-        tiles = None
-        if grid is not None:
-            tiles = PartTiles(owner, grid[0], grid[1], TILE, tiles=np.flatnonzero(marks[p]),
-                              part=p)
-        views.append(PartView(owner, p, alone.triangle, local[p], tiles, on_screen))
+        views.append(PartView(owner, p, alone.triangle, local[p], tiles[p], on_screen))
     return ReflectorView(alone.depth, grid, tuple(views))
 
 

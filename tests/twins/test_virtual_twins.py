@@ -325,3 +325,121 @@ def test_spheres_together_give_each_sphere_s_bytes():
         want, want_hidden = circle.sphere_virtual_vertices(part, eye, centers[s], radii[s])
         assert out[starts[s]:starts[s + 1]].tobytes() == want.tobytes()
         assert hidden[starts[s]:starts[s + 1]].tobytes() == want_hidden.tobytes()
+
+
+def test_part_labels_match_twin():
+    """A reflector's part labels, stencil, depth floor and per-label boxes in its box, on
+    random buffers (faces of other surfaces, ids outside the reflector's faces, labels
+    with no pixel), against the twin; nothing outside the box is written."""
+    from naive import part_labels as naive_part_labels
+
+    from reflectcli.virtual.partpasses import part_labels
+
+    rng = np.random.default_rng(12)
+    h, w, first, count = 40, 56, 30, 50
+    triangle = rng.integers(-1, first + count + 20, (h, w)).astype(np.int32)
+    surface = rng.integers(0, 4, (h, w)).astype(np.int32)
+    surface[5:30, 8:40] = 2  # the reflector's pixels lie in its box
+    surface[:5] = np.where(surface[:5] == 2, 3, surface[:5])
+    surface[30:] = np.where(surface[30:] == 2, 3, surface[30:])
+    surface[:, :8] = np.where(surface[:, :8] == 2, 3, surface[:, :8])
+    surface[:, 40:] = np.where(surface[:, 40:] == 2, 3, surface[:, 40:])
+    depth = rng.uniform(1, 9, (h, w)).astype(np.float32)
+    label_of = np.zeros(count + 1, np.uint8)
+    label_of[:count] = rng.integers(1, 6, count)
+    label_of[label_of == 4] = 3  # label 4 has no face: its box stays zero
+    want = naive_part_labels(triangle, surface, 2, first, label_of, depth)
+    labels = np.full((h, w), 77, np.uint8)
+    stencil = np.ones((h, w), np.bool_)
+    floor = np.full((h, w), -1.0, np.float32)
+    boxes = np.empty((int(label_of.max()), 4), np.int64)
+    part_labels(triangle, surface, 2, first, label_of, 5, 30, 8, 40, depth, labels, stencil,
+                floor, boxes)
+    np.testing.assert_array_equal(boxes, want[3])
+    assert not boxes[3].any()
+    for got, wanted, outside in zip((labels, stencil, floor), want[:3], (77, True, -1.0),
+                                    strict=True):
+        np.testing.assert_array_equal(got[5:30, 8:40], wanted[5:30, 8:40])
+        inside = np.zeros((h, w), bool)
+        inside[5:30, 8:40] = True
+        assert (got[~inside] == outside).all()
+
+
+def _mask_frame(threads):
+    """The mask scene at 160 x 160 (several parts seen), prepared at `threads`."""
+    import numba
+    from conftest import SCENES
+
+    from reflectcli.camera import camera_from_config
+    from reflectcli.loading import load_config
+    from reflectcli.scene.build import build_scene
+    from reflectcli.techniques.virtual.technique import Virtual
+
+    numba.set_num_threads(threads)
+    path = str(SCENES / "mask.toml")
+    cfg, _ = load_config(path, ["camera.width=160", "camera.height=160"], "virtual")
+    scene = build_scene(cfg, path)
+    cam = camera_from_config(cfg.camera, 0)
+    technique = Virtual(cfg.technique)
+    return cfg, scene, cam, technique, technique.prepare(scene)
+
+
+@compiled_only
+@pytest.mark.parametrize("threads", [1, 2])
+def test_parts_together_give_each_part_s_answers(threads):
+    """A reflector's parts worked stage by stage (parts_vertices: tile scans, maps,
+    lookups and refinement each in one region for all parts; its arrays fresh or in a
+    workspace used twice) give each part the very bytes of its own call
+    (ExplosionPart.__call__, whose stages are held to their twins)."""
+    import numba
+
+    from reflectcli.raster.primary import render_primary
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.virtual.dispatch import reflector_parts
+    from reflectcli.virtual.parts import parts_vertices
+
+    before = numba.get_num_threads()
+    try:
+        cfg, scene, cam, technique, state = _mask_frame(threads)
+        primary = render_primary(scene, 0, cam)
+        tess = state.reflected.get(scene.geometry(0), scene.n_objects, 0,
+                                   cfg.technique.tessellation, closed=state.closed)
+        parts = [fn for _, fn in reflector_parts(cfg.technique, scene, primary, 0, cam,
+                                                 state.scene_points, state.shapes,
+                                                 state.views)]
+        assert len(parts) > 4
+        want = [part(tess.points, tess.corner_index) for part in parts]
+        ws = RasterWorkspace(outputs=True)
+        for workspace in (None, ws, ws):
+            virtual, flags = parts_vertices(parts, tess.points, tess.corner_index,
+                                            workspace)
+            assert virtual.shape == (len(parts), len(tess.points), 3)
+            for p, (v, f) in enumerate(want):
+                assert virtual[p].tobytes() == v.tobytes()
+                assert flags[p].tobytes() == f.tobytes()
+    finally:
+        numba.set_num_threads(before)
+
+
+@compiled_only
+@pytest.mark.parametrize("threads", [1, 2])
+def test_part_passes_together_give_the_frame_part_by_part(threads, monkeypatch):
+    """A mesh reflector of several parts drawn together (partpasses.draw_parts: one label
+    image, rasterize_passes, one shading, compose_passes) gives the frame's bytes drawn
+    part by part (draw_virtual and add_reflection, each part's stencil), frame after
+    frame."""
+    import numba
+
+    import reflectcli.techniques.virtual.technique as module
+
+    before = numba.get_num_threads()
+    try:
+        _, scene, cam, technique, state = _mask_frame(threads)
+        together = [technique.render(state, 0, cam).rgb.copy() for _ in range(2)]
+        assert together[0].tobytes() == together[1].tobytes()
+        monkeypatch.setattr(module, "explosion_group", lambda *args, **kwargs: None)
+        apart = technique.render(state, 0, cam)
+        assert apart.stats["reflector_parts"] > 4
+        assert apart.rgb.tobytes() == together[0].tobytes()
+    finally:
+        numba.set_num_threads(before)

@@ -39,7 +39,9 @@ from ...raster.rasterize import RasterWorkspace
 from ...raster.shade import add_reflection
 from ...scene.types import PLANAR, SPHERE, UNLIT, Scene
 from ...virtual.compose import gather_corners, mirror_boxes
-from ...virtual.dispatch import choose_method, facing_plane, reflector_parts
+from ...virtual.dispatch import choose_method, explosion_group, facing_plane, reflector_parts
+from ...virtual.partpasses import PartPassCache, draw_parts
+from ...virtual.parts import parts_vertices
 from ...virtual.raster import draw_virtual, reflected_rays
 from ...virtual.reflected import ReflectedCache
 from ...virtual.shape import ShapeCache
@@ -59,6 +61,7 @@ class VirtualState:
     shapes: ShapeCache = field(default_factory=ShapeCache)
     views: ViewCache = field(default_factory=ViewCache)
     together: TogetherCache = field(default_factory=TogetherCache)
+    part_passes: PartPassCache = field(default_factory=PartPassCache)
     # the rasterizer's scratch of the primary pass (its outputs stay the frame's own), and
     # the virtual passes' buffers, consumed per part: kept across frames, not allocated anew
     primary_raster: RasterWorkspace = field(default_factory=RasterWorkspace)
@@ -185,15 +188,38 @@ class Virtual(Technique):
             mirror_plane = None
             if scene.mirrors.kind[k] == PLANAR:
                 mirror_plane = np.append(*facing_plane(scene.mirrors, k, camera.eye))
-            parts = reflector_parts(self.params, scene, primary, k, camera, state.scene_points,
-                                    state.shapes, state.views)
-            while True:
-                t_start = time.perf_counter()  # building a part's maps happens in next()
-                item = next(parts, None)
+            t_start = time.perf_counter()
+            group = None
+            if (self.params.reflector_test != "clip_planes" and choose_method(
+                    self.params.method, int(scene.mirrors.kind[k]),
+                    k in scene.mirror_profiles) == "explosion"):
+                group = explosion_group(self.params, scene, primary, k, camera,
+                                        state.scene_points, state.shapes, state.views, box,
+                                        ws)
+            if group is not None:
+                # several parts: each stage for all of them at once (virtual/parts.py),
+                # their passes drawn together (virtual/partpasses.py); the same bytes
                 seconds["maps"] += time.perf_counter() - t_start
-                if item is None:
-                    break
-                stencil, vertices_of = item
+                explosion, labelled = group
+                t0 = time.perf_counter()
+                virtual, hidden = parts_vertices(explosion, tess.points, tess.corner_index,
+                                                 ws)
+                t1 = time.perf_counter()
+                draw_parts(scene, primary, camera.eye, clip_from_world, k, tess,
+                           state.part_passes.get(tess, len(explosion)), labelled, virtual,
+                           hidden, box, self.params.reflector_test == "zbuffer", incoming, ws)
+                seconds["virtual_vertices"] += t1 - t0
+                seconds["virtual_raster"] += time.perf_counter() - t1
+                stats["virtual_vertices"] += tess.points.shape[0] * len(explosion)
+                stats["virtual_triangles"] += tess.triangles.count * len(explosion)
+                stats["reflector_parts"] += len(explosion)
+                continue
+            # a reflector's parts, each with its vertex function (an explosion part's maps
+            # are built when its points are known, in the vertex functions)
+            parts = list(reflector_parts(self.params, scene, primary, k, camera,
+                                         state.scene_points, state.shapes, state.views))
+            seconds["maps"] += time.perf_counter() - t_start
+            for stencil, vertices_of in parts:
                 t0 = time.perf_counter()
                 virtual, hidden = vertices_of(tess.points, tess.corner_index)
                 t1 = time.perf_counter()

@@ -1,0 +1,128 @@
+"""All parts of a mesh reflector worked stage by stage: each stage (tile scan, explosion
+maps, map lookups, refinement) done for every part before the next, each in one parallel
+region for all parts, on the parts' points joined in one set of arrays (part p's rows
+row_start[p] ..). Part by part, the mask's 14 parts made each stage 14 short parallel
+regions one after another, the small parts' ends leaving a thread idle, with about 20
+numpy calls a part between them. Each part's answers are what it gives alone
+(ExplosionPart.__call__)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..raster.rasterize import RasterWorkspace
+from .explosion import build_maps_together, map_setup, scratch, virtual_vertices_together
+from .part import ExplosionPart
+from .refine import BOUNDARY, EXACT, NONE, refine_parts
+from .screen import screen_from_world
+from .tiles import rows_of, scan_parts
+from .view import face_behind
+
+
+def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
+                   polygons: np.ndarray | None = None,
+                   ws: RasterWorkspace | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(virtual (P, N, 3) world, flags (P, N)): row p is parts[p](points, polygons), the
+    parts being one reflector's in one view. Stage by stage where they refine on one
+    owner plane and ray grid with polygons given and maps built for their lookups (the
+    technique's frames); else part by part. `ws`: a workspace to hold the arrays of the
+    stages (tens of megabytes a frame: fresh, their page faults cost more than the work
+    in them) and the answers, valid until its next use; else fresh arrays."""
+    first = parts[0]
+    if (polygons is None or first.grid is None or any(
+            part.view.tiles is None or part.grid is not first.grid
+            or part.view.owner is not first.view.owner or part.built is not None
+            for part in parts)):
+        answers = [part(points, polygons) for part in parts]
+        return np.stack([a for a, _ in answers]), np.stack([f for _, f in answers])
+    count = len(parts)
+    n = len(points)
+    points = np.ascontiguousarray(points, np.float64)
+    q, r = first.grid
+    reach, retry, todo = scan_parts([part.view.tiles for part in parts], points, q, r,
+                                    polygons, ws)
+    rows, row_start, _ = rows_of(todo)  # each part's points to find, joined
+    camera = first.camera
+    out = scratch(ws, "parts_out", (count, n, 3), np.float64)
+    flags = scratch(ws, "parts_flags", (count, n), np.bool_)
+    if rows.size:
+        screen = first.view.points.of(points, first.clip_from_world, camera.width,
+                                      camera.height)
+        m = rows.size
+        row_part = np.repeat(np.arange(count, dtype=np.int64), np.diff(row_start))
+        pts = scratch(ws, "parts_points", (m, 3), np.float64)
+        proj = scratch(ws, "parts_screen", (m, 3), np.float64)
+        seeds_retry = scratch(ws, "parts_retry", (m, 2), np.float64)
+        reach_m = scratch(ws, "parts_reach", (m,), np.bool_)
+        face = scratch(ws, "parts_face", (m,), np.int64)
+        _gather_parts(points, np.ascontiguousarray(screen, np.float64), retry, reach, rows,
+                      row_part, first.depth, first.view.triangle,
+                      np.stack([part.view.local for part in parts]), pts, proj, seeds_retry,
+                      reach_m, face)
+        # every part's explosion layers in one region, then their lookups in one
+        joined = build_maps_together(
+            [map_setup(*part.build_args, lookups=pts[a:b], flip_axis=part.flip)
+             for part, a, b in zip(parts, row_start[:-1], row_start[1:], strict=True)],
+            joined_lookups=(pts, row_start), ws=ws)
+        virtual, hidden = virtual_vertices_together(joined, pts, row_start, face, proj,
+                                                    [part.screen for part in parts], ws)
+        # seeds where the maps' virtual vertices land, each part's projected as it alone
+        # projects them; then every part's points refined in one region
+        seeds = np.concatenate([
+            screen_from_world(virtual[a:b], first.clip_from_world, camera.width,
+                              camera.height)[:, :2]
+            for a, b in zip(row_start[:-1], row_start[1:], strict=True)])
+        label = np.array([part.view.part for part in parts], np.int32)[row_part]
+        refined, status = refine_parts(pts, seeds, first.view.owner, label, q, r,
+                                       camera.eye, seeds_retry, reach=reach_m,
+                                       out=(scratch(ws, "parts_refined", (m, 3), np.float64),
+                                            scratch(ws, "parts_status", (m,), np.int8)))
+    else:
+        virtual = refined = np.empty((0, 3))
+        hidden = np.empty(0, np.bool_)
+        status = np.empty(0, np.int8)
+    _scatter_parts(points, rows, row_start, virtual, hidden, refined, status, out, flags)
+    return out, flags
+
+
+@njit(cache=True, parallel=True)
+def _gather_parts(points, screen, retry, reach, rows, row_part, depth, triangle, local, pts,
+                  proj, retry_out, reach_out, face):
+    """Row m of the joined points (point rows[m] of part row_part[m]): its point, screen
+    position, retry seed and reach (part p's rows of retry (P, N, 2) and reach (P, N)), and
+    the part's face in front of it where it lies behind the reflector alone (PartView.
+    faces_behind: depth, triangle, the part's local[p] face ids)."""
+    for m in prange(rows.shape[0]):
+        i = rows[m]
+        p = row_part[m]
+        for c in range(3):
+            pts[m, c] = points[i, c]
+            proj[m, c] = screen[i, c]
+        retry_out[m, 0] = retry[p, i, 0]
+        retry_out[m, 1] = retry[p, i, 1]
+        reach_out[m] = reach[p, i]
+        face[m] = face_behind(screen[i, 0], screen[i, 1], screen[i, 2], depth, triangle,
+                              local[p])
+
+
+@njit(cache=True, parallel=True)
+def _scatter_parts(points, rows, row_start, virtual, hidden, refined, status, out, flags):
+    """out[p] (N, 3) and flags[p] (N,): part p's answers, as ExplosionPart.__call__ makes
+    them: the points themselves, flagged, where the part skips them; on its rows of the
+    joined arrays the maps' answer (virtual, hidden), replaced by the refinement's where
+    it found one (status not NONE), flagged unless exact, and where it ended at the
+    part's boundary."""
+    n = points.shape[0]
+    for p in prange(out.shape[0]):
+        for i in range(n):
+            for c in range(3):
+                out[p, i, c] = points[i, c]
+            flags[p, i] = True
+        for m in range(row_start[p], row_start[p + 1]):
+            i = rows[m]
+            st = status[m]
+            src = refined if st != NONE else virtual
+            for c in range(3):
+                out[p, i, c] = src[m, c]
+            flags[p, i] = (hidden[m] and st != EXACT) or st == BOUNDARY
