@@ -1169,7 +1169,7 @@ def part_views(triangle, local, size):
 
 def gather_corners(virtual, hidden, corner_index, surface, n_objects):
     """Twin of virtual.compose.gather_corners (and of its per-triangle step
-    raster.rasterize.passes.gather_triangle, which rasterize_passes runs as it draws):
+    raster.rasterize.gather.gather_triangle, which rasterize_passes runs as it draws):
     (corners (T, 3, 3) float32, flags (T,))."""
     corners = virtual[corner_index].astype(np.float32)
     flags = np.where(surface >= n_objects, FLAG_MIRROR, 0).astype(np.uint8)

@@ -109,13 +109,13 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize/rows.py:_rows": (RASTER + PASSES, "_draw"),
     "raster/rasterize/rows.py:_fill_at": (CLIP + PASSES, "_draw_clipped"),
     "raster/rasterize/passes.py:_draw_passes": (PASSES, "rasterize_passes"),
-    "raster/rasterize/passes.py:gather_triangle": (
+    "raster/rasterize/gather.py:gather_triangle": (
         [V + "test_gather_corners_match_twin"] + PASSES, "gather_corners"),
     "raster/rasterize/draw.py:_draw_clipped": (CLIP + PASSES, "_draw"),
     "raster/rasterize/clip.py:_clip_polygon": (CLIP, "_draw_clipped"),
     "raster/rasterize/resolve.py:_resolve": (
         RASTER + [R + "test_clear_outside_false_keeps_pixels_outside_the_box"], "rasterize"),
-    "raster/rasterize/resolve.py:_resolve_row": (
+    "raster/rasterize/resolve.py:resolve_row": (
         RASTER + [SR + "test_shading_that_merges_the_threads_buffers_is_merge_then_shade"],
         "_resolve"),
     "raster/rasterize/stencil.py:stencil_box": ([R + "test_stencil_box_matches_twin"], None),

@@ -13,7 +13,7 @@ from ..prefetch import prefetch
 from ..scene.types import POINT, UNLIT, Scene, Triangles
 from ..shading import material_albedo, surface_color
 from .rasterize import RasterBuffers, clip_corners
-from .rasterize.resolve import _resolve_row
+from .rasterize.resolve import resolve_row
 
 
 def shade_buffers(
@@ -179,8 +179,8 @@ def _shade_stencil_resolving(stencil, tri, b1, b2, recover, m, drawn, corners, u
             if k >= pieces:
                 break
             for y in range(y0 + k * _ROWS, min(y1, y0 + (k + 1) * _ROWS)):
-                _resolve_row(flags, y, col0, col1, top, bottom, col0, col1, owners, own_tri,
-                             own_key, tri, depth)
+                resolve_row(flags, y, col0, col1, top, bottom, col0, col1, owners, own_tri,
+                            own_key, tri, depth)
                 _shade_row(y, x0, x1, stencil, True, g[me], xs[me], tri, m, drawn, corners,
                            uvs, normals, material, surface, n_objects, eye, dirs, per_pixel,
                            mat_i, mat_f, texels, light_f, shading, ambient, background, refl,

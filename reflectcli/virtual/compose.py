@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..raster.rasterize.passes import gather_triangle
+from ..raster.rasterize.gather import gather_triangle
 
 
 @njit(cache=True)

@@ -13,9 +13,10 @@ from ...camera import standard_planes
 from ...parallel import claim, counter
 from ...scene.types import MIRROR_TIE
 from .buffers import RasterBuffers, RasterWorkspace
-from .constants import _BLOCK, _CHUNK, _CLIPPED, _MAX_POLY, CULL_NONE, FLAG_MIRROR, FLAG_SKIP
+from .constants import _BLOCK, _CHUNK, _CLIPPED, _MAX_POLY, CULL_NONE, FLAG_MIRROR
 from .draw import _draw_clipped
 from .fixed import _subpixel_bits
+from .gather import gather_triangle
 from .resolve import _resolve
 from .rows import _rows
 from .setup import _run_setup
@@ -172,18 +173,3 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
                                       else 1.0, m, planes, width, height, bits, CULL_NONE,
                                       scale, xyw[me], row0, row1, c0, c1, labels, True,
                                       floor, use_floor, tri, key, top, col0, want)
-
-
-@njit(cache=True, inline="always")
-def gather_triangle(points, hidden, corner_index, surface, n_objects, corners, flags, t):
-    """corners[t, i] = points[corner_index[t, i]] in float32 (what the rasterizer takes),
-    and flags[t]: FLAG_MIRROR for a mirror's triangle (surface[t] >= n_objects), FLAG_SKIP
-    where all three of its points are `hidden` (virtual: the paper drops polygons wholly in
-    the hidden region)."""
-    every = True
-    for i in range(3):
-        q = corner_index[t, i]
-        every &= hidden[q]
-        for c in range(3):
-            corners[t, i, c] = np.float32(points[q, c])
-    flags[t] = (FLAG_MIRROR if surface[t] >= n_objects else 0) | (FLAG_SKIP if every else 0)

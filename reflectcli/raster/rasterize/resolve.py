@@ -23,13 +23,13 @@ def _resolve(flags, col0, col1, top, bottom, own_tri, own_key, drew, tri, depth,
     r0, r1 = (0, h) if clear else (max(top, 0), min(bottom, h))
     lo, hi = (0, w) if clear else (col0, col1)
     for py in prange(r0, r1):
-        _resolve_row(flags, py, col0, col1, top, bottom, lo, hi, owners, own_tri, own_key,
-                     tri, depth)
+        resolve_row(flags, py, col0, col1, top, bottom, lo, hi, owners, own_tri, own_key,
+                    tri, depth)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _resolve_row(flags, py, col0, col1, top, bottom, lo, hi, owners, own_tri, own_key, tri,
-                 depth):
+def resolve_row(flags, py, col0, col1, top, bottom, lo, hi, owners, own_tri, own_key, tri,
+                depth):
     """Row py of `_resolve`: columns lo..hi-1 outside the box [col0, col1) (or the whole
     row, outside the box's rows [top, bottom)) get no triangle; inside, the merged
     triangle and its eye depth."""
