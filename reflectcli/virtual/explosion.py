@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..parallel import claim, counter
+from ..raster.rasterize.buffers import scratch
 from .mapfill import (
     _fill_extensions,
     _fill_faces,
@@ -85,12 +86,6 @@ class ExplosionMaps:
     @property
     def far(self) -> ExplosionMap:
         return self.layers[-1]
-
-
-def scratch(ws, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
-    """An array of `shape` and `dtype`, contents undefined: the workspace's `name` (kept
-    from call to call) if a RasterWorkspace is given, else a fresh one."""
-    return np.empty(shape, dtype) if ws is None else ws.get(name, shape, dtype)
 
 
 def ray_focus(mesh: IndexedMesh, eye: np.ndarray) -> np.ndarray:

@@ -12,7 +12,8 @@ import numpy as np
 from numba import njit, prange
 
 from ..raster.rasterize import RasterWorkspace
-from .explosion import build_maps_together, map_setup, scratch, virtual_vertices_together
+from ..raster.rasterize.buffers import scratch
+from .explosion import build_maps_together, map_setup, virtual_vertices_together
 from .part import ExplosionPart
 from .refine import BOUNDARY, EXACT, NONE, refine_parts
 from .screen import screen_from_world

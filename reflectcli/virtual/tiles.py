@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..parallel import claim, counter
+from ..raster.rasterize.buffers import scratch
 
 
 class PartTiles:
@@ -499,7 +500,7 @@ def scan_parts(parts: list[PartTiles], points: np.ndarray, q: np.ndarray, r: np.
         ball[p, 3:6] = part.part_axis
         ball[p, 6:] = math.cos(a), math.sin(a), a
     radius = np.array([part.part_radius for part in parts])
-    near = _scratch(ws, "scan_near", (count, n), np.bool_)
+    near = scratch(ws, "scan_near", (count, n), np.bool_)
     _candidates_parts(points, ball, radius, near)
     # the parts' tiles joined: part p's are rows tile_start[p] ..
     tile_start = np.zeros(count + 1, np.int64)
@@ -509,14 +510,14 @@ def scan_parts(parts: list[PartTiles], points: np.ndarray, q: np.ndarray, r: np.
              np.concatenate([part.axis for part in parts]),
              np.concatenate([part.half for part in parts]),
              np.concatenate([part.pixel for part in parts]))
-    reach = _scratch(ws, "scan_reach", (count, n), np.bool_)
+    reach = scratch(ws, "scan_reach", (count, n), np.bool_)
     reach.fill(False)
-    seeds = _scratch(ws, "scan_seeds", (count, n, 2), np.float64)
+    seeds = scratch(ws, "scan_seeds", (count, n, 2), np.float64)
     seeds.fill(np.nan)
     rows, row_start, block_start = rows_of(near)
     _scan_reached_parts(points, rows, row_start, block_start, tile_start, *tiles, margin, q,
                         r, reach, seeds, numba.get_num_threads())
-    todo = _scratch(ws, "scan_todo", (count, n), np.bool_)
+    todo = scratch(ws, "scan_todo", (count, n), np.bool_)
     todo[:] = reach
     _join_parts(reach, polygons, todo)
     rows, row_start, block_start = rows_of(todo & ~reach)
@@ -524,11 +525,6 @@ def scan_parts(parts: list[PartTiles], points: np.ndarray, q: np.ndarray, r: np.
         _scan_parts(points, rows, row_start, block_start, tile_start, *tiles, margin, q, r,
                     reach, seeds)
     return reach, seeds, todo
-
-
-def _scratch(ws, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
-    """The workspace's array `name` if a RasterWorkspace is given, else a fresh one."""
-    return np.empty(shape, dtype) if ws is None else ws.get(name, shape, dtype)
 
 
 def rows_of(marks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -111,3 +111,10 @@ class RasterWorkspace:
             self._arrays[key] = a
         return a
 
+
+def scratch(ws: RasterWorkspace | None, name: str, shape: tuple[int, ...],
+            dtype) -> np.ndarray:
+    """An array of `shape` and `dtype`, contents undefined: the workspace's `name` (kept
+    from call to call, so a frame's large arrays fault their pages in once) if a workspace
+    is given, else a fresh one."""
+    return np.empty(shape, dtype) if ws is None else ws.get(name, shape, dtype)
