@@ -581,15 +581,7 @@ def _tile_rays(pixel, half, margin, q, r):
     for j in range(tiles):
         cos_a[j] = math.cos(half[j] + margin)
         sin_a[j] = math.sin(half[j] + margin)
-    seed = np.empty((tiles, 6))
-    wide = np.empty(tiles, np.bool_)
-    for j in range(tiles):
-        x = int(pixel[j, 0])
-        y = int(pixel[j, 1])
-        for i in range(3):
-            seed[j, i] = q[y, x, i]
-            seed[j, 3 + i] = r[y, x, i]
-        wide[j] = half[j] + margin >= 0.5 * math.pi
+    seed, wide = _seed_rays(pixel, margin, half, q, r)
     return cos_a, sin_a, seed, wide
 
 
