@@ -21,5 +21,10 @@ def _subpixel_bits(width: int, height: int) -> tuple[int, float]:
 
 @njit(cache=True, inline="always")
 def _snap(v, scale):
-    """A screen coordinate in units of 1/scale pixel, rounded to nearest (halves up)."""
-    return np.int64(np.floor(v * scale + 0.5))
+    """A screen coordinate in units of 1/scale pixel, rounded to nearest (halves up).
+
+    Converted through int32, exact: every coordinate snapped is inside the guard band, so
+    below 2^_FIXED_BITS in magnitude (float64 -> int64 has no AVX2 instruction: the
+    vectorised snap of a run converted one lane at a time, 2.5 of its 18 ms at 1M
+    triangles)."""
+    return np.int64(np.int32(np.floor(v * scale + 0.5)))

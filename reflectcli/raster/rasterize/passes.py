@@ -109,10 +109,9 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
         first[p + 1] = first[p] + (starts[p + 1] - starts[p] + _CHUNK - 1) // _CHUNK
     scale = float(1 << bits)
     threads = own_tri.shape[0]
-    soa = np.empty((threads, 9, _CHUNK), np.float32)
     clip = np.empty((threads, 12, _CHUNK))
-    work_i = np.empty((threads, 21 * _CHUNK), np.int64)
-    work_f = np.empty((threads, 7 * _CHUNK))
+    work_i = np.empty((threads, 22 * _CHUNK), np.int64)
+    work_f = np.empty((threads, 8 * _CHUNK))
     status = np.empty((threads, _CHUNK), np.uint8)
     chosen = np.empty((threads, _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
@@ -141,23 +140,24 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
                 for t in range(t0, t0 + count):
                     gather_triangle(points, hidden, corner_index, surface, n_objects, corners,
                                     flags, t)
-            _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, CULL_NONE,
-                       row0, row1, c0, c1, t0, count, soa[me], clip[me], work_i[me],
-                       work_f[me], status[me])
+            kept = _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale,
+                              CULL_NONE, row0, row1, c0, c1, t0, count, clip[me],
+                              work_i[me], work_f[me], status[me])
             ints = work_i[me]
             floats = work_f[me]
             st = status[me]
             sel = chosen[me]
             c = _CHUNK
             k = 0
+            for i in range(kept):
+                sel[k] = i
+                k += ints[20 * c + i]
             clipped = 0
             for j in range(count):
-                sel[k] = j
-                k += ints[20 * c + j]
                 clipped += st[j] == _CLIPPED
-            for i in range(k):
-                j = sel[i]
-                t = t0 + j
+            for q in range(k):
+                j = sel[q]
+                t = t0 + ints[21 * c + j]
                 _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
                       ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
                       ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
