@@ -15,27 +15,37 @@ from numba.extending import intrinsic
 _INTERPRETED = bool(numba.config.DISABLE_JIT)
 
 
-@intrinsic
-def _prefetch_row(typingctx, ary, index):
-    """llvm.prefetch (read, keep in all levels) of the first element of ary[index]."""
-    sig = types.void(ary, index)
+def _prefetch_intrinsic(write: int):
+    """An intrinsic (ary, index): llvm.prefetch (read, or with `write` 1 for a write: the
+    line comes ready to be stored to; keep in all levels) of the first element of
+    ary[index]."""
 
-    def codegen(context, builder, signature, args):
-        aryty = signature.args[0]
-        a = context.make_array(aryty)(context, builder, args[0])
-        zero = context.get_constant(types.intp, 0)
-        at = builder.sext(args[1], ir.IntType(64)) if args[1].type.width < 64 else args[1]
-        ptr = cgutils.get_item_pointer(context, builder, aryty, a,
-                                       [at] + [zero] * (aryty.ndim - 1))
-        i8p = ir.IntType(8).as_pointer()
-        i32 = ir.IntType(32)
-        fn = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]),
-            "llvm.prefetch.p0i8")
-        builder.call(fn, [builder.bitcast(ptr, i8p), i32(0), i32(3), i32(1)])
-        return context.get_dummy_value()
+    @intrinsic
+    def _prefetch(typingctx, ary, index):
+        sig = types.void(ary, index)
 
-    return sig, codegen
+        def codegen(context, builder, signature, args):
+            aryty = signature.args[0]
+            a = context.make_array(aryty)(context, builder, args[0])
+            zero = context.get_constant(types.intp, 0)
+            at = builder.sext(args[1], ir.IntType(64)) if args[1].type.width < 64 else args[1]
+            ptr = cgutils.get_item_pointer(context, builder, aryty, a,
+                                           [at] + [zero] * (aryty.ndim - 1))
+            i8p = ir.IntType(8).as_pointer()
+            i32 = ir.IntType(32)
+            fn = cgutils.get_or_insert_function(
+                builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]),
+                "llvm.prefetch.p0i8")
+            builder.call(fn, [builder.bitcast(ptr, i8p), i32(write), i32(3), i32(1)])
+            return context.get_dummy_value()
+
+        return sig, codegen
+
+    return _prefetch
+
+
+_prefetch_row = _prefetch_intrinsic(0)
+_prefetch_row_write = _prefetch_intrinsic(1)
 
 
 @njit(cache=True, inline="always")
@@ -47,3 +57,12 @@ def prefetch(ary, index):
         return
     if 0 <= index < ary.shape[0]:
         _prefetch_row(ary, index)
+
+
+@njit(cache=True, inline="always")
+def prefetch_write(ary, index):
+    """`prefetch` for a write: hint that ary[index] will be written soon."""
+    if _INTERPRETED:
+        return
+    if 0 <= index < ary.shape[0]:
+        _prefetch_row_write(ary, index)

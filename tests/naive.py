@@ -115,6 +115,12 @@ def prefetch(ary, index):
     del ary, index
 
 
+def prefetch_write(ary, index):
+    """Twin of prefetch.prefetch_write: nothing, as `prefetch` (held to that by the same
+    gather, and by the one-pixel splat, which asks for its payload rows with it)."""
+    del ary, index
+
+
 # ================================================================================== raster
 
 EDGE_PX = 1e-6

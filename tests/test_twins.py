@@ -82,6 +82,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "trace/rays.py:_row": ([SR + "test_primary_rays_match_pixel_directions",
                             T + "test_primary_wave_matches_twin"], "rows_of_rays"),
     "prefetch.py:prefetch": (RECOVER + [SR + "test_prefetch_changes_no_value"], "_shade_row"),
+    "prefetch.py:prefetch_write": ([SR + "test_prefetch_changes_no_value"] + PIXELS,
+                                   "_ready_rows"),
     "raster/shade.py:_shade": ([SR + "test_shade_pass_matches_twin"], None),
     "raster/shade.py:_shade_stencil": ([SR + "test_shade_pass_matches_twin"], None),
     # held to _resolve then _shade_stencil, each held to its twin
@@ -132,6 +134,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp/payload.py:_gather4": ([W + "test_gather_and_fill_blend_match_twins"],
                                       "gather_colors"),
     "maps/warp/fill.py:fill_blend": ([W + "test_gather_and_fill_blend_match_twins"], None),
+    "maps/warp/fill.py:_fill_row": ([W + "test_gather_and_fill_blend_match_twins"],
+                                    "fill_blend"),
     "trace/embree.py:_intersect": ([E + "test_embree_matches_moller_trumbore",
                                     E + "test_embree_hits_are_common_in_the_property_test",
                                     E + "test_embree_kernel_equals_embreex_bit_for_bit",
@@ -194,7 +198,14 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp/squares.py:_splat": (SPLAT, "splat"),
     "maps/warp/squares.py:_write": (SPLAT, "_splat"),
     "maps/warp/pixels.py:_splat_pixels": (PIXELS, "splat_pixels"),
-    "maps/warp/pixels.py:_scatter_run": (PIXELS, "_splat_pixels"),
+    "maps/warp/pixels.py:_scatter_width": (
+        PIXELS + [W + "test_payload_rows_follow_the_ids_over_several_maps"], "_splat_pixels"),
+    "maps/warp/pixels.py:_scatter_run": (
+        PIXELS + [W + "test_payload_rows_follow_the_ids_over_several_maps"], "_scatter_width"),
+    "maps/warp/pixels.py:_ready_rows": (PIXELS, "_splat_pixels"),
+    "maps/warp/pixels.py:_clear_rows": (PIXELS, "_ready_rows"),
+    "maps/warp/pixels.py:_scatter_loop": (
+        PIXELS + [W + "test_payload_rows_follow_the_ids_over_several_maps"], "_scatter_run"),
     "maps/warp/pixels.py:_all_set": (
         [W + "test_pixel_splat_matches_at_thread_counts_with_a_partly_full_stencil",
          W + "test_pixel_splat_matches_the_reference"], "_splat_pixels"),
@@ -209,8 +220,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/warp/spreading.py:_spread_band_rings": (SPREAD, "_spread"),
     "maps/warp/spreading.py:_spread_pick_ring": (SPREAD, "_spread_band_rings"),
     "maps/warp/spreading.py:_nearer_ring": (SPREAD, "_spread_band_rings"),
-    "maps/warp/payload.py:_copy_row": ([W + "test_payload_rows_follow_the_ids_over_several_maps"],
-                               "_splat_pixels"),
+    "maps/warp/payload.py:_copy_row": ([W + "test_payload_rows_follow_the_ids_over_several_maps",
+                                        SPREAD[0]], "_copy_zexel_rows"),
     "maps/warp/payload.py:_copy_zexel_rows": (SPREAD, "_spread_band"),
     "virtual/circle.py:_circle_law": (SPHERE_METHOD, "_newton_step"),
     "virtual/circle.py:_circle_start": (SPHERE_METHOD, "_block"),

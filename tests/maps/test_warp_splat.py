@@ -195,7 +195,10 @@ def test_gather_and_fill_blend_match_twins():
     stencil = rng.random((h, w)) < 0.7
     background = np.array([0.1, 0.2, 0.3], np.float32)
     reflectance = np.array([0.9, 0.8, 0.7], np.float32)
-    for has_prev in (False, True):
+    # (strided: reflected and rgb as the first three channels of RGBA frames, as dprm has
+    # them)
+    for has_prev, temporal, strided in ((False, True, False), (True, True, False),
+                                        (False, False, False), (False, False, True)):
         reflected = rng.random((h, w, 3)).astype(np.float32)
         prev_rgb = rng.random((h, w, 3)).astype(np.float32)
         prev_filled = rng.random((h, w)) < 0.5
@@ -206,29 +209,41 @@ def test_gather_and_fill_blend_match_twins():
         save_rgb = np.zeros((h, w, 3), np.float32)
         save_filled = np.zeros((h, w), bool)
         got_reflected = reflected.copy()
-        fill_blend(stencil, best_id, got_reflected, has_prev, prev_rgb, prev_filled, True,
+        if strided:
+            got_reflected = np.zeros((h, w, 4), np.float32)[:, :, :3]
+            got_reflected[...] = reflected
+            rgb_frame = np.zeros((h, w, 4), np.float32)
+            rgb_frame[:, :, :3] = rgb
+            rgb = rgb_frame[:, :, :3]
+        fill_blend(stencil, best_id, got_reflected, has_prev, prev_rgb, prev_filled, temporal,
                    save_rgb, save_filled, background, reflectance, rgb, holes)
         np.testing.assert_allclose(rgb, want[0], rtol=1e-6, atol=1e-7)
         np.testing.assert_array_equal(holes, want[1])
-        np.testing.assert_array_equal(save_filled, want[3])
-        np.testing.assert_array_equal(save_rgb[want[3]], want[2][want[3]])
+        # the reflected colours of stencil pixels; the others stay as they were
+        np.testing.assert_array_equal(got_reflected[stencil], want[2][stencil])
+        np.testing.assert_array_equal(got_reflected[~stencil], reflected[~stencil])
+        if temporal:
+            np.testing.assert_array_equal(save_filled, want[3])
+            np.testing.assert_array_equal(save_rgb[want[3]], want[2][want[3]])
 
 
 @pytest.mark.parametrize("radius", [0, 1])
-def test_payload_rows_follow_the_ids_over_several_maps(radius):
+@pytest.mark.parametrize("width", [4, 3, 5])
+def test_payload_rows_follow_the_ids_over_several_maps(radius, width):
     """Two maps into one buffer (ids slot * stride + index, stride a power of two): every
-    reached pixel's payload row is the row of its id's map and zexel."""
+    reached pixel's payload row is the row of its id's map and zexel (rows of the widths
+    the splat copies with a constant width, 3 and 4, and of another)."""
     shape = (16, 20)
     h, w = shape
     buffers = WarpBuffers(h, w)
     stencil = np.random.default_rng(1).random(shape) < 0.8
     region = (0, w, 0, h)
-    out = np.full((h, w, 4), -5.0, np.float32)
+    out = np.full((h, w, width), -5.0, np.float32)
     stride = 1 << (24 * 24 - 1).bit_length()
     payloads = []
     for slot in range(2):
         sx, sy, z, mh, mw, _ = _zexels(slot + 30)
-        payloads.append(np.random.default_rng(slot).random((sx.size, 4)).astype(np.float32))
+        payloads.append(np.random.default_rng(slot).random((sx.size, width)).astype(np.float32))
         splat_pixels(projection_of(sx, sy, z, mh, mw, shape), raster_runs(mh, mw), mw,
                      slot * stride, stencil, buffers.best_zd,
                      buffers.best_id, False, region, slot == 0, radius == 0, None,

@@ -409,11 +409,11 @@ def test_run_bounds_match_twin(count):
 
 
 def test_prefetch_changes_no_value():
-    """prefetch is a hint: a gather with it reads the same values, and ids outside the
-    array (-1 for no triangle, past its end) are no error."""
+    """prefetch (and prefetch_write) is a hint: a gather with it reads the same values, and
+    ids outside the array (-1 for no triangle, past its end) are no error."""
     from numba import njit
 
-    from reflectcli.prefetch import prefetch
+    from reflectcli.prefetch import prefetch, prefetch_write
 
     @njit
     def gather(a, ids, ahead):
@@ -422,6 +422,8 @@ def test_prefetch_changes_no_value():
             prefetch(a, ids[min(i + ahead, ids.shape[0] - 1)])
             prefetch(a, np.int32(-1))
             prefetch(a, a.shape[0] + 5)
+            prefetch_write(out, i + ahead)
+            prefetch_write(out, np.int32(-1))
             out[i] = a[ids[i], 1, 2]
         return out
 

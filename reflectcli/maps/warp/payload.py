@@ -63,6 +63,14 @@ def _payload_args(payload, payload_out):
     c = payload.shape[1]
     return np.ascontiguousarray(payload), payload_out.reshape(-1, c)
 
+def _payload_flat(payload, payload_out):
+    """(payload (n, c) flat, payload_out (H, W, c) flat, c), or empty stand-ins and width 0
+    without a payload."""
+    if payload is None:
+        empty = np.empty(0, np.float32)
+        return empty, empty, 0
+    pay, pay_out = _payload_args(payload, payload_out)
+    return pay.reshape(-1), pay_out.reshape(-1), pay.shape[1]
 
 
 def gather_colors(best_id: np.ndarray, stride: int, per_map: list[np.ndarray],
