@@ -113,6 +113,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize/setup.py:_mul": (RASTER + PASSES, "_setup"),
     "raster/rasterize/setup.py:_real": (RASTER + PASSES, "_setup"),
     "raster/rasterize/rows.py:_rows": (RASTER + PASSES, "_draw"),
+    "raster/rasterize/rows.py:_quad": (RASTER + PASSES, "_draw"),
+    "raster/rasterize/rows.py:_pixel": (RASTER + PASSES, "_quad"),
     "raster/rasterize/rows.py:_fill_at": (CLIP + PASSES, "_draw_clipped"),
     "raster/rasterize/passes.py:_draw_passes": (PASSES, "rasterize_passes"),
     "raster/rasterize/gather.py:gather_triangle": (

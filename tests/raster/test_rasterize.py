@@ -21,6 +21,7 @@ from reflectcli.raster.rasterize import FLAG_MIRROR, rasterize
 from reflectcli.raster.rasterize.constants import _BLOCK
 from reflectcli.raster.rasterize.fixed import _subpixel_bits
 from reflectcli.raster.rasterize.rows import _fill
+from reflectcli.raster.rasterize.setup import _setup
 
 W, H = 40, 30
 def camera(w=W, h=H, near=0.5, far=50.0) -> Camera:
@@ -212,6 +213,19 @@ def _awkward_triangles(rng, n, guard):
     return out
 
 
+def _small_triangles(rng, n, w, h):
+    """Triangles whose corners' box holds at most a few pixel centers (drawn by `_quad`
+    when at most 2 x 2), all over the image and past its edges, some with corners and edges
+    through pixel centers."""
+    out = []
+    for k in range(n):
+        p = rng.uniform([-2, -2], [w + 2, h + 2]) + rng.uniform(-1.3, 1.3, (3, 2))
+        if k % 3 == 0:
+            p = np.floor(p * 2) / 2  # corners on pixel centres and edges
+        out.append(p)
+    return out
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_fill_matches_the_exact_pixel_by_pixel_twin(seed):
     """_fill (bounding box, edge functions stepped along rows, 1/w as a plane) covers
@@ -225,8 +239,9 @@ def test_fill_matches_the_exact_pixel_by_pixel_twin(seed):
     floor = np.where(rng.random((h, w)) < 0.1, 5.0, 0.0).astype(np.float32)
     top, bottom, col0, col1 = 2, h - 1, 1, w
     box = (bottom - top, col1 - col0)
-    covered = 0
-    for t, p in enumerate(_awkward_triangles(rng, 300, guard)):
+    covered = small = 0
+    triangles = _awkward_triangles(rng, 300, guard) + _small_triangles(rng, 300, w, h)
+    for t, p in enumerate(triangles):
         q = np.floor(p * scale + 0.5).astype(np.int64)
         ws = rng.uniform(0.05, 1.0, 3)
         use = (bool(t % 3), bool(t % 5 == 0))
@@ -238,16 +253,23 @@ def test_fill_matches_the_exact_pixel_by_pixel_twin(seed):
         fill_fixed(*args, *bufs[1])
         np.testing.assert_array_equal(bufs[0][0], bufs[1][0])
         np.testing.assert_allclose(bufs[0][1], bufs[1][1], rtol=1e-6)
-        # buffers with the columns to spare that _draw gives (rows walked in whole blocks):
-        # the same pixels and keys, the spare columns untouched
-        wide = (box[0], box[1] + _BLOCK - 1)
+        # buffers with the row and columns to spare that _draw gives (rows walked in whole
+        # blocks, boxes of at most 2 x 2 pixels drawn by _quad): the same pixels and keys,
+        # the spare row and columns untouched
+        wide = (box[0] + 1, box[1] + _BLOCK - 1)
         blocked = (np.full(wide, -1, np.int32), np.zeros(wide, np.float32))
         _fill(*args, *blocked)
-        np.testing.assert_array_equal(blocked[0][:, :box[1]], bufs[0][0])
-        np.testing.assert_array_equal(blocked[1][:, :box[1]], bufs[0][1])
+        np.testing.assert_array_equal(blocked[0][:box[0], :box[1]], bufs[0][0])
+        np.testing.assert_array_equal(blocked[1][:box[0], :box[1]].view(np.int32),
+                                      bufs[0][1].view(np.int32))
         assert np.all(blocked[0][:, box[1]:] == -1) and np.all(blocked[1][:, box[1]:] == 0)
+        assert np.all(blocked[0][box[0]:] == -1) and np.all(blocked[1][box[0]:] == 0)
+        s = _setup(*(np.int64(v) if i % 3 < 2 else np.float64(v) for i, v in
+                     enumerate(args[3:12])), np.float64(args[1]), args[2], bits, top, bottom,
+                   col0, col1)
+        small += bool(s[0] and s[2] <= 2 and s[4] <= s[3] + 1)
         covered += int((bufs[0][0] >= 0).sum())
-    assert covered > 3000
+    assert covered > 3000 and small > 25
 
 
 def test_shared_edges_are_covered_once():

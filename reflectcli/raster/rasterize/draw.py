@@ -10,7 +10,7 @@ from ...scene.types import MIRROR_TIE
 from .clip import _box_misses, _clip_polygon
 from .constants import _CHUNK, _CLIPPED, _MAX_POLY, CULL_BACK, CULL_FRONT, CULL_NONE, FLAG_MIRROR
 from .fixed import _snap
-from .rows import _fill_at, _rows
+from .rows import _fill_at, _quad, _rows
 from .setup import _run_setup
 
 
@@ -33,7 +33,7 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     work_i = np.empty((threads, 22 * _CHUNK), np.int64)
     work_f = np.empty((threads, 8 * _CHUNK))
     status = np.empty((threads, _CHUNK), np.uint8)
-    chosen = np.empty((threads, _CHUNK), np.int64)
+    chosen = np.empty((threads, 2 * _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
     # one item per thread, each claiming the next chunk until none is left (parallel.py);
     # a worker draws into its own buffers, merged by key: who drew what never matters
@@ -64,16 +64,33 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
             st = status[me]
             sel = chosen[me]
             c = _CHUNK
-            # the triangles to fill, listed without a branch per triangle
+            # the triangles to fill, listed without a branch per triangle: boxes of at most
+            # 2 x 2 pixels from the front (`_quad`), the others from the back (`_rows`)
             k = 0
+            b = 0
             for i in range(kept):
+                drawn = ints[20 * c + i]
+                small = (ints[7 * c + i] <= 2) & (ints[9 * c + i] <= ints[8 * c + i] + 1)
                 sel[k] = i
-                k += ints[20 * c + i]
+                sel[2 * c - 1 - b] = i
+                quad = drawn & small
+                k += quad
+                b += drawn - quad
             clipped = 0
             for j in range(count):
                 clipped += st[j] == _CLIPPED
             for q in range(k):
                 j = sel[q]
+                t = t0 + ints[21 * c + j]
+                _quad(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+                      ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+                      ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+                      ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+                      floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
+                      MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
+                      use_stencil, floor, use_floor, tri, key, -1)
+            for q in range(b):
+                j = sel[2 * c - 1 - q]
                 t = t0 + ints[21 * c + j]
                 _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
                       ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],

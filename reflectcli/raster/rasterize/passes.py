@@ -18,7 +18,7 @@ from .draw import _draw_clipped
 from .fixed import _subpixel_bits
 from .gather import gather_triangle
 from .resolve import _resolve
-from .rows import _rows
+from .rows import _quad, _rows
 from .setup import _run_setup
 
 MAX_PASSES = 255  # labels are uint8, 0 for no pass
@@ -74,7 +74,7 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, clip_from_world: np
     y0, y1 = min(r[0] for r in rows), max(r[1] for r in rows)
     x0, x1 = min(r[2] for r in rows), max(r[3] for r in rows)
     threads = max(1, numba.get_num_threads())
-    padded = (max(y1 - y0, 0), max(x1 - x0, 0) + _BLOCK - 1)
+    padded = (max(y1 - y0, 0) + 1, max(x1 - x0, 0) + _BLOCK - 1)  # see rasterize
     own_tri = ws.get("own_tri", (threads, *padded), np.int32)
     own_key = ws.get("own_key", (threads, *padded), np.float32)
     drew = np.zeros(threads, np.bool_)
@@ -113,7 +113,7 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
     work_i = np.empty((threads, 22 * _CHUNK), np.int64)
     work_f = np.empty((threads, 8 * _CHUNK))
     status = np.empty((threads, _CHUNK), np.uint8)
-    chosen = np.empty((threads, _CHUNK), np.int64)
+    chosen = np.empty((threads, 2 * _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
     claimed = counter()
     for me in prange(threads):
@@ -148,15 +148,33 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
             st = status[me]
             sel = chosen[me]
             c = _CHUNK
+            # boxes of at most 2 x 2 pixels listed from the front (`_quad`), the others from
+            # the back (`_rows`)
             k = 0
+            b = 0
             for i in range(kept):
+                drawn = ints[20 * c + i]
+                small = (ints[7 * c + i] <= 2) & (ints[9 * c + i] <= ints[8 * c + i] + 1)
                 sel[k] = i
-                k += ints[20 * c + i]
+                sel[2 * c - 1 - b] = i
+                quad = drawn & small
+                k += quad
+                b += drawn - quad
             clipped = 0
             for j in range(count):
                 clipped += st[j] == _CLIPPED
             for q in range(k):
                 j = sel[q]
+                t = t0 + ints[21 * c + j]
+                _quad(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+                      ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+                      ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+                      ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+                      floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
+                      MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, labels,
+                      True, floor, use_floor, tri, key, want)
+            for q in range(b):
+                j = sel[2 * c - 1 - q]
                 t = t0 + ints[21 * c + j]
                 _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
                       ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],

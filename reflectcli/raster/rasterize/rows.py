@@ -1,6 +1,7 @@
-"""Drawing a set-up triangle's pixels: the row walk (`_rows`) with the depth test, and
-`_fill_at` (setup then rows) for one triangle (clipped triangles' fans); `_fill` is the same
-into buffers of the triangle's own box, the entry its exact pixel-by-pixel twin drives."""
+"""Drawing a set-up triangle's pixels: the row walk (`_rows`) with the depth test, the same
+for a box of at most 2 x 2 pixels without the walk (`_quad`), and `_fill_at` (setup then
+either) for one triangle (clipped triangles' fans); `_fill` is the same into buffers of the
+triangle's own box, the entry its exact pixel-by-pixel twin drives."""
 
 import numpy as np
 from numba import njit
@@ -68,6 +69,62 @@ def _rows(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2,
         e2 += sb2
 
 
+@njit(cache=True, inline="always")
+def _pixel(t32, py, px, r, c, f0, f1, f2, z, zf, tie, ok, stencil, use_stencil, floor,
+           use_floor, tri, key, want):
+    """One pixel of `_quad`: `_rows`'s test (center inside, key greater or equal with a lower
+    index, stencil, floor) and write, without a branch but on `use_stencil` and `use_floor`
+    (the same for every pixel of a draw); `ok` False writes the pixel back unchanged."""
+    old = key[r, c]
+    was = tri[r, c]
+    win = (((f0 | f1 | f2) >= 0) & ok & ((z > old) | ((z == old) & (t32 < was))))
+    if use_stencil:
+        s = stencil[py, px]
+        win &= (s != 0) if want < 0 else (s == want)
+    if use_floor:
+        win &= zf * tie * floor[py, px] < 1.0
+    key[r, c] = z if win else old
+    tri[r, c] = t32 if win else was
+
+
+@njit(cache=True, inline="always")
+def _quad(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2, z_ref,
+          dzdx, dzdy, zx0, tie, top, col0, stencil, use_stencil, floor, use_floor, tri, key,
+          want):
+    """`_rows` for a box of at most 2 x 2 pixels (n <= 2, ye <= ys + 1; 82% of the drawn
+    triangles at 1M): its 4 pixels tested and written without the row and block loops,
+    each with `_rows`'s arithmetic (the same keys, the same tests). The buffers have a row
+    and a column to spare past the box: a pixel past the box is read and written back
+    unchanged (its stencil and floor read at the box's last pixel instead), so the 4 never
+    share a place in the buffers."""
+    wide = n > 1
+    tall = ye > ys
+    # stencil and floor (whole images): a pixel past the box reads the box's last one
+    x1 = xs + wide
+    y1 = ys + tall
+    # unsigned indices (all are >= 0): numba then adds no negative-index wraparound
+    c0 = np.uint64(xs - col0)
+    r0 = np.uint64(ys - top)
+    c1 = c0 + np.uint64(1)
+    r1 = r0 + np.uint64(1)
+    z_row0 = z_ref + dzdy * (ys - first_y) + zx0
+    z_row1 = z_ref + dzdy * (ys + 1 - first_y) + zx0
+    one, zero = np.int64(1), np.int64(0)
+    zf = z_row0 + dzdx * zero
+    _pixel(t32, ys, xs, r0, c0, e0, e1, e2, np.float32(zf), zf, tie, True, stencil,
+           use_stencil, floor, use_floor, tri, key, want)
+    zf = z_row0 + dzdx * one
+    _pixel(t32, ys, x1, r0, c1, e0 + sa0, e1 + sa1, e2 + sa2, np.float32(zf), zf, tie,
+           wide, stencil, use_stencil, floor, use_floor, tri, key, want)
+    zf = z_row1 + dzdx * zero
+    _pixel(t32, y1, xs, r1, c0, e0 + sb0, e1 + sb1, e2 + sb2, np.float32(zf), zf, tie,
+           tall, stencil, use_stencil, floor, use_floor, tri, key, want)
+    zf = z_row1 + dzdx * one
+    _pixel(t32, y1, x1, r1, c1, e0 + sa0 + sb0, e1 + sa1 + sb1, e2 + sa2 + sb2,
+           np.float32(zf), zf, tie, wide & tall, stencil, use_stencil, floor, use_floor,
+           tri, key, want)
+
+
 @njit(cache=True, error_model="numpy")
 def _fill(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, bottom, col0,
           col1, stencil, use_stencil, floor, use_floor, tri, key):
@@ -92,6 +149,13 @@ def _fill_at(t, key_scale, cull, x0, y0, w0, x1, y1, w1, x2, y2, w2, bits, top, 
                np.float64(w1), np.int64(x2), np.int64(y2), np.float64(w2),
                np.float64(key_scale), cull, bits, top, bottom, col0, col1)
     if not s[0]:
+        return
+    # `_quad` for a box of at most 2 x 2 pixels in buffers with a row and a column to spare
+    if (s[2] <= 2 and s[4] <= s[3] + 1 and key.shape[0] > bottom - origin_y
+            and key.shape[1] > col1 - origin_x):
+        _quad(np.int32(t), s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], s[10],
+              s[11], s[12], s[13], s[14], s[15], s[16], s[17], s[18], 1.0 / key_scale,
+              origin_y, origin_x, stencil, use_stencil, floor, use_floor, tri, key, want)
         return
     _rows(np.int32(t), s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], s[10], s[11],
           s[12], s[13], s[14], s[15], s[16], s[17], s[18], 1.0 / key_scale, origin_y,
