@@ -64,7 +64,9 @@ def alternate(runs: dict, repeats: int, clock=time.perf_counter) -> dict:
 def captured_passes(scene: str, threads: int) -> list[tuple]:
     """The rasterize calls of a virtual frame's passes: (corners, flags, clip_from_world,
     width, height, planes, mask, depth_floor), copied; passes drawn together
-    (`rasterize_passes`, sphere mirrors) as one call each."""
+    (`rasterize_passes`: sphere mirrors, and a mesh reflector's explosion parts) as one
+    call each."""
+    import reflectcli.virtual.partpasses as vp
     import reflectcli.virtual.raster as vr
     import reflectcli.virtual.together as vt
     from reflectcli.raster.rasterize import standard_planes
@@ -96,12 +98,12 @@ def captured_passes(scene: str, threads: int) -> list[tuple]:
 
     o = opened(scene, "virtual", [], threads)
     vr.rasterize = spy
-    vt.rasterize_passes = spy_passes
+    vt.rasterize_passes = vp.rasterize_passes = spy_passes
     try:
         o.render_frame(0)
     finally:
         vr.rasterize = real
-        vt.rasterize_passes = real_passes
+        vt.rasterize_passes = vp.rasterize_passes = real_passes
     return calls
 
 
