@@ -63,42 +63,11 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
             floats = work_f[me]
             st = status[me]
             sel = chosen[me]
-            c = _CHUNK
-            # the triangles to fill, listed without a branch per triangle: boxes of at most
-            # 2 x 2 pixels from the front (`_quad`), the others from the back (`_rows`)
-            k = 0
-            b = 0
-            for i in range(kept):
-                drawn = ints[20 * c + i]
-                small = (ints[7 * c + i] <= 2) & (ints[9 * c + i] <= ints[8 * c + i] + 1)
-                sel[k] = i
-                sel[2 * c - 1 - b] = i
-                quad = drawn & small
-                k += quad
-                b += drawn - quad
+            _fill_listed(ints, floats, sel, kept, t0, flags, top, col0, stencil, use_stencil,
+                         floor, use_floor, tri, key, -1)
             clipped = 0
             for j in range(count):
                 clipped += st[j] == _CLIPPED
-            for q in range(k):
-                j = sel[q]
-                t = t0 + ints[21 * c + j]
-                _quad(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
-                      ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
-                      ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
-                      ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
-                      floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
-                      MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
-                      use_stencil, floor, use_floor, tri, key, -1)
-            for q in range(b):
-                j = sel[2 * c - 1 - q]
-                t = t0 + ints[21 * c + j]
-                _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
-                      ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
-                      ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
-                      ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
-                      floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
-                      MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
-                      use_stencil, floor, use_floor, tri, key, True, -1)
             if clipped:
                 for j in range(count):
                     if st[j] == _CLIPPED:
@@ -108,6 +77,45 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
                                       xyw[me], top, bottom, col0, col1, stencil, use_stencil,
                                       floor, use_floor, tri, key, top, col0, -1)
 
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _fill_listed(ints, floats, sel, kept, t0, flags, top, col0, stencil, use_stencil, floor,
+                 use_floor, tri, key, want):
+    """Fill the `kept` triangles a run's `_run_setup` listed (setup columns 0..kept-1 of
+    ints / floats, row 21 their index in the run from t0), those it found drawn: listed
+    without a branch per triangle, boxes of at most 2 x 2 pixels from the front of `sel`
+    (`_quad`), the others from its back (`_rows`). `draw` and `rasterize_passes` share it."""
+    c = _CHUNK
+    k = 0
+    b = 0
+    for i in range(kept):
+        drawn = ints[20 * c + i]
+        small = (ints[7 * c + i] <= 2) & (ints[9 * c + i] <= ints[8 * c + i] + 1)
+        sel[k] = i
+        sel[2 * c - 1 - b] = i
+        quad = drawn & small
+        k += quad
+        b += drawn - quad
+    for q in range(k):
+        j = sel[q]
+        t = t0 + ints[21 * c + j]
+        _quad(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+              ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+              ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+              ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+              floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
+              MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
+              use_stencil, floor, use_floor, tri, key, want)
+    for q in range(b):
+        j = sel[2 * c - 1 - q]
+        t = t0 + ints[21 * c + j]
+        _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+              ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+              ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+              ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+              floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
+              MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
+              use_stencil, floor, use_floor, tri, key, True, want)
 
 
 @njit(cache=True, error_model="numpy")

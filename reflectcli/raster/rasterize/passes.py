@@ -14,11 +14,10 @@ from ...parallel import claim, counter
 from ...scene.types import MIRROR_TIE
 from .buffers import RasterBuffers, RasterWorkspace
 from .constants import _BLOCK, _CHUNK, _CLIPPED, _MAX_POLY, CULL_NONE, FLAG_MIRROR
-from .draw import _draw_clipped
+from .draw import _draw_clipped, _fill_listed
 from .fixed import _subpixel_bits
 from .gather import gather_triangle
 from .resolve import _resolve
-from .rows import _quad, _rows
 from .setup import _run_setup
 
 MAX_PASSES = 255  # labels are uint8, 0 for no pass
@@ -147,42 +146,11 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
             floats = work_f[me]
             st = status[me]
             sel = chosen[me]
-            c = _CHUNK
-            # boxes of at most 2 x 2 pixels listed from the front (`_quad`), the others from
-            # the back (`_rows`)
-            k = 0
-            b = 0
-            for i in range(kept):
-                drawn = ints[20 * c + i]
-                small = (ints[7 * c + i] <= 2) & (ints[9 * c + i] <= ints[8 * c + i] + 1)
-                sel[k] = i
-                sel[2 * c - 1 - b] = i
-                quad = drawn & small
-                k += quad
-                b += drawn - quad
+            _fill_listed(ints, floats, sel, kept, t0, flags, top, col0, labels, True, floor,
+                         use_floor, tri, key, want)
             clipped = 0
             for j in range(count):
                 clipped += st[j] == _CLIPPED
-            for q in range(k):
-                j = sel[q]
-                t = t0 + ints[21 * c + j]
-                _quad(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
-                      ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
-                      ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
-                      ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
-                      floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
-                      MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, labels,
-                      True, floor, use_floor, tri, key, want)
-            for q in range(b):
-                j = sel[2 * c - 1 - q]
-                t = t0 + ints[21 * c + j]
-                _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
-                      ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
-                      ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
-                      ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
-                      floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
-                      MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, labels,
-                      True, floor, use_floor, tri, key, True, want)
             if clipped:
                 for j in range(count):
                     if st[j] == _CLIPPED:
