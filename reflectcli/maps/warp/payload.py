@@ -63,6 +63,7 @@ def _payload_args(payload, payload_out):
     c = payload.shape[1]
     return np.ascontiguousarray(payload), payload_out.reshape(-1, c)
 
+
 def _payload_flat(payload, payload_out):
     """(payload (n, c) flat, payload_out (H, W, c) flat, c), or empty stand-ins and width 0
     without a payload."""

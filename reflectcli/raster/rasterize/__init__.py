@@ -24,8 +24,10 @@ _BLOCK - 1 spare columns), merged per pixel at the end. The depth test and
 the merge both pick the greatest key, then the lowest index, and every key depends only on
 the triangle and the pixel, so the bytes are the same for any thread count and any order
 the runs are drawn in. Within a run, the per-corner work (clip space, classification,
-projection, snapping) is done for all its triangles at once in vectorised loops
-(`_run_setup`), then each triangle is filled. With a workspace, a run whose world box
+projection, snapping, a cheap test of facing and covered centres) is done for all its
+triangles at once in vectorised loops, and the full setup only for those the test lists
+(`_run_setup`); then each is filled (`_fill_listed`: a box of at most 2 x 2 centres
+directly, `_quad`, a bigger one row by row, `_rows`). With a workspace, a run whose world box
 misses the view, an extra plane or the stencil's box is skipped whole (`_box_misses`).
 
 The package, one idea a module:

@@ -22,10 +22,11 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     thread clears its buffers before its first chunk and marks them in `drew` (one parallel
     region less: on a busy machine each costs a wake-up of the other threads).
 
-    A chunk goes in two phases: `_run_setup` (clip space, classification, projection and
-    snapping: loops without branches over the run, which the compiler vectorises, into
-    small per-thread arrays), then per triangle `_fill` (culling, box, edge functions, key
-    plane, pixels) or `_draw_clipped`."""
+    A chunk goes in two phases: `_run_setup` (clip space, classification, projection,
+    snapping and a cheap test of facing and covered centres, then edge functions and key
+    planes of the triangles that test lists: loops without branches over the run, which
+    the compiler vectorises, into small per-thread arrays), then `_fill_listed` (each
+    listed triangle's pixels) and `_draw_clipped` for the triangles a plane cuts."""
     n = corners.shape[0]
     scale = float(1 << bits)
     threads = own_tri.shape[0]
