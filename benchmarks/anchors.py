@@ -20,7 +20,9 @@ Rows (the table of issue 13):
   wall time: a shared machine's waits for a core then stay out of both.
 - raster: the anchor's room + icospheres (202,560 / 1,000,960 triangles) through reflect's
   rasterizer (z + id + barycentrics), back faces culled and not (as the primary pass runs),
-  against the anchor's sort-last kernel (culled).
+  against the anchor's sort-last kernel (culled). The unculled rows are also set against
+  the anchor given every triangle twice, in both windings: it then draws every triangle
+  once whichever way it faces, the work an unculled rasterizer does (and culls the copy).
 - rerender: a music-room frame with ~200k triangles (max_depth 1) against the OpenGL
   stencil mirror at 200k triangles (frame + readback).
 - raytrace: frames of teapot-box / music-room at 1 spp (rays per second) against raw Embree
@@ -218,6 +220,7 @@ def raster_case(ar, n_spheres: int, subdiv: int, reps: int) -> None:
     x, y, z = (np.empty(nv, np.float32) for _ in range(3))
     zb, ib = np.empty((ar.H, ar.W), np.float32), np.empty((ar.H, ar.W), np.int32)
     zbs, ibs = np.empty((2, ar.W * ar.H), np.float32), np.empty((2, ar.W * ar.H), np.int32)
+    both = np.ascontiguousarray(np.concatenate([f, f[:, ::-1]]), f.dtype)  # both windings
     fns = {
         "culled": lambda: rasterize(corners, flags, m64, 640, 480, cull=CULL_BACK,
                                     workspace=ws),
@@ -225,12 +228,17 @@ def raster_case(ar, n_spheres: int, subdiv: int, reps: int) -> None:
                                       workspace=ws),
         "anchor": lambda: ar.tuned_sortlast(v, m, f, x, y, z, zb.reshape(-1),
                                             ib.reshape(-1), zbs, ibs),
+        "anchor, both windings": lambda: ar.tuned_sortlast(v, m, both, x, y, z, zb.reshape(-1),
+                                                           ib.reshape(-1), zbs, ibs),
     }
     t = round_robin(fns, reps)
     add(f"rasterize {len(f):,} triangles, culled", ms(t["anchor"]), ms(t["culled"]),
         ratio(t["culled"], t["anchor"]), "<= 1.5")
     add(f"rasterize {len(f):,} triangles, unculled", ms(t["anchor"]), ms(t["unculled"]),
         ratio(t["unculled"], t["anchor"]), "<= 1.5")
+    add(f"rasterize {len(f):,} triangles, unculled, vs anchor given both windings",
+        ms(t["anchor, both windings"]), ms(t["unculled"]),
+        ratio(t["unculled"], t["anchor, both windings"]), "(like for like)")
 
 
 # ------------------------------------------------------------------------------ rerender
