@@ -48,9 +48,10 @@ class FrameFiles:
         return self.exr[:-4] + ".png"
 
 
-def write_frame_files(files: FrameFiles) -> None:
-    """EXR, preview, log row; on an OSError the frame's files are removed and a WriteFailed
-    naming the file being written is raised."""
+def write_frame_files(files: FrameFiles) -> dict:
+    """EXR, preview, log row; returns the row as logged (with its write_seconds). On an
+    OSError the frame's files are removed and a WriteFailed naming the file being written is
+    raised."""
     start = time.perf_counter()
     target = files.exr
     try:
@@ -59,11 +60,12 @@ def write_frame_files(files: FrameFiles) -> None:
             target = files.png
             write_png(target, files.preview_rgb)
         target = files.log_path
-        append_jsonl(files.log_path,
-                     {**files.row, "write_seconds": time.perf_counter() - start})
+        row = {**files.row, "write_seconds": time.perf_counter() - start}
+        append_jsonl(files.log_path, row)
     except OSError as e:
         discard(files.exr, *([files.png] if files.preview_rgb is not None else []))
         raise write_failure(e, target) from None
+    return row
 
 
 OnWritten = Callable[[str, dict], None]
@@ -73,7 +75,8 @@ class FrameWriter:
     """Writes frames in submission order; with `overlap`, behind the renderer.
 
     `on_written(exr, row)` runs in the calling thread once a frame's files are all written,
-    with Ctrl-C held, so a count of kept frames is exact."""
+    with Ctrl-C held, so a count of kept frames is exact; `row` is the log row as written,
+    with its write_seconds (the run's timings summary reads them)."""
 
     def __init__(self, overlap: bool) -> None:
         self.overlap = overlap
@@ -84,9 +87,9 @@ class FrameWriter:
     def submit(self, files: FrameFiles, on_written: OnWritten | None = None) -> None:
         if self._pool is None:
             with deferred():  # a frame is kept with its log line, or not at all
-                write_frame_files(files)
+                row = write_frame_files(files)
                 if on_written is not None:
-                    on_written(files.exr, files.row)
+                    on_written(files.exr, row)
             return
         self.drain()
         self._pending = (self._pool.submit(write_frame_files, files), files, on_written)
@@ -98,9 +101,9 @@ class FrameWriter:
         future, files, on_written = self._pending
         with deferred():
             self._pending = None
-            future.result()
+            row = future.result()
             if on_written is not None:
-                on_written(files.exr, files.row)
+                on_written(files.exr, row)
 
     def close(self) -> None:
         """Wait for the frame in flight (its failure is raised) and stop the thread."""

@@ -32,6 +32,8 @@ def test_timings_summary_after_warmup(tmp_path):
     assert set(summary["stages"]) == set(rows[1]["stages"])
     times = sorted(1e3 * r["frame_seconds"] for r in rows[1:])
     assert frame["median_ms"] == pytest.approx(times[1])
+    writes = sorted(1e3 * r["write_seconds"] for r in rows)  # every frame's write
+    assert summary["write"]["median_ms"] == pytest.approx((writes[1] + writes[2]) / 2)
 
 
 def test_timings_summary_warns_on_one_cold_frame():
