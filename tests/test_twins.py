@@ -328,6 +328,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/mapfill.py:_fill_extensions": (FILL, None),
     "virtual/explosion.py:_plane_from_map": (
         [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
+    "virtual/explosion.py:_plane_of": (
+        [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP + PARTS, "_plane_from_map"),
     "virtual/explosion.py:_screen_plane": (
         [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
     "virtual/explosion.py:_blend3": (
