@@ -263,7 +263,7 @@ def _walk(p, owner, part, q, r, sx, sy, iterations):
     from the last point inside, Q extrapolated along its screen derivatives, so that
     polygons reaching out there stretch past the part's edge (and are masked) as exact ones
     would; NONE if the part was never sampled (Q meaningless). One _step at a time (_refine
-    runs the same steps, several walks side by side)."""
+    runs the same steps, _LANES walks side by side: _advance)."""
     status = NONE
     e0 = e1 = e2 = 0.0  # Q at the end (extrapolated, unless exact)
     r0 = r1 = r2 = 0.0  # R at the last point inside
