@@ -260,8 +260,14 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/refine.py:_step": (REFINE, "_refine"),
     "virtual/refine.py:_walk_end": (REFINE, "_refine"),
     "virtual/refine.py:_begin": (REFINE, "_refine"),
-    "virtual/refine.py:_start": (REFINE, "_refine"),
-    "virtual/refine.py:_finish": (REFINE, "_refine"),
+    "virtual/refine.py:_lane_arrays": (REFINE, "_refine"),
+    "virtual/refine.py:_walk_lanes": (REFINE, "_refine"),
+    "virtual/refine.py:_gather": (REFINE, "_refine"),
+    "virtual/refine.py:_advance": (REFINE, "_refine"),
+    "virtual/refine.py:_after_steps": (REFINE, "_refine"),
+    "virtual/refine.py:_next_point": (REFINE, "_refine"),
+    "virtual/refine.py:_take": (REFINE, "_refine"),
+    "virtual/refine.py:_finish_all": (REFINE, "_refine"),
     "virtual/tiles.py:_scan": ([VR + "test_tile_scan_matches_twin",
                                 VR + "test_tile_scan_with_a_wide_cone_matches_twin"],
                                "PartTiles.scan"),
@@ -322,6 +328,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/mapfill.py:_fill_extensions": (FILL, None),
     "virtual/explosion.py:_plane_from_map": (
         [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
+    "virtual/explosion.py:_plane_of": (
+        [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP + PARTS, "_plane_from_map"),
     "virtual/explosion.py:_screen_plane": (
         [VE + "test_plane_and_screen_lookups_match_twin"] + LOOKUP, None),
     "virtual/explosion.py:_blend3": (

@@ -46,6 +46,13 @@ EXTENSION_REACH = 0.6  # extension vertices end at this fraction of s from the m
 # texels around the empty looked-up ones searched for a nearest filled texel, in turn
 NEAR_MARGINS = (8, 48)
 
+# numba's reference counting off (`_nrt=False`) in a loop's function that makes no array:
+# each array a loop hands to an inlined helper, or view it takes, counts the array's
+# references up and down, two atomic operations an item, which both threads contend for
+# (the mask's map lookups: 12 -> 8 ms at 1 thread, 8.5 -> 4 ms at 2). The caller holds
+# every array meanwhile.
+_NO_COUNTS = {"_nrt": False}
+
 
 @dataclass
 class ExplosionMap:
@@ -580,7 +587,8 @@ def virtual_vertices(maps: ExplosionMaps, points: np.ndarray, hidden_face: np.nd
     unreflected = np.zeros(points.shape[0], np.bool_)
     flip = np.zeros(3) if flip_axis is None else np.asarray(flip_axis, np.float64)
     _virtual(np.ascontiguousarray(points, np.float64), m.vertices, maps.normals, m.faces,
-             maps.extensions, ids, coords, radii, maps.center, flip, maps.frame, maps.res,
+             maps.extensions, ids, np.ascontiguousarray(coords).reshape(-1, 2), radii,
+             maps.center, flip, maps.frame, maps.res,
              maps.s, hidden_face, hidden_screen, screen_coords, cores, out, unreflected)
     return out, (hidden_face >= 0) | unreflected
 
@@ -610,15 +618,22 @@ def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
     res = ids.shape[0]
     x = min(max(int(math.floor(tx)), 0), res - 1)
     y = min(max(int(math.floor(ty)), 0), res - 1)
-    ident = ids[y, x]
+    return _plane_of(ids[y, x], coords, 0, v, n, faces, extensions, tx, ty)
+
+
+@njit(cache=True, inline="always")
+def _plane_of(ident, coords, at, v, n, faces, extensions, tx, ty):
+    """_plane_from_map for the texel's id `ident`, the map's vertex coordinates rows at ..
+    of `coords` (so that the joined maps are read in place: a view made per point and map
+    costs two atomic counts, which also wait on the lookups' loads)."""
     if ident < 0:
         return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     nf = faces.shape[0]
     if ident < nf:
         a, b, c = faces[ident, 0], faces[ident, 1], faces[ident, 2]
-        ax, ay = coords[a, 0], coords[a, 1]
-        bx, by = coords[b, 0], coords[b, 1]
-        cx, cy = coords[c, 0], coords[c, 1]
+        ax, ay = coords[at + a, 0], coords[at + a, 1]
+        bx, by = coords[at + b, 0], coords[at + b, 1]
+        cx, cy = coords[at + c, 0], coords[at + c, 1]
         area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
         if area == 0.0:
             wb = wc = 1.0 / 3.0
@@ -631,9 +646,10 @@ def _plane_from_map(ids, coords, v, n, faces, extensions, tx, ty):
     else:
         e = ident - nf
         i, j = extensions[e, 1], extensions[e, 2]
-        ex, ey = coords[j, 0] - coords[i, 0], coords[j, 1] - coords[i, 1]
+        ex, ey = coords[at + j, 0] - coords[at + i, 0], coords[at + j, 1] - coords[at + i, 1]
         ll = ex * ex + ey * ey
-        u = 0.5 if ll == 0.0 else ((tx - coords[i, 0]) * ex + (ty - coords[i, 1]) * ey) / ll
+        u = 0.5 if ll == 0.0 else ((tx - coords[at + i, 0]) * ex
+                                   + (ty - coords[at + i, 1]) * ey) / ll
         u = min(max(u, 0.0), 1.0)
         p = ((1.0 - u) * v[i, 0] + u * v[j, 0], (1.0 - u) * v[i, 1] + u * v[j, 1],
              (1.0 - u) * v[i, 2] + u * v[j, 2])
@@ -666,8 +682,11 @@ def _mirror(q, p, nn):
 
 
 @njit(cache=True, parallel=True)
-def _virtual(points, v, n, faces, extensions, ids, coords, radii, center, flip_axis, frame,
+def _virtual(points, v, n, faces, extensions, ids, flat, radii, center, flip_axis, frame,
              res, s, hidden_face, hidden_screen, screen, cores, out, unreflected):
+    """virtual_vertices' loop (flat: the layers' vertex coordinates (L x V, 2), layer l's
+    rows l V ..)."""
+    nv = v.shape[0]
     for i in prange(points.shape[0]):
         h = hidden_face[i]
         if h >= 0 and _through_hidden(points, i, faces, h, screen, v, n, hidden_screen, out):
@@ -676,9 +695,9 @@ def _virtual(points, v, n, faces, extensions, ids, coords, radii, center, flip_a
         # still travelling toward the focus: look up the direction that ray is going in
         tx, ty, cx, cy, dist, lo = _lookup_at(points[i, 0], points[i, 1], points[i, 2],
                                               center, flip_axis, frame, res, s, radii)
-        _through_maps(points, i, v, n, faces, extensions, ids[lo], ids[lo + 1], coords[lo],
-                      coords[lo + 1], cores[lo], cores[lo + 1], tx, ty, cx, cy, dist,
-                      radii[lo], radii[lo + 1], out, unreflected)
+        _through_maps(points, i, v, n, faces, extensions, ids, lo, flat, lo * nv,
+                      (lo + 1) * nv, cores, tx, ty, cx, cy, dist, radii[lo], radii[lo + 1],
+                      out, unreflected)
 
 
 @njit(cache=True, inline="always")
@@ -688,21 +707,25 @@ def _through_hidden(points, i, faces, h, screen, v, n, hidden_screen, out):
     if the triangle is degenerate there (the point then goes through the maps)."""
     p, nn = _screen_plane(faces, h, screen, v, n, hidden_screen[i, 0], hidden_screen[i, 1])
     if nn[0] != 0.0 or nn[1] != 0.0 or nn[2] != 0.0:
-        out[i, 0], out[i, 1], out[i, 2] = _mirror(points[i], p, nn)
+        q = (points[i, 0], points[i, 1], points[i, 2])
+        out[i, 0], out[i, 1], out[i, 2] = _mirror(q, p, nn)
         return True
     return False
 
 
 @njit(cache=True, inline="always")
-def _through_maps(points, i, v, n, faces, extensions, ids_near, ids_far, coords_near,
-                  coords_far, core_near, core_far, tx, ty, cx, cy, dist, r_near, r_far, out,
-                  unreflected):
-    """Point i through the two maps bracketing it (_lookup_at's answer) into out[i] and
-    unreflected[i]."""
-    q = points[i]
-    unreflected[i] = not (core_near[cy, cx] and core_far[cy, cx])
-    pn, nn_ = _plane_from_map(ids_near, coords_near, v, n, faces, extensions, tx, ty)
-    pf, nf_ = _plane_from_map(ids_far, coords_far, v, n, faces, extensions, tx, ty)
+def _through_maps(points, i, v, n, faces, extensions, ids, k, coords, at_near, at_far, cores,
+                  tx, ty, cx, cy, dist, r_near, r_far, out, unreflected):
+    """Point i through the two maps bracketing it (_lookup_at's answer), layers k and k + 1
+    of ids and cores (L, res, res), their vertex coordinates rows at_near .. and at_far ..
+    of coords, into out[i] and unreflected[i]."""
+    q = (points[i, 0], points[i, 1], points[i, 2])
+    unreflected[i] = not (cores[k, cy, cx] and cores[k + 1, cy, cx])
+    res = ids.shape[1]
+    x = min(max(int(math.floor(tx)), 0), res - 1)
+    y = min(max(int(math.floor(ty)), 0), res - 1)
+    pn, nn_ = _plane_of(ids[k, y, x], coords, at_near, v, n, faces, extensions, tx, ty)
+    pf, nf_ = _plane_of(ids[k + 1, y, x], coords, at_far, v, n, faces, extensions, tx, ty)
     has_near = nn_[0] ** 2 + nn_[1] ** 2 + nn_[2] ** 2 > 0
     has_far = nf_[0] ** 2 + nf_[1] ** 2 + nf_[2] ** 2 > 0
     wn = 1.0 / max(abs(dist - r_near), 1e-12) if has_near else 0.0
@@ -712,8 +735,8 @@ def _through_maps(points, i, v, n, faces, extensions, ids_near, ids_far, coords_
         return
     xn = _mirror(q, pn, nn_)
     xf = _mirror(q, pf, nf_)
-    for k in range(3):
-        out[i, k] = (wn * xn[k] + wf * xf[k]) / (wn + wf)
+    for c in range(3):
+        out[i, c] = (wn * xn[c] + wf * xf[c]) / (wn + wf)
 
 
 def virtual_vertices_together(joined: JoinedMaps, points: np.ndarray, point_start: np.ndarray,
@@ -776,19 +799,17 @@ def _virtual_parts(points, point_start, chunk_start, v, n, faces, extensions, st
                            screen[v0:v1], cores, out[a:], unreflected[a:])
 
 
-@njit(cache=True)
+@njit(cache=True, **_NO_COUNTS)
 def _virtual_chunk(points, v, n, faces, extensions, ids, coords, coord_start, k0, radii, at,
                    cell, hidden_face, hidden_screen, screen, cores, out, unreflected):
     """_virtual's loop over one chunk of one part's points (its layers k0 .. of the joined
-    ids, coords and cores; radii its own)."""
+    ids, coords and cores; radii its own); reference counts off (_NO_COUNTS)."""
     for i in range(points.shape[0]):
         h = hidden_face[i]
         if h >= 0 and _through_hidden(points, i, faces, h, screen, v, n, hidden_screen, out):
             continue
         lo = cell[i, 2]
         k = k0 + lo
-        _through_maps(points, i, v, n, faces, extensions, ids[k], ids[k + 1],
-                      coords[coord_start[k]:coord_start[k + 1]],
-                      coords[coord_start[k + 1]:coord_start[k + 2]], cores[k], cores[k + 1],
-                      at[i, 0], at[i, 1], cell[i, 0], cell[i, 1], at[i, 2], radii[lo],
-                      radii[lo + 1], out, unreflected)
+        _through_maps(points, i, v, n, faces, extensions, ids, k, coords, coord_start[k],
+                      coord_start[k + 1], cores, at[i, 0], at[i, 1], cell[i, 0], cell[i, 1],
+                      at[i, 2], radii[lo], radii[lo + 1], out, unreflected)

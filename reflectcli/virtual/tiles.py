@@ -187,8 +187,10 @@ def _candidate(points, k, center, radius, axis, cos_a, sin_a, a):
     sin_s = min(radius / dist, 1.0)
     c = (v0 * axis[0] + v1 * axis[1] + v2 * axis[2]) / dist
     bound = cos_a * math.sqrt(1.0 - sin_s * sin_s) - sin_a * sin_s
-    wide = a >= 0.5 * math.pi and a + math.asin(sin_s) >= math.pi
-    return not (c < bound - 1e-9) or dist <= radius or sin_s >= 1.0 or wide
+    if not (c < bound - 1e-9) or dist <= radius or sin_s >= 1.0:
+        return True
+    # only then the arcsine (a call, the test's costliest part)
+    return a >= 0.5 * math.pi and a + math.asin(sin_s) >= math.pi
 
 
 @njit(cache=True, parallel=True)
