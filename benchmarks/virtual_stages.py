@@ -19,18 +19,17 @@ from pathlib import Path
 
 import numba
 
-import reflectcli.raster.rasterize.api as raster_api
 import reflectcli.raster.rasterize.passes as passes
 import reflectcli.raster.shade as shade
-import reflectcli.techniques.virtual.technique as technique
 import reflectcli.virtual.circle as circle
+import reflectcli.virtual.primary as primary
 import reflectcli.virtual.together as together
 from reflectcli import api
 
 ROOT = Path(__file__).resolve().parents[1]
 # (module, function, label): the frame's kernels in the order they run
-KERNELS = ((raster_api, "_draw", "primary draw"), (raster_api, "_resolve", "primary merge"),
-           (shade, "_shade", "primary shade"), (technique, "mirror_boxes", "mirror boxes"),
+KERNELS = ((primary, "_draw", "primary draw"),
+           (primary, "_primary_rows", "primary merge+shade"),
            (circle, "_blocks", "sphere searches"), (together, "pass_labels", "labels, floor"),
            (passes, "_draw_passes", "virtual gather+draw"),
            (shade, "_shade_stencil_resolving", "virtual merge+shade"),

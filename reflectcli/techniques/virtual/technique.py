@@ -34,14 +34,14 @@ from scipy.spatial import ConvexHull, QhullError
 
 from ...camera import Camera
 from ...frame import Frame
-from ...raster.primary import render_primary
 from ...raster.rasterize import RasterWorkspace
 from ...raster.shade import add_reflection
 from ...scene.types import PLANAR, SPHERE, UNLIT, Scene
-from ...virtual.compose import gather_corners, mirror_boxes
+from ...virtual.compose import gather_corners
 from ...virtual.dispatch import choose_method, explosion_group, facing_plane, reflector_parts
 from ...virtual.partpasses import PartPassCache, draw_parts
 from ...virtual.parts import parts_vertices
+from ...virtual.primary import primary_and_boxes
 from ...virtual.raster import draw_virtual, reflected_rays
 from ...virtual.reflected import ReflectedCache
 from ...virtual.shape import ShapeCache
@@ -135,7 +135,9 @@ class Virtual(Technique):
         primary frame's masks, loop overhead), so that the stages add up to the frame."""
         t_frame = time.perf_counter()
         scene = state.scene
-        primary = render_primary(scene, frame_index, camera, workspace=state.primary_raster)
+        # the primary pass and which mirrors are in view, with the box of each one's pixels
+        primary, counts, boxes = primary_and_boxes(scene, frame_index, camera,
+                                                   state.primary_raster)
         result = primary.frame
         geometry = scene.geometry(frame_index)
         clip_from_world = primary.buffers.clip_from_world  # the camera's (85 us to make)
@@ -143,8 +145,6 @@ class Virtual(Technique):
         seconds = dict.fromkeys(("tessellate", "maps", "virtual_vertices", "virtual_raster"),
                                 0.0)
         t_start = time.perf_counter()
-        # which mirrors are in view, and the box of each one's pixels
-        counts, boxes = mirror_boxes(result.surface, scene.n_objects, scene.mirrors.count)
         seen = np.flatnonzero(counts)
         incoming = None  # per pixel, the reflected ray shading sees its fragment along
         # (lit shading only: unlit shading reads the albedo alone, so the rays, 0.8 ms of
