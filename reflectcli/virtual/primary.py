@@ -28,19 +28,24 @@ from ..scene.types import Scene
 from .compose import mirror_boxes
 
 
-def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera,
-                      ws: RasterWorkspace) -> tuple[Primary, np.ndarray, np.ndarray]:
-    """(render_primary(scene, frame_index, camera, workspace=ws), and mirror_boxes'
-    (counts, boxes) of its surface ids), the same bytes. The frame's arrays (rgb, depth,
+def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: RasterWorkspace,
+                      label_of: np.ndarray, labels: np.ndarray,
+                      stencil: np.ndarray) -> tuple[Primary, np.ndarray, np.ndarray, bool]:
+    """(render_primary(scene, frame_index, camera, workspace=ws), mirror_boxes' (counts,
+    boxes) of its surface ids, labelled), the same bytes. The frame's arrays (rgb, depth,
     surface, mirror mask) are its own; the triangle ids are the workspace's (read within
-    the frame only: valid until the next call)."""
+    the frame only: valid until the next call).
+
+    `labelled` True: `labels` (H, W uint8) holds label_of[k] (M,) on mirror k's pixels and
+    0 on every other pixel, and `stencil` (H, W bool) labels != 0: `pass_labels`' labels
+    and stencil in any box."""
     t0 = time.perf_counter()
     tris = scene.geometry(frame_index).all_triangles()
     width, height = camera.width, camera.height
     n_objects, n_mirrors = scene.n_objects, scene.mirrors.count
     if tris.count == 0 or width <= 0 or height <= 0:
         primary = render_primary(scene, frame_index, camera, workspace=ws)
-        return (primary, *mirror_boxes(primary.frame.surface, n_objects, n_mirrors))
+        return (primary, *mirror_boxes(primary.frame.surface, n_objects, n_mirrors), False)
     flags = (tris.surface >= n_objects).astype(np.uint8) * np.uint8(FLAG_MIRROR)
     m = np.ascontiguousarray(camera.clip_from_world(), dtype=np.float64)
     # `rasterize` with no mask, no depth floor, near and far planes, no culling
@@ -52,7 +57,7 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera,
     corners = np.ascontiguousarray(tris.corners, dtype=np.float32)
     tri = ws.get("primary_tri", (height, width), np.int32)
     depth = np.empty((height, width), np.float32)
-    stencil = ws.constant("stencil", (1, 1), np.uint8, 1)
+    no_mask = ws.constant("stencil", (1, 1), np.uint8, 1)
     floor = ws.constant("floor", (1, 1), np.float32, 0.0)
     threads = max(1, numba.get_num_threads())
     padded = (height + 1, width + _BLOCK - 1)
@@ -62,7 +67,7 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera,
     chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
     bounds = ws.chunk_bounds(corners)
     _draw(corners, flags, m, all_planes, planes.shape[0], width, height, bits, CULL_NONE,
-          chunks, bounds, stencil, False, floor, False, 0, width, 0, height, own_tri, own_key,
+          chunks, bounds, no_mask, False, floor, False, 0, width, 0, height, own_tri, own_key,
           drew)
     t1 = time.perf_counter()
     rgb = np.empty((height, width, 3), np.float32)
@@ -76,26 +81,28 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera,
                   np.asarray(camera.eye, np.float64), mats.mat_i, mats.mat_f, mats.texels,
                   lights.light_f, scene.shading, scene.ambient, scene.background,
                   scene.mirrors.reflectance, scene.mirrors.base, rgb, surface, mirror_mask,
-                  counts, boxes, threads)
+                  counts, boxes, label_of, labels, stencil, threads)
     t2 = time.perf_counter()
     frame = Frame(rgb=rgb, depth=depth, surface=surface, mirror_mask=mirror_mask,
                   timings={"rasterize": t1 - t0, "shade": t2 - t1},
                   stats={"triangles": tris.count})
     buffers = RasterBuffers(tri, None, None, depth, corners, m)
-    return Primary(frame, buffers, tris, flags), counts, boxes
+    return Primary(frame, buffers, tris, flags), counts, boxes, True
 
 
 @njit(cache=True, parallel=True)
 def _primary_rows(flags, own_tri, own_key, drew, tri, depth, m, drawn, corners, uvs, normals,
                   material, surface, n_objects, eye, mat_i, mat_f, texels, light_f, shading,
                   ambient, background, refl, base, rgb, surf, mirror_mask, counts, boxes,
-                  threads):
+                  label_of, labels, stencil, threads):
     """Rows claimed _ROWS at a time by whichever thread is free: each row's threads'
     buffers merged into `tri` and `depth` (`_resolve`'s row over the whole image), the row
     shaded (`_shade`'s row, barycentrics recovered from the drawn corners `drawn`), its mirror mask
     (surface id >= n_objects) set and its mirror pixels counted into the worker's own
     counts and boxes; those are combined at the end (sums, minima, maxima: `mirror_boxes`'
-    numbers whoever counted which row). A row's shading reads only its own row's ids."""
+    numbers whoever counted which row), and the row labelled (labels = label_of[k] on
+    mirror k's pixels, 0 elsewhere; stencil = labels != 0). A row's shading reads only its
+    own row's ids."""
     h, w = tri.shape
     n_mirrors = counts.shape[0]
     owners = np.flatnonzero(drew)
@@ -132,9 +139,15 @@ def _primary_rows(flags, own_tri, own_key, drew, tri, depth, m, drawn, corners, 
                     top = max(top, s)
                     mirror_mask[y, x] = s >= n_objects
                 if top < n_objects:
+                    for x in range(w):
+                        labels[y, x] = 0
+                        stencil[y, x] = False
                     continue
                 for x in range(w):
                     k = surf[y, x] - n_objects
+                    label = label_of[k] if 0 <= k < n_mirrors else np.uint8(0)
+                    labels[y, x] = label
+                    stencil[y, x] = label != 0
                     if 0 <= k < n_mirrors:
                         own_counts[me, k] += 1
                         own_boxes[me, k, 0] = min(own_boxes[me, k, 0], y)

@@ -101,15 +101,35 @@ def spheres_vertices(scene: Scene, eye: np.ndarray, group: Together, cache: Toge
     return virtual, hidden
 
 
+def sphere_labels(scene: Scene, choose) -> np.ndarray:
+    """(M,) uint8: label p + 1 for the p-th of the scene's mirrors `choose(k)` says are
+    drawn together (sphere mirrors, in order), 0 for the others: the labels of a frame
+    that sees all of them (`draw_spheres`)."""
+    label_of = np.zeros(scene.mirrors.count, np.uint8)
+    ks = [k for k in range(scene.mirrors.count) if choose(k)][:MAX_PASSES]
+    label_of[ks] = np.arange(1, len(ks) + 1)
+    return label_of
+
+
+def labels_buffers(ws: RasterWorkspace, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
+    """The workspace's label image and stencil (H, W) of the passes drawn together."""
+    return ws.get("together_labels", (h, w), np.uint8), ws.get("together_stencil", (h, w),
+                                                                np.bool_)
+
+
 def draw_spheres(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_world: np.ndarray,
                  group: Together, virtual: np.ndarray, hidden: np.ndarray, boxes: np.ndarray,
-                 zbuffer: bool, incoming: np.ndarray | None, ws: RasterWorkspace) -> None:
+                 zbuffer: bool, incoming: np.ndarray | None, ws: RasterWorkspace,
+                 labelled: np.ndarray | None = None) -> None:
     """The reflections of sphere mirrors group.ks (each seen, boxes (P, 4) of their
     pixels; their virtual points from `spheres_vertices`) added to the primary frame's rgb,
     as `draw_virtual` and `add_reflection` give them one at a time: one rasterization of
     all passes over a label image, gathering the corners as it goes (the depth floor where
     `zbuffer`, the reflector test), one shading, merging the threads' buffers as it goes,
-    cracks filled and reflections added per label."""
+    cracks filled and reflections added per label. `labelled` (M,): the labels the
+    workspace's label image already holds (`primary_and_boxes`), used when they are this
+    group's (label p + 1 on mirror group.ks[p]); the depth floor is the primary depth
+    itself (read only on labelled pixels, where `pass_labels` copies it)."""
     joined = group.joined
     mirrors = scene.mirrors
     count = len(group.ks)
@@ -123,11 +143,12 @@ def draw_spheres(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_worl
     x0, x1 = min(r[2] for r in rows), max(r[3] for r in rows)
     label_of = np.zeros(mirrors.count, np.uint8)
     label_of[list(group.ks)] = np.arange(1, count + 1)
-    labels = ws.get("together_labels", (h, w), np.uint8)
-    stencil = ws.get("together_stencil", (h, w), np.bool_)
-    floor = ws.get("virtual_floor", (h, w), np.float32)
-    pass_labels(frame.surface, primary.buffers.depth, scene.n_objects, label_of, y0, y1, x0,
-                x1, labels, stencil, floor)
+    labels, stencil = labels_buffers(ws, h, w)
+    if labelled is None or not np.array_equal(labelled, label_of):
+        pass_labels(frame.surface, primary.buffers.depth, scene.n_objects, label_of, y0, y1,
+                    x0, x1, labels, stencil, ws.get("virtual_floor", (h, w), np.float32))
+    # a pass's fragments are tested against the floor only where its label is
+    floor = primary.buffers.depth
     # the threads' buffers merged row by row as the rows are shaded (one region less)
     buffers, pending = rasterize_passes(corners, flags, clip_from_world, w, h, group.tri_starts,
                                         boxes, labels, floor if zbuffer else None, ws,

@@ -45,7 +45,14 @@ from ...virtual.primary import primary_and_boxes
 from ...virtual.raster import draw_virtual, reflected_rays
 from ...virtual.reflected import ReflectedCache
 from ...virtual.shape import ShapeCache
-from ...virtual.together import TogetherCache, draw_spheres, spheres_vertices, worth_together
+from ...virtual.together import (
+    TogetherCache,
+    draw_spheres,
+    labels_buffers,
+    sphere_labels,
+    spheres_vertices,
+    worth_together,
+)
 from ...virtual.view import ViewCache
 from ..base import Technique
 from . import Params
@@ -62,6 +69,9 @@ class VirtualState:
     views: ViewCache = field(default_factory=ViewCache)
     together: TogetherCache = field(default_factory=TogetherCache)
     part_passes: PartPassCache = field(default_factory=PartPassCache)
+    # label p + 1 of the p-th mirror drawn with the sphere mirrors (together.py), set by
+    # the primary pass (the labels of a frame that sees all of them)
+    sphere_labels: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
     # the rasterizer's scratch of the primary pass (its outputs stay the frame's own), and
     # the virtual passes' buffers, consumed per part: kept across frames, not allocated anew
     primary_raster: RasterWorkspace = field(default_factory=RasterWorkspace)
@@ -97,6 +107,7 @@ class Virtual(Technique):
         tessellated, and each mesh reflector's shape (welded, decomposed into parts, boundary
         edges); both are cached and reused while the geometry does not change."""
         state = VirtualState(scene)
+        state.sphere_labels = sphere_labels(scene, lambda k: self._together(scene, k))
         geometry = scene.geometry(0)
         tris = geometry.all_triangles()
         explosion = False
@@ -124,6 +135,12 @@ class Virtual(Technique):
             _ = state.scene_points  # the far maps' bound, made here rather than in frame 0
         return state
 
+    def _together(self, scene: Scene, k: int) -> bool:
+        """Whether mirror k, when seen, is drawn with the other sphere mirrors."""
+        return self.params.reflector_test != "clip_planes" and choose_method(
+            self.params.method, int(scene.mirrors.kind[k]), k in scene.mirror_profiles
+        ) == "sphere"
+
     def forget_view(self, state: VirtualState) -> None:
         state.views.entries.clear()  # hidden maps, ray grids and tiles belong to one view
 
@@ -136,8 +153,10 @@ class Virtual(Technique):
         t_frame = time.perf_counter()
         scene = state.scene
         # the primary pass and which mirrors are in view, with the box of each one's pixels
-        primary, counts, boxes = primary_and_boxes(scene, frame_index, camera,
-                                                   state.primary_raster)
+        labels, stencil = labels_buffers(state.virtual_raster, camera.height, camera.width)
+        primary, counts, boxes, labelled = primary_and_boxes(
+            scene, frame_index, camera, state.primary_raster, state.sphere_labels, labels,
+            stencil)
         result = primary.frame
         geometry = scene.geometry(frame_index)
         clip_from_world = primary.buffers.clip_from_world  # the camera's (85 us to make)
@@ -157,9 +176,7 @@ class Virtual(Technique):
         ws = state.virtual_raster
         # sphere mirrors drawn together (virtual/together.py): the same bytes, in 3
         # parallel regions for all of them instead of 5 each
-        together = [int(k) for k in seen if self.params.reflector_test != "clip_planes"
-                    and choose_method(self.params.method, int(scene.mirrors.kind[k]),
-                                      int(k) in scene.mirror_profiles) == "sphere"]
+        together = [int(k) for k in seen if self._together(scene, int(k))]
         if together and worth_together(boxes[together]):
             t_start = time.perf_counter()
             parts = tuple(state.reflected.get(geometry, scene.n_objects, k,
@@ -171,7 +188,7 @@ class Virtual(Technique):
             t1 = time.perf_counter()
             draw_spheres(scene, primary, camera.eye, clip_from_world, group, virtual, hidden,
                          boxes[together], self.params.reflector_test == "zbuffer", incoming,
-                         ws)
+                         ws, state.sphere_labels if labelled else None)
             seconds["tessellate"] += t0 - t_start
             seconds["virtual_vertices"] += t1 - t0
             seconds["virtual_raster"] += time.perf_counter() - t1
