@@ -187,7 +187,8 @@ def sphere_virtual_vertices(points: np.ndarray, eye: np.ndarray, center: np.ndar
 def spheres_virtual_vertices(points: np.ndarray, eye: np.ndarray, centers: np.ndarray,
                              radii: np.ndarray, starts: np.ndarray, out: np.ndarray,
                              hidden: np.ndarray, scratch: np.ndarray) -> None:
-    """Into out (N, 3), hidden (N,): the virtual points of several sphere mirrors' points
+    """Into out (N, 3; float64, or float32: the same numbers rounded once as they are
+    stored), hidden (N,): the virtual points of several sphere mirrors' points
     at once, points[starts[s]:starts[s + 1]] (N, 3 world, float64) reflected in sphere s
     (centers (S, 3), radii (S,)): one parallel region for every sphere of a frame, not one
     each. Each point's answer is the one `sphere_virtual_vertices` gives it alone.

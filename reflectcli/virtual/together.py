@@ -29,7 +29,8 @@ MAX_SPREAD = 2.0
 @dataclass
 class Together:
     """Reflectors ks' tessellations joined: points and triangles of reflector ks[p] at
-    point_starts[p] .. and tri_starts[p] .., corner indices into the joined points."""
+    point_starts[p] .. and tri_starts[p] .., corner indices into the joined points (int32
+    while they fit: half the bytes the draw's gather reads, 1 MB less on four-spheres)."""
 
     ks: tuple[int, ...]
     parts: tuple[Tessellation, ...]  # what it was joined from (identity: still current?)
@@ -52,9 +53,10 @@ class TogetherCache:
             point_starts = np.cumsum([0] + [len(t.points) for t in parts]).astype(np.int64)
             tri_starts = np.cumsum([0] + [t.triangles.count for t in parts]).astype(np.int64)
             joined = concatenate_tessellations(list(parts))
+            index = np.int32 if len(joined.points) < 2**31 else np.int64
             joined = Tessellation(joined.triangles, np.ascontiguousarray(joined.points,
                                                                          np.float64),
-                                  np.ascontiguousarray(joined.corner_index, np.int64))
+                                  np.ascontiguousarray(joined.corner_index, index))
             self.last = Together(ks, parts, joined, point_starts, tri_starts)
         return self.last
 
@@ -84,7 +86,8 @@ def spheres_vertices(scene: Scene, eye: np.ndarray, group: Together, cache: Toge
                      ws: RasterWorkspace) -> tuple[np.ndarray, np.ndarray]:
     """(virtual (N, 3) world, hidden (N,)) of the joined points of sphere mirrors
     group.ks, each point in its own sphere, in one call (workspace arrays: valid until the
-    next call)."""
+    next call). The virtual points are stored in float32, as the draw's gather reads them
+    (the same rounding of the same float64 numbers, half the bytes)."""
     joined = group.joined
     count = len(group.ks)
     centers = np.empty((count, 3))
@@ -94,7 +97,7 @@ def spheres_vertices(scene: Scene, eye: np.ndarray, group: Together, cache: Toge
         centers[p] = center
         radii[p] = radius
     n_points = joined.points.shape[0]
-    virtual = ws.get("together_virtual", (n_points, 3), np.float64)
+    virtual = ws.get("together_virtual", (n_points, 3), np.float32)
     hidden = ws.get("together_hidden", (n_points,), np.bool_)
     spheres_virtual_vertices(joined.points, eye, centers, radii, group.point_starts, virtual,
                              hidden, cache.block_scratch())
