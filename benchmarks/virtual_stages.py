@@ -22,7 +22,6 @@ from pathlib import Path
 import numba
 
 import reflectcli.raster.rasterize.passes as passes
-import reflectcli.raster.shade as shade
 import reflectcli.virtual.circle as circle
 import reflectcli.virtual.primary as primary
 import reflectcli.virtual.together as together
@@ -32,10 +31,10 @@ ROOT = Path(__file__).resolve().parents[1]
 # (module, function, label): the frame's kernels in the order they run
 KERNELS = ((primary, "_draw", "primary draw"),
            (primary, "_primary_rows", "primary merge+shade"),
-           (circle, "_blocks", "sphere searches"), (together, "pass_labels", "labels, floor"),
+           (circle, "_blocks", "sphere searches"),
+           (together, "pass_labels", "labels (some unseen)"),
            (passes, "_draw_passes", "virtual gather+draw"),
-           (shade, "_shade_stencil_resolving", "virtual merge+shade"),
-           (together, "compose_passes", "crack fill, blend"))
+           (together, "_shade_compose", "virtual merge+shade+blend"))
 
 
 def timer(f, label: str, seconds: dict):
@@ -98,7 +97,7 @@ def main() -> None:
         else:
             ms = [1e3 * statistics.median(runs[t][label]) for t in counts]
         ratio = f" {ms[0] / ms[1]:6.2f}x" if len(ms) == 2 and ms[1] > 0 else ""
-        print(f"  {label:20s}" + "".join(f" {v:7.3f}" for v in ms) + ratio)
+        print(f"  {label:26s}" + "".join(f" {v:7.3f}" for v in ms) + ratio)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,7 @@ from ..raster.rasterize.draw import _draw
 from ..raster.rasterize.fixed import _subpixel_bits
 from ..raster.rasterize.resolve import resolve_row
 from ..raster.shade import _ROWS, _shade_row
-from ..scene.types import Scene
+from ..scene.types import Scene, Triangles
 from .compose import mirror_boxes
 
 
@@ -46,15 +46,8 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
     if tris.count == 0 or width <= 0 or height <= 0:
         primary = render_primary(scene, frame_index, camera, workspace=ws)
         return (primary, *mirror_boxes(primary.frame.surface, n_objects, n_mirrors), False)
-    flags = (tris.surface >= n_objects).astype(np.uint8) * np.uint8(FLAG_MIRROR)
+    flags, corners, all_planes, n_cut, bits = _setup(tris, n_objects, width, height)
     m = np.ascontiguousarray(camera.clip_from_world(), dtype=np.float64)
-    # `rasterize` with no mask, no depth floor, near and far planes, no culling
-    planes = standard_planes()
-    bits, guard = _subpixel_bits(width, height)
-    gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
-    all_planes = np.ascontiguousarray(np.vstack([planes, [[1.0, 0, 0, gx], [-1.0, 0, 0, gx],
-                                                          [0, 1.0, 0, gy], [0, -1.0, 0, gy]]]))
-    corners = np.ascontiguousarray(tris.corners, dtype=np.float32)
     tri = ws.get("primary_tri", (height, width), np.int32)
     depth = np.empty((height, width), np.float32)
     no_mask = ws.constant("stencil", (1, 1), np.uint8, 1)
@@ -66,7 +59,7 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
     drew = np.zeros(threads, np.bool_)
     chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
     bounds = ws.chunk_bounds(corners)
-    _draw(corners, flags, m, all_planes, planes.shape[0], width, height, bits, CULL_NONE,
+    _draw(corners, flags, m, all_planes, n_cut, width, height, bits, CULL_NONE,
           chunks, bounds, no_mask, False, floor, False, 0, width, 0, height, own_tri, own_key,
           drew)
     t1 = time.perf_counter()
@@ -88,6 +81,33 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
                   stats={"triangles": tris.count})
     buffers = RasterBuffers(tri, None, None, depth, corners, m)
     return Primary(frame, buffers, tris, flags), counts, boxes, True
+
+
+_last_setup: list = [None, None]  # (tris, n_objects, width, height), _setup's answer
+
+
+def _setup(tris: Triangles, n_objects: int, width: int,
+           height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+    """(flags, corners (float32, contiguous), clip planes, how many of them cut (the rest
+    are the guard band), subpixel bits): what `render_primary` and `rasterize` make every
+    frame, kept while the same triangles are drawn at the same size (a still scene's
+    geometry is one object; its arrays are not written after). The flags are read-only:
+    the frame's Primary hands them on."""
+    key = (tris, n_objects, width, height)
+    last = _last_setup
+    if last[0] is not None and last[0][0] is tris and last[0][1:] == key[1:]:
+        return last[1]
+    flags = (tris.surface >= n_objects).astype(np.uint8) * np.uint8(FLAG_MIRROR)
+    flags.flags.writeable = False
+    # `rasterize` with no mask, no depth floor, near and far planes, no culling
+    planes = standard_planes()
+    bits, guard = _subpixel_bits(width, height)
+    gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
+    all_planes = np.ascontiguousarray(np.vstack([planes, [[1.0, 0, 0, gx], [-1.0, 0, 0, gx],
+                                                          [0, 1.0, 0, gy], [0, -1.0, 0, gy]]]))
+    corners = np.ascontiguousarray(tris.corners, dtype=np.float32)
+    last[0], last[1] = key, (flags, corners, all_planes, planes.shape[0], bits)
+    return last[1]
 
 
 @njit(cache=True, parallel=True)

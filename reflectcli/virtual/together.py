@@ -11,14 +11,17 @@ from dataclasses import dataclass, field
 
 import numba
 import numpy as np
+from numba import njit, prange
 
+from ..parallel import claim, counter
 from ..raster.primary import Primary
 from ..raster.rasterize import RasterWorkspace
 from ..raster.rasterize.passes import MAX_PASSES, rasterize_passes
-from ..raster.shade import shade_buffers
+from ..raster.rasterize.resolve import resolve_row
+from ..raster.shade import _shade_row
 from ..scene.types import Scene
 from .circle import block_scratch, spheres_virtual_vertices
-from .compose import compose_passes, pass_labels
+from .compose import _compose_row, pass_labels
 from .tessellation import Tessellation, concatenate_tessellations
 
 # drawn together only while the passes' common box is at most this many times the area of
@@ -158,11 +161,67 @@ def draw_spheres(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_worl
                                         gather=(virtual, hidden, joined.corner_index,
                                                 joined.triangles.surface, scene.n_objects),
                                         resolve=False)
-    colors, _ = shade_buffers(buffers, joined.triangles, scene, eye, incoming,
-                              stencil=stencil,
-                              out=(ws.get("virtual_rgb", (h, w, 3), np.float32),
-                                   ws.get("virtual_surface", (h, w), np.int32)),
-                              box=(y0, y1, x0, x1), pending=pending)
-    compose_passes(frame.rgb, colors, buffers.triangle, labels,
-                   np.ascontiguousarray(mirrors.reflectance[list(group.ks)]), y0, y1, x0, x1)
+    # shade_buffers(stencil, box, pending) and compose_passes in one region
+    assert buffers.recover and tuple(pending[1:5]) == (x0, x1, y0, y1)
+    tris = joined.triangles
+    mats = scene.materials
+    dirs = (np.zeros((1, 1, 3)) if incoming is None
+            else np.ascontiguousarray(incoming, np.float64))
+    _shade_compose(stencil, buffers.triangle, np.ascontiguousarray(clip_from_world, np.float64),
+                   buffers.corners, tris.corners, tris.uvs, tris.normals, tris.material,
+                   tris.surface, scene.n_objects, np.asarray(eye, np.float64), dirs,
+                   incoming is not None, mats.mat_i, mats.mat_f, mats.texels,
+                   scene.lights.light_f, scene.shading, scene.ambient, scene.background,
+                   mirrors.reflectance, mirrors.base,
+                   ws.get("virtual_rgb", (h, w, 3), np.float32),
+                   ws.get("virtual_surface", (h, w), np.int32), y0, y1, x0, x1,
+                   max(1, numba.get_num_threads()), pending[0], pending[5], pending[6],
+                   pending[7], pending[8], frame.rgb, labels,
+                   np.ascontiguousarray(mirrors.reflectance[list(group.ks)]))
+
+
+_PIECE = 12  # rows a worker claims at a time in _shade_compose
+
+
+@njit(cache=True, parallel=True)
+def _shade_compose(stencil, tri, m, drawn, corners, uvs, normals, material, surface,
+                   n_objects, eye, dirs, per_pixel, mat_i, mat_f, texels, light_f, shading,
+                   ambient, background, refl, base, colors, surf, y0, y1, x0, x1, threads,
+                   flags, own_tri, own_key, drew, depth, rgb, labels, reflectance):
+    """The passes' rows y0..y1-1 (columns x0..x1-1, the passes' common box) claimed
+    _PIECE at a time: each row merged (`_resolve`'s row) and shaded on the stencil into
+    `colors` and `surf` (`_shade_stencil_resolving`'s row), and once the row below it is
+    shaded, the row before it composed into `rgb` (`compose_passes`' row: cracks filled
+    from the rows above and below, reflectances added). A piece's first and last rows
+    need a row of another piece: they are composed after the region, one thread. The
+    bytes of shade_buffers(pending=...) then compose_passes: a row's shading reads only its
+    own row's ids, its composition only finished rows (and a crack's neighbours, covered,
+    are never filled)."""
+    w = tri.shape[1]
+    owners = np.flatnonzero(drew)
+    g = np.empty((threads, 12, w))
+    xs = np.empty((threads, w), np.int64)
+    claimed = counter()
+    pieces = (max(y1 - y0, 0) + _PIECE - 1) // _PIECE
+    for me in prange(threads):
+        while True:
+            k = claim(claimed)
+            if k >= pieces:
+                break
+            first = y0 + k * _PIECE
+            for y in range(first, min(y1, first + _PIECE)):
+                resolve_row(flags, y, x0, x1, y0, y1, x0, x1, owners, own_tri, own_key, tri,
+                            depth)
+                _shade_row(y, x0, x1, stencil, True, g[me], xs[me], tri, m, drawn, corners,
+                           uvs, normals, material, surface, n_objects, eye, dirs, per_pixel,
+                           mat_i, mat_f, texels, light_f, shading, ambient, background, refl,
+                           base, colors, surf)
+                if y - 1 > first:
+                    _compose_row(rgb, colors, tri, labels, reflectance, y - 1, y0, y1, x0, x1)
+    for k in range(pieces):
+        first = y0 + k * _PIECE
+        last = min(y1, first + _PIECE) - 1
+        _compose_row(rgb, colors, tri, labels, reflectance, first, y0, y1, x0, x1)
+        if last > first:
+            _compose_row(rgb, colors, tri, labels, reflectance, last, y0, y1, x0, x1)
 

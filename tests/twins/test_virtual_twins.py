@@ -443,3 +443,95 @@ def test_part_passes_together_give_the_frame_part_by_part(threads, monkeypatch):
         assert apart.rgb.tobytes() == together[0].tobytes()
     finally:
         numba.set_num_threads(before)
+
+
+@compiled_only
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("name", ["four-spheres", "hall-of-mirrors", "cylinder-room"])
+def test_primary_and_boxes_match_render_primary(name, threads):
+    """The virtual frame's primary pass (primary_and_boxes: merge, shading, mirror boxes
+    and sphere labels in one region) gives render_primary's frame and triangle ids,
+    mirror_boxes' counts and boxes, and pass_labels' labels and stencil (every pixel),
+    frame after frame into the same workspace, at 96 x 80."""
+    import numba
+    from conftest import SCENES
+
+    from reflectcli.camera import camera_from_config
+    from reflectcli.loading import load_config
+    from reflectcli.raster.primary import render_primary
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.scene.build import build_scene
+    from reflectcli.virtual.primary import primary_and_boxes
+
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(threads)
+        path = str(SCENES / f"{name}.toml")
+        cfg, _ = load_config(path, ["camera.width=96", "camera.height=80"], "virtual")
+        scene = build_scene(cfg, path)
+        m = scene.mirrors.count
+        label_of = np.zeros(m, np.uint8)
+        label_of[::2] = np.arange(1, len(label_of[::2]) + 1)
+        ws = RasterWorkspace()
+        labels = np.full((80, 96), 77, np.uint8)
+        stencil = np.ones((80, 96), np.bool_)
+        for frame_index in (0, 1, 0):
+            cam = camera_from_config(cfg.camera, frame_index)
+            want = render_primary(scene, frame_index, cam)
+            counts, boxes = naive_mirror_boxes(want.frame.surface, scene.n_objects, m)
+            got, got_counts, got_boxes, labelled = primary_and_boxes(
+                scene, frame_index, cam, ws, label_of, labels, stencil)
+            assert labelled
+            for field in ("rgb", "depth", "surface", "mirror_mask"):
+                assert getattr(got.frame, field).tobytes() == getattr(want.frame, field).tobytes()
+            assert got.buffers.triangle.tobytes() == want.buffers.triangle.tobytes()
+            assert got.flags.tobytes() == want.flags.tobytes()
+            assert np.array_equal(got_counts, counts) and np.array_equal(got_boxes, boxes)
+            want_labels = np.zeros((80, 96), np.uint8)
+            want_stencil = np.zeros((80, 96), np.bool_)
+            compose.pass_labels(want.frame.surface, want.buffers.depth, scene.n_objects,
+                                label_of, 0, 80, 0, 96, want_labels, want_stencil,
+                                np.zeros((80, 96), np.float32))
+            assert labels.tobytes() == want_labels.tobytes()
+            assert stencil.tobytes() == want_stencil.tobytes()
+    finally:
+        numba.set_num_threads(before)
+
+
+@compiled_only
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("name", ["four-spheres", "four-spheres-lit"])
+def test_spheres_drawn_together_give_the_frame_sphere_by_sphere(name, threads, monkeypatch):
+    """Sphere mirrors drawn together (together.draw_spheres: labels from the primary pass,
+    or from pass_labels when they are not the group's; rasterize_passes; one region
+    shading, filling cracks and adding the reflections, `_shade_compose`) give the
+    frame's bytes drawn sphere by sphere (draw_virtual and add_reflection), frame after
+    frame, at 128 x 112."""
+    import numba
+    from conftest import SCENES
+
+    import reflectcli.techniques.virtual.technique as module
+    from reflectcli.camera import camera_from_config
+    from reflectcli.loading import load_config
+    from reflectcli.scene.build import build_scene
+
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(threads)
+        path = str(SCENES / f"{name}.toml")
+        cfg, _ = load_config(path, ["camera.width=128", "camera.height=112"], "virtual")
+        scene = build_scene(cfg, path)
+        cam = camera_from_config(cfg.camera, 0)
+        technique = module.Virtual(cfg.technique)
+        state = technique.prepare(scene)
+        together = [technique.render(state, 0, cam).rgb.copy() for _ in range(2)]
+        assert together[0].tobytes() == together[1].tobytes()
+        state.sphere_labels = np.zeros_like(state.sphere_labels)  # labels not the group's
+        relabelled = technique.render(state, 0, cam)
+        assert relabelled.rgb.tobytes() == together[0].tobytes()
+        monkeypatch.setattr(module, "worth_together", lambda boxes: False)
+        apart = technique.render(state, 0, cam)
+        assert apart.stats["reflector_parts"] == 4
+        assert apart.rgb.tobytes() == together[0].tobytes()
+    finally:
+        numba.set_num_threads(before)
