@@ -40,6 +40,24 @@ class Together:
     joined: Tessellation
     point_starts: np.ndarray  # (P + 1,) int64
     tri_starts: np.ndarray  # (P + 1,) int64
+    _arrays: tuple | None = None
+
+    def arrays(self, scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(centers (P, 3), radii (P,), label_of (M,) uint8 with label p + 1 on mirror
+        ks[p], reflectance (P, 3)) of the group's spheres: a scene's mirrors do not change,
+        so they are made once, not every frame."""
+        if self._arrays is None:
+            mirrors = scene.mirrors
+            ks = list(self.ks)
+            centers = np.empty((len(ks), 3))
+            radii = np.empty(len(ks))
+            for p, k in enumerate(ks):
+                centers[p], radii[p] = mirrors.sphere(k)
+            label_of = np.zeros(mirrors.count, np.uint8)
+            label_of[ks] = np.arange(1, len(ks) + 1)
+            self._arrays = (centers, radii, label_of,
+                            np.ascontiguousarray(mirrors.reflectance[ks]))
+        return self._arrays
 
 
 @dataclass
@@ -92,13 +110,7 @@ def spheres_vertices(scene: Scene, eye: np.ndarray, group: Together, cache: Toge
     next call). The virtual points are stored in float32, as the draw's gather reads them
     (the same rounding of the same float64 numbers, half the bytes)."""
     joined = group.joined
-    count = len(group.ks)
-    centers = np.empty((count, 3))
-    radii = np.empty(count)
-    for p, k in enumerate(group.ks):
-        center, radius = scene.mirrors.sphere(k)
-        centers[p] = center
-        radii[p] = radius
+    centers, radii = group.arrays(scene)[:2]
     n_points = joined.points.shape[0]
     virtual = ws.get("together_virtual", (n_points, 3), np.float32)
     hidden = ws.get("together_hidden", (n_points,), np.bool_)
@@ -138,7 +150,6 @@ def draw_spheres(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_worl
     itself (read only on labelled pixels, where `pass_labels` copies it)."""
     joined = group.joined
     mirrors = scene.mirrors
-    count = len(group.ks)
     n_tris = joined.triangles.count
     corners = ws.get("virtual_corners", (n_tris, 3, 3), np.float32)
     flags = ws.get("virtual_flags", (n_tris,), np.uint8)
@@ -147,8 +158,7 @@ def draw_spheres(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_worl
     rows = boxes.tolist()
     y0, y1 = min(r[0] for r in rows), max(r[1] for r in rows)
     x0, x1 = min(r[2] for r in rows), max(r[3] for r in rows)
-    label_of = np.zeros(mirrors.count, np.uint8)
-    label_of[list(group.ks)] = np.arange(1, count + 1)
+    label_of, reflectance = group.arrays(scene)[2:]
     labels, stencil = labels_buffers(ws, h, w)
     if labelled is None or not np.array_equal(labelled, label_of):
         pass_labels(frame.surface, primary.buffers.depth, scene.n_objects, label_of, y0, y1,
@@ -176,8 +186,7 @@ def draw_spheres(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_worl
                    ws.get("virtual_rgb", (h, w, 3), np.float32),
                    ws.get("virtual_surface", (h, w), np.int32), y0, y1, x0, x1,
                    max(1, numba.get_num_threads()), pending[0], pending[5], pending[6],
-                   pending[7], pending[8], frame.rgb, labels,
-                   np.ascontiguousarray(mirrors.reflectance[list(group.ks)]))
+                   pending[7], pending[8], frame.rgb, labels, reflectance)
 
 
 _PIECE = 12  # rows a worker claims at a time in _shade_compose

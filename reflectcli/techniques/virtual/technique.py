@@ -72,6 +72,7 @@ class VirtualState:
     # label p + 1 of the p-th mirror drawn with the sphere mirrors (together.py), set by
     # the primary pass (the labels of a frame that sees all of them)
     sphere_labels: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    together_ok: tuple[bool, ...] = ()  # per mirror: drawn with the sphere mirrors if seen
     # the rasterizer's scratch of the primary pass (its outputs stay the frame's own), and
     # the virtual passes' buffers, consumed per part: kept across frames, not allocated anew
     primary_raster: RasterWorkspace = field(default_factory=RasterWorkspace)
@@ -108,6 +109,7 @@ class Virtual(Technique):
         edges); both are cached and reused while the geometry does not change."""
         state = VirtualState(scene)
         state.sphere_labels = sphere_labels(scene, lambda k: self._together(scene, k))
+        state.together_ok = tuple(self._together(scene, k) for k in range(scene.mirrors.count))
         geometry = scene.geometry(0)
         tris = geometry.all_triangles()
         explosion = False
@@ -176,7 +178,7 @@ class Virtual(Technique):
         ws = state.virtual_raster
         # sphere mirrors drawn together (virtual/together.py): the same bytes, in 3
         # parallel regions for all of them instead of 5 each
-        together = [int(k) for k in seen if self._together(scene, int(k))]
+        together = [k for k in seen.tolist() if state.together_ok[k]]
         if together and worth_together(boxes[together]):
             t_start = time.perf_counter()
             parts = tuple(state.reflected.get(geometry, scene.n_objects, k,
