@@ -43,7 +43,8 @@ ANALYTIC = [E + "test_analytic_matches_closed_forms"]
 SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
                  V + "test_cylinder_virtual_vertices_match_twin",
                  V + "test_sphere_blocks_do_not_change_answers",
-                 V + "test_spheres_together_give_each_sphere_s_bytes"]
+                 V + "test_spheres_together_give_each_sphere_s_bytes",
+                 V + "test_sphere_blocks_give_the_one_at_a_time_search_s_bytes"]
 PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
 REFINE = [VR + "test_screen_refinement_matches_twin",
           VR + "test_refinement_walks_match_twin",

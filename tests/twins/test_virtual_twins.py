@@ -535,3 +535,56 @@ def test_spheres_drawn_together_give_the_frame_sphere_by_sphere(name, threads, m
         assert apart.rgb.tobytes() == together[0].tobytes()
     finally:
         numba.set_num_threads(before)
+
+
+@compiled_only
+def test_sphere_blocks_give_the_one_at_a_time_search_s_bytes():
+    """Each visible point's virtual vertex from the blocks (VECTOR_STEPS side by side, the
+    points left packed and stepped side by side, the last one at a time) is the very bytes
+    of `_circle_reflection`'s search for that point alone (every step the same floating-
+    point operations), mirrored by the same arithmetic; on points of which some need many
+    steps (near the silhouette, far behind, close to the sphere)."""
+    import math
+
+    from numba import njit
+
+    @njit
+    def one_at_a_time(points, eye, center, r, out, visible):
+        ex, ey, ez = eye[0] - center[0], eye[1] - center[1], eye[2] - center[2]
+        le = math.sqrt(ex * ex + ey * ey + ez * ez)
+        xx, xy, xz = ex / le, ey / le, ez / le
+        for i in range(points.shape[0]):
+            qx = points[i, 0] - center[0]
+            qy = points[i, 1] - center[1]
+            qz = points[i, 2] - center[2]
+            lq = math.sqrt(qx * qx + qy * qy + qz * qz)
+            a = qx * xx + qy * xy + qz * xz
+            yx, yy, yz = qx - a * xx, qy - a * xy, qz - a * xz
+            b = math.sqrt(yx * yx + yy * yy + yz * yz)
+            visible[i] = lq > r and b >= 1e-12 * lq
+            if not visible[i]:
+                continue
+            yx, yy, yz = yx / b, yy / b, yz / b
+            ct, st = circle._circle_reflection(le, a, b, r)
+            nx, ny, nz = ct * xx + st * yx, ct * xy + st * yy, ct * xz + st * yz
+            dist = qx * nx + qy * ny + qz * nz - r
+            out[i, 0] = points[i, 0] - 2.0 * dist * nx
+            out[i, 1] = points[i, 1] - 2.0 * dist * ny
+            out[i, 2] = points[i, 2] - 2.0 * dist * nz
+
+    rng = np.random.default_rng(21)
+    eye, pts = circle_cases(rng)
+    center = np.array([0.1, -0.2, 0.05])
+    side = rng.normal(size=(400, 3))
+    side /= np.linalg.norm(side, axis=1)[:, None]
+    pts = np.ascontiguousarray(np.concatenate([
+        pts, center + side * rng.uniform(1.0001, 1.05, (400, 1)),  # close to the sphere
+        center + side * rng.uniform(20.0, 200.0, (400, 1)),  # far
+        rng.normal(size=(3 * circle.BLOCK, 3)) * 4.0]))
+    got, hidden = circle.sphere_virtual_vertices(pts, eye, center, 1.0)
+    want = np.empty_like(pts)
+    visible = np.empty(len(pts), np.bool_)
+    one_at_a_time(pts, eye, center, 1.0, want, visible)
+    keep = visible & ~hidden
+    assert keep.sum() > len(pts) // 2
+    assert got[keep].tobytes() == want[keep].tobytes()
