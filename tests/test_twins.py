@@ -43,7 +43,8 @@ ANALYTIC = [E + "test_analytic_matches_closed_forms"]
 SPHERE_METHOD = [V + "test_sphere_virtual_vertices_match_twin",
                  V + "test_cylinder_virtual_vertices_match_twin",
                  V + "test_sphere_blocks_do_not_change_answers",
-                 V + "test_spheres_together_give_each_sphere_s_bytes"]
+                 V + "test_spheres_together_give_each_sphere_s_bytes",
+                 V + "test_sphere_blocks_give_the_one_at_a_time_search_s_bytes"]
 PROFILE = [V + "test_profile_virtual_vertices_match_twin"]
 REFINE = [VR + "test_screen_refinement_matches_twin",
           VR + "test_refinement_walks_match_twin",
@@ -58,6 +59,7 @@ IDS_AT = [VE + "test_ids_at_marked_texels_match_the_fill_twins"]
 # a reflector's parts stage by stage, against each part's own call (its stages twin-tested)
 PARTS = [V + "test_parts_together_give_each_part_s_answers"]
 PART_PASSES = [V + "test_part_passes_together_give_the_frame_part_by_part"]
+SPHERES_TOGETHER = [V + "test_spheres_drawn_together_give_the_frame_sphere_by_sphere"]
 S = "tests/techniques/test_ssr.py::"
 P = "tests/techniques/test_ppr.py::"
 HIZ = [S + "test_hiz_equals_pixel_walk_on_random_buffers",
@@ -239,11 +241,19 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/direct.py:_profile_many": (PROFILE, "profile_virtual_vertices"),
     "virtual/direct.py:_profile_one": (PROFILE, "_profile_many"),
     "virtual/compose.py:mirror_boxes": ([V + "test_mirror_boxes_match_twin"], None),
+    # render_primary's kernels and mirror_boxes in one region, held to them
+    "virtual/primary.py:_primary_rows": ([V + "test_primary_and_boxes_match_render_primary"],
+                                         "primary_and_boxes"),
     "virtual/compose.py:part_stencil": ([V + "test_part_stencil_matches_twin"], None),
     "virtual/compose.py:gather_corners": ([V + "test_gather_corners_match_twin"], None),
     "virtual/compose.py:fill_cracks": ([V + "test_fill_cracks_match_twin"], None),
     "virtual/compose.py:pass_labels": ([V + "test_pass_labels_match_twin"], None),
     "virtual/compose.py:compose_passes": ([V + "test_compose_passes_match_twin"], None),
+    "virtual/compose.py:_compose_row": ([V + "test_compose_passes_match_twin"] + SPHERES_TOGETHER,
+                                       "compose_passes"),
+    # shade_buffers(pending=...) and compose_passes in one region, held to the passes drawn
+    # one at a time
+    "virtual/together.py:_shade_compose": (SPHERES_TOGETHER, "draw_spheres"),
     "virtual/compose.py:_same": ([V + "test_compose_passes_match_twin"], "compose_passes"),
     "virtual/compose.py:_covered": ([V + "test_fill_cracks_match_twin"], "fill_cracks"),
     "virtual/compose.py:_fill_crack": (

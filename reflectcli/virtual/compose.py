@@ -165,19 +165,26 @@ def compose_passes(rgb, colors, triangle, labels, reflectance, y0, y1, x0, x1):
     row's colours: so each row is filled then added on its own, rows in parallel, and the
     order of the pixels does not matter. Nothing outside the box is read."""
     for y in prange(y0, y1):
-        for x in range(x0, x1):
-            label = labels[y, x]
-            if label == 0 or triangle[y, x] >= 0:
-                continue
-            # neighbours inside the box only: outside it labels and triangles are another
-            # frame's or pass's (each label's pixels all lie inside the box)
-            _fill_crack(colors, y, x,
-                        y - 1 >= y0 and y + 1 < y1 and _same(triangle, labels, label, y - 1, x)
-                        and _same(triangle, labels, label, y + 1, x),
-                        x - 1 >= x0 and x + 1 < x1 and _same(triangle, labels, label, y, x - 1)
-                        and _same(triangle, labels, label, y, x + 1))
-        for x in range(x0, x1):
-            label = labels[y, x]
-            if label != 0:
-                for c in range(3):
-                    rgb[y, x, c] += reflectance[label - 1, c] * colors[y, x, c]
+        _compose_row(rgb, colors, triangle, labels, reflectance, y, y0, y1, x0, x1)
+
+
+@njit(cache=True, inline="always")
+def _compose_row(rgb, colors, triangle, labels, reflectance, y, y0, y1, x0, x1):
+    """Row y of `compose_passes`: its cracks filled (reading rows y - 1 and y + 1 where
+    they lie in the box), then its reflections added."""
+    for x in range(x0, x1):
+        label = labels[y, x]
+        if label == 0 or triangle[y, x] >= 0:
+            continue
+        # neighbours inside the box only: outside it labels and triangles are another
+        # frame's or pass's (each label's pixels all lie inside the box)
+        _fill_crack(colors, y, x,
+                    y - 1 >= y0 and y + 1 < y1 and _same(triangle, labels, label, y - 1, x)
+                    and _same(triangle, labels, label, y + 1, x),
+                    x - 1 >= x0 and x + 1 < x1 and _same(triangle, labels, label, y, x - 1)
+                    and _same(triangle, labels, label, y, x + 1))
+    for x in range(x0, x1):
+        label = labels[y, x]
+        if label != 0:
+            for c in range(3):
+                rgb[y, x, c] += reflectance[label - 1, c] * colors[y, x, c]

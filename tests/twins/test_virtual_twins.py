@@ -443,3 +443,148 @@ def test_part_passes_together_give_the_frame_part_by_part(threads, monkeypatch):
         assert apart.rgb.tobytes() == together[0].tobytes()
     finally:
         numba.set_num_threads(before)
+
+
+@compiled_only
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("name", ["four-spheres", "hall-of-mirrors", "cylinder-room"])
+def test_primary_and_boxes_match_render_primary(name, threads):
+    """The virtual frame's primary pass (primary_and_boxes: merge, shading, mirror boxes
+    and sphere labels in one region) gives render_primary's frame and triangle ids,
+    mirror_boxes' counts and boxes, and pass_labels' labels and stencil (every pixel),
+    frame after frame into the same workspace, at 96 x 80."""
+    import numba
+    from conftest import SCENES
+
+    from reflectcli.camera import camera_from_config
+    from reflectcli.loading import load_config
+    from reflectcli.raster.primary import render_primary
+    from reflectcli.raster.rasterize import RasterWorkspace
+    from reflectcli.scene.build import build_scene
+    from reflectcli.virtual.primary import primary_and_boxes
+
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(threads)
+        path = str(SCENES / f"{name}.toml")
+        cfg, _ = load_config(path, ["camera.width=96", "camera.height=80"], "virtual")
+        scene = build_scene(cfg, path)
+        m = scene.mirrors.count
+        label_of = np.zeros(m, np.uint8)
+        label_of[::2] = np.arange(1, len(label_of[::2]) + 1)
+        ws = RasterWorkspace()
+        labels = np.full((80, 96), 77, np.uint8)
+        stencil = np.ones((80, 96), np.bool_)
+        for frame_index in (0, 1, 0):
+            cam = camera_from_config(cfg.camera, frame_index)
+            want = render_primary(scene, frame_index, cam)
+            counts, boxes = naive_mirror_boxes(want.frame.surface, scene.n_objects, m)
+            got, got_counts, got_boxes, labelled = primary_and_boxes(
+                scene, frame_index, cam, ws, label_of, labels, stencil)
+            assert labelled
+            for field in ("rgb", "depth", "surface", "mirror_mask"):
+                assert getattr(got.frame, field).tobytes() == getattr(want.frame, field).tobytes()
+            assert got.buffers.triangle.tobytes() == want.buffers.triangle.tobytes()
+            assert got.flags.tobytes() == want.flags.tobytes()
+            assert np.array_equal(got_counts, counts) and np.array_equal(got_boxes, boxes)
+            want_labels = np.zeros((80, 96), np.uint8)
+            want_stencil = np.zeros((80, 96), np.bool_)
+            compose.pass_labels(want.frame.surface, want.buffers.depth, scene.n_objects,
+                                label_of, 0, 80, 0, 96, want_labels, want_stencil,
+                                np.zeros((80, 96), np.float32))
+            assert labels.tobytes() == want_labels.tobytes()
+            assert stencil.tobytes() == want_stencil.tobytes()
+    finally:
+        numba.set_num_threads(before)
+
+
+@compiled_only
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("name", ["four-spheres", "four-spheres-lit"])
+def test_spheres_drawn_together_give_the_frame_sphere_by_sphere(name, threads, monkeypatch):
+    """Sphere mirrors drawn together (together.draw_spheres: labels from the primary pass,
+    or from pass_labels when they are not the group's; rasterize_passes; one region
+    shading, filling cracks and adding the reflections, `_shade_compose`) give the
+    frame's bytes drawn sphere by sphere (draw_virtual and add_reflection), frame after
+    frame, at 128 x 112."""
+    import numba
+    from conftest import SCENES
+
+    import reflectcli.techniques.virtual.technique as module
+    from reflectcli.camera import camera_from_config
+    from reflectcli.loading import load_config
+    from reflectcli.scene.build import build_scene
+
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(threads)
+        path = str(SCENES / f"{name}.toml")
+        cfg, _ = load_config(path, ["camera.width=128", "camera.height=112"], "virtual")
+        scene = build_scene(cfg, path)
+        cam = camera_from_config(cfg.camera, 0)
+        technique = module.Virtual(cfg.technique)
+        state = technique.prepare(scene)
+        together = [technique.render(state, 0, cam).rgb.copy() for _ in range(2)]
+        assert together[0].tobytes() == together[1].tobytes()
+        state.sphere_labels = np.zeros_like(state.sphere_labels)  # labels not the group's
+        relabelled = technique.render(state, 0, cam)
+        assert relabelled.rgb.tobytes() == together[0].tobytes()
+        monkeypatch.setattr(module, "worth_together", lambda boxes: False)
+        apart = technique.render(state, 0, cam)
+        assert apart.stats["reflector_parts"] == 4
+        assert apart.rgb.tobytes() == together[0].tobytes()
+    finally:
+        numba.set_num_threads(before)
+
+
+@compiled_only
+def test_sphere_blocks_give_the_one_at_a_time_search_s_bytes():
+    """Each visible point's virtual vertex from the blocks (VECTOR_STEPS side by side, the
+    points left packed and stepped side by side, the last one at a time) is the very bytes
+    of `_circle_reflection`'s search for that point alone (every step the same floating-
+    point operations), mirrored by the same arithmetic; on points of which some need many
+    steps (near the silhouette, far behind, close to the sphere)."""
+    import math
+
+    from numba import njit
+
+    @njit
+    def one_at_a_time(points, eye, center, r, out, visible):
+        ex, ey, ez = eye[0] - center[0], eye[1] - center[1], eye[2] - center[2]
+        le = math.sqrt(ex * ex + ey * ey + ez * ez)
+        xx, xy, xz = ex / le, ey / le, ez / le
+        for i in range(points.shape[0]):
+            qx = points[i, 0] - center[0]
+            qy = points[i, 1] - center[1]
+            qz = points[i, 2] - center[2]
+            lq = math.sqrt(qx * qx + qy * qy + qz * qz)
+            a = qx * xx + qy * xy + qz * xz
+            yx, yy, yz = qx - a * xx, qy - a * xy, qz - a * xz
+            b = math.sqrt(yx * yx + yy * yy + yz * yz)
+            visible[i] = lq > r and b >= 1e-12 * lq
+            if not visible[i]:
+                continue
+            yx, yy, yz = yx / b, yy / b, yz / b
+            ct, st = circle._circle_reflection(le, a, b, r)
+            nx, ny, nz = ct * xx + st * yx, ct * xy + st * yy, ct * xz + st * yz
+            dist = qx * nx + qy * ny + qz * nz - r
+            out[i, 0] = points[i, 0] - 2.0 * dist * nx
+            out[i, 1] = points[i, 1] - 2.0 * dist * ny
+            out[i, 2] = points[i, 2] - 2.0 * dist * nz
+
+    rng = np.random.default_rng(21)
+    eye, pts = circle_cases(rng)
+    center = np.array([0.1, -0.2, 0.05])
+    side = rng.normal(size=(400, 3))
+    side /= np.linalg.norm(side, axis=1)[:, None]
+    pts = np.ascontiguousarray(np.concatenate([
+        pts, center + side * rng.uniform(1.0001, 1.05, (400, 1)),  # close to the sphere
+        center + side * rng.uniform(20.0, 200.0, (400, 1)),  # far
+        rng.normal(size=(3 * circle.BLOCK, 3)) * 4.0]))
+    got, hidden = circle.sphere_virtual_vertices(pts, eye, center, 1.0)
+    want = np.empty_like(pts)
+    visible = np.empty(len(pts), np.bool_)
+    one_at_a_time(pts, eye, center, 1.0, want, visible)
+    keep = visible & ~hidden
+    assert keep.sum() > len(pts) // 2
+    assert got[keep].tobytes() == want[keep].tobytes()

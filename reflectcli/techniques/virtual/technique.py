@@ -34,18 +34,25 @@ from scipy.spatial import ConvexHull, QhullError
 
 from ...camera import Camera
 from ...frame import Frame
-from ...raster.primary import render_primary
 from ...raster.rasterize import RasterWorkspace
 from ...raster.shade import add_reflection
 from ...scene.types import PLANAR, SPHERE, UNLIT, Scene
-from ...virtual.compose import gather_corners, mirror_boxes
+from ...virtual.compose import gather_corners
 from ...virtual.dispatch import choose_method, explosion_group, facing_plane, reflector_parts
 from ...virtual.partpasses import PartPassCache, draw_parts
 from ...virtual.parts import parts_vertices
+from ...virtual.primary import primary_and_boxes
 from ...virtual.raster import draw_virtual, reflected_rays
 from ...virtual.reflected import ReflectedCache
 from ...virtual.shape import ShapeCache
-from ...virtual.together import TogetherCache, draw_spheres, spheres_vertices, worth_together
+from ...virtual.together import (
+    TogetherCache,
+    draw_spheres,
+    labels_buffers,
+    sphere_labels,
+    spheres_vertices,
+    worth_together,
+)
 from ...virtual.view import ViewCache
 from ..base import Technique
 from . import Params
@@ -62,6 +69,10 @@ class VirtualState:
     views: ViewCache = field(default_factory=ViewCache)
     together: TogetherCache = field(default_factory=TogetherCache)
     part_passes: PartPassCache = field(default_factory=PartPassCache)
+    # label p + 1 of the p-th mirror drawn with the sphere mirrors (together.py), set by
+    # the primary pass (the labels of a frame that sees all of them)
+    sphere_labels: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    together_ok: tuple[bool, ...] = ()  # per mirror: drawn with the sphere mirrors if seen
     # the rasterizer's scratch of the primary pass (its outputs stay the frame's own), and
     # the virtual passes' buffers, consumed per part: kept across frames, not allocated anew
     primary_raster: RasterWorkspace = field(default_factory=RasterWorkspace)
@@ -97,6 +108,8 @@ class Virtual(Technique):
         tessellated, and each mesh reflector's shape (welded, decomposed into parts, boundary
         edges); both are cached and reused while the geometry does not change."""
         state = VirtualState(scene)
+        state.sphere_labels = sphere_labels(scene, lambda k: self._together(scene, k))
+        state.together_ok = tuple(self._together(scene, k) for k in range(scene.mirrors.count))
         geometry = scene.geometry(0)
         tris = geometry.all_triangles()
         explosion = False
@@ -124,6 +137,12 @@ class Virtual(Technique):
             _ = state.scene_points  # the far maps' bound, made here rather than in frame 0
         return state
 
+    def _together(self, scene: Scene, k: int) -> bool:
+        """Whether mirror k, when seen, is drawn with the other sphere mirrors."""
+        return self.params.reflector_test != "clip_planes" and choose_method(
+            self.params.method, int(scene.mirrors.kind[k]), k in scene.mirror_profiles
+        ) == "sphere"
+
     def forget_view(self, state: VirtualState) -> None:
         state.views.entries.clear()  # hidden maps, ray grids and tiles belong to one view
 
@@ -135,7 +154,11 @@ class Virtual(Technique):
         primary frame's masks, loop overhead), so that the stages add up to the frame."""
         t_frame = time.perf_counter()
         scene = state.scene
-        primary = render_primary(scene, frame_index, camera, workspace=state.primary_raster)
+        # the primary pass and which mirrors are in view, with the box of each one's pixels
+        labels, stencil = labels_buffers(state.virtual_raster, camera.height, camera.width)
+        primary, counts, boxes, labelled = primary_and_boxes(
+            scene, frame_index, camera, state.primary_raster, state.sphere_labels, labels,
+            stencil)
         result = primary.frame
         geometry = scene.geometry(frame_index)
         clip_from_world = primary.buffers.clip_from_world  # the camera's (85 us to make)
@@ -143,8 +166,6 @@ class Virtual(Technique):
         seconds = dict.fromkeys(("tessellate", "maps", "virtual_vertices", "virtual_raster"),
                                 0.0)
         t_start = time.perf_counter()
-        # which mirrors are in view, and the box of each one's pixels
-        counts, boxes = mirror_boxes(result.surface, scene.n_objects, scene.mirrors.count)
         seen = np.flatnonzero(counts)
         incoming = None  # per pixel, the reflected ray shading sees its fragment along
         # (lit shading only: unlit shading reads the albedo alone, so the rays, 0.8 ms of
@@ -157,9 +178,7 @@ class Virtual(Technique):
         ws = state.virtual_raster
         # sphere mirrors drawn together (virtual/together.py): the same bytes, in 3
         # parallel regions for all of them instead of 5 each
-        together = [int(k) for k in seen if self.params.reflector_test != "clip_planes"
-                    and choose_method(self.params.method, int(scene.mirrors.kind[k]),
-                                      int(k) in scene.mirror_profiles) == "sphere"]
+        together = [k for k in seen.tolist() if state.together_ok[k]]
         if together and worth_together(boxes[together]):
             t_start = time.perf_counter()
             parts = tuple(state.reflected.get(geometry, scene.n_objects, k,
@@ -171,7 +190,7 @@ class Virtual(Technique):
             t1 = time.perf_counter()
             draw_spheres(scene, primary, camera.eye, clip_from_world, group, virtual, hidden,
                          boxes[together], self.params.reflector_test == "zbuffer", incoming,
-                         ws)
+                         ws, state.sphere_labels if labelled else None)
             seconds["tessellate"] += t0 - t_start
             seconds["virtual_vertices"] += t1 - t0
             seconds["virtual_raster"] += time.perf_counter() - t1
