@@ -30,7 +30,6 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     n = corners.shape[0]
     scale = float(1 << bits)
     threads = own_tri.shape[0]
-    clip = np.empty((threads, 12, _CHUNK))
     work_i = np.empty((threads, 22 * _CHUNK), np.int64)
     work_f = np.empty((threads, 8 * _CHUNK))
     status = np.empty((threads, _CHUNK), np.uint8)
@@ -58,7 +57,7 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
             t0 = chunk * _CHUNK
             count = min(n, t0 + _CHUNK) - t0
             kept = _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale,
-                              cull, top, bottom, col0, col1, t0, count, clip[me],
+                              cull, top, bottom, col0, col1, t0, count,
                               work_i[me], work_f[me], status[me])
             ints = work_i[me]
             floats = work_f[me]
