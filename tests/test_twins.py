@@ -115,6 +115,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize/draw.py:_fill_listed": (RASTER + PASSES, "_draw"),
     "raster/rasterize/rows.py:_rows": (RASTER + PASSES, "_fill_listed"),
     "raster/rasterize/rows.py:_quad": (RASTER + PASSES, "_fill_listed"),
+    "raster/rasterize/rows.py:_narrow": (RASTER, "_fill_listed"),
     "raster/rasterize/rows.py:_pixel": (RASTER + PASSES, "_quad"),
     "raster/rasterize/rows.py:_fill_at": (CLIP + PASSES, "_draw_clipped"),
     "raster/rasterize/passes.py:_draw_passes": (PASSES, "rasterize_passes"),

@@ -8,9 +8,19 @@ from numba import njit, prange
 from ...parallel import claim, counter
 from ...scene.types import MIRROR_TIE
 from .clip import _box_misses, _clip_polygon
-from .constants import _CHUNK, _CLIPPED, _MAX_POLY, CULL_BACK, CULL_FRONT, CULL_NONE, FLAG_MIRROR
+from .constants import (
+    _BLOCK,
+    _CHUNK,
+    _CLIPPED,
+    _MAX_POLY,
+    _NARROW,
+    CULL_BACK,
+    CULL_FRONT,
+    CULL_NONE,
+    FLAG_MIRROR,
+)
 from .fixed import _snap
-from .rows import _fill_at, _quad, _rows
+from .rows import _fill_at, _narrow, _quad, _rows
 from .setup import _run_setup
 
 
@@ -33,7 +43,7 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     work_i = np.empty((threads, 22 * _CHUNK), np.int64)
     work_f = np.empty((threads, 8 * _CHUNK))
     status = np.empty((threads, _CHUNK), np.uint8)
-    chosen = np.empty((threads, 2 * _CHUNK), np.int64)
+    chosen = np.empty((threads, 3 * _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
     # one item per thread, each claiming the next chunk until none is left (parallel.py);
     # a worker draws into its own buffers, merged by key: who drew what never matters
@@ -87,18 +97,43 @@ def _fill_listed(ints, floats, sel, kept, t0, flags, top, col0, stencil, use_ste
     (`_quad`), the others from its back (`_rows`). `draw` and `rasterize_passes` share it."""
     c = _CHUNK
     k = 0
+    w = 0
     b = 0
+    plain = not use_stencil and not use_floor
     for i in range(kept):
         drawn = ints[20 * c + i]
-        small = (ints[7 * c + i] <= 2) & (ints[9 * c + i] <= ints[8 * c + i] + 1)
+        n = ints[7 * c + i]
+        # plain: a box at most _BLOCK wide, or _NARROW (`_narrow`); else at most 2 x 2
+        # (`_quad`)
+        small = (n <= _BLOCK) if plain else ((n <= 2) & (ints[9 * c + i] <= ints[8 * c + i] + 1))
+        wide = plain & (n > _BLOCK) & (n <= _NARROW)
         sel[k] = i
-        sel[2 * c - 1 - b] = i
+        sel[c + w] = i
+        sel[3 * c - 1 - b] = i
         quad = drawn & small
+        mid = drawn & wide
         k += quad
-        b += drawn - quad
+        w += mid
+        b += drawn - quad - mid
+    for q in range(w):
+        j = sel[c + q]
+        _narrow(np.int32(t0 + ints[21 * c + j]), ints[6 * c + j], ints[7 * c + j],
+                ints[8 * c + j], ints[9 * c + j], ints[10 * c + j], ints[11 * c + j],
+                ints[12 * c + j], ints[13 * c + j], ints[14 * c + j], ints[15 * c + j],
+                ints[16 * c + j], ints[17 * c + j], ints[18 * c + j], ints[19 * c + j],
+                floats[3 * c + j], floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
+                top, col0, tri, key, _NARROW)
     for q in range(k):
         j = sel[q]
         t = t0 + ints[21 * c + j]
+        if plain:
+            _narrow(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+                    ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+                    ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+                    ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+                    floats[4 * c + j], floats[5 * c + j], floats[6 * c + j], top, col0, tri,
+                    key, _BLOCK)
+            continue
         _quad(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
               ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
               ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
@@ -107,7 +142,7 @@ def _fill_listed(ints, floats, sel, kept, t0, flags, top, col0, stencil, use_ste
               MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
               use_stencil, floor, use_floor, tri, key, want)
     for q in range(b):
-        j = sel[2 * c - 1 - q]
+        j = sel[3 * c - 1 - q]
         t = t0 + ints[21 * c + j]
         _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
               ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],

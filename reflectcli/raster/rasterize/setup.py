@@ -17,7 +17,6 @@ from .constants import (
     FLAG_MIRROR,
     FLAG_SKIP,
 )
-from .fixed import _snap
 
 
 @njit(cache=True, inline="always")
@@ -229,6 +228,7 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
         sx0, sy0 = screen_from_ndc(x0 * iw0, y0 * iw0, width, height)
         sx1, sy1 = screen_from_ndc(x1 * iw1, y1 * iw1, width, height)
         sx2, sy2 = screen_from_ndc(x2 * iw2, y2 * iw2, width, height)
+        # snapped as `_snap` does, its floor kept (for the test below) before the int32
         f0 = np.floor((sx0 if simple else 0.0) * scale + 0.5)
         g0 = np.floor((sy0 if simple else 0.0) * scale + 0.5)
         f1 = np.floor((sx1 if simple else 0.0) * scale + 0.5)
