@@ -249,10 +249,26 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
         last_y = np.floor((max(g0, g1, g2) - fhalf) * unit)
         ints[20 * c + j] = (facing & simple & (max(first_x, fcol0) <= min(last_x, fcol1))
                             & (max(first_y, ftop) <= min(last_y, fbottom)))
-    # those that may be drawn listed (their j in row 21) without a branch per triangle,
-    # then their corners gathered into rows 6 .. 11 (ints) and 3 .. 5 (floats), and their
-    # key scale into row 7 (floats): the setup's loop reads them in order (in place, each
-    # read before the setup of the same triangle overwrites it)
+    kept = 0
+    for j in range(count):
+        kept += ints[20 * c + j]
+    if 2 * kept > count:
+        # most may be drawn: the setups of all, in place (column j, reading rows 0 .. 5 and
+        # floats 0 .. 2), cheaper than listing and gathering those (a simple triangle not
+        # kept by the test is not drawn by its setup either; the others have corners 0:
+        # degenerate, not drawn); each its own index in row 21
+        for j in range(count):
+            q = _setup(ints[j], ints[c + j], floats[j], ints[2 * c + j], ints[3 * c + j],
+                       floats[c + j], ints[4 * c + j], ints[5 * c + j], floats[2 * c + j],
+                       1.0 / MIRROR_TIE if run_flags[j] & FLAG_MIRROR else 1.0, cull, bits,
+                       top, bottom, col0, col1)
+            _store_setup(ints, floats, c, j, q)
+            ints[21 * c + j] = j
+        return count
+    # else those that may be drawn listed (their j in row 21) without a branch per
+    # triangle, then their corners gathered into rows 6 .. 11 (ints) and 3 .. 5 (floats),
+    # and their key scale into row 7 (floats): the setup's loop reads them in order (in
+    # place, each read before the setup of the same triangle overwrites it)
     kept = 0
     for j in range(count):
         ints[21 * c + kept] = j
@@ -271,23 +287,30 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
         q = _setup(ints[6 * c + i], ints[7 * c + i], floats[3 * c + i], ints[8 * c + i],
                    ints[9 * c + i], floats[4 * c + i], ints[10 * c + i], ints[11 * c + i],
                    floats[5 * c + i], floats[7 * c + i], cull, bits, top, bottom, col0, col1)
-        ints[20 * c + i] = q[0]
-        ints[6 * c + i] = q[1]
-        ints[7 * c + i] = q[2]
-        ints[8 * c + i] = q[3]
-        ints[9 * c + i] = q[4]
-        ints[10 * c + i] = q[5]
-        ints[11 * c + i] = q[6]
-        ints[12 * c + i] = q[7]
-        ints[13 * c + i] = q[8]
-        ints[14 * c + i] = q[9]
-        ints[15 * c + i] = q[10]
-        ints[16 * c + i] = q[11]
-        ints[17 * c + i] = q[12]
-        ints[18 * c + i] = q[13]
-        ints[19 * c + i] = q[14]
-        floats[3 * c + i] = q[15]
-        floats[4 * c + i] = q[16]
-        floats[5 * c + i] = q[17]
-        floats[6 * c + i] = q[18]
+        _store_setup(ints, floats, c, i, q)
     return kept
+
+
+@njit(cache=True, inline="always")
+def _store_setup(ints, floats, c, i, q):
+    """A `_setup` (q) into column i of a run's setup rows (ints 20: drawn, 6 .. 19: xs ..
+    sb2; floats 3 .. 6: z_ref .. zx0), rows c apart."""
+    ints[20 * c + i] = q[0]
+    ints[6 * c + i] = q[1]
+    ints[7 * c + i] = q[2]
+    ints[8 * c + i] = q[3]
+    ints[9 * c + i] = q[4]
+    ints[10 * c + i] = q[5]
+    ints[11 * c + i] = q[6]
+    ints[12 * c + i] = q[7]
+    ints[13 * c + i] = q[8]
+    ints[14 * c + i] = q[9]
+    ints[15 * c + i] = q[10]
+    ints[16 * c + i] = q[11]
+    ints[17 * c + i] = q[12]
+    ints[18 * c + i] = q[13]
+    ints[19 * c + i] = q[14]
+    floats[3 * c + i] = q[15]
+    floats[4 * c + i] = q[16]
+    floats[5 * c + i] = q[17]
+    floats[6 * c + i] = q[18]
