@@ -111,7 +111,7 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
     work_i = np.empty((threads, 22 * _CHUNK), np.int64)
     work_f = np.empty((threads, 8 * _CHUNK))
     status = np.empty((threads, _CHUNK), np.uint8)
-    chosen = np.empty((threads, 3 * _CHUNK), np.int64)
+    chosen = np.empty((threads, 4 * _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
     claimed = counter()
     for me in prange(threads):
