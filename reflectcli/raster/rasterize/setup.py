@@ -133,7 +133,9 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
     triangle t0 + ints[21 * _CHUNK + i], its `_setup` in column i (ints rows 20: drawn, 6
     .. 19: xs .. sb2; floats rows 3 .. 6: z_ref .. zx0). Only those are set up: at 1M
     triangles (room + icospheres, back faces culled) a third, of which 60% are drawn;
-    the setup of all took 20 of the 39 ms, that of a third 4 ms.
+    the setup of all took 20 of the 39 ms, that of a third 4 ms. A run where more than
+    half pass the test is set up whole instead, in place (kept = count, row 21 j itself):
+    listing and gathering cost more than setting up the rest.
     `ints`, `floats`: (22 * _CHUNK) and (8 * _CHUNK)."""
     # the run's flags through a view indexed from 0 (flags[t0 + j] pays numba's
     # negative-index wraparound in every vectorised loop that reads it: 10% of the setup)
