@@ -21,3 +21,6 @@ _CHUNK = 256  # triangles per parallel task (and per box of chunk_bounds)
 # a detailed mesh) mispredict. 202k triangles, 1 thread: culled 1.03 -> 0.95x the anchor,
 # unculled 1.41 -> 1.26x (8 was slower than 4)
 _BLOCK = 4
+# A plain draw's boxes at most _NARROW pixels wide are walked _BLOCK or _NARROW pixels a row,
+# a constant, unrolled (`_narrow`); the buffers have _NARROW - 1 columns to spare
+_NARROW = 8

@@ -8,9 +8,19 @@ from numba import njit, prange
 from ...parallel import claim, counter
 from ...scene.types import MIRROR_TIE
 from .clip import _box_misses, _clip_polygon
-from .constants import _CHUNK, _CLIPPED, _MAX_POLY, CULL_BACK, CULL_FRONT, CULL_NONE, FLAG_MIRROR
+from .constants import (
+    _BLOCK,
+    _CHUNK,
+    _CLIPPED,
+    _MAX_POLY,
+    _NARROW,
+    CULL_BACK,
+    CULL_FRONT,
+    CULL_NONE,
+    FLAG_MIRROR,
+)
 from .fixed import _snap
-from .rows import _fill_at, _quad, _rows
+from .rows import _fill_at, _narrow, _quad, _rows
 from .setup import _run_setup
 
 
@@ -30,11 +40,10 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
     n = corners.shape[0]
     scale = float(1 << bits)
     threads = own_tri.shape[0]
-    clip = np.empty((threads, 12, _CHUNK))
     work_i = np.empty((threads, 22 * _CHUNK), np.int64)
     work_f = np.empty((threads, 8 * _CHUNK))
     status = np.empty((threads, _CHUNK), np.uint8)
-    chosen = np.empty((threads, 2 * _CHUNK), np.int64)
+    chosen = np.empty((threads, 4 * _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
     # one item per thread, each claiming the next chunk until none is left (parallel.py);
     # a worker draws into its own buffers, merged by key: who drew what never matters
@@ -58,7 +67,7 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
             t0 = chunk * _CHUNK
             count = min(n, t0 + _CHUNK) - t0
             kept = _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale,
-                              cull, top, bottom, col0, col1, t0, count, clip[me],
+                              cull, top, bottom, col0, col1, t0, count,
                               work_i[me], work_f[me], status[me])
             ints = work_i[me]
             floats = work_f[me]
@@ -84,21 +93,45 @@ def _fill_listed(ints, floats, sel, kept, t0, flags, top, col0, stencil, use_ste
                  use_floor, tri, key, want):
     """Fill the `kept` triangles a run's `_run_setup` listed (setup columns 0..kept-1 of
     ints / floats, row 21 their index in the run from t0), those it found drawn: listed
-    without a branch per triangle, boxes of at most 2 x 2 pixels from the front of `sel`
-    (`_quad`), the others from its back (`_rows`). `draw` and `rasterize_passes` share it."""
+    without a branch per triangle into four parts of `sel`: a plain draw (no stencil, no
+    floor) walks boxes at most 2, 4 or 8 pixels wide with `_narrow` (rows of that constant
+    width); else boxes of at most 2 x 2 pixels go to `_quad`; the others to `_rows`. Which
+    of these draws a triangle never changes its pixels. `draw` and `rasterize_passes`
+    share it. `sel`: 4 * _CHUNK."""
     c = _CHUNK
     k = 0
+    w4 = 0
+    w8 = 0
     b = 0
+    plain = not use_stencil and not use_floor
     for i in range(kept):
         drawn = ints[20 * c + i]
-        small = (ints[7 * c + i] <= 2) & (ints[9 * c + i] <= ints[8 * c + i] + 1)
+        n = ints[7 * c + i]
+        # plain: a box at most 2, 4 or 8 pixels wide (`_narrow`); else at most 2 x 2
+        # (`_quad`); the others `_rows`
+        small = (n <= 2) & (plain | (ints[9 * c + i] <= ints[8 * c + i] + 1))
+        mid4 = plain & (n > 2) & (n <= _BLOCK)
+        mid8 = plain & (n > _BLOCK) & (n <= _NARROW)
         sel[k] = i
-        sel[2 * c - 1 - b] = i
+        sel[c + w4] = i
+        sel[2 * c + w8] = i
+        sel[4 * c - 1 - b] = i
         quad = drawn & small
+        four = drawn & mid4
+        eight = drawn & mid8
         k += quad
-        b += drawn - quad
+        w4 += four
+        w8 += eight
+        b += drawn - quad - four - eight
+    for q in range(w4):
+        _narrow_at(ints, floats, c, sel[c + q], t0, top, col0, tri, key, _BLOCK)
+    for q in range(w8):
+        _narrow_at(ints, floats, c, sel[2 * c + q], t0, top, col0, tri, key, _NARROW)
     for q in range(k):
         j = sel[q]
+        if plain:
+            _narrow_at(ints, floats, c, j, t0, top, col0, tri, key, 2)
+            continue
         t = t0 + ints[21 * c + j]
         _quad(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
               ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
@@ -108,7 +141,7 @@ def _fill_listed(ints, floats, sel, kept, t0, flags, top, col0, stencil, use_ste
               MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
               use_stencil, floor, use_floor, tri, key, want)
     for q in range(b):
-        j = sel[2 * c - 1 - q]
+        j = sel[4 * c - 1 - q]
         t = t0 + ints[21 * c + j]
         _rows(np.int32(t), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
               ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
@@ -117,6 +150,17 @@ def _fill_listed(ints, floats, sel, kept, t0, flags, top, col0, stencil, use_ste
               floats[4 * c + j], floats[5 * c + j], floats[6 * c + j],
               MIRROR_TIE if flags[t] & FLAG_MIRROR else 1.0, top, col0, stencil,
               use_stencil, floor, use_floor, tri, key, True, want)
+
+
+@njit(cache=True, inline="always")
+def _narrow_at(ints, floats, c, j, t0, top, col0, tri, key, width):
+    """`_narrow` (rows `width` pixels wide, a constant) of the set-up triangle in column j."""
+    _narrow(np.int32(t0 + ints[21 * c + j]), ints[6 * c + j], ints[7 * c + j], ints[8 * c + j],
+            ints[9 * c + j], ints[10 * c + j], ints[11 * c + j], ints[12 * c + j],
+            ints[13 * c + j], ints[14 * c + j], ints[15 * c + j], ints[16 * c + j],
+            ints[17 * c + j], ints[18 * c + j], ints[19 * c + j], floats[3 * c + j],
+            floats[4 * c + j], floats[5 * c + j], floats[6 * c + j], top, col0, tri, key,
+            width)
 
 
 @njit(cache=True, error_model="numpy")

@@ -108,11 +108,10 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
         first[p + 1] = first[p] + (starts[p + 1] - starts[p] + _CHUNK - 1) // _CHUNK
     scale = float(1 << bits)
     threads = own_tri.shape[0]
-    clip = np.empty((threads, 12, _CHUNK))
     work_i = np.empty((threads, 22 * _CHUNK), np.int64)
     work_f = np.empty((threads, 8 * _CHUNK))
     status = np.empty((threads, _CHUNK), np.uint8)
-    chosen = np.empty((threads, 2 * _CHUNK), np.int64)
+    chosen = np.empty((threads, 4 * _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
     claimed = counter()
     for me in prange(threads):
@@ -140,7 +139,7 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
                     gather_triangle(points, hidden, corner_index, surface, n_objects, corners,
                                     flags, t)
             kept = _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale,
-                              CULL_NONE, row0, row1, c0, c1, t0, count, clip[me],
+                              CULL_NONE, row0, row1, c0, c1, t0, count,
                               work_i[me], work_f[me], status[me])
             ints = work_i[me]
             floats = work_f[me]

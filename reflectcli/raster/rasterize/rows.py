@@ -70,6 +70,36 @@ def _rows(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2,
 
 
 @njit(cache=True, inline="always")
+def _narrow(t32, xs, n, ys, ye, first_y, e0, e1, e2, sa0, sa1, sa2, sb0, sb1, sb2, z_ref,
+            dzdx, dzdy, zx0, top, col0, tri, key, width):
+    """`_rows`'s plain walk (no stencil, no floor) for a box at most `width` pixels wide
+    (n <= width, a constant: _BLOCK or _NARROW; the buffers have width - 1 columns to spare
+    past the box): each row walked over `width` pixels, a loop of constant length the
+    compiler unrolls (`_rows` walks its blocks with a loop of unknown length), with
+    `_rows`'s arithmetic and test; the pixels past the box (k >= n) written back
+    unchanged."""
+    c = np.uint64(xs - col0)  # unsigned indices (all are >= 0): no negative-index wraparound
+    for py in range(ys, ye + 1):
+        z_row = z_ref + dzdy * (py - first_y) + zx0
+        r = np.uint64(py - top)
+        f0, f1, f2 = e0, e1, e2
+        for k in range(width):
+            z = np.float32(z_row + dzdx * k)
+            old = key[r, c + np.uint64(k)]
+            was = tri[r, c + np.uint64(k)]
+            win = (((f0 | f1 | f2) >= 0) & (k < n)
+                   & ((z > old) | ((z == old) & (t32 < was))))
+            key[r, c + np.uint64(k)] = z if win else old
+            tri[r, c + np.uint64(k)] = t32 if win else was
+            f0 += sa0
+            f1 += sa1
+            f2 += sa2
+        e0 += sb0
+        e1 += sb1
+        e2 += sb2
+
+
+@njit(cache=True, inline="always")
 def _pixel(t32, py, px, r, c, f0, f1, f2, z, zf, tie, ok, stencil, use_stencil, floor,
            use_floor, tri, key, want):
     """One pixel of `_quad`: `_rows`'s test (center inside, key greater or equal with a lower

@@ -17,7 +17,6 @@ from .constants import (
     FLAG_MIRROR,
     FLAG_SKIP,
 )
-from .fixed import _snap
 
 
 @njit(cache=True, inline="always")
@@ -122,7 +121,7 @@ def _setup(x0, y0, w0, x1, y1, w1, x2, y2, w2, key_scale, cull, bits, top, botto
 
 @njit(cache=True, error_model="numpy")
 def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cull, top,
-               bottom, col0, col1, t0, count, clip, ints, floats, status):
+               bottom, col0, col1, t0, count, ints, floats, status):
     """Setup of triangles t0 .. t0 + count - 1 (j = t - t0), in loops over the run without
     branches (vectorised): their corners' clip coordinates, status[j] _CULLED (outside one
     side of the frustum or one of the first n_cut planes, or FLAG_SKIP), _CLIPPED (a plane
@@ -134,9 +133,10 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
     triangle t0 + ints[21 * _CHUNK + i], its `_setup` in column i (ints rows 20: drawn, 6
     .. 19: xs .. sb2; floats rows 3 .. 6: z_ref .. zx0). Only those are set up: at 1M
     triangles (room + icospheres, back faces culled) a third, of which 60% are drawn;
-    the setup of all took 20 of the 39 ms, that of a third 4 ms.
-    `clip`: scratch, (12, n) clip x, y, z, w per corner; `ints`, `floats`: (22 * _CHUNK)
-    and (8 * _CHUNK)."""
+    the setup of all took 20 of the 39 ms, that of a third 4 ms. A run where more than
+    half pass the test is set up whole instead, in place (kept = count, row 21 j itself):
+    listing and gathering cost more than setting up the rest.
+    `ints`, `floats`: (22 * _CHUNK) and (8 * _CHUNK)."""
     # the run's flags through a view indexed from 0 (flags[t0 + j] pays numba's
     # negative-index wraparound in every vectorised loop that reads it: 10% of the setup)
     run_flags = flags[t0:t0 + count]
@@ -147,81 +147,130 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
     m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]
     m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
     m30, m31, m32, m33 = m[3, 0], m[3, 1], m[3, 2], m[3, 3]
-    for k in range(3):
+    # planes past the first two (rare): status[j] bit 0 when all corners are outside one of
+    # them, bit 1 when some corner is outside one, read by the loop below (else 0)
+    for j in range(count):
+        status[j] = 0
+    for p in range(2, n_cut):
+        a, b, c, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3]
         for j in range(count):
-            x = np.float64(run[j, k, 0])
-            y = np.float64(run[j, k, 1])
-            z = np.float64(run[j, k, 2])
-            clip[4 * k, j] = m00 * x + m01 * y + m02 * z + m03
-            clip[4 * k + 1, j] = m10 * x + m11 * y + m12 * z + m13
-            clip[4 * k + 2, j] = m20 * x + m21 * y + m22 * z + m23
-            clip[4 * k + 3, j] = m30 * x + m31 * y + m32 * z + m33
+            o = np.uint8(0)
+            s = np.uint8(3)
+            for k in range(3):
+                x = np.float64(run[j, k, 0])
+                y = np.float64(run[j, k, 1])
+                z = np.float64(run[j, k, 2])
+                cx = m00 * x + m01 * y + m02 * z + m03
+                cy = m10 * x + m11 * y + m12 * z + m13
+                cz = m20 * x + m21 * y + m22 * z + m23
+                cw = m30 * x + m31 * y + m32 * z + m33
+                outside = a * cx + b * cy + c * cz + d * cw < 0.0
+                o |= np.uint8(2) if outside else np.uint8(0)
+                s &= np.uint8(3) if outside else np.uint8(2)
+            status[j] |= o | s
     # status: _CULLED when outside one side of the frustum, or all corners outside one of
     # the planes; else _CLIPPED when a plane or the guard band cuts it (screen coordinates
     # beyond the band could overflow the fixed-point range); else _SIMPLE. The first two
-    # planes are tested in the same loop (a plane missing: zeros, never outside), any
-    # others after, each updating the status (the order of the planes never matters)
+    # planes are tested here (a plane missing: zeros, never outside), any others above (the
+    # order of the planes never matters). Then a simple triangle's corners snapped (the
+    # others' 0: only a simple one's are used, and safe to snap), and whether it may be
+    # drawn (kept by `cull`, some pixel center of the box inside its corners' box) in row
+    # 20: one loop per triangle, its clip coordinates never written out
     gx = planes[n_cut, 3]
     gy = planes[n_cut + 2, 3]
     pa, pb, pc, pd = (planes[0, 0], planes[0, 1], planes[0, 2], planes[0, 3]) if n_cut > 0 \
         else (0.0, 0.0, 0.0, 0.0)
     qa, qb, qc, qd = (planes[1, 0], planes[1, 1], planes[1, 2], planes[1, 3]) if n_cut > 1 \
         else (0.0, 0.0, 0.0, 0.0)
+    c = _CHUNK
+    fhalf = float(np.int64(1) << (bits - 1))
+    unit = 1.0 / scale
+    fcol0, fcol1, ftop, fbottom = float(col0), float(col1 - 1), float(top), float(bottom - 1)
     for j in range(count):
-        x0, y0, z0, w0 = clip[0, j], clip[1, j], clip[2, j], clip[3, j]
-        x1, y1, z1, w1 = clip[4, j], clip[5, j], clip[6, j], clip[7, j]
-        x2, y2, z2, w2 = clip[8, j], clip[9, j], clip[10, j], clip[11, j]
+        x = np.float64(run[j, 0, 0])
+        y = np.float64(run[j, 0, 1])
+        z = np.float64(run[j, 0, 2])
+        x0 = m00 * x + m01 * y + m02 * z + m03
+        y0 = m10 * x + m11 * y + m12 * z + m13
+        z0 = m20 * x + m21 * y + m22 * z + m23
+        w0 = m30 * x + m31 * y + m32 * z + m33
+        x = np.float64(run[j, 1, 0])
+        y = np.float64(run[j, 1, 1])
+        z = np.float64(run[j, 1, 2])
+        x1 = m00 * x + m01 * y + m02 * z + m03
+        y1 = m10 * x + m11 * y + m12 * z + m13
+        z1 = m20 * x + m21 * y + m22 * z + m23
+        w1 = m30 * x + m31 * y + m32 * z + m33
+        x = np.float64(run[j, 2, 0])
+        y = np.float64(run[j, 2, 1])
+        z = np.float64(run[j, 2, 2])
+        x2 = m00 * x + m01 * y + m02 * z + m03
+        y2 = m10 * x + m11 * y + m12 * z + m13
+        z2 = m20 * x + m21 * y + m22 * z + m23
+        w2 = m30 * x + m31 * y + m32 * z + m33
         p0 = pa * x0 + pb * y0 + pc * z0 + pd * w0 < 0.0
         p1 = pa * x1 + pb * y1 + pc * z1 + pd * w1 < 0.0
         p2 = pa * x2 + pb * y2 + pc * z2 + pd * w2 < 0.0
         q0 = qa * x0 + qb * y0 + qc * z0 + qd * w0 < 0.0
         q1 = qa * x1 + qb * y1 + qc * z1 + qd * w1 < 0.0
         q2 = qa * x2 + qb * y2 + qc * z2 + qd * w2 < 0.0
+        extra = status[j]
         out = (((x0 < -w0) & (x1 < -w1) & (x2 < -w2)) | ((x0 > w0) & (x1 > w1) & (x2 > w2))
                | ((y0 < -w0) & (y1 < -w1) & (y2 < -w2)) | ((y0 > w0) & (y1 > w1) & (y2 > w2))
-               | ((run_flags[j] & FLAG_SKIP) != 0) | (p0 & p1 & p2) | (q0 & q1 & q2))
+               | ((run_flags[j] & FLAG_SKIP) != 0) | (p0 & p1 & p2) | (q0 & q1 & q2)
+               | ((extra & 1) != 0))
         cut = ((abs(x0) > gx * w0) | (abs(x1) > gx * w1) | (abs(x2) > gx * w2)
                | (abs(y0) > gy * w0) | (abs(y1) > gy * w1) | (abs(y2) > gy * w2)
-               | p0 | p1 | p2 | q0 | q1 | q2)
+               | p0 | p1 | p2 | q0 | q1 | q2 | ((extra & 2) != 0))
         status[j] = _CULLED if out else (_CLIPPED if cut else _SIMPLE)
-    for p in range(2, n_cut):
-        a, b, c, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3]
-        for j in range(count):
-            o0 = a * clip[0, j] + b * clip[1, j] + c * clip[2, j] + d * clip[3, j] < 0.0
-            o1 = a * clip[4, j] + b * clip[5, j] + c * clip[6, j] + d * clip[7, j] < 0.0
-            o2 = a * clip[8, j] + b * clip[9, j] + c * clip[10, j] + d * clip[11, j] < 0.0
-            s = status[j]
-            status[j] = _CULLED if (o0 & o1 & o2) | (s == _CULLED) else (
-                _CLIPPED if o0 | o1 | o2 else s)
-    # a simple triangle's corners snapped (the others' 0: only a simple one's are used, and
-    # safe to snap), and whether it may be drawn (kept by `cull`, some pixel center of the
-    # box inside its corners' box) in row 20
-    c = _CHUNK
-    for j in range(count):
-        simple = status[j] == _SIMPLE
-        iw0 = 1.0 / (clip[3, j] if simple else 1.0)
-        iw1 = 1.0 / (clip[7, j] if simple else 1.0)
-        iw2 = 1.0 / (clip[11, j] if simple else 1.0)
-        sx0, sy0 = screen_from_ndc(clip[0, j] * iw0, clip[1, j] * iw0, width, height)
-        sx1, sy1 = screen_from_ndc(clip[4, j] * iw1, clip[5, j] * iw1, width, height)
-        sx2, sy2 = screen_from_ndc(clip[8, j] * iw2, clip[9, j] * iw2, width, height)
-        x0 = _snap(sx0 if simple else 0.0, scale)
-        y0 = _snap(sy0 if simple else 0.0, scale)
-        x1 = _snap(sx1 if simple else 0.0, scale)
-        y1 = _snap(sy1 if simple else 0.0, scale)
-        x2 = _snap(sx2 if simple else 0.0, scale)
-        y2 = _snap(sy2 if simple else 0.0, scale)
-        ints[j], ints[c + j], ints[2 * c + j], ints[3 * c + j] = x0, y0, x1, y1
-        ints[4 * c + j], ints[5 * c + j] = x2, y2
+        simple = not (out | cut)
+        iw0 = 1.0 / (w0 if simple else 1.0)
+        iw1 = 1.0 / (w1 if simple else 1.0)
+        iw2 = 1.0 / (w2 if simple else 1.0)
+        sx0, sy0 = screen_from_ndc(x0 * iw0, y0 * iw0, width, height)
+        sx1, sy1 = screen_from_ndc(x1 * iw1, y1 * iw1, width, height)
+        sx2, sy2 = screen_from_ndc(x2 * iw2, y2 * iw2, width, height)
+        # snapped as `_snap` does, its floor kept (for the test below) before the int32
+        f0 = np.floor((sx0 if simple else 0.0) * scale + 0.5)
+        g0 = np.floor((sy0 if simple else 0.0) * scale + 0.5)
+        f1 = np.floor((sx1 if simple else 0.0) * scale + 0.5)
+        g1 = np.floor((sy1 if simple else 0.0) * scale + 0.5)
+        f2 = np.floor((sx2 if simple else 0.0) * scale + 0.5)
+        g2 = np.floor((sy2 if simple else 0.0) * scale + 0.5)
+        u0, v0 = np.int64(np.int32(f0)), np.int64(np.int32(g0))
+        u1, v1 = np.int64(np.int32(f1)), np.int64(np.int32(g1))
+        u2, v2 = np.int64(np.int32(f2)), np.int64(np.int32(g2))
+        ints[j], ints[c + j], ints[2 * c + j], ints[3 * c + j] = u0, v0, u1, v1
+        ints[4 * c + j], ints[5 * c + j] = u2, v2
         floats[j], floats[c + j], floats[2 * c + j] = iw0, iw1, iw2
-        facing = _facing(x0, y0, x1, y1, x2, y2, cull)[1]
-        first_x, last_x, first_y, last_y = _centers(x0, y0, x1, y1, x2, y2, bits)
-        ints[20 * c + j] = (facing & simple & (max(first_x, col0) <= min(last_x, col1 - 1))
-                            & (max(first_y, top) <= min(last_y, bottom - 1)))
-    # those that may be drawn listed (their j in row 21) without a branch per triangle,
-    # then their corners gathered into rows 6 .. 11 (ints) and 3 .. 5 (floats), and their
-    # key scale into row 7 (floats): the setup's loop reads them in order (in place, each
-    # read before the setup of the same triangle overwrites it)
+        facing = _facing(u0, v0, u1, v1, u2, v2, cull)[1]
+        # the centers test in float64, exact (integers below 2^31, a power of 2 scale)
+        first_x = np.ceil((min(f0, f1, f2) - fhalf) * unit)
+        last_x = np.floor((max(f0, f1, f2) - fhalf) * unit)
+        first_y = np.ceil((min(g0, g1, g2) - fhalf) * unit)
+        last_y = np.floor((max(g0, g1, g2) - fhalf) * unit)
+        ints[20 * c + j] = (facing & simple & (max(first_x, fcol0) <= min(last_x, fcol1))
+                            & (max(first_y, ftop) <= min(last_y, fbottom)))
+    kept = 0
+    for j in range(count):
+        kept += ints[20 * c + j]
+    if 2 * kept > count:
+        # most may be drawn: the setups of all, in place (column j, reading rows 0 .. 5 and
+        # floats 0 .. 2), cheaper than listing and gathering those (a simple triangle not
+        # kept by the test is not drawn by its setup either; the others have corners 0:
+        # degenerate, not drawn); each its own index in row 21
+        for j in range(count):
+            q = _setup(ints[j], ints[c + j], floats[j], ints[2 * c + j], ints[3 * c + j],
+                       floats[c + j], ints[4 * c + j], ints[5 * c + j], floats[2 * c + j],
+                       1.0 / MIRROR_TIE if run_flags[j] & FLAG_MIRROR else 1.0, cull, bits,
+                       top, bottom, col0, col1)
+            _store_setup(ints, floats, c, j, q)
+            ints[21 * c + j] = j
+        return count
+    # else those that may be drawn listed (their j in row 21) without a branch per
+    # triangle, then their corners gathered into rows 6 .. 11 (ints) and 3 .. 5 (floats),
+    # and their key scale into row 7 (floats): the setup's loop reads them in order (in
+    # place, each read before the setup of the same triangle overwrites it)
     kept = 0
     for j in range(count):
         ints[21 * c + kept] = j
@@ -240,23 +289,30 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
         q = _setup(ints[6 * c + i], ints[7 * c + i], floats[3 * c + i], ints[8 * c + i],
                    ints[9 * c + i], floats[4 * c + i], ints[10 * c + i], ints[11 * c + i],
                    floats[5 * c + i], floats[7 * c + i], cull, bits, top, bottom, col0, col1)
-        ints[20 * c + i] = q[0]
-        ints[6 * c + i] = q[1]
-        ints[7 * c + i] = q[2]
-        ints[8 * c + i] = q[3]
-        ints[9 * c + i] = q[4]
-        ints[10 * c + i] = q[5]
-        ints[11 * c + i] = q[6]
-        ints[12 * c + i] = q[7]
-        ints[13 * c + i] = q[8]
-        ints[14 * c + i] = q[9]
-        ints[15 * c + i] = q[10]
-        ints[16 * c + i] = q[11]
-        ints[17 * c + i] = q[12]
-        ints[18 * c + i] = q[13]
-        ints[19 * c + i] = q[14]
-        floats[3 * c + i] = q[15]
-        floats[4 * c + i] = q[16]
-        floats[5 * c + i] = q[17]
-        floats[6 * c + i] = q[18]
+        _store_setup(ints, floats, c, i, q)
     return kept
+
+
+@njit(cache=True, inline="always")
+def _store_setup(ints, floats, c, i, q):
+    """A `_setup` (q) into column i of a run's setup rows (ints 20: drawn, 6 .. 19: xs ..
+    sb2; floats 3 .. 6: z_ref .. zx0), rows c apart."""
+    ints[20 * c + i] = q[0]
+    ints[6 * c + i] = q[1]
+    ints[7 * c + i] = q[2]
+    ints[8 * c + i] = q[3]
+    ints[9 * c + i] = q[4]
+    ints[10 * c + i] = q[5]
+    ints[11 * c + i] = q[6]
+    ints[12 * c + i] = q[7]
+    ints[13 * c + i] = q[8]
+    ints[14 * c + i] = q[9]
+    ints[15 * c + i] = q[10]
+    ints[16 * c + i] = q[11]
+    ints[17 * c + i] = q[12]
+    ints[18 * c + i] = q[13]
+    ints[19 * c + i] = q[14]
+    floats[3 * c + i] = q[15]
+    floats[4 * c + i] = q[16]
+    floats[5 * c + i] = q[17]
+    floats[6 * c + i] = q[18]
