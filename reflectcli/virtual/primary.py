@@ -19,7 +19,8 @@ from ..frame import Frame
 from ..parallel import claim, counter
 from ..raster.primary import Primary, render_primary
 from ..raster.rasterize import FLAG_MIRROR, RasterBuffers, RasterWorkspace
-from ..raster.rasterize.constants import _BLOCK, _CHUNK, CULL_NONE
+from ..raster.rasterize.buffers import thread_buffers
+from ..raster.rasterize.constants import _CHUNK, CULL_NONE
 from ..raster.rasterize.draw import _draw
 from ..raster.rasterize.fixed import _subpixel_bits
 from ..raster.rasterize.resolve import resolve_row
@@ -53,9 +54,7 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
     no_mask = ws.constant("stencil", (1, 1), np.uint8, 1)
     floor = ws.constant("floor", (1, 1), np.float32, 0.0)
     threads = max(1, numba.get_num_threads())
-    padded = (height + 1, width + _BLOCK - 1)
-    own_tri = ws.get("own_tri", (threads, *padded), np.int32)
-    own_key = ws.get("own_key", (threads, *padded), np.float32)
+    own_tri, own_key = thread_buffers(ws, threads, height, width)
     drew = np.zeros(threads, np.bool_)
     chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
     bounds = ws.chunk_bounds(corners)

@@ -20,7 +20,7 @@ the whole buffer on first use of `RasterBuffers.b1` / `b2`. Eye depth is 1 / key
 
 Sort-last: triangles go in runs of _CHUNK, claimed by whichever thread is free
 (parallel.py), each drawing into its own buffers (the stencil's box, plus a spare row and
-_BLOCK - 1 spare columns), merged per pixel at the end. The depth test and
+_NARROW - 1 spare columns: `thread_buffers`), merged per pixel at the end. The depth test and
 the merge both pick the greatest key, then the lowest index, and every key depends only on
 the triangle and the pixel, so the bytes are the same for any thread count and any order
 the runs are drawn in. Within a run, the per-corner work (clip space, classification,

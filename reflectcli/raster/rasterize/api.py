@@ -6,8 +6,8 @@ import numba
 import numpy as np
 
 from ...camera import standard_planes
-from .buffers import RasterBuffers, RasterWorkspace
-from .constants import _CHUNK, _MAX_PLANES, _NARROW, CULL_NONE
+from .buffers import RasterBuffers, RasterWorkspace, thread_buffers
+from .constants import _CHUNK, _MAX_PLANES, CULL_NONE
 from .draw import _draw
 from .fixed import _subpixel_bits
 from .resolve import _resolve
@@ -78,12 +78,7 @@ def rasterize(
     # keys, so the order triangles reach a buffer, and which buffer, never matter
     threads = max(1, numba.get_num_threads())
     box = (max(y1 - y0, 0), max(x1 - x0, 0))
-    # _NARROW - 1 columns to spare: `_rows` walks a row in whole blocks of _BLOCK pixels,
-    # `_narrow` in _NARROW (>= _BLOCK); and a row: `_quad` writes 2 x 2 pixels, those past
-    # the box unchanged
-    padded = (box[0] + 1, box[1] + _NARROW - 1)
-    own_tri = ws.get("own_tri", (threads, *padded), np.int32)
-    own_key = ws.get("own_key", (threads, *padded), np.float32)
+    own_tri, own_key = thread_buffers(ws, threads, *box)
     drew = np.zeros(threads, np.bool_)  # which threads' buffers hold this call's drawing
     if box[0] > 0 and corners.shape[0] > 0:
         chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK

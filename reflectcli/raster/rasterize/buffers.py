@@ -9,7 +9,7 @@ import numpy as np
 
 from ..bounds import run_bounds
 from .barycentrics import _barycentrics
-from .constants import _CHUNK
+from .constants import _CHUNK, _NARROW
 
 
 class RasterBuffers:
@@ -118,3 +118,14 @@ def scratch(ws: RasterWorkspace | None, name: str, shape: tuple[int, ...],
     from call to call, so a frame's large arrays fault their pages in once) if a workspace
     is given, else a fresh one."""
     return np.empty(shape, dtype) if ws is None else ws.get(name, shape, dtype)
+
+
+def thread_buffers(ws: RasterWorkspace, threads: int, rows: int,
+                   cols: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each drawing thread's triangle ids and keys over a box of rows x cols (sort-last),
+    with a spare row and _NARROW - 1 spare columns: `_rows` walks a row in whole blocks of
+    _BLOCK pixels, `_narrow` in _NARROW (>= _BLOCK), `_quad` writes 2 x 2 pixels; those past
+    the box are written back unchanged, never clamped."""
+    padded = (max(rows, 0) + 1, max(cols, 0) + _NARROW - 1)
+    return (ws.get("own_tri", (threads, *padded), np.int32),
+            ws.get("own_key", (threads, *padded), np.float32))

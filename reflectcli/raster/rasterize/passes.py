@@ -12,8 +12,8 @@ from numba import njit, prange
 from ...camera import standard_planes
 from ...parallel import claim, counter
 from ...scene.types import MIRROR_TIE
-from .buffers import RasterBuffers, RasterWorkspace
-from .constants import _BLOCK, _CHUNK, _CLIPPED, _MAX_POLY, CULL_NONE, FLAG_MIRROR
+from .buffers import RasterBuffers, RasterWorkspace, thread_buffers
+from .constants import _CHUNK, _CLIPPED, _MAX_POLY, CULL_NONE, FLAG_MIRROR
 from .draw import _draw_clipped, _fill_listed
 from .fixed import _subpixel_bits
 from .gather import gather_triangle
@@ -73,9 +73,7 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, clip_from_world: np
     y0, y1 = min(r[0] for r in rows), max(r[1] for r in rows)
     x0, x1 = min(r[2] for r in rows), max(r[3] for r in rows)
     threads = max(1, numba.get_num_threads())
-    padded = (max(y1 - y0, 0) + 1, max(x1 - x0, 0) + _BLOCK - 1)  # see rasterize
-    own_tri = ws.get("own_tri", (threads, *padded), np.int32)
-    own_key = ws.get("own_key", (threads, *padded), np.float32)
+    own_tri, own_key = thread_buffers(ws, threads, y1 - y0, x1 - x0)
     drew = np.zeros(threads, np.bool_)
     floor = (ws.constant("floor", (1, 1), np.float32, 0.0) if depth_floor is None
              else np.ascontiguousarray(depth_floor, dtype=np.float32))
