@@ -456,3 +456,30 @@ def test_clear_outside_false_keeps_pixels_outside_the_box(threads):
         assert (empty.triangle[~inside] == old_tri[~inside]).all()
     finally:
         numba.set_num_threads(before)
+
+
+def test_planes_past_near_and_far_classify_each_triangle():
+    """`_run_setup`'s status against a third plane (x >= -0.5 in clip space): a triangle
+    inside it is simple (drawn by the fast path), one it cuts is clipped, one outside it
+    culled. (A slip made every triangle 'cut' whenever a third plane was given: the same
+    pixels, all drawn through the slow clipped path.)"""
+    from reflectcli.raster.rasterize.constants import _CHUNK, _CLIPPED, _CULLED, _SIMPLE
+    from reflectcli.raster.rasterize.setup import _run_setup
+
+    width = height = 64
+    bits, guard = _subpixel_bits(width, height)
+    g = 1.0 + 2.0 * guard / width
+    planes = np.array([[0.0, 0, 1, 1], [0, 0, -1, 1], [1, 0, 0, 0.5],  # near, far, x >= -0.5
+                       [1, 0, 0, g], [-1, 0, 0, g], [0, 1, 0, g], [0, -1, 0, g]])
+    corners = np.array([[[0.0, 0, 0], [0.5, 0, 0], [0, 0.5, 0]],  # inside
+                        [[-0.9, 0, 0], [0.5, 0, 0], [0, 0.5, 0]],  # cut
+                        [[-0.9, 0, 0], [-0.6, 0, 0], [-0.9, 0.5, 0]]],  # outside
+                       np.float32)
+    ints = np.zeros(22 * _CHUNK, np.int64)
+    floats = np.zeros(8 * _CHUNK)
+    status = np.zeros(_CHUNK, np.uint8)
+    kept = _run_setup(corners, np.zeros(3, np.uint8), np.eye(4), planes, 3, width, height,
+                      bits, float(1 << bits), 0, 0, height, 0, width, 0, 3, ints, floats,
+                      status)
+    assert list(status[:3]) == [_SIMPLE, _CLIPPED, _CULLED]
+    assert kept == 1 and ints[21 * _CHUNK] == 0  # the inside one listed for drawing

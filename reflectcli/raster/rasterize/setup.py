@@ -155,7 +155,7 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
         a, b, c, d = planes[p, 0], planes[p, 1], planes[p, 2], planes[p, 3]
         for j in range(count):
             o = np.uint8(0)
-            s = np.uint8(3)
+            s = np.uint8(1)
             for k in range(3):
                 x = np.float64(run[j, k, 0])
                 y = np.float64(run[j, k, 1])
@@ -166,7 +166,7 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
                 cw = m30 * x + m31 * y + m32 * z + m33
                 outside = a * cx + b * cy + c * cz + d * cw < 0.0
                 o |= np.uint8(2) if outside else np.uint8(0)
-                s &= np.uint8(3) if outside else np.uint8(2)
+                s &= np.uint8(1) if outside else np.uint8(0)
             status[j] |= o | s
     # status: _CULLED when outside one side of the frustum, or all corners outside one of
     # the planes; else _CLIPPED when a plane or the guard band cuts it (screen coordinates
