@@ -22,7 +22,7 @@ from ..raster.rasterize import FLAG_MIRROR, RasterBuffers, RasterWorkspace
 from ..raster.rasterize.buffers import thread_buffers
 from ..raster.rasterize.constants import _CHUNK, CULL_NONE
 from ..raster.rasterize.draw import _draw
-from ..raster.rasterize.fixed import _subpixel_bits
+from ..raster.rasterize.fixed import guarded_planes
 from ..raster.rasterize.resolve import resolve_row
 from ..raster.shade import _ROWS, _shade_row
 from ..scene.types import Scene, Triangles
@@ -47,7 +47,9 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
     if tris.count == 0 or width <= 0 or height <= 0:
         primary = render_primary(scene, frame_index, camera, workspace=ws)
         return (primary, *mirror_boxes(primary.frame.surface, n_objects, n_mirrors), False)
-    flags, corners, all_planes, n_cut, bits = _setup(tris, n_objects, width, height)
+    flags, corners, all_planes, n_cut, bits = ws.kept(
+        "primary_setup", tris, (n_objects, width, height),
+        lambda: _setup(tris, n_objects, width, height))
     m = np.ascontiguousarray(camera.clip_from_world(), dtype=np.float64)
     tri = ws.get("primary_tri", (height, width), np.int32)
     depth = np.empty((height, width), np.float32)
@@ -82,31 +84,19 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
     return Primary(frame, buffers, tris, flags), counts, boxes, True
 
 
-_last_setup: list = [None, None]  # (tris, n_objects, width, height), _setup's answer
-
-
 def _setup(tris: Triangles, n_objects: int, width: int,
            height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
     """(flags, corners (float32, contiguous), clip planes, how many of them cut (the rest
     are the guard band), subpixel bits): what `render_primary` and `rasterize` make every
-    frame, kept while the same triangles are drawn at the same size (a still scene's
-    geometry is one object; its arrays are not written after). The flags are read-only:
-    the frame's Primary hands them on."""
-    key = (tris, n_objects, width, height)
-    last = _last_setup
-    if last[0] is not None and last[0][0] is tris and last[0][1:] == key[1:]:
-        return last[1]
+    frame, kept by the caller while the same triangles are drawn at the same size. The
+    flags are read-only: the frame's Primary hands them on."""
     flags = (tris.surface >= n_objects).astype(np.uint8) * np.uint8(FLAG_MIRROR)
     flags.flags.writeable = False
     # `rasterize` with no mask, no depth floor, near and far planes, no culling
     planes = standard_planes()
-    bits, guard = _subpixel_bits(width, height)
-    gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
-    all_planes = np.ascontiguousarray(np.vstack([planes, [[1.0, 0, 0, gx], [-1.0, 0, 0, gx],
-                                                          [0, 1.0, 0, gy], [0, -1.0, 0, gy]]]))
+    all_planes, bits = guarded_planes(planes, width, height)
     corners = np.ascontiguousarray(tris.corners, dtype=np.float32)
-    last[0], last[1] = key, (flags, corners, all_planes, planes.shape[0], bits)
-    return last[1]
+    return flags, corners, all_planes, planes.shape[0], bits
 
 
 @njit(cache=True, parallel=True)

@@ -9,7 +9,7 @@ from ...camera import standard_planes
 from .buffers import RasterBuffers, RasterWorkspace, thread_buffers
 from .constants import _CHUNK, _MAX_PLANES, CULL_NONE
 from .draw import _draw
-from .fixed import _subpixel_bits
+from .fixed import guarded_planes
 from .resolve import _resolve
 from .stencil import stencil_box
 
@@ -47,12 +47,7 @@ def rasterize(
         planes = standard_planes()
     planes = np.asarray(planes, dtype=np.float64)
     assert planes.shape[0] <= _MAX_PLANES
-    bits, guard = _subpixel_bits(width, height)
-    gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
-    # the guard band: x_ndc in [-gx, gx], y_ndc in [-gy, gy] (clip x + gx w >= 0, ...)
-    guard_planes = np.array([[1.0, 0, 0, gx], [-1.0, 0, 0, gx], [0, 1.0, 0, gy],
-                             [0, -1.0, 0, gy]])
-    all_planes = np.ascontiguousarray(np.vstack([planes, guard_planes]))
+    all_planes, bits = guarded_planes(planes, width, height)
     corners = np.ascontiguousarray(corners, dtype=np.float32)
     flags = np.ascontiguousarray(flags, dtype=np.uint8)
     m = np.ascontiguousarray(clip_from_world, dtype=np.float64)

@@ -97,6 +97,16 @@ class RasterWorkspace:
             self._arrays["bounds_of"] = (corners, bounds)
         return bounds
 
+    def kept(self, name: str, source: object, key: tuple, make):
+        """make()'s answer, kept while the same `source` object (a scene's geometry: built
+        once, not written after) comes back with an equal `key`."""
+        last = self._arrays.get(name)
+        if last is not None and last[0] is source and last[1] == key:
+            return last[2]
+        answer = make()
+        self._arrays[name] = (source, key, answer)
+        return answer
+
     def owns(self, corners: np.ndarray) -> bool:
         """True for an array held in one of this workspace's own buffers (rewritten
         between calls: its run boxes cannot be kept)."""

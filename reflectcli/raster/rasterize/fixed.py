@@ -18,6 +18,16 @@ def _subpixel_bits(width: int, height: int) -> tuple[int, float]:
     return bits, 0.45 * span
 
 
+def guarded_planes(planes: np.ndarray, width: int, height: int) -> tuple[np.ndarray, int]:
+    """(the clip-space planes followed by the guard band's four, subpixel bits S): what a
+    draw's setup tests corners against. The band keeps x_ndc in [-gx, gx] and y_ndc in
+    [-gy, gy] (clip x + gx w >= 0, ...), `_subpixel_bits`' guard pixels past each side."""
+    bits, guard = _subpixel_bits(width, height)
+    gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
+    band = np.array([[1.0, 0, 0, gx], [-1.0, 0, 0, gx], [0, 1.0, 0, gy], [0, -1.0, 0, gy]])
+    return np.ascontiguousarray(np.vstack([planes, band])), bits
+
+
 
 @njit(cache=True, inline="always")
 def _snap(v, scale):

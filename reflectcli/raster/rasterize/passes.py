@@ -15,7 +15,7 @@ from ...scene.types import MIRROR_TIE
 from .buffers import RasterBuffers, RasterWorkspace, thread_buffers
 from .constants import _CHUNK, _CLIPPED, _MAX_POLY, CULL_NONE, FLAG_MIRROR
 from .draw import _draw_clipped, _fill_listed
-from .fixed import _subpixel_bits
+from .fixed import guarded_planes
 from .gather import gather_triangle
 from .resolve import _resolve
 from .setup import _run_setup
@@ -51,10 +51,7 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, clip_from_world: np
     ws = workspace
     assert ws.outputs and boxes.shape[0] <= MAX_PASSES
     planes = standard_planes()
-    bits, guard = _subpixel_bits(width, height)
-    gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
-    all_planes = np.ascontiguousarray(np.vstack([planes, [[1.0, 0, 0, gx], [-1.0, 0, 0, gx],
-                                                          [0, 1.0, 0, gy], [0, -1.0, 0, gy]]]))
+    all_planes, bits = guarded_planes(planes, width, height)
     if gather is None:
         corners = np.ascontiguousarray(corners, dtype=np.float32)
         flags = np.ascontiguousarray(flags, dtype=np.uint8)
