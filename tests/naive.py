@@ -130,8 +130,7 @@ TIE_REL = 1e-6
 def rasterize(corners, flags, m, w, h, mask=None, depth_floor=None, cull=0):
     """Twin of raster.rasterize (its kernels draw._draw, setup._run_setup and its
     setup.triangle_cull, rows._fill, resolve._resolve and its rows resolve.resolve_row, the
-    viewport of
-    raster.rasterize.clip.screen_from_ndc, and the barycentrics of
+    viewport of raster.rasterize.clip.screen_from_ndc, and the barycentrics of
     raster.rasterize.barycentrics.recover_barycentrics, clip_corners and barycentrics_at):
     a slow float64 z-buffer of triangles wholly inside near..far.
 
