@@ -19,10 +19,12 @@ Rows (the table of issue 13):
   final kernel, splat 1 and 3. With `--threads 1` it times CPU time (time.thread_time), not
   wall time: a shared machine's waits for a core then stay out of both.
 - raster: the anchor's room + icospheres (202,560 / 1,000,960 triangles) through reflect's
-  rasterizer (z + id + barycentrics), back faces culled and not (as the primary pass runs),
-  against the anchor's sort-last kernel (culled). The unculled rows are also set against
-  the anchor given every triangle twice, in both windings: it then draws every triangle
-  once whichever way it faces, the work an unculled rasterizer does (and culls the copy).
+  rasterizer (z + id + barycentrics), back faces culled, not culled, and as the primary
+  pass draws them (the closed icospheres' back faces culled, the room's walls both ways:
+  raster/closed.py), against the anchor's sort-last kernel (culled). The unculled rows are
+  also set against the anchor given every triangle twice, in both windings: it then draws
+  every triangle once whichever way it faces, the work an unculled rasterizer does (and
+  culls the copy).
 - rerender: a music-room frame with ~200k triangles (max_depth 1) against the OpenGL
   stencil mirror at 200k triangles (frame + readback).
 - raytrace: frames of teapot-box / music-room at 1 spp (rays per second) against raw Embree
@@ -209,7 +211,13 @@ def bench_raster(anchors: Path, reps: int) -> None:
 
 
 def raster_case(ar, n_spheres: int, subdiv: int, reps: int) -> None:
-    from reflectcli.raster.rasterize import CULL_BACK, CULL_NONE, RasterWorkspace, rasterize
+    from reflectcli.raster.rasterize import (
+        CULL_BACK,
+        CULL_NONE,
+        FLAG_CULL_BACK,
+        RasterWorkspace,
+        rasterize,
+    )
 
     v, f, m = ar.make_scene(n_spheres, subdiv)
     corners = np.ascontiguousarray(v[f], np.float32)
@@ -221,11 +229,17 @@ def raster_case(ar, n_spheres: int, subdiv: int, reps: int) -> None:
     zb, ib = np.empty((ar.H, ar.W), np.float32), np.empty((ar.H, ar.W), np.int32)
     zbs, ibs = np.empty((2, ar.W * ar.H), np.float32), np.empty((2, ar.W * ar.H), np.int32)
     both = np.ascontiguousarray(np.concatenate([f, f[:, ::-1]]), f.dtype)  # both windings
+    # as reflect's primary pass flags them (raster/closed.py): the icospheres, closed and
+    # seen from outside, have their back faces culled; the room's walls are drawn both ways
+    walls = len(f) - n_spheres * 20 * 4 ** subdiv
+    primary = np.where(np.arange(len(f)) >= walls, FLAG_CULL_BACK, 0).astype(np.uint8)
     fns = {
         "culled": lambda: rasterize(corners, flags, m64, 640, 480, cull=CULL_BACK,
                                     workspace=ws),
         "unculled": lambda: rasterize(corners, flags, m64, 640, 480, cull=CULL_NONE,
                                       workspace=ws),
+        "primary": lambda: rasterize(corners, primary, m64, 640, 480, cull=CULL_NONE,
+                                     workspace=ws),
         "anchor": lambda: ar.tuned_sortlast(v, m, f, x, y, z, zb.reshape(-1),
                                             ib.reshape(-1), zbs, ibs),
         "anchor, both windings": lambda: ar.tuned_sortlast(v, m, both, x, y, z, zb.reshape(-1),
@@ -239,6 +253,8 @@ def raster_case(ar, n_spheres: int, subdiv: int, reps: int) -> None:
     add(f"rasterize {len(f):,} triangles, unculled, vs anchor given both windings",
         ms(t["anchor, both windings"]), ms(t["unculled"]),
         ratio(t["unculled"], t["anchor, both windings"]), "(like for like)")
+    add(f"rasterize {len(f):,} triangles, as the primary pass (closed spheres culled)",
+        ms(t["anchor"]), ms(t["primary"]), ratio(t["primary"], t["anchor"]), "<= 1.5")
 
 
 # ------------------------------------------------------------------------------ rerender

@@ -115,6 +115,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "raster/rasterize/setup.py:_mul": (RASTER + PASSES, "_setup"),
     "raster/rasterize/setup.py:_real": (RASTER + PASSES, "_setup"),
     "raster/rasterize/setup.py:_store_setup": (RASTER + PASSES, "_run_setup"),
+    "raster/rasterize/setup.py:triangle_cull": (
+        RASTER + ["tests/raster/test_rasterize.py::"
+                  "test_flagged_back_faces_are_dropped_as_if_skipped"], "_run_setup"),
     "raster/rasterize/draw.py:_fill_listed": (RASTER + PASSES, "_draw"),
     "raster/rasterize/rows.py:_rows": (RASTER + PASSES, "_fill_listed"),
     "raster/rasterize/rows.py:_quad": (RASTER + PASSES, "_fill_listed"),

@@ -10,7 +10,8 @@ import numpy as np
 from ..camera import Camera
 from ..frame import Frame
 from ..scene.types import Scene, Triangles
-from .rasterize import FLAG_MIRROR, RasterBuffers, RasterWorkspace, rasterize
+from .closed import hidden_back_faces, primary_flags
+from .rasterize import RasterBuffers, RasterWorkspace, rasterize
 from .shade import shade_buffers
 
 
@@ -27,10 +28,16 @@ def render_primary(scene: Scene, frame_index: int, camera: Camera,
     """`workspace`: the rasterizer's scratch kept across frames (outputs stay fresh: the
     frame keeps the depth buffer)."""
     t0 = time.perf_counter()
-    tris = scene.geometry(frame_index).all_triangles()
-    flags = (tris.surface >= scene.n_objects).astype(np.uint8) * np.uint8(FLAG_MIRROR)
+    geometry = scene.geometry(frame_index)
+    tris = geometry.all_triangles()
+    # closed surfaces seen from outside: their back faces culled (closed.py); the flags
+    # kept while the triangles and those surfaces stay
+    hidden = hidden_back_faces(geometry, camera)
+    key = (scene.n_objects, None if hidden is None else hidden.tobytes())
+    flags, draw_flags = (RasterWorkspace() if workspace is None else workspace).kept(
+        "primary_flags", tris, key, lambda: primary_flags(tris, scene.n_objects, hidden))
     clip_from_world = camera.clip_from_world()
-    buffers = rasterize(tris.corners, flags, clip_from_world, camera.width, camera.height,
+    buffers = rasterize(tris.corners, draw_flags, clip_from_world, camera.width, camera.height,
                         workspace=workspace)
     t1 = time.perf_counter()
     rgb, surface = shade_buffers(buffers, tris, scene, camera.eye)

@@ -83,6 +83,29 @@ def object_mesh(obj, source: str) -> Mesh:
     raise AssertionError(s)
 
 
+def closed_outward(obj) -> bool:
+    """Whether the object's mesh is closed with every face turned outward (from an eye
+    outside it, a ray meets a front face first, so its back faces can be culled): the
+    solids reflect makes (tests/scene/test_closed.py holds each to that). Meshes read from
+    files, the teapot (open at its spout) and clutter are not assumed closed."""
+    s = obj.shape
+    if s == "box":
+        return all(a < b for a, b in zip(obj.min, obj.max, strict=True))
+    if s == "cylinder":
+        return bool(obj.caps)
+    if s == "torus":  # a spindle torus folds through itself
+        return obj.minor_radius < obj.major_radius
+    return s in ("sphere", "cone", "pyramid")
+
+
+def _box_of(corners: np.ndarray) -> np.ndarray:
+    """(6,) float64 min then max of (T, 3, 3) corners; NaN for none."""
+    if corners.shape[0] == 0:
+        return np.full(6, np.nan)
+    points = corners.reshape(-1, 3).astype(np.float64)
+    return np.concatenate([points.min(axis=0), points.max(axis=0)])
+
+
 def transform_at(obj, frame_index: int) -> np.ndarray:
     """The object's 4x4 world_from_object transform at frame `frame_index`: keyframes
     (`motion`, each at its `frame` index) interpolate linearly, clamped at the ends."""
@@ -277,6 +300,16 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
                 mesh.transformed(transform_at(obj, 0)).without_degenerate(),
                 material_index[obj.material], i,
             )
+    # closed surfaces' world boxes: the static ones once, the moving ones per frame
+    closed = [closed_outward(obj) for obj in cfg.objects]
+    static_boxes = np.full((n_obj + len(cfg.mirrors), 6), np.nan)
+    for i, part in static_parts.items():
+        if closed[i]:
+            static_boxes[i] = _box_of(part.corners)
+    for j, m in enumerate(cfg.mirrors):
+        if m.shape == "sphere":
+            static_boxes[n_obj + j] = _box_of(
+                mirror_tris.corners[mirror_tris.surface == n_obj + j])
     last: dict = {}
 
     def geometry_at(frame_index: int) -> Geometry:
@@ -284,13 +317,17 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         if last.get("key") == mats:
             return last["geometry"]
         parts = []
+        boxes = static_boxes.copy() if moving else static_boxes
         for i, (obj, mesh) in enumerate(zip(cfg.objects, meshes, strict=True)):
             if i in static_parts:
                 parts.append(static_parts[i])
             else:
                 world = mesh.transformed(transform_at(obj, frame_index)).without_degenerate()
                 parts.append(_triangles(world, material_index[obj.material], i))
-        geometry = Geometry(_concat(parts), mirror_tris, mirror_exact, ("geometry", mats))
+                if closed[i]:
+                    boxes[i] = _box_of(parts[-1].corners)
+        geometry = Geometry(_concat(parts), mirror_tris, mirror_exact, ("geometry", mats),
+                            boxes)
         last.update(key=mats, geometry=geometry)
         return geometry
 

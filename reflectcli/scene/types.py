@@ -145,6 +145,10 @@ class Geometry:
     mirror_tris: Triangles
     mirror_exact: np.ndarray  # (Tm,) bool
     key: tuple  # equal keys -> identical geometry (lets techniques keep acceleration structures)
+    # (S,) per surface id, world box (min x, y, z, max x, y, z) of a closed surface whose
+    # faces all turn outward (build.closed_outward), NaN for any other: seen from outside
+    # its box, its back faces lie behind its front faces
+    closed_boxes: np.ndarray | None = None
 
     def all_triangles(self) -> Triangles:
         """Objects then mirrors, concatenated once per Geometry (a static scene's geometry

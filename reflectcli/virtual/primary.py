@@ -17,8 +17,9 @@ from numba import njit, prange
 from ..camera import Camera, standard_planes
 from ..frame import Frame
 from ..parallel import claim, counter
+from ..raster.closed import hidden_back_faces, primary_flags
 from ..raster.primary import Primary, render_primary
-from ..raster.rasterize import FLAG_MIRROR, RasterBuffers, RasterWorkspace
+from ..raster.rasterize import RasterBuffers, RasterWorkspace
 from ..raster.rasterize.buffers import thread_buffers
 from ..raster.rasterize.constants import _CHUNK, CULL_NONE
 from ..raster.rasterize.draw import _draw
@@ -41,15 +42,20 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
     0 on every other pixel, and `stencil` (H, W bool) labels != 0: `pass_labels`' labels
     and stencil in any box."""
     t0 = time.perf_counter()
-    tris = scene.geometry(frame_index).all_triangles()
+    geometry = scene.geometry(frame_index)
+    tris = geometry.all_triangles()
     width, height = camera.width, camera.height
     n_objects, n_mirrors = scene.n_objects, scene.mirrors.count
     if tris.count == 0 or width <= 0 or height <= 0:
         primary = render_primary(scene, frame_index, camera, workspace=ws)
         return (primary, *mirror_boxes(primary.frame.surface, n_objects, n_mirrors), False)
-    flags, corners, all_planes, n_cut, bits = ws.kept(
-        "primary_setup", tris, (n_objects, width, height),
-        lambda: _setup(tris, n_objects, width, height))
+    corners, all_planes, n_cut, bits = ws.kept(
+        "primary_setup", tris, (width, height), lambda: _setup(tris, width, height))
+    # closed surfaces seen from outside: their back faces culled (raster/closed.py)
+    hidden = hidden_back_faces(geometry, camera)
+    flags, draw_flags = ws.kept(
+        "primary_flags", tris, (n_objects, None if hidden is None else hidden.tobytes()),
+        lambda: primary_flags(tris, n_objects, hidden))
     m = np.ascontiguousarray(camera.clip_from_world(), dtype=np.float64)
     tri = ws.get("primary_tri", (height, width), np.int32)
     depth = np.empty((height, width), np.float32)
@@ -60,7 +66,7 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
     drew = np.zeros(threads, np.bool_)
     chunks = (corners.shape[0] + _CHUNK - 1) // _CHUNK
     bounds = ws.chunk_bounds(corners)
-    _draw(corners, flags, m, all_planes, n_cut, width, height, bits, CULL_NONE,
+    _draw(corners, draw_flags, m, all_planes, n_cut, width, height, bits, CULL_NONE,
           chunks, bounds, no_mask, False, floor, False, 0, width, 0, height, own_tri, own_key,
           drew)
     t1 = time.perf_counter()
@@ -84,19 +90,16 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
     return Primary(frame, buffers, tris, flags), counts, boxes, True
 
 
-def _setup(tris: Triangles, n_objects: int, width: int,
-           height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
-    """(flags, corners (float32, contiguous), clip planes, how many of them cut (the rest
-    are the guard band), subpixel bits): what `render_primary` and `rasterize` make every
-    frame, kept by the caller while the same triangles are drawn at the same size. The
-    flags are read-only: the frame's Primary hands them on."""
-    flags = (tris.surface >= n_objects).astype(np.uint8) * np.uint8(FLAG_MIRROR)
-    flags.flags.writeable = False
+def _setup(tris: Triangles, width: int,
+           height: int) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """(corners (float32, contiguous), clip planes, how many of them cut (the rest are the
+    guard band), subpixel bits): what `render_primary` and `rasterize` make every frame,
+    kept by the caller while the same triangles are drawn at the same size."""
     # `rasterize` with no mask, no depth floor, near and far planes, no culling
     planes = standard_planes()
     all_planes, bits = guarded_planes(planes, width, height)
     corners = np.ascontiguousarray(tris.corners, dtype=np.float32)
-    return flags, corners, all_planes, planes.shape[0], bits
+    return corners, all_planes, planes.shape[0], bits
 
 
 @njit(cache=True, parallel=True)

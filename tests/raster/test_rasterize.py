@@ -17,7 +17,14 @@ from naive import fill_fixed, ray_triangle, reference
 from naive import stencil_box as naive_stencil_box
 
 from reflectcli.camera import Camera
-from reflectcli.raster.rasterize import FLAG_MIRROR, rasterize
+from reflectcli.raster.rasterize import (
+    CULL_FRONT,
+    CULL_NONE,
+    FLAG_CULL_BACK,
+    FLAG_MIRROR,
+    FLAG_SKIP,
+    rasterize,
+)
 from reflectcli.raster.rasterize.constants import _BLOCK
 from reflectcli.raster.rasterize.fixed import _subpixel_bits
 from reflectcli.raster.rasterize.rows import _fill
@@ -483,3 +490,35 @@ def test_planes_past_near_and_far_classify_each_triangle():
                       status)
     assert list(status[:3]) == [_SIMPLE, _CLIPPED, _CULLED]
     assert kept == 1 and ints[21 * _CHUNK] == 0  # the inside one listed for drawing
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_flagged_back_faces_are_dropped_as_if_skipped(threads):
+    """FLAG_CULL_BACK drops a triangle exactly when the eye is behind its plane (its world
+    winding turned away: clockwise on screen), clipped or not, besides what the pass culls:
+    the same buffers as FLAG_SKIP on those triangles. Triangles cross the near plane and leave
+    the guard band (the clipped fans), of both windings, in runs set up in place and
+    listed."""
+    rng = np.random.default_rng(7)
+    cam = camera(w=64, h=48, near=0.5)
+    m = clip_from_world(cam)
+    near_ones = random_triangles(cam, 300, rng, depth=(0.2, 3.0), spread=3.0, size=(1, 6))
+    corners = np.concatenate([random_triangles(cam, 700, rng), near_ones])
+    corners[::2] = corners[::2, ::-1]  # both windings
+    flagged = rng.random(len(corners)) < 0.5
+    p0, p1, p2 = (corners[:, k].astype(np.float64) for k in range(3))
+    facing = np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), cam.eye - p0)
+    assert (facing > 0).sum() > 300 and (facing < 0).sum() > 300
+    flags = np.where(rng.random(len(corners)) < 0.2, FLAG_MIRROR, 0).astype(np.uint8)
+    numba.set_num_threads(threads)
+    try:
+        for cull in (CULL_NONE, CULL_FRONT):
+            got = rasterize(corners, flags | np.where(flagged, FLAG_CULL_BACK, 0).astype(
+                np.uint8), m, cam.width, cam.height, cull=cull)
+            want = rasterize(corners, flags | np.where(flagged & (facing < 0), FLAG_SKIP, 0)
+                             .astype(np.uint8), m, cam.width, cam.height, cull=cull)
+            assert got.triangle.tobytes() == want.triangle.tobytes()
+            assert got.depth.tobytes() == want.depth.tobytes()
+            assert np.isin(got.triangle, np.flatnonzero(flagged & (facing < 0))).sum() == 0
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)

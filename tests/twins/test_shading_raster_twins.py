@@ -22,6 +22,8 @@ from reflectcli.raster.bounds import run_bounds
 from reflectcli.raster.rasterize import (
     CULL_BACK,
     CULL_FRONT,
+    CULL_NONE,
+    FLAG_CULL_BACK,
     FLAG_MIRROR,
     FLAG_SKIP,
 )
@@ -366,15 +368,18 @@ def test_rasterizer_edge_masks_match_twin():
     assert np.all(fast_rasterize(corners, flags, m, W, H, depth_floor=far).triangle == -1)
 
 
-@pytest.mark.parametrize("cull", [CULL_BACK, CULL_FRONT])
+@pytest.mark.parametrize("cull", [CULL_NONE, CULL_BACK, CULL_FRONT])
 @pytest.mark.parametrize("seed", range(2))
 def test_rasterizer_culling_and_skip_match_twin(seed, cull):
+    """Culling modes, FLAG_SKIP, and FLAG_CULL_BACK (back faces of flagged triangles
+    dropped whatever the mode) as the twin gives them."""
     rng = np.random.default_rng(seed + 20)
     cam = camera()
     m = cam.projection_matrix() @ cam.view_matrix()
     corners = random_triangles(cam, 16, rng)
     flags = np.where(rng.random(16) < 0.3, FLAG_SKIP, 0).astype(np.uint8)
     flags[rng.random(16) < 0.2] |= FLAG_MIRROR
+    flags[rng.random(16) < 0.5] |= FLAG_CULL_BACK
     got = fast_rasterize(corners, flags, m, W, H, cull=cull)
     compare_raster(got, rasterize(corners, flags, m, W, H, cull=cull))
     assert not np.isin(got.triangle, np.flatnonzero(flags & FLAG_SKIP)).any()

@@ -30,7 +30,8 @@ def rasterize(
     """Rasterize world-space triangles (T, 3, 3) with an OpenGL-style world->clip matrix.
 
     `flags` per triangle: bit 0 (FLAG_MIRROR, or a bool array) marks mirrors, which win
-    depth ties; bit 1 (FLAG_SKIP) leaves the triangle out of this pass.
+    depth ties; bit 1 (FLAG_SKIP) leaves the triangle out of this pass; bit 2
+    (FLAG_CULL_BACK) drops it when it faces away, besides what `cull` drops.
     `planes` are clip-space half-spaces (P, 4), near and far first; default near + far.
     `cull`: CULL_BACK drops triangles whose screen winding is clockwise (seen from behind),
     CULL_FRONT the opposite (for a mirrored camera, whose handedness is flipped).

@@ -5,11 +5,13 @@ _MAX_PLANES = 8
 _GUARD_PLANES = 4
 _MAX_POLY = 3 + _MAX_PLANES + _GUARD_PLANES
 
-# culling modes
+# culling modes (bits: a triangle flagged FLAG_CULL_BACK in a CULL_FRONT pass culls both)
 CULL_NONE, CULL_BACK, CULL_FRONT = 0, 1, 2
 
-# per-triangle flags
-FLAG_MIRROR, FLAG_SKIP = 1, 2
+# per-triangle flags: a mirror's (wins depth ties), left out of the pass, and dropped when
+# it faces away, besides what the pass's culling mode drops (a closed surface seen from
+# outside: its back faces lie behind its front faces, see raster/closed.py)
+FLAG_MIRROR, FLAG_SKIP, FLAG_CULL_BACK = 1, 2, 4
 
 # triangle status after setup
 _CULLED, _SIMPLE, _CLIPPED = 0, 1, 2

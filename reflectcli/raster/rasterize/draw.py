@@ -21,7 +21,7 @@ from .constants import (
 )
 from .fixed import _snap
 from .rows import _fill_at, _narrow, _quad, _rows
-from .setup import _run_setup
+from .setup import _run_setup, triangle_cull
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -83,9 +83,10 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
                     if st[j] == _CLIPPED:
                         t = t0 + j
                         _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
-                                      else 1.0, m, planes, width, height, bits, cull, scale,
-                                      xyw[me], top, bottom, col0, col1, stencil, use_stencil,
-                                      floor, use_floor, tri, key, top, col0, -1)
+                                      else 1.0, m, planes, width, height, bits,
+                                      triangle_cull(flags[t], cull), scale, xyw[me], top,
+                                      bottom, col0, col1, stencil, use_stencil, floor,
+                                      use_floor, tri, key, top, col0, -1)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -179,7 +180,7 @@ def _draw_clipped(corners, t, key_scale, m, planes, width, height, bits, cull, s
         for i in range(1, n - 1):
             a += ((xyw[i, 0] - xyw[0, 0]) * (xyw[i + 1, 1] - xyw[0, 1])
                   - (xyw[i + 1, 0] - xyw[0, 0]) * (xyw[i, 1] - xyw[0, 1]))
-        if (cull == CULL_BACK and a > 0.0) or (cull == CULL_FRONT and a < 0.0):
+        if ((cull & CULL_BACK) != 0 and a > 0.0) or ((cull & CULL_FRONT) != 0 and a < 0.0):
             return
     for i in range(1, n - 1):
         _fill_at(t, key_scale, CULL_NONE, _snap(xyw[0, 0], scale), _snap(xyw[0, 1], scale),

@@ -18,7 +18,7 @@ from .draw import _draw_clipped, _fill_listed
 from .fixed import guarded_planes
 from .gather import gather_triangle
 from .resolve import _resolve
-from .setup import _run_setup
+from .setup import _run_setup, triangle_cull
 
 MAX_PASSES = 255  # labels are uint8, 0 for no pass
 
@@ -150,6 +150,7 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
                     if st[j] == _CLIPPED:
                         t = t0 + j
                         _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
-                                      else 1.0, m, planes, width, height, bits, CULL_NONE,
-                                      scale, xyw[me], row0, row1, c0, c1, labels, True,
-                                      floor, use_floor, tri, key, top, col0, want)
+                                      else 1.0, m, planes, width, height, bits,
+                                      triangle_cull(flags[t], CULL_NONE), scale, xyw[me],
+                                      row0, row1, c0, c1, labels, True, floor, use_floor,
+                                      tri, key, top, col0, want)

@@ -14,6 +14,8 @@ from .constants import (
     _SIMPLE,
     CULL_BACK,
     CULL_FRONT,
+    CULL_NONE,
+    FLAG_CULL_BACK,
     FLAG_MIRROR,
     FLAG_SKIP,
 )
@@ -40,8 +42,16 @@ def _facing(x0, y0, x1, y1, x2, y2, cull):
     """(twice the signed area, whether `cull` keeps it) of a snapped screen triangle."""
     area = _mul(x1 - x0, y2 - y0) - _mul(x2 - x0, y1 - y0)
     # screen y points down: a counter-clockwise (front) triangle has negative area here
-    return area, ((area != 0) & ((cull != CULL_BACK) | (area < 0))
-                  & ((cull != CULL_FRONT) | (area > 0)))
+    return area, ((area != 0) & (((cull & CULL_BACK) == 0) | (area < 0))
+                  & (((cull & CULL_FRONT) == 0) | (area > 0)))
+
+
+@njit(cache=True, inline="always")
+def triangle_cull(flag, cull):
+    """The culling of a triangle with rasterizer flags `flag` in a pass culling by `cull`:
+    the pass's, and its back face too where FLAG_CULL_BACK is set (the modes are bits:
+    CULL_BACK | CULL_FRONT drops both faces)."""
+    return cull | (CULL_BACK if (flag & FLAG_CULL_BACK) != 0 else CULL_NONE)
 
 
 @njit(cache=True, inline="always")
@@ -128,7 +138,8 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
     cuts it, or it leaves the guard band) or _SIMPLE, and for a simple one its corners'
     snapped screen x, y (`ints` rows 2k, 2k + 1) and 1/w (`floats` row k), the very
     values (same operations, same order) as a scalar loop per triangle would give.
-    Returns `kept`, how many may be drawn (simple, kept by `cull`, a pixel center of the
+    Returns `kept`, how many may be drawn (simple, kept by its culling (`triangle_cull`:
+    the listed ones' setups may then take the pass's `cull`), a pixel center of the
     box inside their corners' box: a cheap test), listed in order: the i-th (i < kept) is
     triangle t0 + ints[21 * _CHUNK + i], its `_setup` in column i (ints rows 20: drawn, 6
     .. 19: xs .. sb2; floats rows 3 .. 6: z_ref .. zx0). Only those are set up: at 1M
@@ -243,7 +254,7 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
         ints[j], ints[c + j], ints[2 * c + j], ints[3 * c + j] = u0, v0, u1, v1
         ints[4 * c + j], ints[5 * c + j] = u2, v2
         floats[j], floats[c + j], floats[2 * c + j] = iw0, iw1, iw2
-        facing = _facing(u0, v0, u1, v1, u2, v2, cull)[1]
+        facing = _facing(u0, v0, u1, v1, u2, v2, triangle_cull(run_flags[j], cull))[1]
         # the centers test in float64, exact (integers below 2^31, a power of 2 scale)
         first_x = np.ceil((min(f0, f1, f2) - fhalf) * unit)
         last_x = np.floor((max(f0, f1, f2) - fhalf) * unit)
@@ -262,8 +273,8 @@ def _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale, cul
         for j in range(count):
             q = _setup(ints[j], ints[c + j], floats[j], ints[2 * c + j], ints[3 * c + j],
                        floats[c + j], ints[4 * c + j], ints[5 * c + j], floats[2 * c + j],
-                       1.0 / MIRROR_TIE if run_flags[j] & FLAG_MIRROR else 1.0, cull, bits,
-                       top, bottom, col0, col1)
+                       1.0 / MIRROR_TIE if run_flags[j] & FLAG_MIRROR else 1.0,
+                       triangle_cull(run_flags[j], cull), bits, top, bottom, col0, col1)
             _store_setup(ints, floats, c, j, q)
             ints[21 * c + j] = j
         return count
