@@ -98,6 +98,14 @@ def closed_outward(obj) -> bool:
     return s in ("sphere", "cone", "pyramid")
 
 
+def _whole(world: Mesh) -> bool:
+    """Whether `without_degenerate` keeps every triangle of `world` with an area at all
+    (a pole's zero-area triangles go, and close nothing): a solid so small that it loses
+    real triangles is open, its back faces seen through the holes."""
+    areas = world.areas()
+    return int(np.count_nonzero(areas > 0)) == world.without_degenerate().triangle_count
+
+
 def _box_of(corners: np.ndarray) -> np.ndarray:
     """(6,) float64 min then max of (T, 3, 3) corners; NaN for none."""
     if corners.shape[0] == 0:
@@ -270,6 +278,7 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             problems.append(Problem(source, f"objects.{i}.{field}", str(e).splitlines()[0]))
             meshes.append(None)
     mirror_parts: list[Triangles] = []
+    mirror_meshes: dict[int, Mesh] = {}
     exact: list[np.ndarray] = []
     n_obj = len(cfg.objects)
     for j, m in enumerate(cfg.mirrors):
@@ -279,6 +288,7 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             field = "profile" if m.shape == "extrusion" else "path"
             problems.append(Problem(source, f"mirrors.{j}.{field}", str(e).splitlines()[0]))
             continue
+        mirror_meshes[j] = mesh
         mirror_parts.append(_triangles(mesh.without_degenerate(), -1, n_obj + j))
         exact.append(np.full(mirror_parts[-1].count, is_exact))
     try:
@@ -294,20 +304,19 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
     mirror_exact = np.concatenate(exact) if exact else np.zeros(0, bool)
     static_parts: dict[int, Triangles] = {}
     moving = [i for i, o in enumerate(cfg.objects) if o.motion]
-    for i, (obj, mesh) in enumerate(zip(cfg.objects, meshes, strict=True)):
-        if not obj.motion:
-            static_parts[i] = _triangles(
-                mesh.transformed(transform_at(obj, 0)).without_degenerate(),
-                material_index[obj.material], i,
-            )
-    # closed surfaces' world boxes: the static ones once, the moving ones per frame
+    # closed surfaces' world boxes (NaN: open): the static ones once, the moving ones per
+    # frame
     closed = [closed_outward(obj) for obj in cfg.objects]
     static_boxes = np.full((n_obj + len(cfg.mirrors), 6), np.nan)
-    for i, part in static_parts.items():
-        if closed[i]:
-            static_boxes[i] = _box_of(part.corners)
+    for i, (obj, mesh) in enumerate(zip(cfg.objects, meshes, strict=True)):
+        if not obj.motion:
+            world = mesh.transformed(transform_at(obj, 0))
+            static_parts[i] = _triangles(world.without_degenerate(),
+                                         material_index[obj.material], i)
+            if closed[i] and _whole(world):
+                static_boxes[i] = _box_of(static_parts[i].corners)
     for j, m in enumerate(cfg.mirrors):
-        if m.shape == "sphere":
+        if m.shape == "sphere" and _whole(mirror_meshes[j]):
             static_boxes[n_obj + j] = _box_of(
                 mirror_tris.corners[mirror_tris.surface == n_obj + j])
     last: dict = {}
@@ -322,9 +331,10 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             if i in static_parts:
                 parts.append(static_parts[i])
             else:
-                world = mesh.transformed(transform_at(obj, frame_index)).without_degenerate()
-                parts.append(_triangles(world, material_index[obj.material], i))
-                if closed[i]:
+                world = mesh.transformed(transform_at(obj, frame_index))
+                parts.append(_triangles(world.without_degenerate(),
+                                        material_index[obj.material], i))
+                if closed[i] and _whole(world):
                     boxes[i] = _box_of(parts[-1].corners)
         geometry = Geometry(_concat(parts), mirror_tris, mirror_exact, ("geometry", mats),
                             boxes)

@@ -81,10 +81,11 @@ def test_open_surfaces_are_not_called_closed(tmp_path, solid):
     assert not closed_outward(_config(tmp_path, [solid]).objects[0])
 
 
-def test_culling_closed_solids_from_outside_changes_no_pixel(tmp_path):
+def test_culling_closed_solids_from_outside_keeps_the_buffers(tmp_path):
     """Every solid above side by side (one moving), and a sphere mirror: the primary
     pass, which culls their back faces (raster/closed.py), draws the very triangles and
-    depths an unculled pass draws; from inside the sphere nothing is culled."""
+    depths an unculled pass draws here (only an exact silhouette tie could differ: see the
+    next test); from inside the sphere nothing is culled."""
     from reflectcli.camera import camera_from_config
     from reflectcli.raster.closed import hidden_back_faces
     from reflectcli.raster.primary import render_primary
@@ -118,3 +119,37 @@ def test_culling_closed_solids_from_outside_changes_no_pixel(tmp_path):
                                  eye=np.array([0.0, 2.0, 2.0]))
     hidden = hidden_back_faces(scene.geometry(0), inside)
     assert not hidden[scene.n_objects]
+
+
+def test_a_silhouette_tie_goes_to_the_front_face():
+    """A back face (index 0) and a front face (index 1) folded along a shared vertical edge
+    through pixel centres, at the same depth there: unculled the tie goes to the lower
+    index, the back face; flagged, the front face has those centres."""
+    from reflectcli.camera import Camera
+    from reflectcli.raster.rasterize import FLAG_CULL_BACK, rasterize
+
+    cam = Camera(np.array([0.0, 0.0, 5.0]), np.zeros(3), np.array([0.0, 1.0, 0.0]), 60.0,
+                 8, 8, 0.5, 50.0)
+    m = cam.clip_from_world()
+    # the shared edge through the pixel centres of column 4 (NDC x 0.125 at depth 5); the
+    # back face folds behind the front one, both to the edge's right
+    x = 0.125 * np.tan(np.radians(30.0)) * 5.0
+    a, b = [x, -1.0, 0.0], [x, 1.0, 0.0]
+    front = [a, [x + 1.5, 0.0, 0.0], b]  # counter-clockwise seen from the eye
+    back = [a, b, [x + 1.5, 0.0, -1.0]]  # clockwise: turned away
+    corners = np.array([back, front], np.float32)
+    plain = rasterize(corners, np.zeros(2, np.uint8), m, 8, 8)
+    culled = rasterize(corners, np.full(2, FLAG_CULL_BACK, np.uint8), m, 8, 8)
+    column = plain.triangle[:, 4]
+    assert (column == 0).any(), "the case is gone: the back face won no tie"
+    assert np.all(culled.triangle[:, 4][column >= 0] == 1)
+    assert np.all((culled.triangle == plain.triangle) | (plain.triangle == 0))
+
+
+def test_a_solid_too_small_for_its_triangles_is_open(tmp_path):
+    """A sphere small enough that real triangles fall below the degenerate-area cut has
+    holes: not culled (no box)."""
+    cfg = _config(tmp_path, ['shape = "sphere"\nradius = 1e-6', SOLIDS[1]])
+    scene = build_scene(cfg, str(tmp_path / "closed.toml"))
+    boxes = scene.geometry(0).closed_boxes
+    assert np.isnan(boxes[0]).all() and not np.isnan(boxes[1]).any()
