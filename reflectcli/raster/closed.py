@@ -17,7 +17,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..scene.types import Geometry, Triangles
-from .rasterize import FLAG_CULL_BACK, FLAG_MIRROR
+from .rasterize import FLAG_CULL_BACK, FLAG_MIRROR, RasterWorkspace
 
 
 def near_reach(camera: Camera) -> float:
@@ -55,3 +55,14 @@ def primary_flags(tris: Triangles, n_objects: int,
     draw = mirror | np.where(hidden[tris.surface], FLAG_CULL_BACK, 0).astype(np.uint8)
     draw.flags.writeable = False
     return mirror, draw
+
+
+def primary_pass_flags(geometry: Geometry, camera: Camera, n_objects: int,
+                       workspace: RasterWorkspace | None) -> tuple[np.ndarray, np.ndarray]:
+    """`primary_flags` of the geometry's triangles for this camera, kept in `workspace`
+    while the triangles and the surfaces whose back faces are hidden stay the same."""
+    tris = geometry.all_triangles()
+    hidden = hidden_back_faces(geometry, camera)
+    key = (n_objects, None if hidden is None else hidden.tobytes())
+    ws = RasterWorkspace() if workspace is None else workspace
+    return ws.kept("primary_flags", tris, key, lambda: primary_flags(tris, n_objects, hidden))

@@ -10,7 +10,7 @@ import numpy as np
 from ..camera import Camera
 from ..frame import Frame
 from ..scene.types import Scene, Triangles
-from .closed import hidden_back_faces, primary_flags
+from .closed import primary_pass_flags
 from .rasterize import RasterBuffers, RasterWorkspace, rasterize
 from .shade import shade_buffers
 
@@ -32,10 +32,7 @@ def render_primary(scene: Scene, frame_index: int, camera: Camera,
     tris = geometry.all_triangles()
     # closed surfaces seen from outside: their back faces culled (closed.py); the flags
     # kept while the triangles and those surfaces stay
-    hidden = hidden_back_faces(geometry, camera)
-    key = (scene.n_objects, None if hidden is None else hidden.tobytes())
-    flags, draw_flags = (RasterWorkspace() if workspace is None else workspace).kept(
-        "primary_flags", tris, key, lambda: primary_flags(tris, scene.n_objects, hidden))
+    flags, draw_flags = primary_pass_flags(geometry, camera, scene.n_objects, workspace)
     clip_from_world = camera.clip_from_world()
     buffers = rasterize(tris.corners, draw_flags, clip_from_world, camera.width, camera.height,
                         workspace=workspace)

@@ -98,12 +98,11 @@ def closed_outward(obj) -> bool:
     return s in ("sphere", "cone", "pyramid")
 
 
-def _whole(world: Mesh) -> bool:
-    """Whether `without_degenerate` keeps every triangle of `world` with an area at all
-    (a pole's zero-area triangles go, and close nothing): a solid so small that it loses
-    real triangles is open, its back faces seen through the holes."""
-    areas = world.areas()
-    return int(np.count_nonzero(areas > 0)) == world.without_degenerate().triangle_count
+def _whole(world: Mesh, kept: int) -> bool:
+    """Whether `without_degenerate`, which kept `kept` of `world`'s triangles, kept every
+    one with an area at all (a pole's zero-area triangles go, and close nothing): a solid
+    so small that it loses real triangles is open, its back faces seen through the holes."""
+    return int(np.count_nonzero(world.areas() > 0)) == kept
 
 
 def _box_of(corners: np.ndarray) -> np.ndarray:
@@ -278,7 +277,7 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             problems.append(Problem(source, f"objects.{i}.{field}", str(e).splitlines()[0]))
             meshes.append(None)
     mirror_parts: list[Triangles] = []
-    mirror_meshes: dict[int, Mesh] = {}
+    mirror_meshes: dict[int, tuple[Mesh, int]] = {}  # each mirror's, and its kept count
     exact: list[np.ndarray] = []
     n_obj = len(cfg.objects)
     for j, m in enumerate(cfg.mirrors):
@@ -288,8 +287,8 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             field = "profile" if m.shape == "extrusion" else "path"
             problems.append(Problem(source, f"mirrors.{j}.{field}", str(e).splitlines()[0]))
             continue
-        mirror_meshes[j] = mesh
         mirror_parts.append(_triangles(mesh.without_degenerate(), -1, n_obj + j))
+        mirror_meshes[j] = (mesh, mirror_parts[-1].count)
         exact.append(np.full(mirror_parts[-1].count, is_exact))
     try:
         materials = _materials(cfg, source)
@@ -313,10 +312,10 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             world = mesh.transformed(transform_at(obj, 0))
             static_parts[i] = _triangles(world.without_degenerate(),
                                          material_index[obj.material], i)
-            if closed[i] and _whole(world):
+            if closed[i] and _whole(world, static_parts[i].count):
                 static_boxes[i] = _box_of(static_parts[i].corners)
     for j, m in enumerate(cfg.mirrors):
-        if m.shape == "sphere" and _whole(mirror_meshes[j]):
+        if m.shape == "sphere" and _whole(*mirror_meshes[j]):
             static_boxes[n_obj + j] = _box_of(
                 mirror_tris.corners[mirror_tris.surface == n_obj + j])
     last: dict = {}
@@ -334,7 +333,7 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
                 world = mesh.transformed(transform_at(obj, frame_index))
                 parts.append(_triangles(world.without_degenerate(),
                                         material_index[obj.material], i))
-                if closed[i] and _whole(world):
+                if closed[i] and _whole(world, parts[-1].count):
                     boxes[i] = _box_of(parts[-1].corners)
         geometry = Geometry(_concat(parts), mirror_tris, mirror_exact, ("geometry", mats),
                             boxes)

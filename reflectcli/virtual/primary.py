@@ -17,7 +17,7 @@ from numba import njit, prange
 from ..camera import Camera, standard_planes
 from ..frame import Frame
 from ..parallel import claim, counter
-from ..raster.closed import hidden_back_faces, primary_flags
+from ..raster.closed import primary_pass_flags
 from ..raster.primary import Primary, render_primary
 from ..raster.rasterize import RasterBuffers, RasterWorkspace
 from ..raster.rasterize.buffers import thread_buffers
@@ -52,10 +52,7 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
     corners, all_planes, n_cut, bits = ws.kept(
         "primary_setup", tris, (width, height), lambda: _setup(tris, width, height))
     # closed surfaces seen from outside: their back faces culled (raster/closed.py)
-    hidden = hidden_back_faces(geometry, camera)
-    flags, draw_flags = ws.kept(
-        "primary_flags", tris, (n_objects, None if hidden is None else hidden.tobytes()),
-        lambda: primary_flags(tris, n_objects, hidden))
+    flags, draw_flags = primary_pass_flags(geometry, camera, n_objects, ws)
     m = np.ascontiguousarray(camera.clip_from_world(), dtype=np.float64)
     tri = ws.get("primary_tri", (height, width), np.int32)
     depth = np.empty((height, width), np.float32)
