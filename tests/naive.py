@@ -19,7 +19,7 @@ from scipy.ndimage import map_coordinates
 from scipy.optimize import brentq, minimize_scalar
 
 from reflectcli.maps.distance_search import CREASE_SLOPE
-from reflectcli.raster.rasterize import FLAG_CULL_BACK, FLAG_MIRROR, FLAG_SKIP
+from reflectcli.raster.rasterize import FLAG_CULL_BACK, FLAG_CULL_FRONT, FLAG_MIRROR, FLAG_SKIP
 from reflectcli.scene.types import (
     CHECKER,
     CYLINDER,
@@ -140,7 +140,8 @@ def rasterize(corners, flags, m, w, h, mask=None, depth_floor=None, cull=0):
     order, mirrors (FLAG_MIRROR) with their depth scaled by MIRROR_TIE, FLAG_SKIP triangles
     left out. `mask` (H, W): only its pixels are drawn; `depth_floor` (H, W): fragments at or
     in front of it are dropped; `cull` 1 drops clockwise-on-screen (back) triangles, 2
-    counter-clockwise; a triangle flagged FLAG_CULL_BACK is dropped when clockwise too.
+    counter-clockwise; a triangle flagged FLAG_CULL_BACK is dropped when clockwise too,
+    one flagged FLAG_CULL_FRONT when counter-clockwise.
     Returns (triangle, b1, b2, depth, ambiguous) with ambiguous marking
     pixels where either answer is fine (a center within EDGE_PX of a covering edge, two
     depths within TIE_REL, a depth within TIE_REL of the floor)."""
@@ -171,6 +172,7 @@ def rasterize(corners, flags, m, w, h, mask=None, depth_floor=None, cull=0):
     elif cull == 2:
         drawn &= ~(area < 0)
     drawn &= ~(((flags & FLAG_CULL_BACK) != 0) & (area > 0))
+    drawn &= ~(((flags & FLAG_CULL_FRONT) != 0) & (area < 0))
     valid = drawn[None, :]
     if mask is not None:
         valid = valid & np.asarray(mask, bool).reshape(-1, 1)

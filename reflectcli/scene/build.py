@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -83,34 +84,52 @@ def object_mesh(obj, source: str) -> Mesh:
     raise AssertionError(s)
 
 
-def closed_outward(obj) -> bool:
-    """Whether the object's mesh is closed with every face turned outward (from an eye
-    outside it, a ray meets a front face first, so its back faces can be culled): the
-    solids reflect makes (tests/scene/test_closed.py holds each to that). Meshes read from
-    files, the teapot (open at its spout) and clutter are not assumed closed."""
-    s = obj.shape
-    if s == "box":
-        return all(a < b for a, b in zip(obj.min, obj.max, strict=True))
-    if s == "cylinder":
-        return bool(obj.caps)
-    if s == "torus":  # a spindle torus folds through itself
-        return obj.minor_radius < obj.major_radius
-    return s in ("sphere", "cone", "pyramid")
+@dataclass(frozen=True)
+class Pieces:
+    """A part's closed pieces (Mesh.pieces) after `without_degenerate`: each triangle's
+    piece id (T,) int32 (-1: open) and each piece's world box (K, 6: min x, y, z, max x,
+    y, z; NaN for a piece with no triangle left)."""
+
+    ids: np.ndarray
+    boxes: np.ndarray
+
+    @staticmethod
+    def of(mesh: Mesh, tris: Triangles) -> Pieces:
+        """The pieces of `mesh` (without_degenerate's) over its triangles as drawn."""
+        count = mesh.piece_count
+        ids = (np.full(tris.count, -1, np.int32) if mesh.pieces is None
+               else np.ascontiguousarray(mesh.pieces, np.int32))
+        return Pieces(ids, piece_boxes(tris.corners, ids, count))
 
 
-def _whole(world: Mesh, kept: int) -> bool:
-    """Whether `without_degenerate`, which kept `kept` of `world`'s triangles, kept every
-    one with an area at all (a pole's zero-area triangles go, and close nothing): a solid
-    so small that it loses real triangles is open, its back faces seen through the holes."""
-    return int(np.count_nonzero(world.areas() > 0)) == kept
+def piece_boxes(corners: np.ndarray, ids: np.ndarray, count: int) -> np.ndarray:
+    """(count, 6) float64 world boxes of the pieces `ids` (T,) marks in `corners` (T, 3, 3);
+    NaN for a piece with no triangle. Pieces come as runs of triangles: reduced per run,
+    then runs of the same piece joined."""
+    lo = np.full((count, 3), np.inf)
+    hi = np.full((count, 3), -np.inf)
+    if count and ids.size:
+        starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
+        run_ids = ids[starts]
+        mine = run_ids >= 0
+        points = corners.astype(np.float64)
+        np.minimum.at(lo, run_ids[mine], np.minimum.reduceat(points.min(axis=1), starts)[mine])
+        np.maximum.at(hi, run_ids[mine], np.maximum.reduceat(points.max(axis=1), starts)[mine])
+    boxes = np.concatenate([lo, hi], axis=1)
+    boxes[~np.isfinite(boxes).all(axis=1)] = np.nan
+    return boxes
 
 
-def _box_of(corners: np.ndarray) -> np.ndarray:
-    """(6,) float64 min then max of (T, 3, 3) corners; NaN for none."""
-    if corners.shape[0] == 0:
-        return np.full(6, np.nan)
-    points = corners.reshape(-1, 3).astype(np.float64)
-    return np.concatenate([points.min(axis=0), points.max(axis=0)])
+def _joined_pieces(parts: list[Pieces]) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(closed_piece (T,) int32, closed_boxes (K, 6)) of parts concatenated in order, their
+    ids renumbered after the ones before; (None, None) without any piece."""
+    if not any(len(p.boxes) for p in parts):
+        return None, None
+    ids, first = [], 0
+    for p in parts:
+        ids.append(np.where(p.ids >= 0, p.ids + first, -1).astype(np.int32))
+        first += len(p.boxes)
+    return np.concatenate(ids), np.concatenate([p.boxes for p in parts])
 
 
 def transform_at(obj, frame_index: int) -> np.ndarray:
@@ -277,7 +296,7 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             problems.append(Problem(source, f"objects.{i}.{field}", str(e).splitlines()[0]))
             meshes.append(None)
     mirror_parts: list[Triangles] = []
-    mirror_meshes: dict[int, tuple[Mesh, int]] = {}  # each mirror's, and its kept count
+    mirror_pieces: list[Pieces] = []
     exact: list[np.ndarray] = []
     n_obj = len(cfg.objects)
     for j, m in enumerate(cfg.mirrors):
@@ -287,8 +306,9 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
             field = "profile" if m.shape == "extrusion" else "path"
             problems.append(Problem(source, f"mirrors.{j}.{field}", str(e).splitlines()[0]))
             continue
-        mirror_parts.append(_triangles(mesh.without_degenerate(), -1, n_obj + j))
-        mirror_meshes[j] = (mesh, mirror_parts[-1].count)
+        kept = mesh.without_degenerate()
+        mirror_parts.append(_triangles(kept, -1, n_obj + j))
+        mirror_pieces.append(Pieces.of(kept, mirror_parts[-1]))
         exact.append(np.full(mirror_parts[-1].count, is_exact))
     try:
         materials = _materials(cfg, source)
@@ -301,42 +321,30 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
     warn_textured_without_uvs(cfg, meshes)
     mirror_tris = _concat(mirror_parts)
     mirror_exact = np.concatenate(exact) if exact else np.zeros(0, bool)
-    static_parts: dict[int, Triangles] = {}
+    static_parts: dict[int, tuple[Triangles, Pieces]] = {}
     moving = [i for i, o in enumerate(cfg.objects) if o.motion]
-    # closed surfaces' world boxes (NaN: open): the static ones once, the moving ones per
-    # frame
-    closed = [closed_outward(obj) for obj in cfg.objects]
-    static_boxes = np.full((n_obj + len(cfg.mirrors), 6), np.nan)
-    for i, (obj, mesh) in enumerate(zip(cfg.objects, meshes, strict=True)):
+
+    def placed(i: int, frame_index: int) -> tuple[Triangles, Pieces]:
+        """Object i's world triangles at a frame, and their closed pieces with world boxes."""
+        obj = cfg.objects[i]
+        world = meshes[i].transformed(transform_at(obj, frame_index)).without_degenerate()
+        tris = _triangles(world, material_index[obj.material], i)
+        return tris, Pieces.of(world, tris)
+
+    for i, obj in enumerate(cfg.objects):
         if not obj.motion:
-            world = mesh.transformed(transform_at(obj, 0))
-            static_parts[i] = _triangles(world.without_degenerate(),
-                                         material_index[obj.material], i)
-            if closed[i] and _whole(world, static_parts[i].count):
-                static_boxes[i] = _box_of(static_parts[i].corners)
-    for j, m in enumerate(cfg.mirrors):
-        if m.shape == "sphere" and _whole(*mirror_meshes[j]):
-            static_boxes[n_obj + j] = _box_of(
-                mirror_tris.corners[mirror_tris.surface == n_obj + j])
+            static_parts[i] = placed(i, 0)
     last: dict = {}
 
     def geometry_at(frame_index: int) -> Geometry:
         mats = tuple(transform_at(cfg.objects[i], frame_index).tobytes() for i in moving)
         if last.get("key") == mats:
             return last["geometry"]
-        parts = []
-        boxes = static_boxes.copy() if moving else static_boxes
-        for i, (obj, mesh) in enumerate(zip(cfg.objects, meshes, strict=True)):
-            if i in static_parts:
-                parts.append(static_parts[i])
-            else:
-                world = mesh.transformed(transform_at(obj, frame_index))
-                parts.append(_triangles(world.without_degenerate(),
-                                        material_index[obj.material], i))
-                if closed[i] and _whole(world, parts[-1].count):
-                    boxes[i] = _box_of(parts[-1].corners)
-        geometry = Geometry(_concat(parts), mirror_tris, mirror_exact, ("geometry", mats),
-                            boxes)
+        parts = [static_parts[i] if i in static_parts else placed(i, frame_index)
+                 for i in range(n_obj)]
+        closed_piece, closed_boxes = _joined_pieces([p for _, p in parts] + mirror_pieces)
+        geometry = Geometry(_concat([t for t, _ in parts]), mirror_tris, mirror_exact,
+                            ("geometry", mats), closed_boxes, closed_piece)
         last.update(key=mats, geometry=geometry)
         return geometry
 

@@ -7,7 +7,7 @@ All arrays are in the primitive's local (object) space until `transformed`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -19,12 +19,29 @@ class Mesh:
     corners: np.ndarray  # (F, 3, 3) corner positions
     uvs: np.ndarray  # (F, 3, 2) corner texture coordinates
     normals: np.ndarray  # (F, 3, 3) corner shading normals, unit length
+    # (F,) int32 closed piece of each triangle, -1 for none: a piece's triangles close a
+    # surface with every face turned outward, so from an eye outside it a ray meets a front
+    # face first and its back faces may be culled (raster/closed.py). None: no piece.
+    # Only the primitives that close (`closed`) make pieces; other operations drop them.
+    pieces: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         f = self.corners.shape[0]
         assert self.corners.shape == (f, 3, 3), self.corners.shape
         assert self.uvs.shape == (f, 3, 2), self.uvs.shape
         assert self.normals.shape == (f, 3, 3), self.normals.shape
+        assert self.pieces is None or self.pieces.shape == (f,), self.pieces.shape
+
+    def closed(self) -> Mesh:
+        """This mesh as one closed piece (its maker vouches that it closes outward)."""
+        return replace(self, pieces=np.zeros(self.triangle_count, np.int32))
+
+    @property
+    def piece_count(self) -> int:
+        """1 + the highest piece id (0 without pieces)."""
+        if self.pieces is None or self.pieces.size == 0:
+            return 0
+        return int(self.pieces.max()) + 1
 
     @property
     def triangle_count(self) -> int:
@@ -58,21 +75,43 @@ class Mesh:
             uvs = self.uvs[:, ::-1]
         else:
             uvs = self.uvs
-        return Mesh(corners, uvs.copy(), normals)
+        # a mirroring transform's flipped winding keeps a closed piece's faces outward
+        return Mesh(corners, uvs.copy(), normals, self.pieces)
 
     def without_degenerate(self, min_area: float = 1e-12) -> Mesh:
-        keep = self.areas() > min_area
-        return Mesh(self.corners[keep], self.uvs[keep], self.normals[keep])
+        """Without triangles of area <= min_area. A piece that loses a triangle with any
+        area at all (a solid too small for its triangles) has holes: it is open after.
+        (A pole's zero-area triangles go and close nothing.)"""
+        areas = self.areas()
+        keep = areas > min_area
+        pieces = self.pieces
+        if pieces is not None:
+            holed = np.unique(pieces[(areas > 0) & ~keep])
+            pieces = np.where(np.isin(pieces, holed[holed >= 0]), -1, pieces)[keep]
+            pieces = pieces.astype(np.int32)
+        return Mesh(self.corners[keep], self.uvs[keep], self.normals[keep], pieces)
 
     @staticmethod
     def concatenate(meshes: list[Mesh]) -> Mesh:
         if not meshes:
             empty3 = np.zeros((0, 3, 3))
             return Mesh(empty3, np.zeros((0, 3, 2)), empty3.copy())
+        pieces = None
+        if any(m.pieces is not None for m in meshes):
+            # each mesh's pieces renumbered after the ones before it
+            parts, first = [], 0
+            for m in meshes:
+                if m.pieces is None:
+                    parts.append(np.full(m.triangle_count, -1, np.int32))
+                    continue
+                parts.append(np.where(m.pieces >= 0, m.pieces + first, -1).astype(np.int32))
+                first += m.piece_count
+            pieces = np.concatenate(parts)
         return Mesh(
             np.concatenate([m.corners for m in meshes]),
             np.concatenate([m.uvs for m in meshes]),
             np.concatenate([m.normals for m in meshes]),
+            pieces,
         )
 
     @staticmethod

@@ -91,7 +91,8 @@ def box(min: Sequence[float], max: Sequence[float]) -> Mesh:
     """
     lo, hi = np.asarray(min, dtype=np.float64), np.asarray(max, dtype=np.float64)
     faces = _box_faces(lo, hi)
-    return Mesh.concatenate([_rect(*faces[name]) for name in ROOM_FACES])
+    mesh = Mesh.concatenate([_rect(*faces[name]) for name in ROOM_FACES])
+    return mesh.closed() if np.all(lo < hi) else mesh
 
 
 def room(
@@ -156,7 +157,7 @@ def uv_sphere(radius: float, segments: int) -> Mesh:
     uu[0] += half
     uu[-1] -= half
     uvs = np.stack([np.clip(uu, 0.0, 1.0), vv], axis=-1)
-    return grid_mesh(radius * normals, uvs, normals)
+    return grid_mesh(radius * normals, uvs, normals).closed()
 
 
 def ico_sphere(radius: float, subdivisions: int) -> Mesh:
@@ -178,7 +179,7 @@ def ico_sphere(radius: float, subdivisions: int) -> Mesh:
     wraps = (np.nanmax(u, axis=1) - np.nanmin(u, axis=1)) > 0.5
     u = np.where(wraps[:, None] & (u < 0.5), u + 1.0, u)
     u = np.where(pole, np.nanmean(u, axis=1, keepdims=True), u)
-    return Mesh(radius * unit, np.stack([u, v], axis=-1), unit.copy())
+    return Mesh(radius * unit, np.stack([u, v], axis=-1), unit.copy()).closed()
 
 
 def _disk(radius: float, segments: int, y: float, up: bool) -> Mesh:
@@ -219,7 +220,7 @@ def cylinder(radius: float, height: float, segments: int, caps: bool = True) -> 
         return side
     return Mesh.concatenate(
         [side, _disk(radius, segments, height, up=True), _disk(radius, segments, 0.0, up=False)]
-    )
+    ).closed()
 
 
 def cone(radius: float, height: float, segments: int) -> Mesh:
@@ -250,7 +251,8 @@ def cone(radius: float, height: float, segments: int) -> Mesh:
         ],
         axis=1,
     )
-    return Mesh.concatenate([Mesh(corners, uvs, normals), _disk(radius, segments, 0.0, up=False)])
+    return Mesh.concatenate([Mesh(corners, uvs, normals),
+                             _disk(radius, segments, 0.0, up=False)]).closed()
 
 
 def pyramid(size: float, height: float) -> Mesh:
@@ -268,7 +270,7 @@ def pyramid(size: float, height: float) -> Mesh:
     side_uv = np.broadcast_to(np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 1.0]]), (4, 3, 2))
     base_corners = np.array([[-h, 0, -h], [h, 0, -h], [h, 0, h], [-h, 0, h]], dtype=np.float64)
     base = quad(base_corners)
-    return Mesh.concatenate([Mesh.flat(sides, side_uv.copy()), base])
+    return Mesh.concatenate([Mesh.flat(sides, side_uv.copy()), base]).closed()
 
 
 def torus(
@@ -288,4 +290,5 @@ def torus(
     normals = np.cos(phi) * radial + np.sin(phi) * np.array([0.0, 1.0, 0.0])
     positions = major_radius * radial + minor_radius * normals
     uu, vv = np.meshgrid(u, v)
-    return grid_mesh(positions, np.stack([uu, vv], -1), normals)
+    mesh = grid_mesh(positions, np.stack([uu, vv], -1), normals)
+    return mesh.closed() if minor_radius < major_radius else mesh  # a spindle torus folds

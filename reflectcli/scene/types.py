@@ -145,10 +145,13 @@ class Geometry:
     mirror_tris: Triangles
     mirror_exact: np.ndarray  # (Tm,) bool
     key: tuple  # equal keys -> identical geometry (lets techniques keep acceleration structures)
-    # (S,) per surface id, world box (min x, y, z, max x, y, z) of a closed surface whose
-    # faces all turn outward (build.closed_outward), NaN for any other: seen from outside
-    # its box, its back faces lie behind its front faces
+    # closed pieces (Mesh.pieces: a solid, or each closed part of a composite such as the
+    # music room's clutter), faces all turned outward: seen from outside its box, a piece's
+    # back faces lie behind its front faces. (K, 6) world box per piece (min x, y, z, max
+    # x, y, z; NaN: no triangle), and (T,) int32 the piece of each of `all_triangles`
+    # (-1: open); None without pieces
     closed_boxes: np.ndarray | None = None
+    closed_piece: np.ndarray | None = None
 
     def all_triangles(self) -> Triangles:
         """Objects then mirrors, concatenated once per Geometry (a static scene's geometry

@@ -18,9 +18,11 @@ from naive import stencil_box as naive_stencil_box
 
 from reflectcli.camera import Camera
 from reflectcli.raster.rasterize import (
+    CULL_BACK,
     CULL_FRONT,
     CULL_NONE,
     FLAG_CULL_BACK,
+    FLAG_CULL_FRONT,
     FLAG_MIRROR,
     FLAG_SKIP,
     rasterize,
@@ -495,7 +497,8 @@ def test_planes_past_near_and_far_classify_each_triangle():
 @pytest.mark.parametrize("threads", [1, 2])
 def test_flagged_back_faces_are_dropped_as_if_skipped(threads):
     """FLAG_CULL_BACK drops a triangle exactly when the eye is behind its plane (its world
-    winding turned away: clockwise on screen), clipped or not, besides what the pass culls:
+    winding turned away: clockwise on screen), FLAG_CULL_FRONT exactly when the eye is in
+    front of it, clipped or not, besides what the pass culls:
     the same buffers as FLAG_SKIP on those triangles. Triangles cross the near plane and leave
     the guard band (the clipped fans), of both windings, in runs set up in place and
     listed."""
@@ -512,13 +515,15 @@ def test_flagged_back_faces_are_dropped_as_if_skipped(threads):
     flags = np.where(rng.random(len(corners)) < 0.2, FLAG_MIRROR, 0).astype(np.uint8)
     numba.set_num_threads(threads)
     try:
-        for cull in (CULL_NONE, CULL_FRONT):
-            got = rasterize(corners, flags | np.where(flagged, FLAG_CULL_BACK, 0).astype(
-                np.uint8), m, cam.width, cam.height, cull=cull)
-            want = rasterize(corners, flags | np.where(flagged & (facing < 0), FLAG_SKIP, 0)
-                             .astype(np.uint8), m, cam.width, cam.height, cull=cull)
-            assert got.triangle.tobytes() == want.triangle.tobytes()
-            assert got.depth.tobytes() == want.depth.tobytes()
-            assert np.isin(got.triangle, np.flatnonzero(flagged & (facing < 0))).sum() == 0
+        # FLAG_CULL_FRONT: the faces turned toward the eye (a reflection pass's far faces)
+        for flag, dropped in ((FLAG_CULL_BACK, facing < 0), (FLAG_CULL_FRONT, facing > 0)):
+            for cull in (CULL_NONE, CULL_FRONT, CULL_BACK):
+                got = rasterize(corners, flags | np.where(flagged, flag, 0).astype(np.uint8),
+                                m, cam.width, cam.height, cull=cull)
+                want = rasterize(corners, flags | np.where(flagged & dropped, FLAG_SKIP, 0)
+                                 .astype(np.uint8), m, cam.width, cam.height, cull=cull)
+                assert got.triangle.tobytes() == want.triangle.tobytes()
+                assert got.depth.tobytes() == want.depth.tobytes()
+                assert np.isin(got.triangle, np.flatnonzero(flagged & dropped)).sum() == 0
     finally:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)

@@ -1,6 +1,7 @@
-"""The solids `closed_outward` calls closed are: their meshes watertight, wound one way
-and outward (positive volume), as trimesh finds them after welding; the geometry gives
-their world boxes, and culling their back faces from outside changes no pixel."""
+"""The closed pieces meshes carry (Mesh.pieces: the solids, each part of the music room's
+clutter) are: watertight, wound one way and outward (positive volume), as trimesh finds
+them after welding; the geometry gives their world boxes, and culling their back faces from
+outside, in the primary pass and in planar mirrors' reflection passes, changes no pixel."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ import pytest
 import trimesh
 
 from reflectcli.loading import load_config
-from reflectcli.scene.build import build_scene, closed_outward, object_mesh
+from reflectcli.scene.build import build_scene, object_mesh
+from reflectcli.scene.mesh import Mesh
 
 SOLIDS = [
     'shape = "box"\nmin = [-1, 0, -2]\nmax = [1, 0.5, 2]',
@@ -65,20 +67,60 @@ def _config(tmp_path, objects: list[str], mirrors: str = ""):
     return load_config(str(path))[0]
 
 
+def _closes_outward(corners: np.ndarray) -> bool:
+    tm = trimesh.Trimesh(corners.reshape(-1, 3), np.arange(3 * len(corners)).reshape(-1, 3),
+                         process=False)
+    tm.merge_vertices(merge_tex=True, merge_norm=True, digits_vertex=9)
+    return bool(tm.is_watertight and tm.is_winding_consistent and tm.volume > 0)
+
+
 @pytest.mark.parametrize("solid", SOLIDS)
 def test_closed_solids_are_watertight_and_outward(tmp_path, solid):
     obj = _config(tmp_path, [solid]).objects[0]
-    assert closed_outward(obj)
     mesh = object_mesh(obj, "closed.toml").without_degenerate()
-    tm = trimesh.Trimesh(mesh.corners.reshape(-1, 3),
-                         np.arange(3 * mesh.triangle_count).reshape(-1, 3), process=False)
-    tm.merge_vertices(merge_tex=True, merge_norm=True, digits_vertex=9)
-    assert tm.is_watertight and tm.is_winding_consistent and tm.volume > 0
+    assert mesh.pieces is not None and np.all(mesh.pieces == 0)
+    assert _closes_outward(mesh.corners)
 
 
 @pytest.mark.parametrize("solid", OPEN)
 def test_open_surfaces_are_not_called_closed(tmp_path, solid):
-    assert not closed_outward(_config(tmp_path, [solid]).objects[0])
+    pieces = object_mesh(_config(tmp_path, [solid]).objects[0], "closed.toml").pieces
+    assert pieces is None or np.all(pieces < 0)
+
+
+@pytest.mark.parametrize("budget", [2000, 60000])
+def test_every_part_of_the_clutter_is_a_closed_piece(budget):
+    """The music room's furniture is made of solids (several overlapping): each is a piece,
+    watertight and outward after its placement (scaled, turned, tilted)."""
+    from reflectcli.scene.procedural import music_room_clutter
+
+    mesh = music_room_clutter(budget, [-10, 0, -7], [10, 4.5, 7]).without_degenerate()
+    assert mesh.pieces is not None and np.all(mesh.pieces >= 0)
+    assert mesh.piece_count > 50
+    for k in range(mesh.piece_count):
+        assert _closes_outward(mesh.corners[mesh.pieces == k]), k
+
+
+def test_pieces_follow_concatenation_mirroring_and_degenerate_cuts():
+    """Concatenation renumbers pieces after the ones before (an open mesh's triangles -1);
+    a mirroring transform flips the winding and keeps each piece outward; a piece that
+    loses a triangle with area to the degenerate cut is open, another one stays."""
+    from reflectcli.scene import primitives
+
+    ball = primitives.uv_sphere(1.0, 12)
+    joined = Mesh.concatenate([ball, primitives.quad([[0, 0, 0], [1, 0, 0], [1, 1, 0],
+                                                      [0, 1, 0]]), primitives.box([0, 0, 0],
+                                                                                 [1, 2, 3])])
+    counts = (ball.triangle_count, 2, 12)
+    assert joined.piece_count == 2
+    np.testing.assert_array_equal(joined.pieces, np.repeat([0, -1, 1], counts))
+    mirrored = joined.transformed(np.diag([-1.0, 2.0, 1.0, 1.0]))
+    np.testing.assert_array_equal(mirrored.pieces, joined.pieces)
+    assert _closes_outward(mirrored.corners[mirrored.pieces == 0])
+    assert _closes_outward(mirrored.corners[mirrored.pieces == 1])
+    tiny = Mesh.concatenate([primitives.uv_sphere(1e-6, 12), ball]).without_degenerate()
+    assert np.all(tiny.pieces[:-ball.triangle_count] == -1)
+    assert np.all(tiny.pieces[-ball.triangle_count:] == 1)
 
 
 def test_culling_closed_solids_from_outside_keeps_the_buffers(tmp_path):
@@ -117,8 +159,10 @@ def test_culling_closed_solids_from_outside_keeps_the_buffers(tmp_path):
     np.testing.assert_allclose(moved, [1, 0, 0, 1, 0, 0], atol=1e-6)
     inside = dataclasses.replace(camera_from_config(cfg.camera, 0),
                                  eye=np.array([0.0, 2.0, 2.0]))
-    hidden = hidden_back_faces(scene.geometry(0), inside)
-    assert not hidden[scene.n_objects]
+    geometry = scene.geometry(0)
+    ball = geometry.closed_piece[geometry.all_triangles().surface == scene.n_objects]
+    assert np.all(ball == len(SOLIDS))
+    assert not hidden_back_faces(geometry, inside)[len(SOLIDS)]
 
 
 def test_a_silhouette_tie_goes_to_the_front_face():
@@ -148,8 +192,89 @@ def test_a_silhouette_tie_goes_to_the_front_face():
 
 def test_a_solid_too_small_for_its_triangles_is_open(tmp_path):
     """A sphere small enough that real triangles fall below the degenerate-area cut has
-    holes: not culled (no box)."""
+    holes: not culled (no piece)."""
     cfg = _config(tmp_path, ['shape = "sphere"\nradius = 1e-6', SOLIDS[1]])
     scene = build_scene(cfg, str(tmp_path / "closed.toml"))
-    boxes = scene.geometry(0).closed_boxes
-    assert np.isnan(boxes[0]).all() and not np.isnan(boxes[1]).any()
+    geometry = scene.geometry(0)
+    piece = geometry.closed_piece
+    surface = geometry.all_triangles().surface
+    assert np.all(piece[surface == 0] == -1) and np.all(piece[surface == 1] == 0)
+    assert not np.isnan(geometry.closed_boxes[0]).any()
+
+
+@pytest.mark.parametrize("clip", ["oblique", "plane", "none"])
+def test_culling_in_reflection_passes_keeps_the_frame(tmp_path, monkeypatch, clip):
+    """Two facing planar mirrors (reflections of reflections: both screen windings), one
+    behind the solids, one behind the eye; a box cut by a mirror's plane (its inside shows,
+    not culled there): rerender's
+    frames with the reflection passes' culling are those without it, byte for byte, and the
+    passes did cull."""
+    import reflectcli.techniques.rerender.technique as rerender
+    from reflectcli import api
+    from reflectcli.raster import closed
+
+    placed = [f"{s}\ntransform.translate = [{1.6 * (i % 4) - 2.4}, 0.2, {-1.6 * (i // 4)}]"
+              for i, s in enumerate(SOLIDS[:8])]
+    # a box the far mirror's plane cuts (its inside shows in the reflection)
+    placed.append('shape = "box"\nmin = [-2, 0.5, -6.3]\nmax = [-1.2, 1.5, -5.7]')
+    mirrors = "".join(
+        f'[[mirrors]]\nname = "m{i}"\nshape = "rectangle"\ncenter = [0, 1, {z}]\n'
+        f'normal = [0, 0, {n}]\nsize = [12, 6]\nreflectance = 0.9\n'
+        for i, (z, n) in enumerate([(-6.0, 1), (10.5, -1)]))
+    path = tmp_path / "closed.toml"
+    path.write_text(_scene(placed, mirrors).replace('name = "raster"', f'name = "rerender"\n'
+                                                     f'max_depth = 3\nclip = "{clip}"'))
+    real = closed.reflection_pass_flags
+    culled = []
+
+    def counting(geometry, flags, *args):
+        out = real(geometry, flags, *args)
+        culled.append(int(np.count_nonzero(out & (closed.FLAG_CULL_BACK
+                                                  | closed.FLAG_CULL_FRONT))))
+        return out
+
+    def frame(flags_of):
+        monkeypatch.setattr(rerender, "reflection_pass_flags", flags_of)
+        opened = api.open_scene(str(path), technique=None, overrides=[], threads=2, cache=False)
+        opened.prepare()
+        return opened.render_frame(0)
+
+    def unculled(geometry, flags, surface, *args):
+        tris = geometry.all_triangles()
+        return flags | np.where(tris.surface == surface, closed.FLAG_SKIP, 0).astype(np.uint8)
+
+    got, want = frame(counting), frame(unculled)
+    assert got.stats["passes"] == 4 and len(culled) == 3 and min(culled) > 0  # levels 1-3
+    assert got.rgb.tobytes() == want.rgb.tobytes()
+    assert got.surface.tobytes() == want.surface.tobytes()
+
+
+def test_reflection_pass_flags_cull_only_pieces_seen_whole_from_outside(tmp_path):
+    """A reflection pass culls a piece only when the reflected eye is outside its box and
+    the clip plane leaves it whole (kept side or clipped side; a cut piece shows its
+    inside); odd levels cull the screen's front faces, even ones its back faces; the mirror
+    itself is skipped."""
+    from reflectcli.camera import camera_from_config
+    from reflectcli.raster import closed
+    from reflectcli.raster.rasterize import RasterWorkspace
+
+    boxes = ['shape = "box"\nmin = [-1, 0, -1]\nmax = [0, 1, 0]',  # kept side
+             'shape = "box"\nmin = [-1, 0, -4]\nmax = [0, 1, -3]',  # clipped side
+             'shape = "box"\nmin = [1, 0, -2.5]\nmax = [2, 1, -1.5]',  # cut by the plane
+             'shape = "box"\nmin = [3, 0, 3]\nmax = [5, 2, 5]']  # holds the eye
+    mirror = ('[[mirrors]]\nname = "m"\nshape = "rectangle"\ncenter = [0, 1, -2]\n'
+              'normal = [0, 0, 1]\nsize = [2, 2]\n')
+    cfg = _config(tmp_path, boxes, mirror)
+    scene = build_scene(cfg, str(tmp_path / "closed.toml"))
+    geometry = scene.geometry(0)
+    tris = geometry.all_triangles()
+    plain = (tris.surface >= scene.n_objects).astype(np.uint8)
+    camera = camera_from_config(cfg.camera, 0)
+    plane = np.array([0.0, 0.0, 1.0, 2.0])  # z >= -2 kept
+    for level, flag in ((1, closed.FLAG_CULL_FRONT), (2, closed.FLAG_CULL_BACK)):
+        flags = closed.reflection_pass_flags(geometry, plain, scene.n_objects,
+                                             np.array([4.0, 1.0, 4.0]), plane, camera, level,
+                                             RasterWorkspace())
+        per_surface = [set(np.unique(flags[tris.surface == s]).tolist()) for s in range(5)]
+        assert per_surface == [{flag}, {flag}, {0}, {0},
+                               {closed.FLAG_MIRROR | closed.FLAG_SKIP}]

@@ -24,6 +24,7 @@ from reflectcli.raster.rasterize import (
     CULL_FRONT,
     CULL_NONE,
     FLAG_CULL_BACK,
+    FLAG_CULL_FRONT,
     FLAG_MIRROR,
     FLAG_SKIP,
 )
@@ -371,8 +372,8 @@ def test_rasterizer_edge_masks_match_twin():
 @pytest.mark.parametrize("cull", [CULL_NONE, CULL_BACK, CULL_FRONT])
 @pytest.mark.parametrize("seed", range(2))
 def test_rasterizer_culling_and_skip_match_twin(seed, cull):
-    """Culling modes, FLAG_SKIP, and FLAG_CULL_BACK (back faces of flagged triangles
-    dropped whatever the mode) as the twin gives them."""
+    """Culling modes, FLAG_SKIP, FLAG_CULL_BACK and FLAG_CULL_FRONT (back or front faces
+    of flagged triangles dropped whatever the mode) as the twin gives them."""
     rng = np.random.default_rng(seed + 20)
     cam = camera()
     m = cam.projection_matrix() @ cam.view_matrix()
@@ -380,6 +381,7 @@ def test_rasterizer_culling_and_skip_match_twin(seed, cull):
     flags = np.where(rng.random(16) < 0.3, FLAG_SKIP, 0).astype(np.uint8)
     flags[rng.random(16) < 0.2] |= FLAG_MIRROR
     flags[rng.random(16) < 0.5] |= FLAG_CULL_BACK
+    flags[rng.random(16) < 0.3] |= FLAG_CULL_FRONT
     got = fast_rasterize(corners, flags, m, W, H, cull=cull)
     compare_raster(got, rasterize(corners, flags, m, W, H, cull=cull))
     assert not np.isin(got.triangle, np.flatnonzero(flags & FLAG_SKIP)).any()

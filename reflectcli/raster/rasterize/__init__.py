@@ -49,10 +49,19 @@ from .api import rasterize
 from .barycentrics import barycentrics_at, clip_corners, recover_barycentrics
 from .buffers import RasterBuffers, RasterWorkspace
 from .clip import screen_from_ndc
-from .constants import CULL_BACK, CULL_FRONT, CULL_NONE, FLAG_CULL_BACK, FLAG_MIRROR, FLAG_SKIP
+from .constants import (
+    CULL_BACK,
+    CULL_FRONT,
+    CULL_NONE,
+    FLAG_CULL_BACK,
+    FLAG_CULL_FRONT,
+    FLAG_MIRROR,
+    FLAG_SKIP,
+)
 
 __all__ = [
-    "CULL_BACK", "CULL_FRONT", "CULL_NONE", "FLAG_CULL_BACK", "FLAG_MIRROR", "FLAG_SKIP",
+    "CULL_BACK", "CULL_FRONT", "CULL_NONE", "FLAG_CULL_BACK", "FLAG_CULL_FRONT", "FLAG_MIRROR",
+    "FLAG_SKIP",
     "RasterBuffers",
     "RasterWorkspace", "barycentrics_at", "clip_corners", "rasterize", "recover_barycentrics",
     "screen_from_ndc", "standard_planes",

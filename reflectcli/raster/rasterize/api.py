@@ -31,7 +31,8 @@ def rasterize(
 
     `flags` per triangle: bit 0 (FLAG_MIRROR, or a bool array) marks mirrors, which win
     depth ties; bit 1 (FLAG_SKIP) leaves the triangle out of this pass; bit 2
-    (FLAG_CULL_BACK) drops it when it faces away, besides what `cull` drops.
+    (FLAG_CULL_BACK) drops it when its screen winding is clockwise, bit 3 (FLAG_CULL_FRONT)
+    when counter-clockwise, besides what `cull` drops.
     `planes` are clip-space half-spaces (P, 4), near and far first; default near + far.
     `cull`: CULL_BACK drops triangles whose screen winding is clockwise (seen from behind),
     CULL_FRONT the opposite (for a mirrored camera, whose handedness is flipped).

@@ -9,9 +9,12 @@ _MAX_POLY = 3 + _MAX_PLANES + _GUARD_PLANES
 CULL_NONE, CULL_BACK, CULL_FRONT = 0, 1, 2
 
 # per-triangle flags: a mirror's (wins depth ties), left out of the pass, and dropped when
-# it faces away, besides what the pass's culling mode drops (a closed surface seen from
-# outside: its back faces lie behind its front faces, see raster/closed.py)
-FLAG_MIRROR, FLAG_SKIP, FLAG_CULL_BACK = 1, 2, 4
+# its screen winding is clockwise (FLAG_CULL_BACK) or counter-clockwise (FLAG_CULL_FRONT),
+# besides what the pass's culling mode drops (a closed piece seen from outside: its back
+# faces lie behind its front faces, see raster/closed.py; a reflection pass flips the
+# winding). The culling flags are the culling modes' bits shifted by _CULL_SHIFT.
+FLAG_MIRROR, FLAG_SKIP, FLAG_CULL_BACK, FLAG_CULL_FRONT = 1, 2, 4, 8
+_CULL_SHIFT = 2
 
 # triangle status after setup
 _CULLED, _SIMPLE, _CLIPPED = 0, 1, 2

@@ -10,12 +10,11 @@ from .clip import screen_from_ndc
 from .constants import (
     _CHUNK,
     _CLIPPED,
+    _CULL_SHIFT,
     _CULLED,
     _SIMPLE,
     CULL_BACK,
     CULL_FRONT,
-    CULL_NONE,
-    FLAG_CULL_BACK,
     FLAG_MIRROR,
     FLAG_SKIP,
 )
@@ -49,9 +48,9 @@ def _facing(x0, y0, x1, y1, x2, y2, cull):
 @njit(cache=True, inline="always")
 def triangle_cull(flag, cull):
     """The culling of a triangle with rasterizer flags `flag` in a pass culling by `cull`:
-    the pass's, and its back face too where FLAG_CULL_BACK is set (the modes are bits:
-    CULL_BACK | CULL_FRONT drops both faces)."""
-    return cull | (CULL_BACK if (flag & FLAG_CULL_BACK) != 0 else CULL_NONE)
+    the pass's, and its back face too where FLAG_CULL_BACK is set, its front face where
+    FLAG_CULL_FRONT is (the modes are bits: CULL_BACK | CULL_FRONT drops both faces)."""
+    return cull | ((flag >> _CULL_SHIFT) & (CULL_BACK | CULL_FRONT))
 
 
 @njit(cache=True, inline="always")

@@ -10,10 +10,11 @@ import numpy as np
 from ...camera import Camera, reflection_pass_matrices
 from ...frame import Frame
 from ...geometry import reflection_matrix
+from ...raster.closed import reflection_pass_flags
 from ...raster.primary import render_primary
-from ...raster.rasterize import FLAG_SKIP, RasterWorkspace, rasterize
+from ...raster.rasterize import RasterWorkspace, rasterize
 from ...raster.shade import add_reflection, shade_buffers
-from ...scene.types import PLANAR, Scene, Triangles
+from ...scene.types import PLANAR, Geometry, Scene
 from ..base import Technique, warn_non_planar
 from . import RerenderParams
 
@@ -50,17 +51,18 @@ class Rerender(Technique):
         stats = {"passes": 1, "triangles_rasterized": primary.triangles.count,
                  "pass_seconds": []}
         mask = np.ones(result.surface.shape, bool)
-        self._reflect(scene, primary.triangles, primary.flags, camera, 1, np.eye(4), camera.eye,
-                      result.surface, mask, result.rgb, stats)
+        self._reflect(scene, scene.geometry(frame_index), primary.flags, camera, 1, np.eye(4),
+                      camera.eye, result.surface, mask, result.rgb, stats)
         result.timings["reflections"] = sum(stats["pass_seconds"])
         result.stats.update(stats)
         return result
 
-    def _reflect(self, scene, tris: Triangles, flags, camera, level, chain, eye, surface, mask,
-                 rgb, stats) -> None:
+    def _reflect(self, scene, geometry: Geometry, flags, camera, level, chain, eye, surface,
+                 mask, rgb, stats) -> None:
         """Fill the mirror pixels of `rgb` (inside `mask`) seen from `eye` at this level."""
         if level > self.params.max_depth:
             return
+        tris = geometry.all_triangles()
         mirrors = scene.mirrors
         for k in range(mirrors.count):
             if mirrors.kind[k] != PLANAR:
@@ -80,10 +82,13 @@ class Rerender(Technique):
             # with it) must not be drawn over the reflection (the ray tracer likewise starts
             # reflected rays a little off the surface)
             offset = 1e-4 * (1.0 + abs(d) + float(np.abs(eye).max()))
+            clip_plane = np.append(n, d - offset)
             clip_from_world, planes = reflection_pass_matrices(
-                camera, new_chain, np.append(n, d - offset), self.params.clip)
-            pass_flags = flags.copy()
-            pass_flags[tris.surface == sid] |= FLAG_SKIP
+                camera, new_chain, clip_plane, self.params.clip)
+            # the mirror itself left out; closed pieces seen from outside by the reflected
+            # eye, whole on one side of the clip plane, drawn without their far faces
+            pass_flags = reflection_pass_flags(geometry, flags, sid, new_eye, clip_plane,
+                                               camera, level, self._pass_ws)
             buffers = rasterize(tris.corners, pass_flags, clip_from_world, camera.width,
                                 camera.height, planes, mask=stencil, workspace=self._pass_ws)
             # only the stencil's pixels are shaded (and read below): the rest of the pass's
@@ -94,7 +99,7 @@ class Rerender(Technique):
             stats["passes"] += 1
             stats["triangles_rasterized"] += tris.count
             stats["pass_seconds"].append(time.perf_counter() - start)
-            self._reflect(scene, tris, flags, camera, level + 1, new_chain, new_eye,
+            self._reflect(scene, geometry, flags, camera, level + 1, new_chain, new_eye,
                           reflected_surface, stencil, reflected, stats)
             # over the stencil's box; the rest of `reflected` was never written
             rows = np.flatnonzero(stencil.any(axis=1))
