@@ -9,7 +9,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..frame import Frame
-from ..scene.types import Scene, Triangles
+from ..scene.types import Geometry, Scene, Triangles
 from .closed import primary_pass_flags
 from .rasterize import RasterBuffers, RasterWorkspace, rasterize
 from .shade import shade_buffers
@@ -21,6 +21,9 @@ class Primary:
     buffers: RasterBuffers
     triangles: Triangles
     flags: np.ndarray  # per-triangle rasterizer flags (mirrors marked)
+    # the frame's geometry (`triangles` is its all_triangles()): what later passes draw
+    # and cull (rerender's reflection passes, ssr's and ppr's rerender fallback)
+    geometry: Geometry | None = None
 
 
 def render_primary(scene: Scene, frame_index: int, camera: Camera,
@@ -43,4 +46,4 @@ def render_primary(scene: Scene, frame_index: int, camera: Camera,
         rgb=rgb, depth=buffers.depth, surface=surface, mirror_mask=surface >= scene.n_objects,
         timings={"rasterize": t1 - t0, "shade": t2 - t1}, stats={"triangles": tris.count},
     )
-    return Primary(result, buffers, tris, flags)
+    return Primary(result, buffers, tris, flags, geometry)

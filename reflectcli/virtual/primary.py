@@ -84,7 +84,7 @@ def primary_and_boxes(scene: Scene, frame_index: int, camera: Camera, ws: Raster
                   timings={"rasterize": t1 - t0, "shade": t2 - t1},
                   stats={"triangles": tris.count})
     buffers = RasterBuffers(tri, None, None, depth, corners, m)
-    return Primary(frame, buffers, tris, flags), counts, boxes, True
+    return Primary(frame, buffers, tris, flags, geometry), counts, boxes, True
 
 
 def _setup(tris: Triangles, width: int,

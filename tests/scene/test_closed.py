@@ -88,6 +88,17 @@ def test_open_surfaces_are_not_called_closed(tmp_path, solid):
     assert pieces is None or np.all(pieces < 0)
 
 
+@pytest.mark.parametrize(("lo", "hi"), [([0, 0, 0], [1, 0, 1]), ([1, 0, 0], [0, 1, 1])])
+def test_a_box_without_volume_is_open(lo, hi):
+    """primitives.box (the clutter's, which the config's max > min check does not see):
+    flat (top and bottom coincide, the zero-area sides are cut without opening it) or
+    turned inside out, it is no piece."""
+    from reflectcli.scene import primitives
+
+    pieces = primitives.box(lo, hi).without_degenerate().pieces
+    assert pieces is None or np.all(pieces < 0)
+
+
 @pytest.mark.parametrize("budget", [2000, 60000])
 def test_every_part_of_the_clutter_is_a_closed_piece(budget):
     """The music room's furniture is made of solids (several overlapping): each is a piece,
@@ -118,7 +129,10 @@ def test_pieces_follow_concatenation_mirroring_and_degenerate_cuts():
     np.testing.assert_array_equal(mirrored.pieces, joined.pieces)
     assert _closes_outward(mirrored.corners[mirrored.pieces == 0])
     assert _closes_outward(mirrored.corners[mirrored.pieces == 1])
-    tiny = Mesh.concatenate([primitives.uv_sphere(1e-6, 12), ball]).without_degenerate()
+    # radius 3e-6: 72 of the 120 triangles keep an area above the cut (1e-6 kept none,
+    # which held nothing: an empty piece is open either way)
+    tiny = Mesh.concatenate([primitives.uv_sphere(3e-6, 12), ball]).without_degenerate()
+    assert 0 < tiny.triangle_count - ball.triangle_count < 120
     assert np.all(tiny.pieces[:-ball.triangle_count] == -1)
     assert np.all(tiny.pieces[-ball.triangle_count:] == 1)
 
@@ -193,11 +207,13 @@ def test_a_silhouette_tie_goes_to_the_front_face():
 def test_a_solid_too_small_for_its_triangles_is_open(tmp_path):
     """A sphere small enough that real triangles fall below the degenerate-area cut has
     holes: not culled (no piece)."""
-    cfg = _config(tmp_path, ['shape = "sphere"\nradius = 1e-6', SOLIDS[1]])
+    # radius 1e-5: 704 of its 960 triangles stay (at 1e-6 none did: nothing to hold)
+    cfg = _config(tmp_path, ['shape = "sphere"\nradius = 1e-5', SOLIDS[1]])
     scene = build_scene(cfg, str(tmp_path / "closed.toml"))
     geometry = scene.geometry(0)
     piece = geometry.closed_piece
     surface = geometry.all_triangles().surface
+    assert 0 < np.count_nonzero(surface == 0) < 960
     assert np.all(piece[surface == 0] == -1) and np.all(piece[surface == 1] == 0)
     assert not np.isnan(geometry.closed_boxes[0]).any()
 
@@ -278,3 +294,103 @@ def test_reflection_pass_flags_cull_only_pieces_seen_whole_from_outside(tmp_path
         per_surface = [set(np.unique(flags[tris.surface == s]).tolist()) for s in range(5)]
         assert per_surface == [{flag}, {flag}, {0}, {0},
                                {closed.FLAG_MIRROR | closed.FLAG_SKIP}]
+
+
+def test_reflection_pass_flags_kept_only_while_the_same(tmp_path):
+    """The pass flags kept in the workspace (per mirror and parity) are those made afresh
+    whenever the culled pieces (the reflected eye moved into a box) or the primary pass's
+    flags change."""
+    from reflectcli.camera import camera_from_config
+    from reflectcli.raster import closed
+    from reflectcli.raster.rasterize import RasterWorkspace
+
+    cfg = _config(tmp_path, ['shape = "box"\nmin = [-1, 0, -1]\nmax = [0, 1, 0]'],
+                  '[[mirrors]]\nname = "m"\nshape = "rectangle"\ncenter = [0, 1, -2]\n'
+                  'normal = [0, 0, 1]\nsize = [2, 2]\n')
+    scene = build_scene(cfg, str(tmp_path / "closed.toml"))
+    geometry = scene.geometry(0)
+    tris = geometry.all_triangles()
+    camera = camera_from_config(cfg.camera, 0)
+    plane = np.array([0.0, 0.0, 1.0, 2.0])
+    plain = (tris.surface >= scene.n_objects).astype(np.uint8)
+    other = plain | np.where(tris.surface == 0, closed.FLAG_SKIP, 0).astype(np.uint8)
+    ws = RasterWorkspace()
+    calls = [(plain, [4.0, 1.0, 4.0]), (plain, [-0.5, 0.5, -0.5]), (other, [-0.5, 0.5, -0.5]),
+             (plain, [4.0, 1.0, 4.0])]
+    for flags, eye in calls:
+        got = closed.reflection_pass_flags(geometry, flags, scene.n_objects, np.array(eye),
+                                           plane, camera, 1, ws)
+        want = closed.reflection_pass_flags(geometry, flags, scene.n_objects, np.array(eye),
+                                            plane, camera, 1, RasterWorkspace())
+        assert got.tobytes() == want.tobytes(), eye
+
+
+def test_primary_pass_beside_a_solid_the_near_plane_cuts(tmp_path):
+    """An eye closer to a solid than the near plane reaches (outside its box): the near
+    plane cuts it open, its back faces show and are not culled."""
+    from reflectcli.camera import Camera
+    from reflectcli.raster.primary import render_primary
+    from reflectcli.raster.rasterize import rasterize
+
+    cfg = _config(tmp_path, [SOLIDS[0], SOLIDS[2]])
+    scene = build_scene(cfg, str(tmp_path / "closed.toml"))
+    tris = scene.geometry(0).all_triangles()
+    plain = (tris.surface >= scene.n_objects).astype(np.uint8)
+    for eye, target in (([0.0, 0.25, 2.2], [0.0, 0.25, 0.0]), ([0.3, 2.15, 0.2], [0.0, 0.0, 0.0]),
+                        ([1.1, 0.3, 1.9], [0.0, 0.3, 0.0])):
+        camera = Camera(np.array(eye), np.array(target), np.array([0.0, 1.0, 0.0]), 70.0, 160,
+                        120, 0.3, 50.0)
+        got = render_primary(scene, 0, camera).buffers
+        want = rasterize(tris.corners, plain, camera.clip_from_world(), camera.width,
+                         camera.height)
+        assert got.triangle.tobytes() == want.triangle.tobytes(), eye
+        assert got.depth.tobytes() == want.depth.tobytes(), eye
+
+
+@pytest.mark.parametrize("clip", ["oblique", "plane", "none"])
+def test_every_reflection_pass_draws_what_an_unculled_pass_draws(tmp_path, monkeypatch, clip):
+    """Each of rerender's reflection passes, drawn over the whole screen with and without
+    its culling flags, gives the same buffers: a floor mirror and a wall mirror (levels 1-2,
+    both parities), solids seen in them, a box through the floor mirror's plane (its inside
+    shows in the reflection), a box around the wall mirror's reflected eye (its inside
+    fills that pass in clip "none"), and an eye a little off the wall mirror (the near
+    plane of the reflected eye cuts what stands in front of it)."""
+    import reflectcli.techniques.rerender.technique as rerender
+    from reflectcli import api
+    from reflectcli.raster.rasterize import FLAG_CULL_BACK, FLAG_CULL_FRONT
+
+    placed = [f"{s}\ntransform.translate = [{1.5 * (i % 4) - 2.2}, 0.3, {-1.4 * (i // 4) + 1}]"
+              for i, s in enumerate(SOLIDS[1:9])]
+    placed += ['shape = "box"\nmin = [-3.2, -0.4, 1.5]\nmax = [-2.4, 0.5, 2.3]',
+               'shape = "box"\nmin = [-0.6, 2.4, -16.6]\nmax = [0.6, 3.6, -15.4]',
+               'shape = "box"\nmin = [1.03, 1.0, -3.99]\nmax = [1.2, 1.2, -3.93]']
+    mirrors = ('[[mirrors]]\nname = "floor"\nshape = "rectangle"\ncenter = [0, 0, 0]\n'
+               'normal = [0, 1, 0]\nsize = [16, 16]\nup = [0, 0, -1]\nreflectance = 0.9\n'
+               '[[mirrors]]\nname = "wall"\nshape = "rectangle"\ncenter = [0, 2, -4]\n'
+               'normal = [0, 0, 1]\nsize = [12, 4]\nreflectance = 0.9\n')
+    path = tmp_path / "closed.toml"
+    path.write_text(_scene(placed, mirrors).replace('name = "raster"', f'name = "rerender"\n'
+                                                     f'max_depth = 3\nclip = "{clip}"'))
+    real = rerender.rasterize
+    seen = {"passes": 0, "culled": 0, "pixels": 0}
+
+    def both(corners, flags, m, width, height, planes=None, **options):
+        plain = flags & ~np.uint8(FLAG_CULL_BACK | FLAG_CULL_FRONT)
+        got = real(corners, flags, m, width, height, planes)
+        want = real(corners, plain, m, width, height, planes)
+        assert got.triangle.tobytes() == want.triangle.tobytes()
+        assert got.depth.tobytes() == want.depth.tobytes()
+        seen["passes"] += 1
+        seen["culled"] += int(np.count_nonzero(flags != plain))
+        seen["pixels"] += int(np.count_nonzero(want.triangle >= 0))
+        return real(corners, flags, m, width, height, planes, **options)
+
+    monkeypatch.setattr(rerender, "rasterize", both)
+    for eye, target in (("[0.0, 3.0, 8.0]", "[0.0, 0.5, 0.0]"),
+                        ("[1.0, 1.1, -3.97]", "[3.0, 1.1, -4.6]")):
+        opened = api.open_scene(str(path), technique=None, threads=2, cache=False,
+                                overrides=[f"camera.eye={eye}", f"camera.target={target}",
+                                           "camera.near=0.05", "camera.fov_y=90"])
+        opened.prepare()
+        opened.render_frame(0)
+    assert seen["passes"] >= 6 and seen["culled"] > 0 and seen["pixels"] > 0

@@ -51,7 +51,7 @@ class Rerender(Technique):
         stats = {"passes": 1, "triangles_rasterized": primary.triangles.count,
                  "pass_seconds": []}
         mask = np.ones(result.surface.shape, bool)
-        self._reflect(scene, scene.geometry(frame_index), primary.flags, camera, 1, np.eye(4),
+        self._reflect(scene, primary.geometry, primary.flags, camera, 1, np.eye(4),
                       camera.eye, result.surface, mask, result.rgb, stats)
         result.timings["reflections"] = sum(stats["pass_seconds"])
         result.stats.update(stats)

@@ -49,7 +49,7 @@ class Fallback:
         start = time.perf_counter()
         if self.kind == "rerender" and miss.any():
             stats = {"passes": 0, "triangles_rasterized": 0, "pass_seconds": []}
-            self.helper._reflect(scene, primary.triangles, primary.flags, camera, 1,
+            self.helper._reflect(scene, primary.geometry, primary.flags, camera, 1,
                                  np.eye(4), camera.eye, surface, miss, rgb, stats)
             planar = np.isin(surface - scene.n_objects,
                              np.flatnonzero(scene.mirrors.kind == PLANAR))
