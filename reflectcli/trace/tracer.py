@@ -137,7 +137,9 @@ def trace_frame(
         depth = np.empty(h * w, np.float32)
         surface = np.empty(h * w, np.int32)
         scratch = accel.buffers.get("center_color", h * w, np.float32, 3)
-        traced += tracer.run(1, 0, scratch, depth, surface, reflected_hit)
+        # no bounce (max_depth 0): reflected_hit is never written; handed flat, as in the
+        # first call (a 2-D one compiled trace_segments a second time, 3 minutes)
+        traced += tracer.run(1, 0, scratch, depth, surface, reflected_hit.reshape(-1))
     timings = {"segments": tracer.seconds, "trace": time.perf_counter() - start}
     return Frame(
         rgb=rgb,

@@ -24,7 +24,8 @@ from .tessellation import Tessellation, concatenate_tessellations
 @dataclass
 class PartPassCache:
     """The last tessellation joined with itself once per part pass (a still scene draws
-    the same one every frame)."""
+    the same one every frame), its corner indices int32 while they fit (as the sphere
+    mirrors' joined ones, together.py: the draw's gather then compiles once)."""
 
     entries: dict = field(default_factory=dict)
 
@@ -35,7 +36,11 @@ class PartPassCache:
         hit = self.entries.get(key)
         if hit is None or hit[0] is not tess:
             self.entries.clear()
-            hit = self.entries[key] = (tess, concatenate_tessellations([tess] * count))
+            joined = concatenate_tessellations([tess] * count)
+            index = np.int32 if len(joined.points) < 2**31 else np.int64
+            joined = Tessellation(joined.triangles, joined.points,
+                                  np.ascontiguousarray(joined.corner_index, index))
+            hit = self.entries[key] = (tess, joined)
         return hit[1]
 
 
@@ -94,15 +99,15 @@ def draw_parts(scene: Scene, primary: Primary, eye: np.ndarray, clip_from_world:
                virtual: np.ndarray, hidden: np.ndarray, box: tuple[int, int, int, int],
                zbuffer: bool, incoming: np.ndarray | None, ws: RasterWorkspace) -> None:
     """The reflection in mirror k's parts (P of them, each with pixels: `labelled`,
-    label_parts' answer with labels 1..P; virtual (P, N, 3) and hidden (P, N), each part's
-    answers for the points of `tess`; `joined`: PartPassCache's) added to the primary
-    frame's rgb, as draw_virtual and add_reflection give them part by part: one
-    rasterization of all passes over the label image, gathering the corners as it goes
-    (the depth floor where `zbuffer`), one shading merging the threads' buffers as it
-    goes, cracks filled and reflections added per label. `box`: mirror k's pixels' (the
-    union of the parts' boxes)."""
+    label_parts' answer with labels 1..P; virtual (P, N, 3) float32 (the rounding the
+    draw's gather makes) and hidden (P, N), each part's answers for the points of `tess`;
+    `joined`: PartPassCache's) added to the primary frame's rgb, as draw_virtual and
+    add_reflection give them part by part: one rasterization of all passes over the label
+    image, gathering the corners as it goes (the depth floor where `zbuffer`), one shading
+    merging the threads' buffers as it goes, cracks filled and reflections added per
+    label. `box`: mirror k's pixels' (the union of the parts' boxes)."""
     count = virtual.shape[0]
-    assert count <= MAX_PASSES
+    assert count <= MAX_PASSES and virtual.dtype == np.float32
     labels, stencil, floor, boxes = labelled
     frame = primary.frame
     h, w = frame.surface.shape

@@ -23,20 +23,24 @@ from .view import face_behind
 
 def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
                    polygons: np.ndarray | None = None,
-                   ws: RasterWorkspace | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   ws: RasterWorkspace | None = None,
+                   dtype=np.float64) -> tuple[np.ndarray, np.ndarray]:
     """(virtual (P, N, 3) world, flags (P, N)): row p is parts[p](points, polygons), the
     parts being one reflector's in one view. Stage by stage where they refine on one
     owner plane and ray grid with polygons given and maps built for their lookups (the
     technique's frames); else part by part. `ws`: a workspace to hold the arrays of the
     stages (tens of megabytes a frame: fresh, their page faults cost more than the work
-    in them) and the answers, valid until its next use; else fresh arrays."""
+    in them) and the answers, valid until its next use; else fresh arrays. `dtype`: the
+    virtual points' (float32: the answers rounded as the rasterizer's gather rounds them,
+    half the bytes)."""
     first = parts[0]
     if (polygons is None or first.grid is None or any(
             part.view.tiles is None or part.grid is not first.grid
             or part.view.owner is not first.view.owner or part.built is not None
             for part in parts)):
         answers = [part(points, polygons) for part in parts]
-        return np.stack([a for a, _ in answers]), np.stack([f for _, f in answers])
+        return (np.stack([a for a, _ in answers]).astype(dtype, copy=False),
+                np.stack([f for _, f in answers]))
     count = len(parts)
     n = len(points)
     points = np.ascontiguousarray(points, np.float64)
@@ -45,7 +49,7 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
                                     polygons, ws)
     rows, row_start, _ = rows_of(todo)  # each part's points to find, joined
     camera = first.camera
-    out = scratch(ws, "parts_out", (count, n, 3), np.float64)
+    out = scratch(ws, "parts_out", (count, n, 3), dtype)
     flags = scratch(ws, "parts_flags", (count, n), np.bool_)
     if rows.size:
         screen = first.view.points.of(points, first.clip_from_world, camera.width,

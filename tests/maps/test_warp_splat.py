@@ -227,12 +227,14 @@ def test_gather_and_fill_blend_match_twins():
             np.testing.assert_array_equal(save_rgb[want[3]], want[2][want[3]])
 
 
+@pytest.mark.parametrize("maps", [2, 6])
 @pytest.mark.parametrize("radius", [0, 1])
 @pytest.mark.parametrize("width", [4, 3, 5])
-def test_payload_rows_follow_the_ids_over_several_maps(radius, width):
-    """Two maps into one buffer (ids slot * stride + index, stride a power of two): every
+def test_payload_rows_follow_the_ids_over_several_maps(radius, width, maps):
+    """Several maps into one buffer (ids slot * stride + index, stride a power of two): every
     reached pixel's payload row is the row of its id's map and zexel (rows of the widths
-    the splat copies with a constant width, 3 and 4, and of another)."""
+    the splat copies with a constant width, 3 and 4, and of another; more maps than a
+    spread copies itself, MAPS_AT_ONCE, get theirs from the gather)."""
     shape = (16, 20)
     h, w = shape
     buffers = WarpBuffers(h, w)
@@ -241,7 +243,7 @@ def test_payload_rows_follow_the_ids_over_several_maps(radius, width):
     out = np.full((h, w, width), -5.0, np.float32)
     stride = 1 << (24 * 24 - 1).bit_length()
     payloads = []
-    for slot in range(2):
+    for slot in range(maps):
         sx, sy, z, mh, mw, _ = _zexels(slot + 30)
         payloads.append(np.random.default_rng(slot).random((sx.size, width)).astype(np.float32))
         splat_pixels(projection_of(sx, sy, z, mh, mw, shape), raster_runs(mh, mw), mw,
@@ -255,7 +257,7 @@ def test_payload_rows_follow_the_ids_over_several_maps(radius, width):
         ids = buffers.out_id
     reached = ids >= 0
     slots = ids[reached] // stride
-    assert set(slots) == {0, 1}
-    want = np.where((slots == 0)[:, None], payloads[0][ids[reached] % stride],
-                    payloads[1][ids[reached] % stride])
+    assert set(slots) == set(range(maps))
+    want = np.array([payloads[s][k] for s, k in zip(slots, ids[reached] % stride,
+                                                      strict=True)])
     np.testing.assert_array_equal(out[reached], want)

@@ -472,6 +472,7 @@ def test_planes_past_near_and_far_classify_each_triangle():
     inside it is simple (drawn by the fast path), one it cuts is clipped, one outside it
     culled. (A slip made every triangle 'cut' whenever a third plane was given: the same
     pixels, all drawn through the slow clipped path.)"""
+    from reflectcli.raster.rasterize.buffers import read_only
     from reflectcli.raster.rasterize.constants import _CHUNK, _CLIPPED, _CULLED, _SIMPLE
     from reflectcli.raster.rasterize.setup import _run_setup
 
@@ -487,9 +488,10 @@ def test_planes_past_near_and_far_classify_each_triangle():
     ints = np.zeros(22 * _CHUNK, np.int64)
     floats = np.zeros(8 * _CHUNK)
     status = np.zeros(_CHUNK, np.uint8)
-    kept = _run_setup(corners, np.zeros(3, np.uint8), np.eye(4), planes, 3, width, height,
-                      bits, float(1 << bits), 0, 0, height, 0, width, 0, 3, ints, floats,
-                      status)
+    # (read-only flags, as the draws hand them: no second signature of the kernel)
+    kept = _run_setup(corners, read_only(np.zeros(3, np.uint8)), np.eye(4), planes, 3, width,
+                      height, bits, float(1 << bits), 0, 0, height, 0, width, 0, 3, ints,
+                      floats, status)
     assert list(status[:3]) == [_SIMPLE, _CLIPPED, _CULLED]
     assert kept == 1 and ints[21 * _CHUNK] == 0  # the inside one listed for drawing
 

@@ -17,13 +17,14 @@ class _Lit:
     ambient = 0.1
     background = np.zeros(3, np.float32)
 
+    # (float32 arrays, as a built scene holds them: the kernels compile once)
     class materials:  # noqa: N801
         mat_i = np.zeros((1, 5), np.int32)
-        mat_f = np.array([[0.5, 0.5, 0.5, 0, 0, 0, 1, 1]], np.float64)
+        mat_f = np.array([[0.5, 0.5, 0.5, 0, 0, 0, 1, 1]], np.float32)
         texels = np.zeros((1, 3), np.float32)
 
     class lights:  # noqa: N801
-        light_f = np.array([[1, 0.0, -1.0, 0.0, 1.0, 1.0, 1.0]], np.float64)  # directional
+        light_f = np.array([[1, 0.0, -1.0, 0.0, 1.0, 1.0, 1.0]], np.float32)  # directional
 
     class mirrors:  # noqa: N801
         reflectance = np.zeros((0, 3), np.float32)

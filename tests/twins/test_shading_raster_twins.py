@@ -227,7 +227,7 @@ def test_shade_pass_recovering_barycentrics_matches_twin(seed):
     material = np.zeros(n_tri, np.int32)
     mat_i = np.zeros((1, 5), np.int32)
     mat_i[0, 0] = SOLID
-    mat_f = np.array([[0.7, 0.4, 0.2, 0, 0, 0, 1, 1]], np.float64)
+    mat_f = np.array([[0.7, 0.4, 0.2, 0, 0, 0, 1, 1]], np.float32)  # (a scene's dtype)
     texels = np.zeros((1, 3), np.float32)
     light_f = lights(rng)
     flags = np.zeros(n_tri, np.uint8)
@@ -256,7 +256,7 @@ def test_shade_pass_recovering_barycentrics_matches_twin(seed):
     # the stencilled kernel, unlit shading, per-pixel incoming rays and interpolated uvs
     # (a bilinear texture: smooth in uv) take the same recovering route
     mat_i = np.array([[SOLID, 0, 0, 0, 0], [TEXTURE, 0, 2, 2, 1]], np.int32)
-    mat_f = np.array([[0.7, 0.4, 0.2, 0, 0, 0, 1, 1], [0, 0, 0, 0, 0, 0, 1.5, 0.5]], np.float64)
+    mat_f = np.array([[0.7, 0.4, 0.2, 0, 0, 0, 1, 1], [0, 0, 0, 0, 0, 0, 1.5, 0.5]], np.float32)
     texels = rng.random((4, 3)).astype(np.float32)
     material = rng.integers(0, 2, n_tri).astype(np.int32)
     stencil = rng.random((H, W)) < 0.5
@@ -522,10 +522,11 @@ def test_rasterize_passes_are_the_passes_one_at_a_time(seed):
             want = np.where(alone.triangle >= 0, alone.triangle + s, -1).astype(np.int32)
             assert tri[mine].tobytes() == want[mine].tobytes()
             assert depth[mine].tobytes() == alone.depth[mine].tobytes()
-    # the same triangles as indices into shared points, gathered as they are drawn
-    points = corners.reshape(-1, 3).astype(np.float64)
+    # the same triangles as indices into shared points, gathered as they are drawn (float32
+    # points and int32 indices, as virtual's passes hand them)
+    points = corners.reshape(-1, 3).copy()
     hidden = rng.random(len(points)) < 0.1
-    index = np.arange(len(points)).reshape(-1, 3)
+    index = np.arange(len(points), dtype=np.int32).reshape(-1, 3)
     surface = np.where(flags & FLAG_MIRROR, 7, 3).astype(np.int32)
     out_corners = np.empty_like(corners)
     out_flags = np.empty_like(flags)

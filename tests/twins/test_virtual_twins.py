@@ -417,6 +417,11 @@ def test_parts_together_give_each_part_s_answers(threads):
             for p, (v, f) in enumerate(want):
                 assert virtual[p].tobytes() == v.tobytes()
                 assert flags[p].tobytes() == f.tobytes()
+        # in float32 (what the technique asks for, its draw's gather's rounding)
+        virtual, flags = parts_vertices(parts, tess.points, tess.corner_index, ws, np.float32)
+        for p, (v, f) in enumerate(want):
+            assert virtual[p].tobytes() == v.astype(np.float32).tobytes()
+            assert flags[p].tobytes() == f.tobytes()
     finally:
         numba.set_num_threads(before)
 

@@ -6,16 +6,21 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+# maps whose rows a spread copies itself (`_copy_zexel_rows`), handed as a tuple of this
+# many arrays whatever their count: one signature of the kernel for 1 to 4 maps
+MAPS_AT_ONCE = 4
+
 
 @njit(cache=True, inline="always")
-def _copy_zexel_rows(ids, rows, shift, dst, base):
+def _copy_zexel_rows(ids, rows, n_maps, shift, dst, base):
     """dst[base + i] = the row of zexel ids[i] from its map (ids slot << shift | index), for
-    the pixels of a row a zexel reached. One pass a map, each taking its map's array once:
-    a tuple indexed per pixel copies the array's handle (with its reference count) each
-    time, which cost more than the copy. With one map, every pixel gets a row, without a
-    branch (a pixel no zexel reached gets the first row, whose value does not matter)."""
+    the pixels of a row a zexel reached; `rows`: a tuple whose first n_maps arrays are the
+    maps' rows. One pass a map, each taking its map's array once: a tuple indexed per pixel
+    copies the array's handle (with its reference count) each time, which cost more than
+    the copy. With one map, every pixel gets a row, without a branch (a pixel no zexel
+    reached gets the first row, whose value does not matter)."""
     n = ids.shape[0]
-    if len(rows) == 1:
+    if n_maps == 1:
         src = rows[0]
         if src.shape[1] == 3:  # colour: flat, constant offsets
             s = src.reshape(-1)
@@ -30,7 +35,7 @@ def _copy_zexel_rows(ids, rows, shift, dst, base):
         for i in range(n):
             _copy_row(src, max(ids[i], 0), dst, base + i)
         return
-    for slot in range(len(rows)):
+    for slot in range(n_maps):
         src = rows[slot]
         for i in range(n):
             q = ids[i]

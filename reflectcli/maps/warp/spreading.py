@@ -10,7 +10,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from .payload import _copy_zexel_rows, _payload_args
+from .payload import MAPS_AT_ONCE, _copy_zexel_rows, _payload_args, gather_colors
 from .visibility import SAME_SURFACE
 
 # key of no zexel in `spread`: above every (depth bits, id) key, inf depths included
@@ -33,25 +33,34 @@ def spread(best_zd, best_id, radius: int, stencil, box, out_z, out_id, payloads=
     (inf / -1 off the stencil). `payloads`: per map (n, c) rows, ids slot * stride + index
     (stride a power of two); each pixel of the box gets its zexel's row in `payload_out`
     (H, W, c), so the one-pixel splat need not write rows (with one map every pixel gets
-    one, without a branch: pixels no zexel reached, or off the stencil, receive some row)."""
+    one, without a branch: pixels no zexel reached, or off the stencil, receive some row).
+    The kernel takes the maps' rows as MAPS_AT_ONCE arrays, whatever their count (a tuple
+    of each length compiled it again, a minute each); more maps than that get their rows
+    from `gather_colors` after the spread (the reached pixels' rows: the same bytes)."""
     x0, x1, y0, y1 = box
-    if payloads is None:
-        rows = (np.empty((0, 1), np.float32),)
-        pay_out = rows[0]
-    else:
-        rows = tuple(np.ascontiguousarray(p) for p in payloads)
+    with_payload = payloads is not None and len(payloads) <= MAPS_AT_ONCE
+    if with_payload:
+        rows = [np.ascontiguousarray(p) for p in payloads]
         _, pay_out = _payload_args(rows[0], payload_out)
+        n_maps = len(rows)
+    else:
+        rows = [np.empty((0, 1), np.float32)]
+        pay_out = rows[0]
+        n_maps = 1
+    rows = tuple(rows + rows[:1] * (MAPS_AT_ONCE - n_maps))  # the unused ones never read
     zd = np.ascontiguousarray(best_zd).reshape(-1)
     if bands is None:
         bands = max(1, numba.get_num_threads()) * 4
     _spread(zd, zd.view(np.int32), np.ascontiguousarray(best_id).reshape(-1), radius,
             stencil, x0, x1, y0, y1, best_id.shape[0], best_id.shape[1], out_z, out_id,
-            payloads is not None, rows, stride.bit_length() - 1, pay_out, bands)
+            with_payload, rows, n_maps, stride.bit_length() - 1, pay_out, bands)
+    if payloads is not None and not with_payload:
+        gather_colors(out_id, stride, list(payloads), box, payload_out)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _spread(zd, bits, idf, r, stencil, x0, x1, y0, y1, h, w, out_z, out_id, with_payload, rows,
-            shift, pay_out, bands):
+            n_maps, shift, pay_out, bands):
     # bands of rows, each run top to bottom with a ring of the 2r + 1 rows' keys around its
     # row (each pixel's key made once a band); a pixel's result depends on its square only
     for b in prange(bands):
@@ -62,18 +71,18 @@ def _spread(zd, bits, idf, r, stencil, x0, x1, y0, y1, h, w, out_z, out_id, with
         # the common radii as constants: their loops unroll
         if r == 1:
             _spread_band(zd, bits, idf, 1, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
-                         with_payload, rows, shift, pay_out)
+                         with_payload, rows, n_maps, shift, pay_out)
         elif r == 2:
             _spread_band_rings(zd, bits, idf, 2, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
-                               with_payload, rows, shift, pay_out)
+                               with_payload, rows, n_maps, shift, pay_out)
         else:
             _spread_band_rings(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
-                               with_payload, rows, shift, pay_out)
+                               with_payload, rows, n_maps, shift, pay_out)
 
 
 @njit(cache=True, inline="always")
 def _spread_band(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id, with_payload,
-                 rows, shift, pay_out):
+                 rows, n_maps, shift, pay_out):
     """Rows [ya, yb) of `spread`. Neighbours off the screen are replaced by the nearest pixel
     on it (clamped coordinates): a pixel counted twice changes no minimum."""
     xa = max(x0 - r, 0)
@@ -109,7 +118,7 @@ def _spread_band(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
         _spread_pick(own_z, idf[base:base + n], least, front,
                      stencil[y, x0:x1], out_z[y, x0:x1], out_id[y, x0:x1])
         if with_payload:  # each pixel's zexel's row from its map
-            _copy_zexel_rows(out_id[y, x0:x1], rows, shift, pay_out, base)
+            _copy_zexel_rows(out_id[y, x0:x1], rows, n_maps, shift, pay_out, base)
 
 
 @njit(cache=True, inline="always")
@@ -134,7 +143,7 @@ def _spread_pick(own_z, own, least, front, on, oz, oi):
 
 @njit(cache=True, inline="always")
 def _spread_band_rings(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, out_id,
-                       with_payload, rows, shift, pay_out):
+                       with_payload, rows, n_maps, shift, pay_out):
     """`_spread_band` for r > 1: a hole takes the least key of the smallest square around
     it whose least key is on the front surface (its own function: in `_spread_band` the
     squares' loop slows r = 1 by a fifth)."""
@@ -183,7 +192,7 @@ def _spread_band_rings(zd, bits, idf, r, stencil, x0, x1, ya, yb, h, w, out_z, o
         _spread_pick_ring(own_z, idf[base:base + n], pick, front, pick_z,
                           stencil[y, x0:x1], out_z[y, x0:x1], out_id[y, x0:x1])
         if with_payload:  # each pixel's zexel's row from its map
-            _copy_zexel_rows(out_id[y, x0:x1], rows, shift, pay_out, base)
+            _copy_zexel_rows(out_id[y, x0:x1], rows, n_maps, shift, pay_out, base)
 
 
 @njit(cache=True, inline="always")

@@ -6,7 +6,7 @@ import numba
 import numpy as np
 
 from ...camera import standard_planes
-from .buffers import RasterBuffers, RasterWorkspace, thread_buffers
+from .buffers import RasterBuffers, RasterWorkspace, read_only, thread_buffers
 from .constants import _CHUNK, _MAX_PLANES, CULL_NONE
 from .draw import _draw
 from .fixed import guarded_planes
@@ -51,7 +51,7 @@ def rasterize(
     assert planes.shape[0] <= _MAX_PLANES
     all_planes, bits = guarded_planes(planes, width, height)
     corners = np.ascontiguousarray(corners, dtype=np.float32)
-    flags = np.ascontiguousarray(flags, dtype=np.uint8)
+    flags = read_only(flags)  # (one signature of the kernels: `read_only`)
     m = np.ascontiguousarray(clip_from_world, dtype=np.float64)
     if ws.outputs:
         tri = ws.get("tri", (height, width), np.int32)

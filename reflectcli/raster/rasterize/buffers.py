@@ -139,3 +139,15 @@ def thread_buffers(ws: RasterWorkspace, threads: int, rows: int,
     padded = (max(rows, 0) + 1, max(cols, 0) + _NARROW - 1)
     return (ws.get("own_tri", (threads, *padded), np.int32),
             ws.get("own_key", (threads, *padded), np.float32))
+
+
+def read_only(flags: np.ndarray) -> np.ndarray:
+    """`flags` as the kernels take them (`_draw`, `_draw_passes`, `_run_setup`, `_resolve`):
+    uint8, contiguous and read-only (a view when it is writable). numba compiles a kernel
+    again for each of a read-only and a writable array (a minute and a half for `_draw`),
+    and the primary pass's flags are kept read-only (raster/closed.py): all of them so."""
+    flags = np.ascontiguousarray(flags, dtype=np.uint8)
+    if flags.flags.writeable:
+        flags = flags.view()
+        flags.flags.writeable = False
+    return flags

@@ -82,11 +82,12 @@ def _draw(corners, flags, m, planes, n_cut, width, height, bits, cull, chunks, b
                 for j in range(count):
                     if st[j] == _CLIPPED:
                         t = t0 + j
+                        # (want -1 as an int64, not a constant: the passes' signature)
                         _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
                                       else 1.0, m, planes, width, height, bits,
                                       triangle_cull(flags[t], cull), scale, xyw[me], top,
                                       bottom, col0, col1, stencil, use_stencil, floor,
-                                      use_floor, tri, key, top, col0, -1)
+                                      use_floor, tri, key, top, col0, np.int64(-1))
 
 
 @njit(cache=True, inline="always", error_model="numpy")

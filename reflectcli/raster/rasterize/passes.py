@@ -12,7 +12,7 @@ from numba import njit, prange
 from ...camera import standard_planes
 from ...parallel import claim, counter
 from ...scene.types import MIRROR_TIE
-from .buffers import RasterBuffers, RasterWorkspace, thread_buffers
+from .buffers import RasterBuffers, RasterWorkspace, read_only, thread_buffers
 from .constants import _CHUNK, _CLIPPED, _MAX_POLY, CULL_NONE, FLAG_MIRROR
 from .draw import _draw_clipped, _fill_listed
 from .fixed import guarded_planes
@@ -39,10 +39,11 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, clip_from_world: np
     the workspace's (outputs=True) and are set only inside the passes' common box; read
     them only on the labelled pixels.
 
-    `gather` (points (N, 3) float64, hidden (N,) bool, corner_index (T, 3), surface (T,),
-    n_objects): the triangles as indices into shared points, `corners` and `flags` then
-    the arrays to gather them into (`gather_triangle`) as each run is drawn: no pass of
-    its own over the triangles, and no parallel region of its own.
+    `gather` (points (N, 3) float32, hidden (N,) bool, corner_index (T, 3) int32, surface
+    (T,), n_objects): the triangles as indices into shared points, `corners` and `flags`
+    then the arrays to gather them into (`gather_triangle`) as each run is drawn: no pass
+    of its own over the triangles, and no parallel region of its own. (Virtual's passes
+    hand those dtypes: other ones compile the kernel again.)
 
     Returns the RasterBuffers; with `resolve` False, (buffers, pending): the threads'
     buffers are not merged here, and `pending` is what `shade_buffers(pending=...)` needs
@@ -52,15 +53,21 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, clip_from_world: np
     assert ws.outputs and boxes.shape[0] <= MAX_PASSES
     planes = standard_planes()
     all_planes, bits = guarded_planes(planes, width, height)
+    # the kernels read the flags read-only (`read_only`: one signature for `_run_setup` and
+    # `_resolve` with `rasterize`'s); the gather writes them through `written`, the same
+    # memory
     if gather is None:
         corners = np.ascontiguousarray(corners, dtype=np.float32)
-        flags = np.ascontiguousarray(flags, dtype=np.uint8)
-        points, hidden = np.zeros((1, 3)), np.zeros(1, np.bool_)
-        corner_index, surface, n_objects = np.zeros((1, 3), np.int64), np.zeros(1, np.int32), 0
+        flags = read_only(flags)
+        written = np.zeros(1, np.uint8)  # never written: no gather
+        points, hidden = np.zeros((1, 3), np.float32), np.zeros(1, np.bool_)
+        corner_index, surface, n_objects = np.zeros((1, 3), np.int32), np.zeros(1, np.int32), 0
     else:
         points, hidden, corner_index, surface, n_objects = gather
         assert corners.dtype == np.float32 and flags.dtype == np.uint8
         assert corners.flags.c_contiguous and corners.shape[0] == corner_index.shape[0]
+        assert flags.flags.c_contiguous and flags.flags.writeable
+        written, flags = flags, read_only(flags)
     m = np.ascontiguousarray(clip_from_world, dtype=np.float64)
     tri = ws.get("tri", (height, width), np.int32)
     depth = ws.get("depth", (height, width), np.float32)
@@ -74,7 +81,7 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, clip_from_world: np
     drew = np.zeros(threads, np.bool_)
     floor = (ws.constant("floor", (1, 1), np.float32, 0.0) if depth_floor is None
              else np.ascontiguousarray(depth_floor, dtype=np.float32))
-    _draw_passes(corners, flags, m, all_planes, planes.shape[0], width, height, bits,
+    _draw_passes(corners, flags, written, m, all_planes, planes.shape[0], width, height, bits,
                  np.ascontiguousarray(starts, np.int64), boxes,
                  np.ascontiguousarray(labels, np.uint8), floor, depth_floor is not None,
                  y0, x0, own_tri, own_key, drew, gather is not None, points, hidden,
@@ -87,15 +94,16 @@ def rasterize_passes(corners: np.ndarray, flags: np.ndarray, clip_from_world: np
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, boxes, labels,
-                 floor, use_floor, top, col0, own_tri, own_key, drew, gather, points, hidden,
-                 corner_index, surface, n_objects):
+def _draw_passes(corners, flags, written, m, planes, n_cut, width, height, bits, starts, boxes,
+                 labels, floor, use_floor, top, col0, own_tri, own_key, drew, gather, points,
+                 hidden, corner_index, surface, n_objects):
     """`_draw` for several passes: runs of _CHUNK triangles within one pass (a run never
     spans two), claimed by whichever thread is free, each set up against its pass's box and
     filled where the label is its pass's, into per-thread buffers holding the passes'
     common box (corner top, col0). Who drew what never matters (see `_draw`). `gather`:
     each run's corners and flags are first gathered (`gather_triangle`) by the thread
-    drawing it."""
+    drawing it, the flags through `written` (writable; `flags`, read-only, is a view of
+    the same memory, which the draw reads)."""
     passes = starts.shape[0] - 1
     first = np.empty(passes + 1, np.int64)  # each pass's first run (np.zeros: a parallel loop)
     first[0] = 0
@@ -108,6 +116,10 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
     status = np.empty((threads, _CHUNK), np.uint8)
     chosen = np.empty((threads, 4 * _CHUNK), np.int64)
     xyw = np.empty((threads, _MAX_POLY, 3))
+    # as run-time values, not constants: `_run_setup` and `_draw_clipped` then take the
+    # types `_draw` hands them (a constant compiled each a second time)
+    cull = np.int64(CULL_NONE)
+    use_stencil = np.bool_(True)
     claimed = counter()
     for me in prange(threads):
         p = 0
@@ -132,9 +144,9 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
             if gather:
                 for t in range(t0, t0 + count):
                     gather_triangle(points, hidden, corner_index, surface, n_objects, corners,
-                                    flags, t)
+                                    written, t)
             kept = _run_setup(corners, flags, m, planes, n_cut, width, height, bits, scale,
-                              CULL_NONE, row0, row1, c0, c1, t0, count,
+                              cull, row0, row1, c0, c1, t0, count,
                               work_i[me], work_f[me], status[me])
             ints = work_i[me]
             floats = work_f[me]
@@ -151,6 +163,6 @@ def _draw_passes(corners, flags, m, planes, n_cut, width, height, bits, starts, 
                         t = t0 + j
                         _draw_clipped(corners, t, 1.0 / MIRROR_TIE if flags[t] & FLAG_MIRROR
                                       else 1.0, m, planes, width, height, bits,
-                                      triangle_cull(flags[t], CULL_NONE), scale, xyw[me],
-                                      row0, row1, c0, c1, labels, True, floor, use_floor,
-                                      tri, key, top, col0, want)
+                                      triangle_cull(flags[t], cull), scale, xyw[me],
+                                      row0, row1, c0, c1, labels, use_stencil, floor,
+                                      use_floor, tri, key, top, col0, want)

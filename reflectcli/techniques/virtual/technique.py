@@ -221,8 +221,9 @@ class Virtual(Technique):
                 seconds["maps"] += time.perf_counter() - t_start
                 explosion, labelled = group
                 t0 = time.perf_counter()
+                # float32: what the draw's gather reads (one signature of its kernel)
                 virtual, hidden = parts_vertices(explosion, tess.points, tess.corner_index,
-                                                 ws)
+                                                 ws, np.float32)
                 t1 = time.perf_counter()
                 draw_parts(scene, primary, camera.eye, clip_from_world, k, tess,
                            state.part_passes.get(tess, len(explosion)), labelled, virtual,
