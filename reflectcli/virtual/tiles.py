@@ -115,6 +115,9 @@ class PartTiles:
         seeds of the points needed but reached by none (_scan)."""
         n = points.shape[0]
         points = np.ascontiguousarray(points, np.float64)
+        if points.flags.writeable:  # read-only, as a tessellation's points: the kernels
+            points = points.view()  # compile once (a writable array is a second signature)
+            points.flags.writeable = False
         reach = np.zeros(n, np.bool_)
         seeds = np.full((n, 2), np.nan)
         if polygons is None:

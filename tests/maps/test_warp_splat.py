@@ -195,8 +195,8 @@ def test_gather_and_fill_blend_match_twins():
     stencil = rng.random((h, w)) < 0.7
     background = np.array([0.1, 0.2, 0.3], np.float32)
     reflectance = np.array([0.9, 0.8, 0.7], np.float32)
-    # (strided: reflected and rgb as the first three channels of RGBA frames, as dprm has
-    # them)
+    # (strided: reflected as the first three channels of colour-and-triangle rows, as dprm's
+    # surface reconstruction has them; the frame's rgb is (H, W, 3))
     for has_prev, temporal, strided in ((False, True, False), (True, True, False),
                                         (False, False, False), (False, False, True)):
         reflected = rng.random((h, w, 3)).astype(np.float32)
@@ -212,9 +212,6 @@ def test_gather_and_fill_blend_match_twins():
         if strided:
             got_reflected = np.zeros((h, w, 4), np.float32)[:, :, :3]
             got_reflected[...] = reflected
-            rgb_frame = np.zeros((h, w, 4), np.float32)
-            rgb_frame[:, :, :3] = rgb
-            rgb = rgb_frame[:, :, :3]
         fill_blend(stencil, best_id, got_reflected, has_prev, prev_rgb, prev_filled, temporal,
                    save_rgb, save_filled, background, reflectance, rgb, holes)
         np.testing.assert_allclose(rgb, want[0], rtol=1e-6, atol=1e-7)

@@ -293,6 +293,7 @@ def test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them():
     centres = rng.normal(size=(24, 3)) * 3.0
     pts = np.concatenate([c + rng.normal(size=(128, 3)) * 10.0 ** rng.uniform(-4, -1)
                           for c in centres])
+    pts.flags.writeable = False  # as PartTiles.scan hands them (the kernels' one signature)
     rows = np.arange(len(pts))
     args = (part.center, part.radius, part.axis, part.half, part.pixel, part.margin, q, r)
     want_reach, want_seeds = np.zeros(len(pts), bool), np.full((len(pts), 2), np.nan)
