@@ -66,8 +66,8 @@ def _on_one_side(boxes: np.ndarray, plane: np.ndarray) -> np.ndarray:
         return (at - spread > margin) | (at + spread < -margin)
 
 
-def flagged(tris: Triangles, piece: np.ndarray | None, hidden: np.ndarray | None,
-            flags: np.ndarray, flag: int) -> np.ndarray:
+def flagged(piece: np.ndarray | None, hidden: np.ndarray | None, flags: np.ndarray,
+            flag: int) -> np.ndarray:
     """`flags` with `flag` added on the triangles of the pieces `hidden` marks (a new
     array; `flags` itself when none)."""
     if hidden is None or piece is None or not hidden.any():
@@ -84,7 +84,7 @@ def primary_flags(tris: Triangles, n_objects: int, piece: np.ndarray | None,
     faces). Both read-only."""
     mirror = (tris.surface >= n_objects).astype(np.uint8) * np.uint8(FLAG_MIRROR)
     mirror.flags.writeable = False
-    draw = flagged(tris, piece, hidden, mirror, FLAG_CULL_BACK)
+    draw = flagged(piece, hidden, mirror, FLAG_CULL_BACK)
     draw.flags.writeable = False
     return mirror, draw
 
@@ -122,7 +122,7 @@ def reflection_pass_flags(geometry: Geometry, flags: np.ndarray, mirror_surface:
 
     def make() -> tuple[np.ndarray, np.ndarray]:
         own = np.where(tris.surface == mirror_surface, FLAG_SKIP, 0).astype(np.uint8)
-        out = flagged(tris, geometry.closed_piece, hidden, flags | own,
+        out = flagged(geometry.closed_piece, hidden, flags | own,
                       FLAG_CULL_FRONT if odd else FLAG_CULL_BACK)
         out.flags.writeable = False
         return out, flags  # `flags` held: its id in the key stays its own

@@ -19,7 +19,7 @@ from ..config.scene import SceneConfig
 from ..errors import Problem, Problems
 from ..geometry import trs_matrix
 from . import primitives
-from .mesh import Mesh
+from .mesh import Mesh, joined_pieces
 from .mesh_file import cached_mesh_file as _mesh_file
 from .mesh_file import resolve
 from .mirrors import extrusion_profile, mirror_corners, mirror_mesh, mirror_plane
@@ -125,11 +125,8 @@ def _joined_pieces(parts: list[Pieces]) -> tuple[np.ndarray | None, np.ndarray |
     ids renumbered after the ones before; (None, None) without any piece."""
     if not any(len(p.boxes) for p in parts):
         return None, None
-    ids, first = [], 0
-    for p in parts:
-        ids.append(np.where(p.ids >= 0, p.ids + first, -1).astype(np.int32))
-        first += len(p.boxes)
-    return np.concatenate(ids), np.concatenate([p.boxes for p in parts])
+    return (joined_pieces([(p.ids, len(p.boxes), len(p.ids)) for p in parts]),
+            np.concatenate([p.boxes for p in parts]))
 
 
 def transform_at(obj, frame_index: int) -> np.ndarray:

@@ -98,15 +98,8 @@ class Mesh:
             return Mesh(empty3, np.zeros((0, 3, 2)), empty3.copy())
         pieces = None
         if any(m.pieces is not None for m in meshes):
-            # each mesh's pieces renumbered after the ones before it
-            parts, first = [], 0
-            for m in meshes:
-                if m.pieces is None:
-                    parts.append(np.full(m.triangle_count, -1, np.int32))
-                    continue
-                parts.append(np.where(m.pieces >= 0, m.pieces + first, -1).astype(np.int32))
-                first += m.piece_count
-            pieces = np.concatenate(parts)
+            pieces = joined_pieces([(m.pieces, m.piece_count, m.triangle_count)
+                                    for m in meshes])
         return Mesh(
             np.concatenate([m.corners for m in meshes]),
             np.concatenate([m.uvs for m in meshes]),
@@ -122,3 +115,17 @@ class Mesh:
         length = np.linalg.norm(n, axis=1, keepdims=True)
         n = n / np.where(length > 0, length, 1.0)
         return Mesh(corners, np.asarray(uvs, dtype=np.float64), np.repeat(n[:, None, :], 3, axis=1))
+
+
+def joined_pieces(parts: list[tuple[np.ndarray | None, int, int]]) -> np.ndarray:
+    """(T,) int32 piece ids of parts (ids (T_i,) or None for no piece, piece count, triangle
+    count) concatenated in order, each part's ids renumbered after the ones before (-1
+    stays -1)."""
+    ids, first = [], 0
+    for part, count, triangles in parts:
+        if part is None:
+            ids.append(np.full(triangles, -1, np.int32))
+        else:
+            ids.append(np.where(part >= 0, part + first, -1).astype(np.int32))
+        first += count
+    return np.concatenate(ids) if ids else np.zeros(0, np.int32)

@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..parallel import claim, counter
-from ..raster.rasterize.buffers import scratch
+from ..raster.rasterize.buffers import read_only, scratch
 
 
 class PartTiles:
@@ -114,10 +114,8 @@ class PartTiles:
         tiles whose cone holds none of them, _scan_reached); then, among all tiles, the
         seeds of the points needed but reached by none (_scan)."""
         n = points.shape[0]
-        points = np.ascontiguousarray(points, np.float64)
-        if points.flags.writeable:  # read-only, as a tessellation's points: the kernels
-            points = points.view()  # compile once (a writable array is a second signature)
-            points.flags.writeable = False
+        # read-only, as a tessellation's points: the kernels compile once
+        points = read_only(points, np.float64)
         reach = np.zeros(n, np.bool_)
         seeds = np.full((n, 2), np.nan)
         if polygons is None:

@@ -141,13 +141,13 @@ def thread_buffers(ws: RasterWorkspace, threads: int, rows: int,
             ws.get("own_key", (threads, *padded), np.float32))
 
 
-def read_only(flags: np.ndarray) -> np.ndarray:
-    """`flags` as the kernels take them (`_draw`, `_draw_passes`, `_run_setup`, `_resolve`):
-    uint8, contiguous and read-only (a view when it is writable). numba compiles a kernel
-    again for each of a read-only and a writable array (a minute and a half for `_draw`),
-    and the primary pass's flags are kept read-only (raster/closed.py): all of them so."""
-    flags = np.ascontiguousarray(flags, dtype=np.uint8)
-    if flags.flags.writeable:
-        flags = flags.view()
-        flags.flags.writeable = False
-    return flags
+def read_only(array: np.ndarray, dtype=np.uint8) -> np.ndarray:
+    """`array` contiguous, of `dtype` (default: the rasterizer flags' uint8) and read-only
+    (a view when it is writable), as kernels that also get kept read-only arrays take it:
+    numba compiles a kernel again for each of a read-only and a writable array (a minute
+    and a half for `_draw`, whose primary-pass flags are kept read-only: raster/closed.py)."""
+    array = np.ascontiguousarray(array, dtype=dtype)
+    if array.flags.writeable:
+        array = array.view()
+        array.flags.writeable = False
+    return array
