@@ -10,6 +10,8 @@ from typing import Protocol
 
 import numpy as np
 
+from ..camera import Camera
+from ..raster.closed import hidden_back_faces
 from ..scene.types import Geometry, Triangles
 from .tessellation import Tessellation, concatenate_tessellations, tessellate
 
@@ -33,13 +35,17 @@ class ReflectedCache:
     balls: dict = field(default_factory=dict)  # (geometry key, reflector) -> ball
 
     def get(self, geometry: Geometry, n_objects: int, k: int, rule: TessellationRule,
-            weld: bool = False, closed: tuple[int, ...] = ()) -> Tessellation:
-        """Everything but reflector k (scene surface id n_objects + k), tessellated for it.
-        `weld`: a new entry's equal points merged (`welded`: for vertex functions of one
-        point at a time), asked for by `prepare`, where one-time work belongs; an entry
-        already kept is returned as it is. `closed`: surface ids of other mirrors that are
-        closed convex surfaces (spheres), whose faces turned away from the whole reflector
-        are left out (`turned_away`)."""
+            weld: bool = False, inside: tuple[int, ...] = (),
+            exact: bool = True) -> Tessellation:
+        """Everything but reflector k (scene surface id n_objects + k), tessellated for it,
+        without the faces of closed pieces turned away from the whole reflector
+        (`turned_away`) but those of the pieces `inside` (ids of the pieces whose box holds
+        the eye: `pieces_holding_eye`); with `exact` False, of the other mirrors' pieces
+        only (explosion parts: their virtual objects are approximate, and have cracks along
+        creases that the objects' back faces happen to cover; on the mask at 512 px,
+        dropping those faces made 30 mirror pixels worse). `weld`: a new entry's equal points merged
+        (`welded`: for vertex functions of one point at a time), asked for by `prepare`,
+        where one-time work belongs; an entry already kept is returned as it is."""
         sid = n_objects + k
         # the reflector's radius about its corner mean scales the edge limits
         center, radius = self.ball(geometry, n_objects, k)
@@ -49,12 +55,14 @@ class ReflectedCache:
         # a fine mesh (a sphere of 48 segments) gains nothing from n x n more: its triangles
         # are split only as far as edges of min_edge_radii reflector radii
         min_edge = (rule.min_edge_radii or 0.0) * radius
-        key = (geometry.key, k, rule.subdivisions, max_edge, min_edge, closed)
+        key = (geometry.key, k, rule.subdivisions, max_edge, min_edge, inside, exact)
         if key not in self.entries:
             if len(self.entries) > CACHE_SIZE:
                 self.entries.clear()
-            drop = (turned_away(geometry.all_triangles(), closed, center, radius) if closed
-                    else None)
+            tris = geometry.all_triangles()
+            drop = turned_away(tris, geometry.closed_piece, inside, center, radius)
+            if not exact:
+                drop &= tris.surface >= n_objects
             tess = reflected_objects(geometry, n_objects, sid, rule.subdivisions, max_edge,
                                      min_edge, drop)
             self.entries[key] = welded(tess) if weld else tess
@@ -79,15 +87,16 @@ def reflected_objects(geometry: Geometry, n_objects: int, sid: int, subdivisions
                       max_edge: float | None, min_edge: float,
                       drop: np.ndarray | None = None) -> Tessellation:
     """Objects tessellated n x n and by edge length; other mirrors (seen with their base
-    color only) are already fine meshes and keep their triangles, but those `drop` (T,)
-    marks, if given."""
+    color only) are already fine meshes and keep their triangles; the triangles `drop`
+    (T,) marks, if given, left out of both."""
     tris = geometry.all_triangles()
+    objects = tris.surface < n_objects
     others = (tris.surface >= n_objects) & (tris.surface != sid)
     if drop is not None:
+        objects &= ~drop
         others &= ~drop
     parts = []
-    for keep, n, edge in ((tris.surface < n_objects, subdivisions, max_edge),
-                          (others, 1, None)):
+    for keep, n, edge in ((objects, subdivisions, max_edge), (others, 1, None)):
         parts.append(tessellate(Triangles(*(a[keep] for a in (
             tris.corners, tris.uvs, tris.normals, tris.material, tris.surface))),
             n, edge, min_edge))
@@ -115,30 +124,42 @@ def welded(tess: Tessellation) -> Tessellation:
 BALL_MARGIN = 0.05
 
 
-def turned_away(tris: Triangles, closed: tuple[int, ...], center: np.ndarray,
-                radius: float) -> np.ndarray:
-    """(T,) bool: the triangles of the surfaces `closed` (each a closed convex mesh: its
-    faces' outer side is the one away from its corners' mean) whose plane has the ball
-    (center, radius, world; grown by BALL_MARGIN) wholly on its inner side.
+def pieces_holding_eye(geometry: Geometry, camera: Camera) -> tuple[int, ...]:
+    """Ids of the closed pieces whose box, widened by the near plane's reach, holds the
+    eye: `turned_away` may not drop their faces. Usually none (the key prepare's
+    tessellations are made with)."""
+    outside = hidden_back_faces(geometry, camera)
+    if outside is None:  # no piece, or none seen from outside
+        boxes = geometry.closed_boxes
+        return () if boxes is None else tuple(range(len(boxes)))
+    return tuple(np.flatnonzero(~outside).tolist())
 
-    No point of the reflector sees such a face's outer side, and its inner side only
-    through the rest of its closed surface, which lies in front: the face is never
-    reflected. Other mirrors show their flat base color, so only the surface's outline
-    could tell, and a face turned away from the whole reflector is not on it. On
-    four-spheres a sphere sees about half of each other sphere's 3,968 faces so."""
+
+def turned_away(tris: Triangles, piece: np.ndarray | None, inside: tuple[int, ...],
+                center: np.ndarray, radius: float) -> np.ndarray:
+    """(T,) bool: the triangles of closed pieces (`piece` (T,), -1: open; Mesh.pieces:
+    each piece closes outward, its faces wound counter-clockwise seen from outside) but
+    those `inside`, whose plane has the reflector's ball (center, radius, world; grown by
+    BALL_MARGIN) wholly on its inner side.
+
+    No reflector point the eye sees lies inside a piece whose box does not hold the eye
+    (the eye ray to it would enter the piece first), and a ray from a point outside a
+    closed piece meets one of its inner sides only after entering it through a face turned
+    toward the ray: a face whose plane hides the whole ball from its outer side is never
+    the first hit of a reflected ray. On four-spheres a sphere sees about half of each
+    other sphere's 3,968 faces so, and the tabletop's underside and the legs' far sides
+    not at all."""
     out = np.zeros(tris.count, bool)
+    if piece is None:
+        return out
+    mine = np.flatnonzero((piece >= 0) & ~np.isin(piece, np.asarray(inside, np.int64)))
+    if not mine.size:
+        return out
+    c = tris.corners[mine].astype(np.float64)
+    n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])  # outward (counter-clockwise)
+    length = np.linalg.norm(n, axis=1)
+    ok = length > 0.0
+    n[ok] /= length[ok, None]
     grown = radius * (1.0 + BALL_MARGIN)
-    for surface in closed:
-        mine = np.flatnonzero(tris.surface == surface)
-        if not mine.size:
-            continue
-        c = tris.corners[mine].astype(np.float64)
-        n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
-        length = np.linalg.norm(n, axis=1)
-        ok = length > 0.0
-        n[ok] /= length[ok, None]
-        inward = np.einsum("ij,ij->i", n, c.reshape(-1, 3).mean(axis=0) - c[:, 0]) > 0.0
-        n[inward] *= -1.0
-        out[mine] = ok & (np.einsum("ij,ij->i", n, center - c[:, 0]) + grown < 0.0)
+    out[mine] = ok & (np.einsum("ij,ij->i", n, center - c[:, 0]) + grown < 0.0)
     return out
-

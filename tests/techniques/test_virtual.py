@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from conftest import open_scene, psnr, render_frame
@@ -572,10 +574,10 @@ def test_welded_tessellation_gives_the_same_virtual_corners():
     scene, state = opened.scene, opened.prepare()
     geometry = scene.geometry(0)
     rule = opened.technique.params.tessellation
-    tess = state.reflected.get(geometry, scene.n_objects, 0, rule, closed=state.closed)
+    tess = state.reflected.get(geometry, scene.n_objects, 0, rule)
     key = next(k for k in state.reflected.entries if k[1] == 0)
-    # as prepare made it: the other spheres' faces turned away from this one left out
-    drop = turned_away(geometry.all_triangles(), state.closed,
+    # as prepare made it: the closed pieces' faces turned away from this sphere left out
+    drop = turned_away(geometry.all_triangles(), geometry.closed_piece, (),
                        *state.reflected.ball(geometry, scene.n_objects, 0))
     culled = reflected_objects(geometry, scene.n_objects, scene.n_objects,
                                rule.subdivisions, *key[3:5], drop)
@@ -602,38 +604,75 @@ def test_welded_tessellation_gives_the_same_virtual_corners():
     assert isinstance(explosion.technique, Virtual)
     made = set(ex_state.reflected.entries)
     kept = ex_state.reflected.get(explosion.scene.geometry(0), scene.n_objects, 0,
-                                  explosion.technique.params.tessellation,
-                                  closed=ex_state.closed)
+                                  explosion.technique.params.tessellation, exact=False)
     assert set(ex_state.reflected.entries) == made  # the entry prepare made, not a new one
-    assert len(kept.points) == len(culled.points)
+    # its objects' faces all kept (only the other mirrors' turned away left out)
+    mirrors_only = reflected_objects(geometry, scene.n_objects, scene.n_objects,
+                                     rule.subdivisions, *key[3:5],
+                                     drop & (geometry.all_triangles().surface
+                                             >= scene.n_objects))
+    assert len(kept.points) == len(mirrors_only.points) > len(culled.points)
 
 
-@pytest.mark.parametrize("scene", ["four-spheres", "four-spheres-lit"])
-def test_faces_turned_away_from_the_reflector_change_no_pixel(scene):
-    """prepare leaves out the other spheres' faces turned away from a whole reflector
-    (reflected.turned_away): the frame is the same bytes as with every face reflected, with
-    far fewer virtual triangles and searches."""
-    overrides = ["camera.width=256", "camera.height=256"]
-    culled = open_scene(scene, "virtual", overrides)
-    frame = culled.render_frame(0)
-    every = open_scene(scene, "virtual", overrides)
-    state = every.prepare()
-    state.__dict__["closed"] = ()  # the cached property: no closed surfaces
-    state.reflected.entries.clear()
-    for k in range(every.scene.mirrors.count):  # re-made (and welded) as prepare would
-        state.reflected.get(every.scene.geometry(0), every.scene.n_objects, k,
-                            every.technique.params.tessellation, weld=True)
-    full = every.render_frame(0)
-    assert frame.rgb.tobytes() == full.rgb.tobytes()
-    assert frame.surface.tobytes() == full.surface.tobytes()
-    assert frame.stats["virtual_triangles"] < 0.8 * full.stats["virtual_triangles"]
-    assert frame.stats["virtual_vertices"] < 0.85 * full.stats["virtual_vertices"]
+def _with_and_without_turned_away(scene, overrides, monkeypatch):
+    """(frame, frame with every face reflected) of virtual at 256 px."""
+    import reflectcli.virtual.reflected as reflected
+
+    size = ["camera.width=256", "camera.height=256", *overrides]
+    culled = open_scene(scene, "virtual", size).render_frame(0)
+    with monkeypatch.context() as patch:
+        patch.setattr(reflected, "turned_away", lambda tris, *args: np.zeros(tris.count, bool))
+        full = open_scene(scene, "virtual", size).render_frame(0)
+    return culled, full
+
+
+@pytest.mark.parametrize(("scene", "overrides"), [
+    ("four-spheres", ()), ("four-spheres-lit", ()),
+    ("four-spheres", ('technique.reflector_test="clip_planes"',)),
+])
+def test_faces_turned_away_from_a_sphere_leave_its_reflection_closer_to_raytrace(
+        scene, overrides, monkeypatch):
+    """prepare leaves out the closed pieces' faces turned away from a whole sphere
+    (reflected.turned_away: the other spheres' far sides, the tabletop's underside, the
+    legs' far sides): far fewer virtual triangles and searches. The few pixels that change
+    are where a far side's virtual triangle, drawn, poked past its piece's front faces
+    (the tabletop's edge, 14 of 65,536 pixels): there the frame is nearer the ray tracer,
+    which never sees a far side."""
+    culled, full = _with_and_without_turned_away(scene, overrides, monkeypatch)
+    truth = open_scene(scene, "raytrace", ["camera.width=256", "camera.height=256",
+                                           "technique.max_depth=1"]).render_frame(0)
+    changed = (culled.rgb != full.rgb).any(axis=2)
+    assert changed.sum() <= 32
+    error = np.abs(culled.rgb - truth.rgb).sum(axis=2)
+    error_full = np.abs(full.rgb - truth.rgb).sum(axis=2)
+    assert error[changed].sum() < 0.5 * error_full[changed].sum()
+    mirror = culled.mirror_mask
+    assert psnr(culled.rgb[mirror], truth.rgb[mirror]) > psnr(full.rgb[mirror],
+                                                               truth.rgb[mirror])
+    assert culled.stats["virtual_triangles"] < 0.75 * full.stats["virtual_triangles"]
+    assert culled.stats["virtual_vertices"] < 0.8 * full.stats["virtual_vertices"]
+
+
+@pytest.mark.parametrize(("scene", "fewer"), [("cylinder", True), ("tv-extrusion", True),
+                                              ("mask", False)])
+def test_faces_turned_away_change_no_pixel(scene, fewer, monkeypatch):
+    """Where no far side pokes past a front face, leaving the faces turned away out
+    changes no pixel (cylinder, tv-extrusion: the extrusion method). Explosion parts keep
+    the objects' faces (their approximate virtual objects have cracks the far sides happen
+    to cover): the mask's tessellation is every triangle."""
+    culled, full = _with_and_without_turned_away(scene, (), monkeypatch)
+    assert culled.rgb.tobytes() == full.rgb.tobytes()
+    assert culled.surface.tobytes() == full.surface.tobytes()
+    if fewer:
+        assert culled.stats["virtual_triangles"] < 0.97 * full.stats["virtual_triangles"]
+    else:
+        assert culled.stats["virtual_triangles"] == full.stats["virtual_triangles"]
 
 
 def test_turned_away_marks_faces_whose_plane_hides_the_whole_ball():
     """A closed sphere mesh beside a ball: a face is marked exactly when the ball lies
-    wholly behind its plane (outward: away from the mesh's corner mean); other surfaces
-    are never marked."""
+    wholly behind its plane (outward: its winding, counter-clockwise from outside); open
+    triangles and the pieces the eye is inside are never marked."""
     from reflectcli.scene.types import Triangles
     from reflectcli.virtual.reflected import BALL_MARGIN, turned_away
 
@@ -643,16 +682,41 @@ def test_turned_away_marks_faces_whose_plane_hides_the_whole_ball():
     tris = Triangles(corners, np.zeros((2 * n, 3, 2), np.float32),
                      np.zeros((2 * n, 3, 3), np.float32), np.zeros(2 * n, np.int32),
                      np.repeat(np.array([7, 3], np.int32), n))
+    piece = np.repeat(np.array([0, -1], np.int32), n)
     center, radius = np.array([3.0, 0.5, 0.0]), 0.6
-    got = turned_away(tris, (7,), center, radius)
-    assert not got[n:].any()  # surface 3 is not closed here
+    got = turned_away(tris, piece, (), center, radius)
+    assert not got[n:].any()  # the second mesh is open here
     c = corners[:n].astype(np.float64)
     normal = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
     normal /= np.linalg.norm(normal, axis=1)[:, None]
-    normal *= np.sign(np.einsum("ij,ij->i", normal, c[:, 0]))[:, None]  # outward
+    # the winding's normal is the outward one (away from the center)
+    assert (np.einsum("ij,ij->i", normal, c[:, 0]) > 0.0).all()
     gap = np.einsum("ij,ij->i", normal, center - c[:, 0])  # the ball center above the plane
     np.testing.assert_array_equal(got[:n], gap + radius * (1.0 + BALL_MARGIN) < 0.0)
     assert 0.3 * n < got[:n].sum() < 0.7 * n
+    assert not turned_away(tris, piece, (0,), center, radius).any()  # the eye inside it
+    assert not turned_away(tris, None, (), center, radius).any()  # no pieces at all
+
+
+def test_pieces_holding_the_eye_keep_their_faces():
+    """A frame whose eye is inside a closed piece's box (widened by the near plane's
+    reach) keeps every face of that piece: its tessellation is made for that eye, not
+    taken from prepare's (made for an eye outside every piece)."""
+    from reflectcli.virtual.reflected import pieces_holding_eye
+
+    opened = open_scene("four-spheres", "virtual", ["camera.width=64", "camera.height=64"])
+    geometry = opened.scene.geometry(0)
+    camera = opened.camera(0)
+    assert pieces_holding_eye(geometry, camera) == ()
+    boxes = geometry.closed_boxes
+    tabletop = int(np.argmax(boxes[:, 3] - boxes[:, 0]))  # the widest piece
+    inside = dataclasses.replace(camera, eye=0.5 * (boxes[tabletop, :3] + boxes[tabletop, 3:]))
+    assert pieces_holding_eye(geometry, inside) == (tabletop,)
+    state = opened.prepare()
+    rule = opened.technique.params.tessellation
+    made = state.reflected.get(geometry, opened.scene.n_objects, 0, rule)
+    kept = state.reflected.get(geometry, opened.scene.n_objects, 0, rule, inside=(tabletop,))
+    assert kept.triangles.count > made.triangles.count
 
 
 @pytest.mark.parametrize(("scene", "overrides"), [

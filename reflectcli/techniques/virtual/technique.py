@@ -36,14 +36,14 @@ from ...camera import Camera
 from ...frame import Frame
 from ...raster.rasterize import RasterWorkspace
 from ...raster.shade import add_reflection
-from ...scene.types import PLANAR, SPHERE, UNLIT, Scene
+from ...scene.types import PLANAR, UNLIT, Scene
 from ...virtual.compose import gather_corners
 from ...virtual.dispatch import choose_method, explosion_group, facing_plane, reflector_parts
 from ...virtual.partpasses import PartPassCache, draw_parts
 from ...virtual.parts import parts_vertices
 from ...virtual.primary import primary_and_boxes
 from ...virtual.raster import draw_virtual, reflected_rays
-from ...virtual.reflected import ReflectedCache
+from ...virtual.reflected import ReflectedCache, pieces_holding_eye
 from ...virtual.shape import ShapeCache
 from ...virtual.together import (
     TogetherCache,
@@ -80,14 +80,6 @@ class VirtualState:
         default_factory=lambda: RasterWorkspace(outputs=True))
 
     @cached_property
-    def closed(self) -> tuple[int, ...]:
-        """Surface ids of the sphere mirrors: closed convex meshes, whose faces turned away
-        from a whole reflector it never reflects (reflected.turned_away)."""
-        mirrors = self.scene.mirrors
-        return tuple(self.scene.n_objects + j for j in range(mirrors.count)
-                     if mirrors.kind[j] == SPHERE)
-
-    @cached_property
     def scene_points(self) -> np.ndarray:
         """(N, 3) world: the corners at frame 0 the far explosion map must bound, reduced to
         their convex hull's vertices (one-time work: a part measured its distance to every
@@ -121,8 +113,10 @@ class Virtual(Technique):
                                    k in scene.mirror_profiles)
             # points welded for the vertex functions of one point at a time (explosion
             # parts read the polygons: kept as tessellated)
+            # made for an eye outside every closed piece (a frame whose eye is inside
+            # one makes its own: pieces_holding_eye)
             state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation,
-                                weld=method != "explosion", closed=state.closed)
+                                weld=method != "explosion", exact=method != "explosion")
             if method != "explosion":
                 continue
             first, count = int(mine[0]), int(mine.size)  # a reflector's triangles are contiguous
@@ -162,6 +156,7 @@ class Virtual(Technique):
         result = primary.frame
         geometry = scene.geometry(frame_index)
         clip_from_world = primary.buffers.clip_from_world  # the camera's (85 us to make)
+        inside = pieces_holding_eye(geometry, camera)  # faces of theirs are never dropped
         stats = {"virtual_vertices": 0, "virtual_triangles": 0, "reflector_parts": 0}
         seconds = dict.fromkeys(("tessellate", "maps", "virtual_vertices", "virtual_raster"),
                                 0.0)
@@ -182,7 +177,7 @@ class Virtual(Technique):
         if together and worth_together(boxes[together]):
             t_start = time.perf_counter()
             parts = tuple(state.reflected.get(geometry, scene.n_objects, k,
-                                              self.params.tessellation, closed=state.closed)
+                                              self.params.tessellation, inside=inside)
                           for k in together)
             group = state.together.get(tuple(together), parts)
             t0 = time.perf_counter()
@@ -201,17 +196,17 @@ class Virtual(Technique):
         for k in (int(k) for k in seen):
             box = tuple(int(v) for v in boxes[k])
             t_start = time.perf_counter()
+            method = choose_method(self.params.method, int(scene.mirrors.kind[k]),
+                                   k in scene.mirror_profiles)
             tess = state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation,
-                                       closed=state.closed)
+                                       inside=inside, exact=method != "explosion")
             seconds["tessellate"] += time.perf_counter() - t_start
             mirror_plane = None
             if scene.mirrors.kind[k] == PLANAR:
                 mirror_plane = np.append(*facing_plane(scene.mirrors, k, camera.eye))
             t_start = time.perf_counter()
             group = None
-            if (self.params.reflector_test != "clip_planes" and choose_method(
-                    self.params.method, int(scene.mirrors.kind[k]),
-                    k in scene.mirror_profiles) == "explosion"):
+            if self.params.reflector_test != "clip_planes" and method == "explosion":
                 group = explosion_group(self.params, scene, primary, k, camera,
                                         state.scene_points, state.shapes, state.views, box,
                                         ws)
