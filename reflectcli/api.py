@@ -296,6 +296,7 @@ class OpenedScene:
             scene, technique = self.scene, self.technique
             start = time.perf_counter()
             self._state = technique.prepare(scene)
+            technique.prepare_first_view(self._state, self.camera(0))
             # the frames' working memory faulted in once, here, not in frame 0's time
             camera = self.config.camera
             heap.reserve(camera.width * camera.height * BYTES_PER_PIXEL)

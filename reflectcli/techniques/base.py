@@ -34,6 +34,11 @@ class Technique:
     def prepare(self, scene: Scene) -> Any:
         raise NotImplementedError
 
+    def prepare_first_view(self, state: Any, camera: Camera) -> None:
+        """One-time work that needs the camera of the path's first frame, done after
+        `prepare` and timed with it (the virtual technique's tessellations, which depend
+        on the closed pieces the eye is inside). Default: none."""
+
     def render(self, state: Any, frame_index: int, camera: Camera) -> Frame:
         raise NotImplementedError
 

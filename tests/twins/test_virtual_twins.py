@@ -403,7 +403,7 @@ def test_parts_together_give_each_part_s_answers(threads):
         cfg, scene, cam, technique, state = _mask_frame(threads)
         primary = render_primary(scene, 0, cam)
         tess = state.reflected.get(scene.geometry(0), scene.n_objects, 0,
-                                   cfg.technique.tessellation)
+                                   cfg.technique.tessellation, exact=False, weld=True)
         parts = [fn for _, fn in reflector_parts(cfg.technique, scene, primary, 0, cam,
                                                  state.scene_points, state.shapes,
                                                  state.views)]

@@ -36,7 +36,7 @@ from ...camera import Camera
 from ...frame import Frame
 from ...raster.rasterize import RasterWorkspace
 from ...raster.shade import add_reflection
-from ...scene.types import PLANAR, UNLIT, Scene
+from ...scene.types import PLANAR, UNLIT, Geometry, Scene
 from ...virtual.compose import gather_corners
 from ...virtual.dispatch import choose_method, explosion_group, facing_plane, reflector_parts
 from ...virtual.partpasses import PartPassCache, draw_parts
@@ -97,28 +97,20 @@ class Virtual(Technique):
 
     def prepare(self, scene: Scene) -> VirtualState:
         """One-time work, kept out of frame time: at frame 0, what every reflector reflects
-        tessellated, and each mesh reflector's shape (welded, decomposed into parts, boundary
-        edges); both are cached and reused while the geometry does not change."""
+        tessellated (for an eye outside every closed piece; `prepare_first_view` adds those
+        of the first frame's eye if it is inside one), and each mesh reflector's shape
+        (welded, decomposed into parts, boundary edges); both are cached and reused while
+        the geometry does not change."""
         state = VirtualState(scene)
         state.sphere_labels = sphere_labels(scene, lambda k: self._together(scene, k))
         state.together_ok = tuple(self._together(scene, k) for k in range(scene.mirrors.count))
         geometry = scene.geometry(0)
         tris = geometry.all_triangles()
         explosion = False
-        for k in range(scene.mirrors.count):
-            mine = np.flatnonzero(tris.surface == scene.n_objects + k)
-            if not mine.size:
-                continue  # a reflector with no triangles is never seen (render skips it too)
-            method = choose_method(self.params.method, int(scene.mirrors.kind[k]),
-                                   k in scene.mirror_profiles)
-            # points welded for the vertex functions of one point at a time; made for an
-            # eye outside every closed piece (a frame whose eye is inside one makes its
-            # own: pieces_holding_eye)
-            state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation,
-                                weld=True, exact=method != "explosion")
-            if method != "explosion":
-                continue
-            first, count = int(mine[0]), int(mine.size)  # a reflector's triangles are contiguous
+        for k in self._tessellated(state, geometry, ()):
+            first = int(np.flatnonzero(tris.surface == scene.n_objects + k)[0])
+            count = int(np.count_nonzero(tris.surface == scene.n_objects + k))
+            # a reflector's triangles are contiguous
             corners = tris.corners[first:first + count]
             normals = tris.normals[first:first + count]
             mode = self.params.decompose_overrides.get(scene.mirrors.names[k],
@@ -129,6 +121,34 @@ class Virtual(Technique):
         if explosion:
             _ = state.scene_points  # the far maps' bound, made here rather than in frame 0
         return state
+
+    def prepare_first_view(self, state: VirtualState, camera: Camera) -> None:
+        """The tessellations frame 0 asks for when its eye is inside a closed piece's box
+        (cylinder-room: the room), whose faces may not be left out: made here, not in
+        frame 0's time."""
+        geometry = state.scene.geometry(0)
+        inside = pieces_holding_eye(geometry, camera)
+        if inside:
+            self._tessellated(state, geometry, inside)
+
+    def _tessellated(self, state: VirtualState, geometry: Geometry,
+                     inside: tuple[int, ...]) -> list[int]:
+        """Every reflector's reflected objects tessellated for an eye inside the pieces
+        `inside` (ReflectedCache.get, welded: for the vertex functions of one point at a
+        time); the explosion reflectors' indices."""
+        scene = state.scene
+        surface = geometry.all_triangles().surface
+        explosion = []
+        for k in range(scene.mirrors.count):
+            if not np.any(surface == scene.n_objects + k):
+                continue  # a reflector with no triangles is never seen (render skips it too)
+            method = choose_method(self.params.method, int(scene.mirrors.kind[k]),
+                                   k in scene.mirror_profiles)
+            state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation,
+                                exact=method != "explosion", weld=True, inside=inside)
+            if method == "explosion":
+                explosion.append(k)
+        return explosion
 
     def _together(self, scene: Scene, k: int) -> bool:
         """Whether mirror k, when seen, is drawn with the other sphere mirrors."""
@@ -176,7 +196,8 @@ class Virtual(Technique):
         if together and worth_together(boxes[together]):
             t_start = time.perf_counter()
             parts = tuple(state.reflected.get(geometry, scene.n_objects, k,
-                                              self.params.tessellation, inside=inside)
+                                              self.params.tessellation, exact=True,
+                                              inside=inside)
                           for k in together)
             group = state.together.get(tuple(together), parts)
             t0 = time.perf_counter()
