@@ -1876,3 +1876,23 @@ def compose_passes(rgb, colors, triangle, labels, reflectance):
         fill_cracks(colors, stencil & (triangle >= 0), stencil)
         out = add_reflection(out, colors, stencil, reflectance[p])
     return out
+
+
+def ray_focus(vertices, normals, eye):
+    """virtual.explosion.ray_focus (its sums: explosion._focus_sums) as whole-array numpy,
+    its code before session 16: the least-squares point nearest the front-facing vertices'
+    reflection rays, or the vertex mean."""
+    v, n = vertices, normals
+    d = v - eye
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    front = np.einsum("ij,ij->i", n, -d) >= 0.0
+    if front.sum() < 3:
+        return v.mean(axis=0)
+    v, n, d = v[front], n[front], d[front]
+    r = d - 2.0 * np.einsum("ij,ij->i", d, n)[:, None] * n
+    proj = np.eye(3)[None] - r[:, :, None] * r[:, None, :]  # (I - r r^T) per ray
+    a = proj.sum(axis=0)
+    b = np.einsum("kij,kj->i", proj, v)
+    if np.linalg.cond(a) > 1e8:
+        return vertices.mean(axis=0)
+    return np.linalg.solve(a, b)
