@@ -1896,3 +1896,28 @@ def ray_focus(vertices, normals, eye):
     if np.linalg.cond(a) > 1e8:
         return vertices.mean(axis=0)
     return np.linalg.solve(a, b)
+
+
+def setup_arrays(v, n, f, boundary, eye):
+    """virtual.explosion._setup_arrays (map_setup's arrays) as whole-array numpy, its code
+    before session 16: (fixed normals, front, used, drawn face indices, extensions)."""
+    to_eye = eye - v
+    front = np.einsum("ij,ij->i", n, to_eye) >= 0.0
+    face_front = front[f]
+    profile = face_front.any(axis=1) & ~face_front.all(axis=1)
+    fixed = n.copy()
+    needs = np.zeros(len(v), bool)
+    needs[f[profile].reshape(-1)] = True
+    needs &= ~front
+    sight = -to_eye / np.linalg.norm(to_eye, axis=1, keepdims=True)
+    proj = fixed[needs] - np.einsum("ij,ij->i", fixed[needs], sight[needs])[:, None] * sight[needs]
+    fixed[needs] = proj / np.maximum(np.linalg.norm(proj, axis=1, keepdims=True), 1e-30)
+    used = front | needs
+    drawn = face_front.all(axis=1) | profile
+    two_back = profile & (face_front.sum(axis=1) == 1)
+    back_faces = np.flatnonzero(two_back)
+    back = f[back_faces][~face_front[back_faces]].reshape(-1, 2)
+    ext = np.column_stack([back_faces, back]).astype(np.int64)
+    open_edges = boundary[drawn[boundary[:, 0]] & used[boundary[:, 1]] & used[boundary[:, 2]]]
+    return fixed, front, used, np.flatnonzero(drawn), np.concatenate([ext.reshape(-1, 3),
+                                                                     open_edges])

@@ -316,6 +316,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                              "_build_layers"),
     "virtual/explosion.py:_focus_sums": ([VE + "test_ray_focus_matches_twin_bit_for_bit"],
                                          None),
+    "virtual/explosion.py:_setup_arrays": (
+        [VE + "test_map_setup_arrays_match_twin_bit_for_bit"], None),
     "virtual/explosion.py:_build_layers": ([VE + "test_explosion_layers_match_twin"] + PARTS,
                                            "build_explosion_maps"),
     "virtual/explosion.py:_build_layer": ([VE + "test_explosion_layers_match_twin"],

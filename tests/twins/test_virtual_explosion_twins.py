@@ -18,6 +18,7 @@ from naive import (
     plane_from_map,
     ray_focus,
     screen_plane,
+    setup_arrays,
     vertex_coords,
 )
 
@@ -61,6 +62,37 @@ def test_ray_focus_matches_twin_bit_for_bit():
     away /= np.linalg.norm(away, axis=1, keepdims=True)
     turned = dataclasses.replace(sphere, normals=away)
     assert explosion.ray_focus(turned, eye).tobytes() == sphere.vertices.mean(axis=0).tobytes()
+
+
+def test_map_setup_arrays_match_twin_bit_for_bit():
+    """map_setup's per-vertex and per-face arrays in a kernel (_setup_arrays) are the
+    whole-array numpy twin's bit for bit (fixed normals, front, used, drawn faces,
+    extensions): spheres seen from outside (profile faces, two-back extensions), a
+    concave cap, the mask's open parts (boundary edges), eyes around them."""
+    from conftest import open_scene
+
+    from reflectcli.virtual.explosion import boundary_edges
+
+    rng = np.random.default_rng(11)
+    meshes = [weld(m.corners, m.normals) for m in (primitives.uv_sphere(1.0, 12),
+                                                   primitives.uv_sphere(0.7, 24))]
+    opened = open_scene("mask", "virtual", ["camera.width=64", "camera.height=64"])
+    state = opened.prepare()
+    meshes += [part.mesh for shape in state.shapes.entries.values() for part in shape.parts]
+    eyes = [opened.camera(0).eye] + [rng.normal(0.0, 3.0, 3) for _ in range(6)]
+    extended = 0
+    for mesh in meshes:
+        boundary = boundary_edges(mesh.faces)
+        for eye in eyes:
+            got = explosion._setup_arrays(mesh.vertices, mesh.normals, mesh.faces,
+                                          boundary.reshape(-1, 3), eye)
+            want = setup_arrays(mesh.vertices, mesh.normals, mesh.faces,
+                                boundary.reshape(-1, 3), eye)
+            for g, w in zip(got, want, strict=True):
+                assert g.dtype == w.dtype and g.shape == w.shape
+                assert g.tobytes() == w.tobytes()
+            extended += len(got[4])
+    assert extended > 0
 
 
 @pytest.mark.parametrize("layers", [2, 5])
