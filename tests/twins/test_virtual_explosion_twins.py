@@ -60,11 +60,10 @@ def _same(got: np.ndarray, want: np.ndarray, bits: bool) -> None:
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
 
 
-def test_ray_focus_matches_twin_bit_for_bit():
-    """ray_focus's sums in a kernel (_focus_sums) give the numbers of the whole-array numpy
-    twin bit for bit, so the map centre, the maps and the seeds do not move: a concave
-    cap, a sphere and the mask's parts, from eyes around them, and a part turned away
-    (fewer than three front vertices: the vertex mean)."""
+@pytest.fixture(scope="module")
+def part_meshes():
+    """(meshes, eyes): two spheres and the mask's 14 parts (convex, concave, open, with
+    boundary edges), its camera's eye and six eyes around them."""
     from conftest import open_scene
 
     rng = np.random.default_rng(7)
@@ -74,7 +73,15 @@ def test_ray_focus_matches_twin_bit_for_bit():
     state = opened.prepare()
     meshes += [part.mesh for shape in state.shapes.entries.values() for part in shape.parts]
     assert len(meshes) > 10
-    eyes = [opened.camera(0).eye] + [rng.normal(0.0, 3.0, 3) for _ in range(6)]
+    return meshes, [opened.camera(0).eye] + [rng.normal(0.0, 3.0, 3) for _ in range(6)]
+
+
+def test_ray_focus_matches_twin_bit_for_bit(part_meshes):
+    """ray_focus's sums in a kernel (_focus_sums) give the numbers of the whole-array numpy
+    twin bit for bit, so the map centre, the maps and the seeds do not move: spheres and
+    the mask's parts from eyes around them, and a mesh turned away (fewer than three front
+    vertices: the vertex mean)."""
+    meshes, eyes = part_meshes
     bits = _einsum_sums_as_the_kernels_do()
     for mesh in meshes:
         for eye in eyes:
@@ -88,22 +95,14 @@ def test_ray_focus_matches_twin_bit_for_bit():
     assert explosion.ray_focus(turned, eye).tobytes() == sphere.vertices.mean(axis=0).tobytes()
 
 
-def test_map_setup_arrays_match_twin_bit_for_bit():
+def test_map_setup_arrays_match_twin_bit_for_bit(part_meshes):
     """map_setup's per-vertex and per-face arrays in a kernel (_setup_arrays) are the
     whole-array numpy twin's bit for bit (fixed normals, front, used, drawn faces,
-    extensions): spheres seen from outside (profile faces, two-back extensions), a
-    concave cap, the mask's open parts (boundary edges), eyes around them."""
-    from conftest import open_scene
-
+    extensions): spheres seen from outside (profile faces, two-back extensions) and the
+    mask's open parts (boundary edges), from eyes around them."""
     from reflectcli.virtual.explosion import boundary_edges
 
-    rng = np.random.default_rng(11)
-    meshes = [weld(m.corners, m.normals) for m in (primitives.uv_sphere(1.0, 12),
-                                                   primitives.uv_sphere(0.7, 24))]
-    opened = open_scene("mask", "virtual", ["camera.width=64", "camera.height=64"])
-    state = opened.prepare()
-    meshes += [part.mesh for shape in state.shapes.entries.values() for part in shape.parts]
-    eyes = [opened.camera(0).eye] + [rng.normal(0.0, 3.0, 3) for _ in range(6)]
+    meshes, eyes = part_meshes
     bits = _einsum_sums_as_the_kernels_do()
     extended = 0
     for mesh in meshes:
