@@ -36,15 +36,21 @@ def near_reach(camera: Camera) -> float:
     return 1.01 * camera.near * math.sqrt(1.0 + t * t * (1.0 + camera.aspect ** 2))
 
 
-def hidden_back_faces(geometry: Geometry, camera: Camera) -> np.ndarray | None:
+def seen_from_outside(geometry: Geometry, camera: Camera) -> np.ndarray | None:
     """(K,) bool per closed piece: a piece whose world box, widened by `near_reach`, does
     not hold the eye (outside it in some axis; NaN boxes never). None when the geometry
-    knows no closed piece or none is seen from outside."""
+    knows no closed piece."""
     boxes = geometry.closed_boxes
     if boxes is None:
         return None
-    hidden = _outside(boxes, np.asarray(camera.eye, np.float64), near_reach(camera))
-    return hidden if hidden.any() else None
+    return _outside(boxes, np.asarray(camera.eye, np.float64), near_reach(camera))
+
+
+def hidden_back_faces(geometry: Geometry, camera: Camera) -> np.ndarray | None:
+    """`seen_from_outside`: the pieces whose back faces the eye cannot see; None when the
+    geometry knows no closed piece or none is seen from outside."""
+    hidden = seen_from_outside(geometry, camera)
+    return hidden if hidden is not None and hidden.any() else None
 
 
 def _outside(boxes: np.ndarray, eye: np.ndarray, reach: float) -> np.ndarray:

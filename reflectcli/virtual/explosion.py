@@ -250,17 +250,18 @@ def _setup_arrays(v, n, faces, boundary, eye):
         front[k] = (n[k, 0] * t0 + n[k, 2] * t2) + n[k, 1] * t1 >= 0.0
     needs = np.zeros(count, np.bool_)
     n_faces = faces.shape[0]
+    facing = np.empty(n_faces, np.int8)  # a face's front-facing vertices
     drawn_face = np.empty(n_faces, np.bool_)
     n_drawn = 0
     n_two_back = 0
     for i in range(n_faces):
         a, b, c = faces[i, 0], faces[i, 1], faces[i, 2]
-        facing = int(front[a]) + int(front[b]) + int(front[c])
-        profile = 0 < facing < 3
+        facing[i] = int(front[a]) + int(front[b]) + int(front[c])
+        profile = 0 < facing[i] < 3
         if profile:
             needs[a] = needs[b] = needs[c] = True
-            n_two_back += facing == 1
-        drawn_face[i] = profile or facing == 3
+            n_two_back += facing[i] == 1
+        drawn_face[i] = profile or facing[i] == 3
         n_drawn += drawn_face[i]
     fixed = n.copy()
     used = np.empty(count, np.bool_)
@@ -283,28 +284,25 @@ def _setup_arrays(v, n, faces, boundary, eye):
         if drawn_face[i]:
             drawn[j] = i
             j += 1
-    n_open = 0
+    open_edge = np.empty(boundary.shape[0], np.bool_)
     for e in range(boundary.shape[0]):
-        n_open += (drawn_face[boundary[e, 0]] and used[boundary[e, 1]]
-                   and used[boundary[e, 2]])
-    extensions = np.empty((n_two_back + n_open, 3), np.int64)
+        open_edge[e] = (drawn_face[boundary[e, 0]] and used[boundary[e, 1]]
+                        and used[boundary[e, 2]])
+    extensions = np.empty((n_two_back + open_edge.sum(), 3), np.int64)
     j = 0
     for i in range(n_faces):
-        a, b, c = faces[i, 0], faces[i, 1], faces[i, 2]
-        if int(front[a]) + int(front[b]) + int(front[c]) != 1:
+        if facing[i] != 1:
             continue
         extensions[j, 0] = i
         m = 1
-        for corner in (a, b, c):
+        for corner in faces[i]:
             if not front[corner]:
                 extensions[j, m] = corner
                 m += 1
         j += 1
     for e in range(boundary.shape[0]):
-        if drawn_face[boundary[e, 0]] and used[boundary[e, 1]] and used[boundary[e, 2]]:
-            extensions[j, 0] = boundary[e, 0]
-            extensions[j, 1] = boundary[e, 1]
-            extensions[j, 2] = boundary[e, 2]
+        if open_edge[e]:
+            extensions[j] = boundary[e]
             j += 1
     return fixed, front, used, drawn, extensions
 

@@ -11,7 +11,7 @@ from typing import Protocol
 import numpy as np
 
 from ..camera import Camera
-from ..raster.closed import hidden_back_faces
+from ..raster.closed import seen_from_outside
 from ..scene.types import Geometry, Triangles
 from .tessellation import Tessellation, concatenate_tessellations, tessellate
 
@@ -141,11 +141,8 @@ def pieces_holding_eye(geometry: Geometry, camera: Camera) -> tuple[int, ...]:
     """Ids of the closed pieces whose box, widened by the near plane's reach, holds the
     eye: `turned_away` may not drop their faces. Usually none (the key prepare's
     tessellations are made with)."""
-    outside = hidden_back_faces(geometry, camera)
-    if outside is None:  # no piece, or none seen from outside
-        boxes = geometry.closed_boxes
-        return () if boxes is None else tuple(range(len(boxes)))
-    return tuple(np.flatnonzero(~outside).tolist())
+    outside = seen_from_outside(geometry, camera)
+    return () if outside is None else tuple(np.flatnonzero(~outside).tolist())
 
 
 def turned_away(tris: Triangles, piece: np.ndarray | None, inside: tuple[int, ...],

@@ -108,9 +108,8 @@ class Virtual(Technique):
         tris = geometry.all_triangles()
         explosion = False
         for k in self._tessellated(state, geometry, ()):
-            first = int(np.flatnonzero(tris.surface == scene.n_objects + k)[0])
-            count = int(np.count_nonzero(tris.surface == scene.n_objects + k))
-            # a reflector's triangles are contiguous
+            mine = np.flatnonzero(tris.surface == scene.n_objects + k)
+            first, count = int(mine[0]), int(mine.size)  # a reflector's triangles are contiguous
             corners = tris.corners[first:first + count]
             normals = tris.normals[first:first + count]
             mode = self.params.decompose_overrides.get(scene.mirrors.names[k],
@@ -142,19 +141,22 @@ class Virtual(Technique):
         for k in range(scene.mirrors.count):
             if not np.any(surface == scene.n_objects + k):
                 continue  # a reflector with no triangles is never seen (render skips it too)
-            method = choose_method(self.params.method, int(scene.mirrors.kind[k]),
-                                   k in scene.mirror_profiles)
+            method = self._method(scene, k)
             state.reflected.get(geometry, scene.n_objects, k, self.params.tessellation,
                                 exact=method != "explosion", weld=True, inside=inside)
             if method == "explosion":
                 explosion.append(k)
         return explosion
 
+    def _method(self, scene: Scene, k: int) -> str:
+        """Mirror k's vertex method (dispatch.choose_method)."""
+        return choose_method(self.params.method, int(scene.mirrors.kind[k]),
+                             k in scene.mirror_profiles)
+
     def _together(self, scene: Scene, k: int) -> bool:
         """Whether mirror k, when seen, is drawn with the other sphere mirrors."""
-        return self.params.reflector_test != "clip_planes" and choose_method(
-            self.params.method, int(scene.mirrors.kind[k]), k in scene.mirror_profiles
-        ) == "sphere"
+        return (self.params.reflector_test != "clip_planes"
+                and self._method(scene, k) == "sphere")
 
     def forget_view(self, state: VirtualState) -> None:
         state.views.entries.clear()  # hidden maps, ray grids and tiles belong to one view
@@ -216,8 +218,7 @@ class Virtual(Technique):
         for k in (int(k) for k in seen):
             box = tuple(int(v) for v in boxes[k])
             t_start = time.perf_counter()
-            method = choose_method(self.params.method, int(scene.mirrors.kind[k]),
-                                   k in scene.mirror_profiles)
+            method = self._method(scene, k)
             # an explosion reflector's points cost far more than welding them (14 parts'
             # maps and refinement; the mask's: 2 ms to weld, 30 saved): a tessellation
             # made in a frame (moving geometry, an eye inside a piece) is welded too
