@@ -1921,3 +1921,31 @@ def setup_arrays(v, n, f, boundary, eye):
     open_edges = boundary[drawn[boundary[:, 0]] & used[boundary[:, 1]] & used[boundary[:, 2]]]
     return fixed, front, used, np.flatnonzero(drawn), np.concatenate([ext.reshape(-1, 3),
                                                                      open_edges])
+
+
+def screen_from_world(points, clip_from_world, width, height):
+    """virtual.screen.screen_from_world (its kernel: _screen_rows) as whole-array numpy,
+    its code before session 17: clip coordinates by `@`, divided, mapped to pixels."""
+    from reflectcli.camera import screen_from_ndc
+
+    h = points @ clip_from_world[:3, :3].T + clip_from_world[:3, 3]
+    w = points @ clip_from_world[3, :3] + clip_from_world[3, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x, y = screen_from_ndc(h[:, 0] / w, h[:, 1] / w, width, height)
+    return np.stack([x, y, w], axis=1)
+
+
+def part_extent(vertices, normals, centre, scene_points, eye):
+    """virtual.part._extent as whole-array numpy, its code before session 17: (bound, far,
+    front)."""
+    bound = float(np.linalg.norm(vertices - centre, axis=1).max())
+    far = float(np.linalg.norm(scene_points - centre, axis=1).max())
+    front = np.einsum("ij,ij->i", normals, eye - vertices) >= 0.0
+    return bound, far, front
+
+
+def fused_multiply_add(a, b, c):
+    """reflectcli.fused.fma, exactly: a * b + c in rationals, rounded once to float64."""
+    from fractions import Fraction
+
+    return float(Fraction(float(a)) * Fraction(float(b)) + Fraction(float(c)))

@@ -318,6 +318,13 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                          None),
     "virtual/explosion.py:_setup_arrays": (
         [VE + "test_map_setup_arrays_match_twin_bit_for_bit"], None),
+    "virtual/screen.py:_screen_rows": ([VE + "test_screen_from_world_matches_twin_bit_for_bit"],
+                                       None),
+    "virtual/screen.py:_screen_from_ndc": (
+        [VE + "test_screen_from_world_matches_twin_bit_for_bit"], "_screen_rows"),
+    "virtual/part.py:_extent": ([VE + "test_part_extent_matches_twin_bit_for_bit"], None),
+    "fused.py:fma": ([VE + "test_screen_from_world_matches_twin_bit_for_bit",
+                      "tests/test_fused.py::test_fma_rounds_once"], "_screen_rows"),
     "virtual/explosion.py:_build_layers": ([VE + "test_explosion_layers_match_twin"] + PARTS,
                                            "build_explosion_maps"),
     "virtual/explosion.py:_build_layer": ([VE + "test_explosion_layers_match_twin"],

@@ -121,6 +121,7 @@ def _fill_extensions(ids, coords, extensions, n_faces, center, reach, box_y0=0,
 
 
 _CELL = 8  # texels a side of the cells _ids_at_marked sorts triangles into
+_SMALL = 16  # texels a face may visit for _ids_at_marked to test it at once, not by cells
 
 
 @njit(cache=True, inline="always")
@@ -141,14 +142,28 @@ def _texel_range(ax, ay, bx, by, cx, cy, res):
 def _holds(ax, ay, bx, by, cx, cy, res, x, y):
     """Whether _fill_triangle fills texel (x, y) with the triangle (over the whole map, or
     over any box holding the texel: a box narrows only the texels visited): the same
-    range, row span and tests, in the same arithmetic."""
+    range, row span and tests, in the same arithmetic. The tests come first (most texels
+    tested fail one: the range and span, with their divisions, are then not worked out),
+    which changes no answer: the texel is filled exactly when all of them pass."""
     area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
     if area == 0.0 or math.isnan(area):
+        return False
+    sign = 1.0 if area > 0.0 else -1.0
+    px = x + 0.5
+    py = y + 0.5
+    n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
+    if sign * n0 < 0.0:
+        return False
+    n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
+    if sign * n1 < 0.0:
+        return False
+    w0 = n0 / area
+    w1 = n1 / area
+    if not 1.0 - w0 - w1 >= 0.0:
         return False
     x0, x1, y0, y1 = _texel_range(ax, ay, bx, by, cx, cy, res)
     if not (x0 <= x <= x1 and y0 <= y <= y1):
         return False
-    sign = 1.0 if area > 0.0 else -1.0
     s0 = sign * (by - cy)
     s1 = sign * (cy - ay)
     s2 = -s0 - s1
@@ -158,24 +173,10 @@ def _holds(ax, ay, bx, by, cx, cy, res, x, y):
     i0 = -1.0 / s0 if s0 != 0.0 else 0.0
     i1 = -1.0 / s1 if s1 != 0.0 else 0.0
     i2 = -1.0 / s2 if s2 != 0.0 else 0.0
-    py = y + 0.5
     lo, hi = _span(float(x0), float(x1), s0, (m0 + l0 * py) * i0)
     lo, hi = _span(lo, hi, s1, (m1 + l1 * py) * i1)
     lo, hi = _span(lo, hi, s2, (m2 + l2 * py) * i2)
-    if not lo <= hi:
-        return False
-    if not (int(math.ceil(lo)) <= x <= int(math.floor(hi))):
-        return False
-    px = x + 0.5
-    n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
-    if sign * n0 < 0.0:
-        return False
-    n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
-    if sign * n1 < 0.0:
-        return False
-    w0 = n0 / area
-    w1 = n1 / area
-    return 1.0 - w0 - w1 >= 0.0
+    return lo <= hi and int(math.ceil(lo)) <= x <= int(math.floor(hi))
 
 
 @njit(cache=True, inline="always")
@@ -195,11 +196,15 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
     """ids and core at the marked texels of rows y0..y1, columns x0..x1, as _fill_faces
     and then _fill_extensions make them (the last drawn face holding the texel, else the
     first extension quad; core: a face holds it), found texel by texel instead of drawing
-    (the mask's lookups mark about 2% of their box): faces and quads are first sorted into
-    cells of _CELL texels that hold a marked texel, by the texels _fill_triangle would
-    visit, in drawing order; a texel then tests its cell's faces from the last and its
-    quads from the first (_holds). Other texels are left as they are. True if every marked
-    texel is filled (else a looked-up texel is empty: the nearest fill is needed)."""
+    (the mask's lookups mark about 2% of their box): a face whose texels _fill_triangle
+    would visit number at most _SMALL tests the marked ones among them at once, in drawing
+    order, each texel keeping the last face holding it (in ids, as the face's drawing
+    index: the mask's largest part has 5,130 faces of a texel or two); the larger faces
+    and the quads are sorted into cells of _CELL texels that hold a marked texel, by the
+    texels _fill_triangle would visit, in drawing order; a texel then tests its cell's
+    larger faces from the last (down to its small face's index) and its quads from the
+    first (_holds). Other texels are left as they are. True if every marked texel is
+    filled (else a looked-up texel is empty: the nearest fill is needed)."""
     res = ids.shape[0]
     cy0, cx0 = y0 // _CELL, x0 // _CELL
     rows, cols = y1 // _CELL - cy0 + 1, x1 // _CELL - cx0 + 1
@@ -208,9 +213,13 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
         for x in range(x0, x1 + 1):
             if marks[y, x]:
                 want[y // _CELL - cy0, x // _CELL - cx0] = True
+                ids[y, x] = -1  # no small face holds it yet
     n_drawn, n_ext = drawn.shape[0], extensions.shape[0]
-    # per triangle (faces, then quads), its cells' range: r0, r1, c0, c1 (empty: r0 > r1)
+    # per triangle (faces, then quads), its cells' range: r0, r1, c0, c1 (empty: r0 > r1),
+    # and the texels _fill_triangle visits in the box (x0, x1, y0, y1; a quad's: either
+    # triangle's): a texel outside them is not held, without _holds' set-up
     span = np.empty((n_drawn + n_ext, 4), np.int64)
+    rect = np.empty((n_drawn + n_ext, 4), np.int64)
     for k in range(n_drawn + n_ext):
         if k < n_drawn:
             f = drawn[k]
@@ -233,6 +242,19 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
         if tx0 > tx1 or ty0 > ty1:
             span[k, 0], span[k, 1] = 1, 0
             continue
+        if k < n_drawn and (tx1 - tx0 + 1) * (ty1 - ty0 + 1) <= _SMALL:
+            # a small face: its marked texels now (a later face overwrites: the last wins)
+            span[k, 0], span[k, 1] = 1, 0
+            f = drawn[k]
+            a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+            for y in range(ty0, ty1 + 1):
+                for x in range(tx0, tx1 + 1):
+                    if marks[y, x] and _holds(coords[a, 0], coords[a, 1], coords[b, 0],
+                                              coords[b, 1], coords[c, 0], coords[c, 1],
+                                              res, x, y):
+                        ids[y, x] = k
+            continue
+        rect[k, 0], rect[k, 1], rect[k, 2], rect[k, 3] = tx0, tx1, ty0, ty1
         span[k, 0], span[k, 1] = ty0 // _CELL - cy0, ty1 // _CELL - cy0
         span[k, 2], span[k, 3] = tx0 // _CELL - cx0, tx1 // _CELL - cx0
     # cell lists in drawing order (counted, then filled): faces and quads apart
@@ -265,18 +287,29 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
             if not marks[y, x]:
                 continue
             cell = (y // _CELL - cy0) * cols + x // _CELL - cx0
+            small = ids[y, x]  # the last small face holding it (drawing index), or -1
             found = -1
             for t in range(count[0, cell + 1] - 1, count[0, cell] - 1, -1):
-                f = drawn[items[t]]
+                k = items[t]
+                if k < small:
+                    break  # drawn before that small face: it is the last holding the texel
+                if not (rect[k, 0] <= x <= rect[k, 1] and rect[k, 2] <= y <= rect[k, 3]):
+                    continue
+                f = drawn[k]
                 a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
                 if _holds(coords[a, 0], coords[a, 1], coords[b, 0], coords[b, 1],
                           coords[c, 0], coords[c, 1], res, x, y):
                     found = f
                     break
+            if found < 0 and small >= 0:
+                found = drawn[small]
             core[y, x] = found >= 0
             if found < 0:
                 for t in range(base + count[1, cell], base + count[1, cell + 1]):
-                    e = items[t] - n_drawn
+                    k = items[t]
+                    if not (rect[k, 0] <= x <= rect[k, 1] and rect[k, 2] <= y <= rect[k, 3]):
+                        continue
+                    e = k - n_drawn
                     ax, ay, bx, by, cx, cy, dx, dy = _quad(coords, extensions, e, center,
                                                            reach)
                     if (_holds(ax, ay, bx, by, cx, cy, res, x, y)

@@ -3,7 +3,10 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 from ..camera import Camera
 from .explosion import ExplosionMaps, build_explosion_maps, ray_focus, virtual_vertices
@@ -11,6 +14,29 @@ from .refine import BOUNDARY, EXACT, NONE, refine_virtual
 from .screen import screen_from_world
 from .shape import PartShape
 from .view import PartView
+
+
+@njit(cache=True)
+def _extent(vertices, normals, centre, scene_points, eye, front):
+    """(bound, far): the farthest vertex's and the farthest scene point's distance from the
+    map centre; front (V,) the vertices facing the eye (n . (eye - v) >= 0). The numbers of
+    numpy's whole-array version (np.linalg.norm(axis=1) of the differences, np.einsum's
+    dot products; 60 us a part, 14 parts a mask frame) in its order of operations: a
+    norm's squares summed in order, a three-term dot product as (x0 y0 + x2 y2) + x1 y1
+    (explosion._focus_sums found it)."""
+    bound = 0.0
+    for k in range(vertices.shape[0]):
+        d0, d1, d2 = vertices[k, 0] - centre[0], vertices[k, 1] - centre[1], \
+            vertices[k, 2] - centre[2]
+        bound = max(bound, math.sqrt((d0 * d0 + d1 * d1) + d2 * d2))
+        t0, t1, t2 = eye[0] - vertices[k, 0], eye[1] - vertices[k, 1], eye[2] - vertices[k, 2]
+        front[k] = (normals[k, 0] * t0 + normals[k, 2] * t2) + normals[k, 1] * t1 >= 0.0
+    far = 0.0
+    for k in range(scene_points.shape[0]):
+        d0, d1, d2 = scene_points[k, 0] - centre[0], scene_points[k, 1] - centre[1], \
+            scene_points[k, 2] - centre[2]
+        far = max(far, math.sqrt((d0 * d0 + d1 * d1) + d2 * d2))
+    return bound, far
 
 
 class ExplosionPart:
@@ -27,16 +53,18 @@ class ExplosionPart:
         part = shape.mesh
         # the map center (world): the reflection rays' focus, or the paper's vertex mean
         centre = ray_focus(part, camera.eye) if center == "focus" else part.vertices.mean(axis=0)
-        bound = float(np.linalg.norm(part.vertices - centre, axis=1).max())
-        far = float(np.linalg.norm(scene_points - centre, axis=1).max()) * 1.01
+        eye = np.asarray(camera.eye, np.float64)
+        front = np.empty(len(part.vertices), np.bool_)
+        bound, far = _extent(part.vertices, part.normals, np.asarray(centre, np.float64),
+                             np.ascontiguousarray(scene_points, np.float64), eye, front)
+        far *= 1.01
         near = max(bound * near_scale, 1e-6)
         # build_explosion_maps' arguments (before lookups), and the maps once built whole
         self.build_args = (part, camera.eye, centre, near, max(far, near * 1.01), resolution,
                            layers, shape.boundary)
         self.built: ExplosionMaps | None = None
         # a concave part looks maps up along its mean front normal (see virtual_vertices);
-        # front-facing vertices as build_explosion_maps finds them
-        front = np.einsum("ij,ij->i", part.normals, camera.eye - part.vertices) >= 0.0
+        # front-facing vertices as build_explosion_maps finds them (_extent)
         self.flip = np.zeros(3)
         if shape.concave and front.any():
             flip = part.normals[front].mean(axis=0)

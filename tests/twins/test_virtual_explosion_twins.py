@@ -15,8 +15,10 @@ from naive import (
     map_coords,
     nearest_filled_distance,
     nearest_filled_texel,
+    part_extent,
     plane_from_map,
     ray_focus,
+    screen_from_world,
     screen_plane,
     setup_arrays,
     vertex_coords,
@@ -303,10 +305,15 @@ def test_ids_at_marked_texels_match_the_fill_twins(sphere_maps):
         extra = np.concatenate([rng.uniform(-10, res + 10, (20, 2)),
                                 coords[:5] + rng.normal(size=(5, 2)) * 0.3])
         extra[3] = np.nan
-        coords = np.concatenate([coords, extra])
+        # small triangles (at most _SMALL texels visited) over the large ones, drawn in
+        # between them: _ids_at_marked tests those at once, the others through cells
+        small = (rng.uniform(0, res, (40, 1, 2)) + rng.normal(size=(40, 3, 2)) * 0.7)
+        coords = np.concatenate([coords, extra, small.reshape(-1, 2)])
         v = len(layer.coords)
+        w = v + len(extra)
         faces = np.concatenate([mesh.faces, rng.integers(0, len(coords), (30, 3)),
-                                [[v, v, v + 1], [v + 3, v + 4, v + 5]]]).astype(np.int64)
+                                [[v, v, v + 1], [v + 3, v + 4, v + 5]],
+                                w + np.arange(120).reshape(40, 3)]).astype(np.int64)
         drawn = rng.permutation(len(faces))[: int(len(faces) * rng.uniform(0.3, 1.0))]
         extensions = np.concatenate([maps.extensions, np.column_stack(
             [np.zeros(15, np.int64), rng.integers(0, len(coords), (15, 2))])])
@@ -501,3 +508,76 @@ def test_nearest_near_marked_texels_matches_twin():
         assert mapfill._nearest_in_box(empty, *box, 5, 5) == (-1, -1)
         assert not mapfill._fill_marked_nearest(empty.copy(), marks, np.ones((12, 12), bool),
                                                 5, 5, 5, 5, 48)
+
+
+def _matmul_sums_as_the_kernel_does() -> bool:
+    """Whether this machine's numpy `@` takes a row of an (N, 3) x (3, 3) product as
+    fma(p2, m2, fma(p1, m1, p0 m0)) and an (N, 3) x (3,) product as fma(p2, m2, fma(p0, m0,
+    p1 m1)) (OpenBLAS's kernels on this machine kind), the order virtual.screen's kernel
+    reproduces; elsewhere it matches numpy to rounding only."""
+    from reflectcli.virtual.screen import _screen_rows
+
+    rng = np.random.default_rng(11)
+    p, m = rng.normal(size=(64, 3)), rng.normal(size=(4, 4))
+    m[3, 3] = 0.0  # w without its constant term: the sums alone
+    m[:3, 3] = 0.0
+    out = np.empty((64, 3))
+    _screen_rows(p, m, 2, 2, out)
+    return bool((out[:, 2] == p @ m[3, :3]).all()
+                and (out[:, 0] == ((p @ m[:3, :3].T)[:, 0] / out[:, 2] + 1.0)).all())
+
+
+def test_screen_from_world_matches_twin_bit_for_bit(part_meshes):
+    """Projections in a kernel (screen._screen_rows) give numpy's numbers bit for bit where
+    numpy's `@` sums as the kernel does: the mask's parts and spheres through the mask's
+    camera and cameras at the other eyes, points behind the eye and on its plane (w <= 0:
+    the same infinities and NaN); 2 rows and more (numpy takes a single row by another
+    route: within rounding)."""
+    from conftest import open_scene
+
+    from reflectcli.virtual.screen import screen_from_world as fast
+
+    meshes, eyes = part_meshes
+    bits = _matmul_sums_as_the_kernel_does()
+    base = open_scene("mask", "virtual", ["camera.width=64", "camera.height=64"]).camera(0)
+    cameras = [base] + [dataclasses.replace(base, eye=eye, width=320, height=200)
+                        for eye in eyes[1:]]
+    for camera in cameras:
+        m = camera.clip_from_world()
+        for mesh in meshes:
+            points = mesh.vertices
+            _same(fast(points, m, camera.width, camera.height),
+                  screen_from_world(points, m, camera.width, camera.height), bits)
+        eye = camera.eye
+        behind = np.array([eye, eye + 0.5 * (eye - camera.target), eye + camera.up,
+                           camera.target])
+        got = fast(behind, m, camera.width, camera.height)
+        want = screen_from_world(behind, m, camera.width, camera.height)
+        assert np.array_equal(np.isnan(got), np.isnan(want))
+        _same(np.nan_to_num(got), np.nan_to_num(want), bits)
+    one = meshes[0].vertices[:1]
+    np.testing.assert_allclose(fast(one, m, 64, 64), screen_from_world(one, m, 64, 64),
+                               rtol=1e-12)
+    assert fast(np.empty((0, 3)), m, 64, 64).shape == (0, 3)
+
+
+def test_part_extent_matches_twin_bit_for_bit(part_meshes):
+    """A part's bounds and front vertices in a kernel (part._extent) are numpy's bit for
+    bit where its einsum sums as the kernel does, from every eye, about the ray focus and
+    about points away from it."""
+    from reflectcli.virtual.part import _extent
+
+    meshes, eyes = part_meshes
+    bits = _einsum_sums_as_the_kernels_do()
+    rng = np.random.default_rng(5)
+    scene_points = rng.normal(0.0, 4.0, (9, 3))
+    for mesh in meshes:
+        for eye in eyes:
+            for centre in (explosion.ray_focus(mesh, eye), rng.normal(0.0, 1.0, 3)):
+                front = np.empty(len(mesh.vertices), np.bool_)
+                bound, far = _extent(mesh.vertices, mesh.normals, centre, scene_points, eye,
+                                     front)
+                want = part_extent(mesh.vertices, mesh.normals, centre, scene_points, eye)
+                _same(np.array([bound, far]), np.array(want[:2]), bits)
+                if bits:
+                    assert np.array_equal(front, want[2])
