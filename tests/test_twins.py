@@ -340,9 +340,15 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
         [VE + "test_maps_built_for_their_lookups_match_whole_maps_there"],
         "build_explosion_maps"),
     "virtual/mapfill.py:_nearest_in_box": (
-        [VE + "test_nearest_near_marked_texels_matches_twin"], "_fill_marked_nearest"),
-    "virtual/mapfill.py:_fill_marked_nearest": (
+        [VE + "test_nearest_near_marked_texels_matches_twin"], "_nearest_of_holes"),
+    "virtual/mapfill.py:_holes": (
         [VE + "test_nearest_near_marked_texels_matches_twin",
+         VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
+    "virtual/mapfill.py:_nearest_of_holes": (
+        [VE + "test_nearest_near_marked_texels_matches_twin",
+         VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
+    "virtual/mapfill.py:_draw_between": (
+        [VE + "test_drawing_between_boxes_draws_the_ring_as_the_whole_layer",
          VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
     "virtual/mapfill.py:_ids_at_marked": (IDS_AT, "_build_layer"),
     "virtual/mapfill.py:_holds": (IDS_AT, "_ids_at_marked"),

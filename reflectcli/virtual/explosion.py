@@ -32,19 +32,22 @@ from numba import njit, prange
 from ..parallel import claim, counter
 from ..raster.rasterize.buffers import scratch
 from .mapfill import (
+    _draw_between,
     _fill_extensions,
     _fill_faces,
-    _fill_marked_nearest,
     _hole_box,
+    _holes,
     _ids_at_marked,
     _marked_box,
     _nearest_filled,
+    _nearest_of_holes,
 )
 from .mesh import IndexedMesh
 
 EXTENSION_REACH = 0.6  # extension vertices end at this fraction of s from the map center
-# texels around the empty looked-up ones searched for a nearest filled texel, in turn
-NEAR_MARGINS = (8, 48)
+# texels around the empty looked-up ones searched for a nearest filled texel, in turn (each
+# box drawn where the last did not reach: the mask's holes lie 1 to 56 texels from theirs)
+NEAR_MARGINS = (8, 32, 72)
 
 # numba's reference counting off (`_nrt=False`) in a loop's function that makes no array:
 # each array a loop hands to an inlined helper, or view it takes, counts the array's
@@ -483,10 +486,11 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
     extension quad, each by the fill's own tests); elsewhere ids and core are left as
     they were (not cleared), and the counts are -1 (not counted). If a marked texel is
     still empty, the faces and extensions are drawn over the box of such texels grown by
-    NEAR_MARGINS (a small margin, then a larger one) and the nearest fill searched for
-    there; only where that cannot be sure is the whole layer made (drawing over texels
-    already found changes nothing: a face's texel takes its last face again, and the
-    extensions fill only texels no face holds)."""
+    each of NEAR_MARGINS in turn (only the texels the last box did not hold) and the
+    nearest fill searched for there, for the texels not yet sure of theirs; only where
+    that cannot be sure is the whole layer made (drawing over texels already found changes
+    nothing: a face's texel takes its last face again, and the extensions fill only
+    texels no face holds)."""
     for i in range(coords.shape[0]):
         coords[i, 0] = np.nan
         coords[i, 1] = np.nan
@@ -503,22 +507,26 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
                           res / 2.0, reach_out, y0, y1, x0, x1):
             return
         # a looked-up texel stays empty: its nearest filled texel is most often close by,
-        # so the faces and extensions are drawn over the box of such texels grown by each
-        # of NEAR_MARGINS in turn, and the fill searched for there (where no box can be
-        # sure, the whole layer is made); the texels there but the marked ones are
-        # cleared first, as in a layer cleared whole
-        y0, y1, x0, x1 = _hole_box(layer, needed, y0, y1, x0, x1)
-        grow = NEAR_MARGINS[-1]
-        _clear_unmarked(layer, needed, max(y0 - grow, 0), min(y1 + grow, res - 1),
-                        max(x0 - grow, 0), min(x1 + grow, res - 1))
-        for margin in NEAR_MARGINS:
-            gy0, gy1 = max(y0 - margin, 0), min(y1 + margin, res - 1)
-            gx0, gx1 = max(x0 - margin, 0), min(x1 + margin, res - 1)
-            _fill_faces(layer, coords, faces, drawn, gy0, gy1, gx0, gx1)
-            _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out, gy0,
-                             gy1, gx0, gx1)
-            if _fill_marked_nearest(layer, needed, reach, y0, y1, x0, x1, margin):
-                return
+        # so the layer is drawn over the box of such texels grown by each of NEAR_MARGINS
+        # in turn (each ring of texels drawn once, cleared first but where marked, as in a
+        # layer cleared whole), and each hole's nearest searched for there until every
+        # one is sure (where none can be, the whole layer is made)
+        holes, reached = _holes(layer, needed, reach, y0, y1, x0, x1)
+        if reached:
+            hy0, hy1, hx0, hx1 = _hole_box(layer, needed, y0, y1, x0, x1)
+            found = np.full((holes.shape[0], 2), -1, np.int64)
+            inner = (1, 0, 1, 0)
+            for margin in NEAR_MARGINS:
+                outer = (max(hy0 - margin, 0), min(hy1 + margin, res - 1),
+                         max(hx0 - margin, 0), min(hx1 + margin, res - 1))
+                _draw_between(layer, needed, coords, faces, drawn, extensions, n_faces,
+                              res / 2.0, reach_out, inner, outer)
+                inner = outer
+                if _nearest_of_holes(layer, holes, found, outer[0], outer[1], outer[2],
+                                     outer[3]) == 0:
+                    for i in range(holes.shape[0]):
+                        layer[holes[i, 0], holes[i, 1]] = layer[found[i, 0], found[i, 1]]
+                    return
         # the whole layer: the marked texels keep what _ids_at_marked found, which the
         # whole draw finds again; the others as cleared (drawing over the boxes' texels
         # again gives them the same ids)

@@ -450,33 +450,76 @@ def _nearest_in_box(layer, y0, y1, x0, x1, y, x):
 
 
 @njit(cache=True)
-def _fill_marked_nearest(layer, marks, reach, y0, y1, x0, x1, margin):
-    """The nearest fill (as _nearest_filled gives it over the whole map) at the marked
-    texels of rows y0..y1, columns x0..x1 that are empty, each searched for within that box
-    grown by `margin`: True if done, False (layer unchanged) if some such texel is not
-    sure of its answer there, or lies where the whole map's fill could be skipped (not
-    `reach`). The texels inside the grown box must hold their final ids but for the fill."""
-    h, w = layer.shape
-    gy0, gy1 = max(y0 - margin, 0), min(y1 + margin, h - 1)
-    gx0, gx1 = max(x0 - margin, 0), min(x1 + margin, w - 1)
+def _holes(layer, marks, reach, y0, y1, x0, x1):
+    """(H, 2) rows, columns of the marked texels of rows y0..y1, columns x0..x1 that are
+    empty (ids < 0), in row order; or (0, 2) and False if one lies where the whole map's
+    fill could be skipped (not `reach`: the whole layer is then made), else True."""
     count = 0
     for y in range(y0, y1 + 1):
         for x in range(x0, x1 + 1):
-            count += marks[y, x] & (layer[y, x] < 0)
-    found = np.empty((count, 3), np.int64)  # texel, source texel: written once all are known
+            if marks[y, x] and layer[y, x] < 0:
+                if not reach[y, x]:
+                    return np.empty((0, 2), np.int64), False
+                count += 1
+    holes = np.empty((count, 2), np.int64)
     i = 0
     for y in range(y0, y1 + 1):
         for x in range(x0, x1 + 1):
-            if not (marks[y, x] and layer[y, x] < 0):
-                continue
-            if not reach[y, x]:
-                return False
-            sy, sx = _nearest_in_box(layer, gy0, gy1, gx0, gx1, y, x)
-            if sy < 0:
-                return False
-            found[i, 0], found[i, 1], found[i, 2] = y * w + x, sy, sx
-            i += 1
-    for i in range(count):
-        y, x = divmod(found[i, 0], w)
-        layer[y, x] = layer[found[i, 1], found[i, 2]]
-    return True
+            if marks[y, x] and layer[y, x] < 0:
+                holes[i, 0], holes[i, 1] = y, x
+                i += 1
+    return holes, True
+
+
+@njit(cache=True)
+def _draw_between(layer, marks, coords, faces, drawn, extensions, n_faces, center, reach,
+                  inner, outer):
+    """The texels of box `outer` outside box `inner` (each (y0, y1, x0, x1); inner empty:
+    y0 > y1) as the whole layer's draw makes them: cleared but where marked, then the faces
+    and the extensions, in up to four strips (a texel's id is the same whichever box it is
+    drawn in: _fill_triangle). Growing a box so draws each texel once."""
+    oy0, oy1, ox0, ox1 = outer
+    iy0, iy1, ix0, ix1 = inner
+    strips = np.empty((4, 4), np.int64)
+    n = 0
+    if iy0 > iy1:
+        strips[0, 0], strips[0, 1], strips[0, 2], strips[0, 3] = oy0, oy1, ox0, ox1
+        n = 1
+    else:
+        if oy0 < iy0:  # above
+            strips[n, 0], strips[n, 1], strips[n, 2], strips[n, 3] = oy0, iy0 - 1, ox0, ox1
+            n += 1
+        if iy1 < oy1:  # below
+            strips[n, 0], strips[n, 1], strips[n, 2], strips[n, 3] = iy1 + 1, oy1, ox0, ox1
+            n += 1
+        if ox0 < ix0:  # left, beside the inner box
+            strips[n, 0], strips[n, 1], strips[n, 2], strips[n, 3] = iy0, iy1, ox0, ix0 - 1
+            n += 1
+        if ix1 < ox1:  # right
+            strips[n, 0], strips[n, 1], strips[n, 2], strips[n, 3] = iy0, iy1, ix1 + 1, ox1
+            n += 1
+    for k in range(n):
+        sy0, sy1, sx0, sx1 = strips[k, 0], strips[k, 1], strips[k, 2], strips[k, 3]
+        for y in range(sy0, sy1 + 1):
+            for x in range(sx0, sx1 + 1):
+                if not marks[y, x]:
+                    layer[y, x] = -1
+        _fill_faces(layer, coords, faces, drawn, sy0, sy1, sx0, sx1)
+        _fill_extensions(layer, coords, extensions, n_faces, center, reach, sy0, sy1, sx0,
+                         sx1)
+
+
+@njit(cache=True)
+def _nearest_of_holes(layer, holes, found, y0, y1, x0, x1):
+    """For each hole (row, column) not yet answered (found[i, 0] < 0): its nearest filled
+    texel (_nearest_in_box, by the whole map's rule) among rows y0..y1, columns x0..x1, if
+    sure there, into found[i]. Nothing is written to the layer (a hole filled first would
+    be filled for the others). Returns how many holes are still without an answer."""
+    left = 0
+    for i in range(holes.shape[0]):
+        if found[i, 0] >= 0:
+            continue
+        found[i, 0], found[i, 1] = _nearest_in_box(layer, y0, y1, x0, x1, holes[i, 0],
+                                                   holes[i, 1])
+        left += found[i, 0] < 0
+    return left

@@ -458,8 +458,8 @@ def test_nearest_filled_matches_twin():
 def test_nearest_near_marked_texels_matches_twin():
     """_nearest_in_box answers as the whole map's rule would (nearest, then least column,
     then least row), or not at all when a texel outside its box could be as near; and
-    _fill_marked_nearest fills the marked empty texels as _nearest_filled does over the
-    whole map (which the rule matches), or leaves the layer alone."""
+    _nearest_of_holes answers the marked empty texels (_holes) as _nearest_filled does over
+    the whole map (which the rule matches), where sure, keeping earlier answers."""
     rng = np.random.default_rng(13)
     answered = declined = 0
     for _ in range(60):
@@ -483,31 +483,75 @@ def test_nearest_near_marked_texels_matches_twin():
                      (x1 + 1 - x) ** 2 if x1 < w - 1 else np.inf]
             assert want is None or (want[0] - y) ** 2 + (want[1] - x) ** 2 >= min(sides)
         marks = rng.random((h, w)) < 0.2
-        reach = np.ones((h, w), bool)
-        filled = layer.copy()
-        if mapfill._fill_marked_nearest(filled, marks, reach, y0, y1, x0, x1, 4):
-            empty = layer < 0
-            rows = np.empty((h, w), np.int32)
-            cols = np.empty((h, w), np.int32)
-            if not empty.all():
-                mapfill._nearest_filled(empty, rows, cols)
-            box = np.zeros((h, w), bool)
-            box[y0:y1 + 1, x0:x1 + 1] = True
-            sel = marks & box & empty
-            np.testing.assert_array_equal(filled[sel], layer[rows[sel], cols[sel]])
-            np.testing.assert_array_equal(filled[~sel], layer[~sel])
-        else:
-            np.testing.assert_array_equal(filled, layer)
+        reach = rng.random((h, w)) < 0.97
+        holes, reached = mapfill._holes(layer, marks, reach, y0, y1, x0, x1)
+        box = np.zeros((h, w), bool)
+        box[y0:y1 + 1, x0:x1 + 1] = True
+        sel = marks & box & (layer < 0)
+        assert reached == bool(reach[sel].all())
+        if not reached:
+            continue
+        assert holes.tolist() == np.argwhere(sel).tolist()
+        found = np.full((len(holes), 2), -1, np.int64)
+        found[::3] = (-1, -7)  # unanswered still
+        found[1::3] = (0, 0)  # answered before: kept
+        kept = found.copy()
+        gy0, gy1 = max(y0 - 4, 0), min(y1 + 4, h - 1)
+        gx0, gx1 = max(x0 - 4, 0), min(x1 + 4, w - 1)
+        left = mapfill._nearest_of_holes(layer, holes, found, gy0, gy1, gx0, gx1)
+        assert (found[1::3] == kept[1::3]).all()
+        asked = np.ones(len(holes), bool)
+        asked[1::3] = False
+        for (y, x), got in zip(holes[asked], found[asked], strict=True):
+            assert tuple(got) == mapfill._nearest_in_box(layer, gy0, gy1, gx0, gx1, y, x)
+            if got[0] >= 0:
+                assert tuple(got) == nearest_filled_texel(layer, y, x)
+        assert left == int((found[:, 0] < 0).sum())
     assert answered > 100 and declined > 10
     # a layer with no filled texel (a part seen only from behind), the box the whole map or
     # a part of it: no answer (the whole layer's build takes over), and no endless search
     empty = np.full((12, 12), -1, np.int32)
     marks = np.zeros((12, 12), bool)
     marks[5, 5] = True
+    holes, reached = mapfill._holes(empty, marks, np.ones((12, 12), bool), 0, 11, 0, 11)
+    assert reached and holes.tolist() == [[5, 5]]
     for box in ((0, 11, 0, 11), (5, 5, 5, 5), (2, 9, 0, 11)):
         assert mapfill._nearest_in_box(empty, *box, 5, 5) == (-1, -1)
-        assert not mapfill._fill_marked_nearest(empty.copy(), marks, np.ones((12, 12), bool),
-                                                5, 5, 5, 5, 48)
+        found = np.full((1, 2), -1, np.int64)
+        assert mapfill._nearest_of_holes(empty, holes, found, *box) == 1
+
+
+def test_drawing_between_boxes_draws_the_ring_as_the_whole_layer(sphere_maps):
+    """_draw_between(inner, outer) makes the texels of `outer` outside `inner` what the
+    whole layer's draw makes them (marked texels kept, the others cleared first), and
+    leaves every other texel alone; boxes grown in turn so make the largest box whole."""
+    mesh, _, maps = sphere_maps
+    rng = np.random.default_rng(17)
+    res, half = maps.res, maps.res / 2.0
+    reach = explosion.EXTENSION_REACH * maps.s
+    faces = np.ascontiguousarray(mesh.faces, np.int64)
+    drawn = np.arange(len(faces))
+    for layer in maps.layers:
+        want = np.full((res, res), -1, np.int32)
+        fill_faces(want, layer.coords, faces, drawn)
+        fill_extensions(want, layer.coords, maps.extensions, len(faces), half, reach)
+        for _ in range(4):
+            marks = rng.random((res, res)) < 0.05
+            ids = np.where(marks, want, rng.integers(-3, 40, (res, res))).astype(np.int32)
+            stale = ids.copy()
+            y0, x0 = (int(v) for v in rng.integers(0, res, 2))
+            y1, x1 = int(rng.integers(y0, res)), int(rng.integers(x0, res))
+            inner = (1, 0, 1, 0)
+            for margin in (0, 3, 11, 40):
+                outer = (max(y0 - margin, 0), min(y1 + margin, res - 1),
+                         max(x0 - margin, 0), min(x1 + margin, res - 1))
+                mapfill._draw_between(ids, marks, layer.coords, faces, drawn,
+                                      maps.extensions, len(faces), half, reach, inner, outer)
+                box = np.zeros((res, res), bool)
+                box[outer[0]:outer[1] + 1, outer[2]:outer[3] + 1] = True
+                np.testing.assert_array_equal(ids[box], want[box])
+                np.testing.assert_array_equal(ids[~box], stale[~box])
+                inner = outer
 
 
 def _matmul_sums_as_the_kernel_does() -> bool:
