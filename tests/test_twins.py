@@ -341,6 +341,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
         "build_explosion_maps"),
     "virtual/mapfill.py:_nearest_in_box": (
         [VE + "test_nearest_near_marked_texels_matches_twin"], "_nearest_of_holes"),
+    "virtual/explosion.py:_lookup_boxes": (
+        [VE + "test_lookup_boxes_are_the_boxes_of_the_marked_texels"] + PARTS,
+        "build_maps_together"),
     "virtual/mapfill.py:_holes": (
         [VE + "test_nearest_near_marked_texels_matches_twin",
          VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),

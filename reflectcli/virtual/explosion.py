@@ -382,6 +382,9 @@ def build_maps_together(setups: list[MapSetup],
     ids = scratch(ws, "maps_ids", (count, res, res), np.int32)
     core = scratch(ws, "maps_core", (count, res, res), np.bool_)
     tally = np.zeros((count, 2), np.int64)
+    # per layer, the box of its marked texels (y0, y1, x0, x1), where known before the
+    # texels (y0 -1: _build_layer finds it)
+    boxes = np.full((count, 4), -1, np.int64)
     at = cell = None
     if whole:
         needed = np.zeros((count, 0, 0), np.bool_)  # no restriction
@@ -395,6 +398,7 @@ def build_maps_together(setups: list[MapSetup],
         layer_start[1:] = np.cumsum([len(u.radii) for u in setups])
         _mark_parts(points, point_start, centers, np.array([u.flip for u in setups]), frames,
                     res, s, radii, layer_start, needed, at, cell)
+        _lookup_boxes(cell, point_start, layer_start, boxes)
     else:
         needed = np.zeros((count, res, res), np.bool_)
         k = 0
@@ -405,7 +409,7 @@ def build_maps_together(setups: list[MapSetup],
             k += layers
     _build_layers(v, n, used, faces, drawn, extensions, starts, setups[0].eye, centers,
                   frames, radii, layer_part, res, s, EXTENSION_REACH * s, coords,
-                  coord_start, ids, core, tally, needed, numba.get_num_threads())
+                  coord_start, ids, core, tally, needed, boxes, numba.get_num_threads())
     out = []
     k = 0
     layer_start = np.zeros(len(setups) + 1, np.int64)
@@ -428,7 +432,7 @@ def build_maps_together(setups: list[MapSetup],
 @njit(cache=True, parallel=True)
 def _build_layers(v, n, used, faces, drawn, extensions, starts, eye, centers, frames, radii,
                   layer_part, res, s, reach_out, coords, coord_start, ids, core, tally,
-                  needed, threads):
+                  needed, boxes, threads):
     """Every layer's map at once, of one part or several (build_maps_together), layers
     claimed one at a time by whichever thread is free (parallel.py; each layer is work of
     its own, written to its own planes, so no value depends on which thread built it):
@@ -441,8 +445,9 @@ def _build_layers(v, n, used, faces, drawn, extensions, starts, eye, centers, fr
     coords[coord_start[k]:coord_start[k + 1]] (V, 2), ids[k], core[k] (res, res): layer
     k's; tally[k]: texels inside the map's circle filled by faces alone, and left empty
     after the extensions. needed (layers, res, res) bool: the texels lookups will read
-    (build_explosion_maps' `lookups`), or (layers, 0, 0) for whole layers. `threads`:
-    numba.get_num_threads() of the caller."""
+    (build_explosion_maps' `lookups`), or (layers, 0, 0) for whole layers; boxes (layers,
+    4): each layer's box of marked texels (_lookup_boxes), or -1 rows where not known.
+    `threads`: numba.get_num_threads() of the caller."""
     half = s / 2.0
     # per texel, once for every layer: its center inside the map's circle, and its square
     # meeting the disk of map points (with rounding to spare: only those are looked up)
@@ -472,12 +477,13 @@ def _build_layers(v, n, used, faces, drawn, extensions, starts, eye, centers, fr
                          frames[p], res, s, faces[f0:f1], drawn[d0:d1], extensions[e0:e1],
                          f1 - f0, reach_out, circle, reach,
                          coords[coord_start[k]:coord_start[k + 1]], ids[k], core[k], tally,
-                         needed[k])
+                         needed[k], boxes[k])
 
 
 @njit(cache=True)
 def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn, extensions,
-                 n_faces, reach_out, circle, reach, coords, layer, core, tally, needed):
+                 n_faces, reach_out, circle, reach, coords, layer, core, tally, needed,
+                 box):
     """Layer k of _build_layers into coords, layer (ids) and core, its counts into
     tally[k]. The texel passes are branch-free (counts as sums of booleans) so that they
     vectorise; the nearest fill runs only where a lookup could land in an empty texel.
@@ -500,7 +506,11 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
         tally[k, 1] = -1
         # only the marked texels are read: the layer is not cleared first (17 MB a mask
         # frame); _ids_at_marked writes every marked texel's id and core
-        y0, y1, x0, x1 = _marked_box(needed)
+        # the box of the marked texels: from the lookups where known (a scan of the
+        # layer's 40,000 marks took most of a layer's time where few are marked)
+        y0, y1, x0, x1 = box[0], box[1], box[2], box[3]
+        if y0 < 0:
+            y0, y1, x0, x1 = _marked_box(needed)
         if y0 > y1:
             return  # nothing looked up here
         if _ids_at_marked(layer, core, needed, coords, faces, drawn, extensions, n_faces,
@@ -623,6 +633,25 @@ def _lookup_at(q0, q1, q2, center, flip_axis, frame, res, s, radii):
     cx = min(max(int(math.floor(tx)), 0), res - 1)
     cy = min(max(int(math.floor(ty)), 0), res - 1)
     return tx, ty, cx, cy, dist, lo
+
+
+@njit(cache=True)
+def _lookup_boxes(cell, point_start, layer_start, boxes):
+    """boxes[k] (y0, y1, x0, x1): the box of the texels _mark_parts marked in layer k
+    (from each point's cell: texel x, y and its part's layer lo; it marks lo and lo + 1),
+    y0 > y1 where none."""
+    boxes[:, 0] = 1 << 30
+    boxes[:, 1] = -1
+    boxes[:, 2] = 1 << 30
+    boxes[:, 3] = -1
+    for p in range(point_start.shape[0] - 1):
+        for i in range(point_start[p], point_start[p + 1]):
+            cx, cy = cell[i, 0], cell[i, 1]
+            for k in (layer_start[p] + cell[i, 2], layer_start[p] + cell[i, 2] + 1):
+                boxes[k, 0] = min(boxes[k, 0], cy)
+                boxes[k, 1] = max(boxes[k, 1], cy)
+                boxes[k, 2] = min(boxes[k, 2], cx)
+                boxes[k, 3] = max(boxes[k, 3], cx)
 
 
 @njit(cache=True, error_model="numpy")

@@ -625,3 +625,33 @@ def test_part_extent_matches_twin_bit_for_bit(part_meshes):
                 _same(np.array([bound, far]), np.array(want[:2]), bits)
                 if bits:
                     assert np.array_equal(front, want[2])
+
+
+def test_lookup_boxes_are_the_boxes_of_the_marked_texels():
+    """_lookup_boxes (each layer's box from the points' cells) is _marked_box of the texels
+    _mark_parts marks from those cells (a point's texel in its part's layers lo and lo + 1),
+    and empty (y0 > y1) for a layer no point marks."""
+    rng = np.random.default_rng(21)
+    res = 40
+    layers = np.array([3, 2, 4, 3])
+    layer_start = np.concatenate([[0], np.cumsum(layers)]).astype(np.int64)
+    counts = np.array([7, 0, 1, 30])
+    point_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    cell = np.zeros((counts.sum(), 3), np.int64)
+    for p in range(len(counts)):
+        rows = slice(point_start[p], point_start[p + 1])
+        cell[rows, :2] = rng.integers(0, res, (counts[p], 2))
+        cell[rows, 2] = rng.integers(0, layers[p] - 1, counts[p])
+    needed = np.zeros((layer_start[-1], res, res), bool)
+    for p in range(len(counts)):
+        for cx, cy, lo in cell[point_start[p]:point_start[p + 1]]:
+            needed[layer_start[p] + lo:layer_start[p] + lo + 2, cy, cx] = True
+    boxes = np.zeros((layer_start[-1], 4), np.int64)
+    explosion._lookup_boxes(cell, point_start, layer_start, boxes)
+    for k in range(layer_start[-1]):
+        want = mapfill._marked_box(needed[k])
+        if want[0] > want[1]:
+            assert boxes[k, 0] > boxes[k, 1]
+        else:
+            assert tuple(boxes[k]) == want
+    assert (boxes[:, 0] > boxes[:, 1]).sum() >= 2  # part 1's layers, at least
