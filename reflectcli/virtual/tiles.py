@@ -229,7 +229,10 @@ def _tile_bounds(owner, tile_part, q, r, tiles, size, center, radius, axis, half
         length = max(math.sqrt(a0 * a0 + a1 * a1 + a2 * a2), 1e-30)
         a0, a1, a2 = a0 / length, a1 / length, a2 / length
         far = 0.0
-        widest = -np.inf
+        # the widest angle is the acos of the least cosine: acos is correctly rounded
+        # (glibc), so decreasing, and max(acos) = acos(min) bit for bit, with one acos a
+        # tile instead of one a pixel (most of the tiles' time)
+        least = np.inf
         best = np.inf
         bx = by = 0
         for y in range(ey, y1):
@@ -240,10 +243,11 @@ def _tile_bounds(owner, tile_part, q, r, tiles, size, center, radius, axis, half
                 dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
                 far = max(far, dist)
                 cos = r[y, x, 0] * a0 + r[y, x, 1] * a1 + r[y, x, 2] * a2
-                widest = max(widest, math.acos(min(max(cos, -1.0), 1.0)))
+                least = min(least, min(max(cos, -1.0), 1.0))
                 if y >= y0 and x >= x0 and dist < best:
                     best = dist
                     bx, by = x, y
+        widest = math.acos(least) if count else -np.inf
         center[j, 0], center[j, 1], center[j, 2] = c0, c1, c2
         radius[j] = far
         axis[j, 0], axis[j, 1], axis[j, 2] = a0, a1, a2

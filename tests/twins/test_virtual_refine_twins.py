@@ -3,6 +3,8 @@ tile culling against their slow twins."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from conftest import compiled_only
@@ -17,6 +19,7 @@ from naive import (
     tile_bounds,
 )
 from naive import joined as naive_joined
+from numba import njit
 
 from reflectcli.camera import Camera
 from reflectcli.virtual import refine, tiles
@@ -232,6 +235,32 @@ def test_tile_bounds_match_twin(size):
                       (tiles.half, half)):
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
     np.testing.assert_array_equal(tiles.pixel, pixel)
+
+
+@njit(cache=True)
+def _acos_each_and_of_least(cos):
+    widest = -np.inf
+    least = np.inf
+    for c in cos:
+        widest = max(widest, math.acos(c))
+        least = min(least, c)
+    return widest, math.acos(least)
+
+
+@compiled_only
+def test_widest_angle_is_the_acos_of_the_least_cosine():
+    """_tile_bounds takes a tile's widest angle as acos of its least cosine, one acos a
+    tile: the same bits as the widest of each pixel's acos, because the acos kernels call is
+    decreasing (glibc's is correctly rounded): checked over random cosines, cosines a few
+    ulps apart, and the ends."""
+    rng = np.random.default_rng(4)
+    cases = [rng.uniform(-1.0, 1.0, 50) for _ in range(200)]
+    for centre in (-1.0, -0.5, 0.0, 0.3, 1.0 - 1e-9, 1.0):
+        near = np.nextafter(np.full(8, centre), rng.choice([-2.0, 2.0], 8))
+        cases.append(np.clip(np.concatenate([[centre], near]), -1.0, 1.0))
+    for cos in cases:
+        each, once = _acos_each_and_of_least(cos)
+        assert np.float64(each).tobytes() == np.float64(once).tobytes()
 
 
 def test_tile_scan_with_a_wide_cone_matches_twin():
