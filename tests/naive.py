@@ -1949,3 +1949,19 @@ def fused_multiply_add(a, b, c):
     from fractions import Fraction
 
     return float(Fraction(float(a)) * Fraction(float(b)) + Fraction(float(c)))
+
+
+def part_ball(center, radius, axis, half):
+    """virtual.tiles._balls for one part as whole-array numpy, its code before session 17
+    (PartTiles._set): (ball center, ball radius, cone axis, cone half-angle) holding the
+    tiles' balls (center, radius) and cones (axis, half)."""
+    n = radius.size
+    part_center = center.mean(axis=0) if n else np.zeros(3)
+    part_radius = (float(np.max(np.linalg.norm(center - part_center, axis=1)
+                                + radius * 1.001)) * (1 + 1e-9) if n else 0.0)
+    a = axis.sum(axis=0) if n else np.zeros(3)
+    norm = float(np.linalg.norm(a))
+    part_axis = a / norm if norm > 0 else np.array([0.0, 0.0, 1.0])
+    part_half = (float(np.max(np.arccos(np.clip(axis @ part_axis, -1, 1)) + half)) + 1e-9
+                 if n and norm > 0 else math.pi)
+    return part_center, part_radius, part_axis, part_half

@@ -306,6 +306,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/view.py:_faces_behind": ([V + "test_faces_behind_match_twin"],
                                       "PartView.faces_behind"),
     "virtual/view.py:part_views": ([V + "test_part_views_match_twin"], "reflector_view"),
+    "virtual/tiles.py:_balls": ([VR + "test_part_balls_match_twin_bit_for_bit"],
+                                "_parts_balls"),
     "virtual/tiles.py:_tile_bounds": ([VR + "test_tile_bounds_match_twin"], "PartTiles"),
     "virtual/explosion.py:map_coords": ([VE + "test_map_coords_and_vertex_coords_match_twin"],
                                         None),

@@ -381,3 +381,57 @@ def test_part_candidates_and_join_match_twins():
     flag = rng.random(len(pts)) < 0.05
     polygons = rng.integers(0, len(pts), (120, 3))
     np.testing.assert_array_equal(joined(flag, polygons), naive_joined(flag, polygons))
+
+
+def _numpy_sums_as_balls_does() -> bool:
+    """Whether this machine's numpy takes (N, 3) @ (3,) as fma(a2, u2, fma(a0, u0, a1 u1))
+    (OpenBLAS on this machine kind) and its arccos is the C library's acos: the order and
+    function tiles._balls reproduces; elsewhere it matches numpy to rounding only."""
+    from reflectcli.fused import fma
+
+    rng = np.random.default_rng(12)
+    a, u = rng.normal(size=(64, 3)), rng.normal(size=3)
+    want = [fma(float(x[2]), float(u[2]), fma(float(x[0]), float(u[0]), float(x[1] * u[1])))
+            for x in a]
+    c = rng.uniform(-1.0, 1.0, 256)
+    return bool((a @ u == np.array(want)).all()
+                and (np.arccos(c) == np.array([math.acos(v) for v in c])).all())
+
+
+def test_part_balls_match_twin_bit_for_bit():
+    """Each part's ball and cone over its tiles in one kernel (tiles._balls) are numpy's
+    (PartTiles' code before session 17, the twin) bit for bit where numpy sums as the
+    kernel does: parts of one tile, of many, with axes spread and gathered, with none, and
+    with axes summing to zero."""
+    from naive import part_ball
+
+    from reflectcli.virtual.tiles import _parts_balls
+
+    bits = _numpy_sums_as_balls_does()
+    rng = np.random.default_rng(1)
+    for trial in range(60):
+        counts = rng.integers(0, 60, rng.integers(1, 8))
+        counts[0] = max(counts[0], 1)
+        if trial % 4 == 1:  # parts of a single tile (numpy's one-row product)
+            counts[: 2] = 1
+        n = int(counts.sum())
+        center, radius = rng.normal(size=(n, 3)) * 3.0, rng.uniform(0.0, 1.0, n)
+        axis = rng.normal(size=(n, 3))
+        if trial % 3 == 0:  # gathered, as a part's tiles' axes are
+            axis = axis * 0.1 + np.array([0.3, 0.8, -0.5])
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        if trial == 5:  # two opposite axes: no cone axis
+            counts, axis = np.array([2]), np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]])
+            n, center, radius = 2, center[:2], radius[:2]
+        half = rng.uniform(0.0, 0.5, n)
+        starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        got = _parts_balls(center, radius, axis, half, starts)
+        for p in range(len(counts)):
+            rows = slice(starts[p], starts[p + 1])
+            want = part_ball(center[rows], radius[rows], axis[rows], half[rows])
+            for g, w in zip(got[p], want, strict=True):
+                g, w = np.asarray(g, np.float64), np.asarray(w, np.float64)
+                if bits:
+                    assert g.tobytes() == w.tobytes()
+                else:
+                    np.testing.assert_allclose(g, w, rtol=1e-12, atol=1e-12)
