@@ -19,6 +19,7 @@ from ..scene.types import CYLINDER, PLANAR, SPHERE, Mirrors, Scene
 from .circle import cylinder_virtual_vertices, sphere_virtual_vertices
 from .compose import part_stencil
 from .direct import profile_virtual_vertices
+from .explosion import ray_foci
 from .part import ExplosionPart
 from .partpasses import label_parts
 from .shape import ShapeCache
@@ -148,8 +149,11 @@ def explosion_group(rule: MethodRule, scene: Scene, primary: Primary, k: int, ca
         labelled = label_parts(primary, sid, first, label_of, box, ws)
     if len(seen) < 2:
         return None  # drawn as one part
+    foci = [None] * len(seen)
+    if rule.explosion.center == "focus":  # every part's in one solve
+        foci = ray_foci([shape.parts[p].mesh for p in seen], camera.eye)
     parts = [_explosion_part(rule, camera, scene_points, reflector, shape.parts[p],
-                             view.parts[p]) for p in seen]
+                             view.parts[p], focus) for p, focus in zip(seen, foci, strict=True)]
     return parts, labelled
 
 
@@ -173,10 +177,12 @@ def _explosion_reflector(rule: MethodRule, scene: Scene, primary: Primary, k: in
 
 
 def _explosion_part(rule: MethodRule, camera: Camera, scene_points: np.ndarray,
-                    reflector: tuple, part, part_view) -> ExplosionPart:
-    """One part's ExplosionPart (reflector: _explosion_reflector's)."""
+                    reflector: tuple, part, part_view,
+                    focus: np.ndarray | None = None) -> ExplosionPart:
+    """One part's ExplosionPart (reflector: _explosion_reflector's; focus: its ray_focus,
+    if made)."""
     view, clip_from_world = reflector[3], reflector[4]
     params = rule.explosion
     return ExplosionPart(part, part_view, view.depth, view.grid, camera, clip_from_world,
                          scene_points, params.center, params.near_scale, params.resolution,
-                         params.layers)
+                         params.layers, focus)

@@ -49,10 +49,16 @@ class ExplosionPart:
     def __init__(self, shape: PartShape, view: PartView, depth: np.ndarray,
                  grid: tuple[np.ndarray, np.ndarray] | None, camera: Camera,
                  clip_from_world: np.ndarray, scene_points: np.ndarray, center: str,
-                 near_scale: float, resolution: int, layers: int) -> None:
+                 near_scale: float, resolution: int, layers: int,
+                 focus: np.ndarray | None = None) -> None:
+        """`focus`: ray_focus(shape.mesh, camera.eye) if already made (explosion.ray_foci
+        makes a reflector's parts' at once)."""
         part = shape.mesh
         # the map center (world): the reflection rays' focus, or the paper's vertex mean
-        centre = ray_focus(part, camera.eye) if center == "focus" else part.vertices.mean(axis=0)
+        if center == "focus":
+            centre = ray_focus(part, camera.eye) if focus is None else focus
+        else:
+            centre = part.vertices.mean(axis=0)
         eye = np.asarray(camera.eye, np.float64)
         front = np.empty(len(part.vertices), np.bool_)
         bound, far = _extent(part.vertices, part.normals, np.asarray(centre, np.float64),

@@ -655,3 +655,23 @@ def test_lookup_boxes_are_the_boxes_of_the_marked_texels():
         else:
             assert tuple(boxes[k]) == want
     assert (boxes[:, 0] > boxes[:, 1]).sum() >= 2  # part 1's layers, at least
+
+
+def test_ray_foci_are_each_mesh_s_ray_focus(part_meshes):
+    """ray_foci (the parts' solves in one numpy call) gives each mesh ray_focus's bits:
+    the mask's parts and spheres from every eye, with meshes whose normal equations are
+    ill-posed (no front vertex: the vertex mean) among them."""
+    meshes, eyes = part_meshes
+    sphere = meshes[0]
+    away = sphere.vertices - eyes[0]
+    away /= np.linalg.norm(away, axis=1, keepdims=True)
+    turned = dataclasses.replace(sphere, normals=away)  # no front vertex from eyes[0]
+    for eye in eyes:
+        group = [turned] + meshes + [turned]
+        for got, mesh in zip(explosion.ray_foci(group, eye), group, strict=True):
+            assert got.tobytes() == explosion.ray_focus(mesh, eye).tobytes()
+            a, b, front = explosion._focus_sums(mesh.vertices, mesh.normals, eye)
+            if front < 3 or np.linalg.cond(a) > 1e8:
+                assert got.tobytes() == mesh.vertices.mean(axis=0).tobytes()
+            else:
+                assert got.tobytes() == np.linalg.solve(a, b).tobytes()
