@@ -7,6 +7,7 @@ has it, correctly rounded in software where not, so the same bits everywhere).""
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 
 import numba
@@ -19,6 +20,7 @@ _INTERPRETED = bool(numba.config.DISABLE_JIT)
 
 @intrinsic
 def _llvm_fma(typingctx, a, b, c):
+    """llvm.fma.f64(a, b, c): a * b + c with one rounding."""
     sig = types.float64(types.float64, types.float64, types.float64)
 
     def codegen(context, builder, signature, args):
@@ -31,7 +33,10 @@ def _llvm_fma(typingctx, a, b, c):
 
 
 def _exact_fma(a: float, b: float, c: float) -> float:
-    """fma with numba's JIT off: the exact a * b + c, rounded once (finite inputs)."""
+    """fma with numba's JIT off: the exact a * b + c, rounded once; a * b + c where an
+    operand is not finite (the infinities and NaN are then the same)."""
+    if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(c)):
+        return a * b + c
     return float(Fraction(a) * Fraction(b) + Fraction(c))
 
 

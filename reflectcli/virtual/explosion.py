@@ -567,12 +567,12 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
             filled += c & circle[y, x]
     _fill_extensions(layer, coords, extensions, n_faces, res / 2.0, reach_out)
     left = 0
-    holes = 0
+    unfilled = 0
     seen = 0  # empty texels a lookup can land in
     for y in range(res):
         for x in range(res):
             e = layer[y, x] < 0
-            holes += e
+            unfilled += e
             left += e & circle[y, x]
             seen += e & reach[y, x]
     tally[k, 0] = filled
@@ -580,7 +580,7 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
     # every direction's map point lies in the disk of radius s / 2 (map_coords), so only
     # texels meeting it are ever looked up: with none of them empty, the fill (most of
     # a layer's time where the extensions closed the circle) would change no lookup
-    if seen == 0 or holes == res * res:
+    if seen == 0 or unfilled == res * res:
         return
     empty = np.empty((res, res), np.bool_)
     for y in range(res):

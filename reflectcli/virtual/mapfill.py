@@ -477,7 +477,8 @@ def _draw_between(layer, marks, coords, faces, drawn, extensions, n_faces, cente
     """The texels of box `outer` outside box `inner` (each (y0, y1, x0, x1); inner empty:
     y0 > y1) as the whole layer's draw makes them: cleared but where marked, then the faces
     and the extensions, in up to four strips (a texel's id is the same whichever box it is
-    drawn in: _fill_triangle). Growing a box so draws each texel once."""
+    drawn in: _fill_triangle). Growing a box so draws each texel once. `inner` must lie
+    within `outer` (the boxes grown in turn: the side strips take the inner box's rows)."""
     oy0, oy1, ox0, ox1 = outer
     iy0, iy1, ix0, ix1 = inner
     strips = np.empty((4, 4), np.int64)

@@ -72,11 +72,16 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
             joined_lookups=(pts, row_start), ws=ws)
         virtual, hidden = virtual_vertices_together(joined, pts, row_start, face, proj,
                                                     [part.screen for part in parts], ws)
-        # seeds where the maps' virtual vertices land (a row's projection is its own,
-        # whichever rows are projected with it); then every part's points refined in one
-        # region
+        # seeds where the maps' virtual vertices land, each part's projected as it alone
+        # projects them (in one call: a row's projection is its own among two or more
+        # rows; a part's single row is projected alone); then every part's points refined
+        # in one region
         seeds = screen_from_world(virtual, first.clip_from_world, camera.width,
                                   camera.height)[:, :2]
+        for a in np.flatnonzero(np.diff(row_start) == 1):
+            row = row_start[a]
+            seeds[row] = screen_from_world(virtual[row:row + 1], first.clip_from_world,
+                                           camera.width, camera.height)[0, :2]
         label = np.array([part.view.part for part in parts], np.int32)[row_part]
         refined, status = refine_parts(pts, seeds, first.view.owner, label, q, r,
                                        camera.eye, seeds_retry, reach=reach_m,

@@ -12,6 +12,7 @@ from naive import (
     fill_extensions,
     fill_faces,
     fill_triangle,
+    fused_multiply_add,
     map_coords,
     nearest_filled_distance,
     nearest_filled_texel,
@@ -306,8 +307,13 @@ def test_ids_at_marked_texels_match_the_fill_twins(sphere_maps):
                                 coords[:5] + rng.normal(size=(5, 2)) * 0.3])
         extra[3] = np.nan
         # small triangles (at most _SMALL texels visited) over the large ones, drawn in
-        # between them: _ids_at_marked tests those at once, the others through cells
-        small = (rng.uniform(0, res, (40, 1, 2)) + rng.normal(size=(40, 3, 2)) * 0.7)
+        # between them: _ids_at_marked tests those at once, the others through cells;
+        # clustered, so that several hold one texel (the last drawn must win), a third of
+        # their corners on texel centres (edges through centres: the >= of the tests)
+        clusters = rng.uniform(4, res - 4, (4, 2))
+        small = (clusters[rng.integers(0, 4, 40)][:, None, :]
+                 + rng.normal(size=(40, 3, 2)) * 0.9)
+        small[::3] = np.floor(small[::3]) + 0.5
         coords = np.concatenate([coords, extra, small.reshape(-1, 2)])
         v = len(layer.coords)
         w = v + len(extra)
@@ -320,6 +326,8 @@ def test_ids_at_marked_texels_match_the_fill_twins(sphere_maps):
         marks = rng.random((res, res)) < rng.choice([0.002, 0.02, 0.2])
         marks[rng.integers(0, res - 6):, :3] = True  # an edge, a cluster
         marks[0, rng.integers(0, res)] = True
+        for cy, cx in clusters.astype(int):  # the clusters' texels looked up
+            marks[cy - 3:cy + 4, cx - 3:cx + 4] = True
         y0, y1, x0, x1 = mapfill._marked_box(marks)
         ids = np.full((res, res), -1, np.int32)
         core = np.zeros((res, res), bool)
@@ -558,25 +566,21 @@ def _matmul_sums_as_the_kernel_does() -> bool:
     """Whether this machine's numpy `@` takes a row of an (N, 3) x (3, 3) product as
     fma(p2, m2, fma(p1, m1, p0 m0)) and an (N, 3) x (3,) product as fma(p2, m2, fma(p0, m0,
     p1 m1)) (OpenBLAS's kernels on this machine kind), the order virtual.screen's kernel
-    reproduces; elsewhere it matches numpy to rounding only."""
-    from reflectcli.virtual.screen import _screen_rows
-
+    reproduces (checked against exact fused multiply-adds, not the kernel); elsewhere it
+    matches numpy to rounding only."""
     rng = np.random.default_rng(11)
-    p, m = rng.normal(size=(64, 3)), rng.normal(size=(4, 4))
-    m[3, 3] = 0.0  # w without its constant term: the sums alone
-    m[:3, 3] = 0.0
-    out = np.empty((64, 3))
-    _screen_rows(p, m, 2, 2, out)
-    return bool((out[:, 2] == p @ m[3, :3]).all()
-                and (out[:, 0] == ((p @ m[:3, :3].T)[:, 0] / out[:, 2] + 1.0)).all())
+    p, m = rng.normal(size=(64, 3)), rng.normal(size=(3, 3))
+    f = fused_multiply_add
+    rows = np.array([[f(a[2], b[2], f(a[1], b[1], a[0] * b[0])) for b in m] for a in p])
+    vec = np.array([f(a[2], m[0, 2], f(a[0], m[0, 0], a[1] * m[0, 1])) for a in p])
+    return bool((p @ m.T == rows).all() and (p @ m[0] == vec).all())
 
 
 def test_screen_from_world_matches_twin_bit_for_bit(part_meshes):
     """Projections in a kernel (screen._screen_rows) give numpy's numbers bit for bit where
     numpy's `@` sums as the kernel does: the mask's parts and spheres through the mask's
     camera and cameras at the other eyes, points behind the eye and on its plane (w <= 0:
-    the same infinities and NaN); 2 rows and more (numpy takes a single row by another
-    route: within rounding)."""
+    the same infinities and NaN); single rows (which numpy takes by other routes)."""
     from conftest import open_scene
 
     from reflectcli.virtual.screen import screen_from_world as fast
@@ -599,9 +603,8 @@ def test_screen_from_world_matches_twin_bit_for_bit(part_meshes):
         want = screen_from_world(behind, m, camera.width, camera.height)
         assert np.array_equal(np.isnan(got), np.isnan(want))
         _same(np.nan_to_num(got), np.nan_to_num(want), bits)
-    one = meshes[0].vertices[:1]
-    np.testing.assert_allclose(fast(one, m, 64, 64), screen_from_world(one, m, 64, 64),
-                               rtol=1e-12)
+    for one in meshes[0].vertices[:40, None]:  # a single row: numpy's other routes
+        _same(fast(one, m, 64, 64), screen_from_world(one, m, 64, 64), bits)
     assert fast(np.empty((0, 3)), m, 64, 64).shape == (0, 3)
 
 
@@ -625,6 +628,14 @@ def test_part_extent_matches_twin_bit_for_bit(part_meshes):
                 _same(np.array([bound, far]), np.array(want[:2]), bits)
                 if bits:
                     assert np.array_equal(front, want[2])
+    # vertices seen edge-on (n . (eye - v) exactly 0) face the eye, as numpy's >= has it
+    vertices = np.array([[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]])
+    normals = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    front = np.empty(3, np.bool_)
+    _extent(vertices, normals, np.zeros(3), scene_points, np.zeros(3), front)
+    assert front.tolist() == [True, True, True]
+    assert np.array_equal(front, part_extent(vertices, normals, np.zeros(3), scene_points,
+                                             np.zeros(3))[2])
 
 
 def test_lookup_boxes_are_the_boxes_of_the_marked_texels():
