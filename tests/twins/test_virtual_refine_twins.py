@@ -436,3 +436,21 @@ def test_part_balls_match_twin_bit_for_bit():
                     assert g.tobytes() == w.tobytes()
                 else:
                     np.testing.assert_allclose(g, w, rtol=1e-12, atol=1e-12)
+
+
+def test_tile_bounds_of_a_flat_mirror_clamp_the_cosine():
+    """Every pixel reflecting the same direction (a flat mirror): the tiles' axes are that
+    direction up to rounding, and a cosine rounding above 1 is clamped (the widest angle
+    0, not NaN), as the twin's np.clip does."""
+    h = w = 26
+    inside = np.ones((h, w), bool)
+    q = np.zeros((h, w, 3))
+    q[..., 0], q[..., 1] = np.meshgrid(np.arange(w) * 0.1, np.arange(h) * 0.1)
+    # a unit direction whose tile sums, made unit, meet it at a cosine of 1 + 2^-52
+    r = np.broadcast_to([-0.9677334093782249, -0.2004977678984984, -0.15261943991810775],
+                        (h, w, 3)).copy()
+    tiles = PartTiles(inside, q, r, size=12)
+    center, radius, axis, half, pixel = tile_bounds(inside, q, r, 12)
+    assert np.isfinite(tiles.half).all() and (tiles.half == 0.0).all()
+    np.testing.assert_array_equal(tiles.half, half)
+    assert np.isfinite(tiles.part_half)
