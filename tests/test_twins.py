@@ -325,13 +325,15 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/screen.py:_screen_from_ndc": (
         [VE + "test_screen_from_world_matches_twin_bit_for_bit"], "_screen_rows"),
     "virtual/part.py:_extent": ([VE + "test_part_extent_matches_twin_bit_for_bit"], None),
+    "virtual/part.py:_farthest": ([VE + "test_part_extent_matches_twin_bit_for_bit"],
+                                  "_extent"),
     "fused.py:fma": ([VE + "test_screen_from_world_matches_twin_bit_for_bit",
                       "tests/test_fused.py::test_fma_rounds_once"], "_screen_rows"),
     "virtual/explosion.py:_build_layers": ([VE + "test_explosion_layers_match_twin"] + PARTS,
                                            "build_explosion_maps"),
     "virtual/explosion.py:_build_layer": ([VE + "test_explosion_layers_match_twin"],
                                           "_build_layers"),
-    "virtual/explosion.py:_clear_unmarked": (
+    "virtual/mapfill.py:_clear_unmarked": (
         [VE + "test_maps_built_for_their_lookups_match_whole_maps_there",
          VE + "test_maps_for_lookups_of_a_patch_seen_from_behind"] + PARTS, "_build_layer"),
     "virtual/mapfill.py:_marked_box": (
@@ -359,7 +361,6 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/mapfill.py:_holds": (IDS_AT, "_ids_at_marked"),
     "virtual/mapfill.py:_texel_range": (IDS_AT, "_ids_at_marked"),
     "virtual/mapfill.py:_quad": (IDS_AT, "_ids_at_marked"),
-    "virtual/mapfill.py:_hole_box": (IDS_AT, "_build_layer"),
     "virtual/mapfill.py:_fill_triangle": (FILL, None),
     "virtual/mapfill.py:_fill_faces": (FILL, None),
     "virtual/mapfill.py:_extend": (FILL, "_fill_extensions"),

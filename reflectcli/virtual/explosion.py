@@ -32,10 +32,10 @@ from numba import njit, prange
 from ..parallel import claim, counter
 from ..raster.rasterize.buffers import scratch
 from .mapfill import (
+    _clear_unmarked,
     _draw_between,
     _fill_extensions,
     _fill_faces,
-    _hole_box,
     _holes,
     _ids_at_marked,
     _marked_box,
@@ -537,7 +537,9 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
         # one is sure (where none can be, the whole layer is made)
         holes, reached = _holes(layer, needed, reach, y0, y1, x0, x1)
         if reached:
-            hy0, hy1, hx0, hx1 = _hole_box(layer, needed, y0, y1, x0, x1)
+            # the holes' box (they come in row order)
+            hy0, hy1 = holes[0, 0], holes[-1, 0]
+            hx0, hx1 = holes[:, 1].min(), holes[:, 1].max()
             found = np.full((holes.shape[0], 2), -1, np.int64)
             inner = (1, 0, 1, 0)
             for margin in NEAR_MARGINS:
@@ -593,15 +595,6 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
         for x in range(res):
             if empty[y, x]:
                 layer[y, x] = layer[rows[y, x], cols[y, x]]
-
-
-@njit(cache=True)
-def _clear_unmarked(layer, marks, y0, y1, x0, x1):
-    """layer = -1 at the texels of rows y0..y1, columns x0..x1 that are not marked."""
-    for y in range(y0, y1 + 1):
-        for x in range(x0, x1 + 1):
-            if not marks[y, x]:
-                layer[y, x] = -1
 
 
 def boundary_edges(faces: np.ndarray) -> np.ndarray:

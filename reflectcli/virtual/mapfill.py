@@ -322,18 +322,12 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
 
 
 @njit(cache=True)
-def _hole_box(ids, marks, y0, y1, x0, x1):
-    """(y0, y1, x0, x1): the rows and columns, within the given ones, holding a marked
-    texel that is empty (ids < 0); y0 > y1 if none."""
-    hy0, hy1, hx0, hx1 = y1 + 1, y0 - 1, x1 + 1, x0 - 1
+def _clear_unmarked(layer, marks, y0, y1, x0, x1):
+    """layer = -1 at the texels of rows y0..y1, columns x0..x1 that are not marked."""
     for y in range(y0, y1 + 1):
         for x in range(x0, x1 + 1):
-            if marks[y, x] and ids[y, x] < 0:
-                hy0 = min(hy0, y)
-                hy1 = max(hy1, y)
-                hx0 = min(hx0, x)
-                hx1 = max(hx1, x)
-    return hy0, hy1, hx0, hx1
+            if not marks[y, x]:
+                layer[y, x] = -1
 
 
 @njit(cache=True)
@@ -501,10 +495,7 @@ def _draw_between(layer, marks, coords, faces, drawn, extensions, n_faces, cente
             n += 1
     for k in range(n):
         sy0, sy1, sx0, sx1 = strips[k, 0], strips[k, 1], strips[k, 2], strips[k, 3]
-        for y in range(sy0, sy1 + 1):
-            for x in range(sx0, sx1 + 1):
-                if not marks[y, x]:
-                    layer[y, x] = -1
+        _clear_unmarked(layer, marks, sy0, sy1, sx0, sx1)
         _fill_faces(layer, coords, faces, drawn, sy0, sy1, sx0, sx1)
         _fill_extensions(layer, coords, extensions, n_faces, center, reach, sy0, sy1, sx0,
                          sx1)

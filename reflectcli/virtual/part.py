@@ -19,29 +19,30 @@ from .view import PartView
 @njit(cache=True)
 def _extent(vertices, normals, centre, scene_points, eye, front):
     """(bound, far): the farthest vertex's and the farthest scene point's distance from the
-    map centre; front (V,) the vertices facing the eye (n . (eye - v) >= 0). The numbers of
-    numpy's whole-array version (np.linalg.norm(axis=1) of the differences, np.einsum's
-    dot products; 60 us a part, 14 parts a mask frame) in its order of operations: a
-    norm's squares summed in order, a three-term dot product as (x0 y0 + x2 y2) + x1 y1
-    (explosion._focus_sums found it), a NaN distance the answer (numpy's max). With no
-    scene point, far is 0 (numpy's max raised: a scene always has some)."""
-    bound = 0.0
+    map centre (_farthest); front (V,) the vertices facing the eye (n . (eye - v) >= 0).
+    The numbers of numpy's whole-array version (np.linalg.norm(axis=1) of the differences,
+    np.einsum's dot products; 60 us a part, 14 parts a mask frame) in its order of
+    operations: a three-term dot product as (x0 y0 + x2 y2) + x1 y1 (explosion._focus_sums
+    found it). With no scene point, far is 0 (numpy's max raised: a scene always has
+    some)."""
     for k in range(vertices.shape[0]):
-        d0, d1, d2 = vertices[k, 0] - centre[0], vertices[k, 1] - centre[1], \
-            vertices[k, 2] - centre[2]
-        d = math.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
-        if d > bound or d != d:  # a NaN stays, as in numpy's max
-            bound = d
         t0, t1, t2 = eye[0] - vertices[k, 0], eye[1] - vertices[k, 1], eye[2] - vertices[k, 2]
         front[k] = (normals[k, 0] * t0 + normals[k, 2] * t2) + normals[k, 1] * t1 >= 0.0
+    return _farthest(vertices, centre), _farthest(scene_points, centre)
+
+
+@njit(cache=True, inline="always")
+def _farthest(points, centre):
+    """np.linalg.norm(points - centre, axis=1).max() (0 for no point): a norm's squares
+    summed in order, a NaN distance the answer (as numpy's max)."""
     far = 0.0
-    for k in range(scene_points.shape[0]):
-        d0, d1, d2 = scene_points[k, 0] - centre[0], scene_points[k, 1] - centre[1], \
-            scene_points[k, 2] - centre[2]
+    for k in range(points.shape[0]):
+        d0, d1, d2 = points[k, 0] - centre[0], points[k, 1] - centre[1], \
+            points[k, 2] - centre[2]
         d = math.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
         if d > far or d != d:
             far = d
-    return bound, far
+    return far
 
 
 class ExplosionPart:
