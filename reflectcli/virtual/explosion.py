@@ -205,6 +205,14 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
                                           layers, boundary, lookups, flip_axis)]).maps[0]
 
 
+def layer_radii(near_radius, far_radius, layers: int) -> np.ndarray:
+    """The layers' radii, spaced geometrically from near to far: (L,), or (P, L) for
+    arrays of P parts' near and far radii (one numpy call for a reflector's parts, the
+    same bits as a call each: np.geomspace works element by element; 14 calls of 30-90 us
+    a mask frame)."""
+    return np.geomspace(near_radius, far_radius, max(layers, 2), axis=-1)
+
+
 @dataclass
 class MapSetup:
     """One part's explosion maps before their texels (map_setup): what _build_layers
@@ -229,8 +237,10 @@ class MapSetup:
 def map_setup(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray, near_radius: float,
               far_radius: float, res: int, layers: int = 2,
               boundary: np.ndarray | None = None, lookups: np.ndarray | None = None,
-              flip_axis: np.ndarray | None = None) -> MapSetup:
-    """build_explosion_maps' per-vertex and per-face set-up, for build_maps_together."""
+              flip_axis: np.ndarray | None = None,
+              radii: np.ndarray | None = None) -> MapSetup:
+    """build_explosion_maps' per-vertex and per-face set-up, for build_maps_together.
+    `radii`: layer_radii(near_radius, far_radius, layers), if already made."""
     v, n, f = mesh.vertices, mesh.normals, mesh.faces
     # an open reflector (a cap, a mask, a part of a split mesh) ends at boundary edges rather
     # than at a silhouette: they bound the reflected directions the same way
@@ -240,7 +250,8 @@ def map_setup(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray, near_radiu
     fixed, front, used, drawn, extensions = _setup_arrays(
         v, n, f, np.ascontiguousarray(boundary, np.int64).reshape(-1, 3), eye)
     frame = map_frame(center, eye)
-    radii = np.geomspace(near_radius, far_radius, max(layers, 2))
+    if radii is None:
+        radii = layer_radii(near_radius, far_radius, layers)
     if lookups is not None:
         lookups = np.ascontiguousarray(lookups, np.float64)
     flip = np.zeros(3) if flip_axis is None else np.asarray(flip_axis, np.float64)

@@ -220,6 +220,9 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
     # triangle's): a texel outside them is not held, without _holds' set-up
     span = np.empty((n_drawn + n_ext, 4), np.int64)
     rect = np.empty((n_drawn + n_ext, 4), np.int64)
+    # each quad's corners, worked out once here (two square roots and four divisions;
+    # made again for every texel a quad was tested at, they were a third of the tests)
+    quads = np.empty((n_ext, 8))
     for k in range(n_drawn + n_ext):
         if k < n_drawn:
             f = drawn[k]
@@ -229,6 +232,9 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
         else:
             ax, ay, bx, by, cx, cy, dx, dy = _quad(coords, extensions, k - n_drawn, center,
                                                    reach)
+            corner = quads[k - n_drawn]
+            corner[0], corner[1], corner[2], corner[3] = ax, ay, bx, by
+            corner[4], corner[5], corner[6], corner[7] = cx, cy, dx, dy
             tx0, tx1, ty0, ty1 = _texel_range(ax, ay, bx, by, cx, cy, res)
             ux0, ux1, uy0, uy1 = _texel_range(ax, ay, cx, cy, dx, dy, res)
             if ux0 <= ux1 and uy0 <= uy1:
@@ -310,8 +316,8 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
                     if not (rect[k, 0] <= x <= rect[k, 1] and rect[k, 2] <= y <= rect[k, 3]):
                         continue
                     e = k - n_drawn
-                    ax, ay, bx, by, cx, cy, dx, dy = _quad(coords, extensions, e, center,
-                                                           reach)
+                    ax, ay, bx, by = quads[e, 0], quads[e, 1], quads[e, 2], quads[e, 3]
+                    cx, cy, dx, dy = quads[e, 4], quads[e, 5], quads[e, 6], quads[e, 7]
                     if (_holds(ax, ay, bx, by, cx, cy, res, x, y)
                             or _holds(ax, ay, cx, cy, dx, dy, res, x, y)):
                         found = n_faces + e

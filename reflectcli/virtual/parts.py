@@ -13,7 +13,7 @@ from numba import njit, prange
 
 from ..raster.rasterize import RasterWorkspace
 from ..raster.rasterize.buffers import scratch
-from .explosion import build_maps_together, map_setup, virtual_vertices_together
+from .explosion import build_maps_together, layer_radii, map_setup, virtual_vertices_together
 from .part import ExplosionPart
 from .refine import BOUNDARY, EXACT, NONE, refine_parts
 from .screen import screen_from_world
@@ -65,10 +65,17 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
                       row_part, first.depth, first.view.triangle,
                       np.stack([part.view.local for part in parts]), pts, proj, seeds_retry,
                       reach_m, face)
-        # every part's explosion layers in one region, then their lookups in one
+        # every part's explosion layers in one region, then their lookups in one (the
+        # parts' layer radii in one call where they have as many layers)
+        radii = [None] * count
+        if len({part.build_args[6] for part in parts}) == 1:
+            radii = layer_radii(np.array([part.build_args[3] for part in parts]),
+                                np.array([part.build_args[4] for part in parts]),
+                                first.build_args[6])
         joined = build_maps_together(
-            [map_setup(*part.build_args, lookups=pts[a:b], flip_axis=part.flip)
-             for part, a, b in zip(parts, row_start[:-1], row_start[1:], strict=True)],
+            [map_setup(*part.build_args, lookups=pts[a:b], flip_axis=part.flip, radii=radius)
+             for part, a, b, radius in zip(parts, row_start[:-1], row_start[1:], radii,
+                                           strict=True)],
             joined_lookups=(pts, row_start), ws=ws)
         virtual, hidden = virtual_vertices_together(joined, pts, row_start, face, proj,
                                                     [part.screen for part in parts], ws)

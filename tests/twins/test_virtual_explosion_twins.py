@@ -688,3 +688,19 @@ def test_ray_foci_are_each_mesh_s_ray_focus(part_meshes):
                 assert got.tobytes() == mesh.vertices.mean(axis=0).tobytes()
             else:
                 assert got.tobytes() == np.linalg.solve(a, b).tobytes()
+
+
+@pytest.mark.parametrize("layers", [1, 2, 6])
+def test_layer_radii_of_several_parts_are_each_part_s(layers):
+    """layer_radii of P parts' near and far radii in one call (parts.py) gives each part
+    the bits of its own call, and both those of np.geomspace from near to far."""
+    rng = np.random.default_rng(layers)
+    near = rng.uniform(1e-6, 10.0, 40)
+    far = near * rng.uniform(1.01, 1e4, 40)
+    together = explosion.layer_radii(near, far, layers)
+    assert together.shape == (40, max(layers, 2))
+    for p in range(40):
+        alone = explosion.layer_radii(near[p], far[p], layers)
+        assert together[p].tobytes() == alone.tobytes()
+        assert alone.tobytes() == np.geomspace(near[p], far[p], max(layers, 2)).tobytes()
+        assert alone[0] == near[p] and alone[-1] == far[p]
