@@ -345,8 +345,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
         "build_explosion_maps"),
     "virtual/mapfill.py:_nearest_in_box": (
         [VE + "test_nearest_near_marked_texels_matches_twin"], "_nearest_of_holes"),
-    "virtual/explosion.py:_lookup_boxes": (
-        [VE + "test_lookup_boxes_are_the_boxes_of_the_marked_texels"] + PARTS,
+    "virtual/explosion.py:_lookup_texels": (
+        [VE + "test_lookup_texels_are_the_marked_texels_and_their_boxes"] + PARTS,
         "build_maps_together"),
     "virtual/mapfill.py:_holes": (
         [VE + "test_nearest_near_marked_texels_matches_twin",
@@ -358,6 +358,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
         [VE + "test_drawing_between_boxes_draws_the_ring_as_the_whole_layer",
          VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
     "virtual/mapfill.py:_ids_at_marked": (IDS_AT, "_build_layer"),
+    "virtual/mapfill.py:_marked_texels": (
+        IDS_AT + [VE + "test_lookup_texels_are_the_marked_texels_and_their_boxes"],
+        "_build_layer"),
     "virtual/mapfill.py:_holds": (IDS_AT, "_ids_at_marked"),
     "virtual/mapfill.py:_texel_range": (IDS_AT, "_ids_at_marked"),
     "virtual/mapfill.py:_quad": (IDS_AT, "_ids_at_marked"),

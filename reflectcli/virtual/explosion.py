@@ -39,6 +39,7 @@ from .mapfill import (
     _holes,
     _ids_at_marked,
     _marked_box,
+    _marked_texels,
     _nearest_filled,
     _nearest_of_holes,
 )
@@ -410,6 +411,10 @@ def build_maps_together(setups: list[MapSetup],
     # per layer, the box of its marked texels (y0, y1, x0, x1), where known before the
     # texels (y0 -1: _build_layer finds it)
     boxes = np.full((count, 4), -1, np.int64)
+    # and the texels looked up in each (layer k's: texels[texel_start[k]:texel_start[k +
+    # 1]]), where known (none listed: _build_layer finds them)
+    texel_start = np.zeros(count + 1, np.int64)
+    texels = np.empty((0, 2), np.int64)
     at = cell = None
     if whole:
         needed = np.zeros((count, 0, 0), np.bool_)  # no restriction
@@ -423,7 +428,8 @@ def build_maps_together(setups: list[MapSetup],
         layer_start[1:] = np.cumsum([len(u.radii) for u in setups])
         _mark_parts(points, point_start, centers, np.array([u.flip for u in setups]), frames,
                     res, s, radii, layer_start, needed, at, cell)
-        _lookup_boxes(cell, point_start, layer_start, boxes)
+        texels = scratch(ws, "maps_texels", (2 * points.shape[0], 2), np.int64)
+        _lookup_texels(cell, point_start, layer_start, boxes, texel_start, texels)
     else:
         needed = np.zeros((count, res, res), np.bool_)
         k = 0
@@ -434,7 +440,8 @@ def build_maps_together(setups: list[MapSetup],
             k += layers
     _build_layers(v, n, used, faces, drawn, extensions, starts, setups[0].eye, centers,
                   frames, radii, layer_part, res, s, EXTENSION_REACH * s, coords,
-                  coord_start, ids, core, tally, needed, boxes, numba.get_num_threads())
+                  coord_start, ids, core, tally, needed, boxes, texel_start, texels,
+                  numba.get_num_threads())
     out = []
     k = 0
     layer_start = np.zeros(len(setups) + 1, np.int64)
@@ -457,7 +464,7 @@ def build_maps_together(setups: list[MapSetup],
 @njit(cache=True, parallel=True)
 def _build_layers(v, n, used, faces, drawn, extensions, starts, eye, centers, frames, radii,
                   layer_part, res, s, reach_out, coords, coord_start, ids, core, tally,
-                  needed, boxes, threads):
+                  needed, boxes, texel_start, texels, threads):
     """Every layer's map at once, of one part or several (build_maps_together), layers
     claimed one at a time by whichever thread is free (parallel.py; each layer is work of
     its own, written to its own planes, so no value depends on which thread built it):
@@ -471,7 +478,9 @@ def _build_layers(v, n, used, faces, drawn, extensions, starts, eye, centers, fr
     k's; tally[k]: texels inside the map's circle filled by faces alone, and left empty
     after the extensions. needed (layers, res, res) bool: the texels lookups will read
     (build_explosion_maps' `lookups`), or (layers, 0, 0) for whole layers; boxes (layers,
-    4): each layer's box of marked texels (_lookup_boxes), or -1 rows where not known.
+    4): each layer's box of marked texels (_lookup_texels), or -1 rows where not known;
+    texels[texel_start[k]:texel_start[k + 1]] the marked texels of layer k (_lookup_texels'
+    list), where its box is known.
     `threads`: numba.get_num_threads() of the caller."""
     half = s / 2.0
     # per texel, once for every layer: its center inside the map's circle, and its square
@@ -502,13 +511,13 @@ def _build_layers(v, n, used, faces, drawn, extensions, starts, eye, centers, fr
                          frames[p], res, s, faces[f0:f1], drawn[d0:d1], extensions[e0:e1],
                          f1 - f0, reach_out, circle, reach,
                          coords[coord_start[k]:coord_start[k + 1]], ids[k], core[k], tally,
-                         needed[k], boxes[k])
+                         needed[k], boxes[k], texels[texel_start[k]:texel_start[k + 1]])
 
 
 @njit(cache=True)
 def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn, extensions,
                  n_faces, reach_out, circle, reach, coords, layer, core, tally, needed,
-                 box):
+                 box, texels):
     """Layer k of _build_layers into coords, layer (ids) and core, its counts into
     tally[k]. The texel passes are branch-free (counts as sums of booleans) so that they
     vectorise; the nearest fill runs only where a lookup could land in an empty texel.
@@ -533,13 +542,15 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
         # frame); _ids_at_marked writes every marked texel's id and core
         # the box of the marked texels: from the lookups where known (a scan of the
         # layer's 40,000 marks took most of a layer's time where few are marked)
+        # (and the texels' list: the lookups', else the box's marks)
         y0, y1, x0, x1 = box[0], box[1], box[2], box[3]
         if y0 < 0:
             y0, y1, x0, x1 = _marked_box(needed)
+            texels = _marked_texels(needed, y0, y1, x0, x1)
         if y0 > y1:
             return  # nothing looked up here
         if _ids_at_marked(layer, core, needed, coords, faces, drawn, extensions, n_faces,
-                          res / 2.0, reach_out, y0, y1, x0, x1):
+                          res / 2.0, reach_out, y0, y1, x0, x1, texels):
             return
         # a looked-up texel stays empty: its nearest filled texel is most often close by,
         # so the layer is drawn over the box of such texels grown by each of NEAR_MARGINS
@@ -654,14 +665,17 @@ def _lookup_at(q0, q1, q2, center, flip_axis, frame, res, s, radii):
 
 
 @njit(cache=True)
-def _lookup_boxes(cell, point_start, layer_start, boxes):
-    """boxes[k] (y0, y1, x0, x1): the box of the texels _mark_parts marked in layer k
-    (from each point's cell: texel x, y and its part's layer lo; it marks lo and lo + 1),
-    y0 > y1 where none."""
+def _lookup_texels(cell, point_start, layer_start, boxes, texel_start, texels):
+    """The texels _mark_parts marked in each layer k, from each point's cell (texel x, y
+    and its part's layer lo; it marks lo and lo + 1): boxes[k] (y0, y1, x0, x1) their box,
+    y0 > y1 where none; texels[texel_start[k]:texel_start[k + 1]] (row, column) the texel
+    of each point looking layer k up, in the points' order (a texel once per point: several
+    may share it). texel_start (K + 1,), texels (2 M, 2) for M points."""
     boxes[:, 0] = 1 << 30
     boxes[:, 1] = -1
     boxes[:, 2] = 1 << 30
     boxes[:, 3] = -1
+    texel_start[:] = 0
     for p in range(point_start.shape[0] - 1):
         for i in range(point_start[p], point_start[p + 1]):
             cx, cy = cell[i, 0], cell[i, 1]
@@ -670,6 +684,15 @@ def _lookup_boxes(cell, point_start, layer_start, boxes):
                 boxes[k, 1] = max(boxes[k, 1], cy)
                 boxes[k, 2] = min(boxes[k, 2], cx)
                 boxes[k, 3] = max(boxes[k, 3], cx)
+                texel_start[k + 1] += 1
+    for k in range(texel_start.shape[0] - 1):
+        texel_start[k + 1] += texel_start[k]
+    at = texel_start[:-1].copy()  # where each layer's next texel goes
+    for p in range(point_start.shape[0] - 1):
+        for i in range(point_start[p], point_start[p + 1]):
+            for k in (layer_start[p] + cell[i, 2], layer_start[p] + cell[i, 2] + 1):
+                texels[at[k], 0], texels[at[k], 1] = cell[i, 1], cell[i, 0]
+                at[k] += 1
 
 
 @njit(cache=True, error_model="numpy")

@@ -191,8 +191,26 @@ def _quad(coords, extensions, e, center, reach):
 
 
 @njit(cache=True)
+def _marked_texels(marks, y0, y1, x0, x1):
+    """(T, 2) int64 rows, columns of the marked texels of rows y0..y1, columns x0..x1, in
+    row order: _ids_at_marked's `texels` where the lookups' list is not known."""
+    count = 0
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            count += marks[y, x]
+    texels = np.empty((count, 2), np.int64)
+    t = 0
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            if marks[y, x]:
+                texels[t, 0], texels[t, 1] = y, x
+                t += 1
+    return texels
+
+
+@njit(cache=True)
 def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, center,
-                   reach, y0, y1, x0, x1):
+                   reach, y0, y1, x0, x1, texels):
     """ids and core at the marked texels of rows y0..y1, columns x0..x1, as _fill_faces
     and then _fill_extensions make them (the last drawn face holding the texel, else the
     first extension quad; core: a face holds it), found texel by texel instead of drawing
@@ -204,16 +222,29 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
     texels _fill_triangle would visit, in drawing order; a texel then tests its cell's
     larger faces from the last (down to its small face's index) and its quads from the
     first (_holds). Other texels are left as they are. True if every marked texel is
-    filled (else a looked-up texel is empty: the nearest fill is needed)."""
+    filled (else a looked-up texel is empty: the nearest fill is needed).
+
+    `texels` (T, 2): the marked texels of the box (row, column), every one at least once,
+    in any order (each texel's answer is its own): the lookups' list (several lookups
+    may read one texel), or _marked_texels'. Scanning the box for its marks instead, twice,
+    read about 50 times more texels than were marked (the mask: 787,000 for 24,000)."""
     res = ids.shape[0]
     cy0, cx0 = y0 // _CELL, x0 // _CELL
     rows, cols = y1 // _CELL - cy0 + 1, x1 // _CELL - cx0 + 1
     want = np.zeros((rows, cols), np.bool_)
-    for y in range(y0, y1 + 1):
-        for x in range(x0, x1 + 1):
-            if marks[y, x]:
-                want[y // _CELL - cy0, x // _CELL - cx0] = True
-                ids[y, x] = -1  # no small face holds it yet
+    # the listed texels once each: -2 while not yet seen, then -1 (no small face holds it
+    # yet)
+    for t in range(texels.shape[0]):
+        ids[texels[t, 0], texels[t, 1]] = -2
+    unique = np.empty(texels.shape[0], np.int64)
+    n_unique = 0
+    for t in range(texels.shape[0]):
+        y, x = texels[t, 0], texels[t, 1]
+        if ids[y, x] == -2:
+            ids[y, x] = -1
+            want[y // _CELL - cy0, x // _CELL - cx0] = True
+            unique[n_unique] = t
+            n_unique += 1
     n_drawn, n_ext = drawn.shape[0], extensions.shape[0]
     # per triangle (faces, then quads), its cells' range: r0, r1, c0, c1 (empty: r0 > r1),
     # and the texels _fill_triangle visits in the box (x0, x1, y0, y1; a quad's: either
@@ -288,42 +319,40 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
                     items[fill[kind, r * cols + c]] = k
                     fill[kind, r * cols + c] += 1
     full = True
-    for y in range(y0, y1 + 1):
-        for x in range(x0, x1 + 1):
-            if not marks[y, x]:
+    for u in range(n_unique):
+        y, x = texels[unique[u], 0], texels[unique[u], 1]
+        cell = (y // _CELL - cy0) * cols + x // _CELL - cx0
+        small = ids[y, x]  # the last small face holding it (drawing index), or -1
+        found = -1
+        for t in range(count[0, cell + 1] - 1, count[0, cell] - 1, -1):
+            k = items[t]
+            if k < small:
+                break  # drawn before that small face: it is the last holding the texel
+            if not (rect[k, 0] <= x <= rect[k, 1] and rect[k, 2] <= y <= rect[k, 3]):
                 continue
-            cell = (y // _CELL - cy0) * cols + x // _CELL - cx0
-            small = ids[y, x]  # the last small face holding it (drawing index), or -1
-            found = -1
-            for t in range(count[0, cell + 1] - 1, count[0, cell] - 1, -1):
+            f = drawn[k]
+            a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+            if _holds(coords[a, 0], coords[a, 1], coords[b, 0], coords[b, 1],
+                      coords[c, 0], coords[c, 1], res, x, y):
+                found = f
+                break
+        if found < 0 and small >= 0:
+            found = drawn[small]
+        core[y, x] = found >= 0
+        if found < 0:
+            for t in range(base + count[1, cell], base + count[1, cell + 1]):
                 k = items[t]
-                if k < small:
-                    break  # drawn before that small face: it is the last holding the texel
                 if not (rect[k, 0] <= x <= rect[k, 1] and rect[k, 2] <= y <= rect[k, 3]):
                     continue
-                f = drawn[k]
-                a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
-                if _holds(coords[a, 0], coords[a, 1], coords[b, 0], coords[b, 1],
-                          coords[c, 0], coords[c, 1], res, x, y):
-                    found = f
+                e = k - n_drawn
+                ax, ay, bx, by = quads[e, 0], quads[e, 1], quads[e, 2], quads[e, 3]
+                cx, cy, dx, dy = quads[e, 4], quads[e, 5], quads[e, 6], quads[e, 7]
+                if (_holds(ax, ay, bx, by, cx, cy, res, x, y)
+                        or _holds(ax, ay, cx, cy, dx, dy, res, x, y)):
+                    found = n_faces + e
                     break
-            if found < 0 and small >= 0:
-                found = drawn[small]
-            core[y, x] = found >= 0
-            if found < 0:
-                for t in range(base + count[1, cell], base + count[1, cell + 1]):
-                    k = items[t]
-                    if not (rect[k, 0] <= x <= rect[k, 1] and rect[k, 2] <= y <= rect[k, 3]):
-                        continue
-                    e = k - n_drawn
-                    ax, ay, bx, by = quads[e, 0], quads[e, 1], quads[e, 2], quads[e, 3]
-                    cx, cy, dx, dy = quads[e, 4], quads[e, 5], quads[e, 6], quads[e, 7]
-                    if (_holds(ax, ay, bx, by, cx, cy, res, x, y)
-                            or _holds(ax, ay, cx, cy, dx, dy, res, x, y)):
-                        found = n_faces + e
-                        break
-            ids[y, x] = found
-            full &= found >= 0
+        ids[y, x] = found
+        full &= found >= 0
     return full
 
 

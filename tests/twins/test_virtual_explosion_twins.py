@@ -331,8 +331,13 @@ def test_ids_at_marked_texels_match_the_fill_twins(sphere_maps):
         y0, y1, x0, x1 = mapfill._marked_box(marks)
         ids = np.full((res, res), -1, np.int32)
         core = np.zeros((res, res), bool)
+        # the texels listed as lookups list them: in any order, some several times
+        texels = mapfill._marked_texels(marks, y0, y1, x0, x1)
+        if case % 2:
+            texels = np.concatenate([texels, texels[rng.integers(0, len(texels), 50)]])
+            texels = np.ascontiguousarray(texels[rng.permutation(len(texels))])
         full = mapfill._ids_at_marked(ids, core, marks, coords, faces, drawn, extensions,
-                                      len(faces), half, reach, y0, y1, x0, x1)
+                                      len(faces), half, reach, y0, y1, x0, x1, texels)
         want = np.full((res, res), -1, np.int32)
         fill_faces(want, coords, faces, drawn)
         want_core = want >= 0
@@ -343,8 +348,10 @@ def test_ids_at_marked_texels_match_the_fill_twins(sphere_maps):
         assert full == bool((want[marks] >= 0).all())
         filled = marks & (want >= 0)  # only filled texels marked: none left empty
         again = np.full((res, res), -1, np.int32)
+        box = mapfill._marked_box(filled)
         assert mapfill._ids_at_marked(again, core, filled, coords, faces, drawn, extensions,
-                                      len(faces), half, reach, *mapfill._marked_box(filled))
+                                      len(faces), half, reach, *box,
+                                      mapfill._marked_texels(filled, *box))
         np.testing.assert_array_equal(again[filled], want[filled])
         # the holes' box as _build_layer takes it from _holes (rows in order)
         holes, _ = mapfill._holes(ids, marks, np.ones_like(marks), y0, y1, x0, x1)
@@ -386,7 +393,7 @@ def test_ids_at_marked_leave_marks_outside_their_box(sphere_maps):
         core = np.zeros((res, res), bool)
         full = mapfill._ids_at_marked(ids, core, marks, layer.coords, faces, drawn,
                                       maps.extensions, len(faces), half, reach, y0, y1, x0,
-                                      x1)
+                                      x1, mapfill._marked_texels(marks, y0, y1, x0, x1))
         inside = marks & box
         np.testing.assert_array_equal(ids[inside], want[inside])
         np.testing.assert_array_equal(core[inside], want_core[inside])
@@ -640,10 +647,11 @@ def test_part_extent_matches_twin_bit_for_bit(part_meshes):
                                              np.zeros(3))[2])
 
 
-def test_lookup_boxes_are_the_boxes_of_the_marked_texels():
-    """_lookup_boxes (each layer's box from the points' cells) is _marked_box of the texels
-    _mark_parts marks from those cells (a point's texel in its part's layers lo and lo + 1),
-    and empty (y0 > y1) for a layer no point marks."""
+def test_lookup_texels_are_the_marked_texels_and_their_boxes():
+    """_lookup_texels (each layer's box and texels from the points' cells) gives the
+    _marked_box of the texels _mark_parts marks from those cells (a point's texel in its
+    part's layers lo and lo + 1), empty (y0 > y1) for a layer no point marks, and lists
+    each layer's marked texels, once per point marking it, in the points' order."""
     rng = np.random.default_rng(21)
     res = 40
     layers = np.array([3, 2, 4, 3])
@@ -655,18 +663,29 @@ def test_lookup_boxes_are_the_boxes_of_the_marked_texels():
         rows = slice(point_start[p], point_start[p + 1])
         cell[rows, :2] = rng.integers(0, res, (counts[p], 2))
         cell[rows, 2] = rng.integers(0, layers[p] - 1, counts[p])
+    cell[-3:] = cell[-4]  # points sharing a texel
     needed = np.zeros((layer_start[-1], res, res), bool)
     for p in range(len(counts)):
         for cx, cy, lo in cell[point_start[p]:point_start[p + 1]]:
             needed[layer_start[p] + lo:layer_start[p] + lo + 2, cy, cx] = True
     boxes = np.zeros((layer_start[-1], 4), np.int64)
-    explosion._lookup_boxes(cell, point_start, layer_start, boxes)
+    texel_start = np.full(layer_start[-1] + 1, 5, np.int64)  # overwritten
+    texels = np.full((2 * len(cell), 2), -1, np.int64)
+    explosion._lookup_texels(cell, point_start, layer_start, boxes, texel_start, texels)
+    assert texel_start[0] == 0 and texel_start[-1] == len(texels) and (texels >= 0).all()
     for k in range(layer_start[-1]):
         want = mapfill._marked_box(needed[k])
         if want[0] > want[1]:
             assert boxes[k, 0] > boxes[k, 1]
         else:
             assert tuple(boxes[k]) == want
+        listed = texels[texel_start[k]:texel_start[k + 1]]
+        p = np.searchsorted(layer_start, k, side="right") - 1
+        mine = [(cy, cx) for cx, cy, lo in cell[point_start[p]:point_start[p + 1]]
+                if layer_start[p] + lo in (k, k - 1)]
+        assert [tuple(t) for t in listed] == mine
+        marked = mapfill._marked_texels(needed[k], 0, res - 1, 0, res - 1)
+        assert {tuple(t) for t in listed} == {tuple(t) for t in marked}
     assert (boxes[:, 0] > boxes[:, 1]).sum() >= 2  # part 1's layers, at least
 
 
