@@ -348,6 +348,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/explosion.py:_lookup_texels": (
         [VE + "test_lookup_texels_are_the_marked_texels_and_their_boxes"] + PARTS,
         "build_maps_together"),
+    "virtual/explosion.py:_texels_box": (
+        [VE + "test_lookup_texels_are_the_marked_texels_and_their_boxes"] + PARTS,
+        "_build_layer"),
     "virtual/mapfill.py:_holes": (
         [VE + "test_nearest_near_marked_texels_matches_twin",
          VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),

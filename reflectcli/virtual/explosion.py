@@ -408,13 +408,11 @@ def build_maps_together(setups: list[MapSetup],
     ids = scratch(ws, "maps_ids", (count, res, res), np.int32)
     core = scratch(ws, "maps_core", (count, res, res), np.bool_)
     tally = np.zeros((count, 2), np.int64)
-    # per layer, the box of its marked texels (y0, y1, x0, x1), where known before the
-    # texels (y0 -1: _build_layer finds it)
-    boxes = np.full((count, 4), -1, np.int64)
-    # and the texels looked up in each (layer k's: texels[texel_start[k]:texel_start[k +
-    # 1]]), where known (none listed: _build_layer finds them)
+    # per layer, the texels looked up in it (layer k's: texels[texel_start[k]:texel_start[k
+    # + 1]]), where known before its texels (`listed`; else _build_layer finds them)
     texel_start = np.zeros(count + 1, np.int64)
     texels = np.empty((0, 2), np.int64)
+    listed = False
     at = cell = None
     if whole:
         needed = np.zeros((count, 0, 0), np.bool_)  # no restriction
@@ -429,7 +427,8 @@ def build_maps_together(setups: list[MapSetup],
         _mark_parts(points, point_start, centers, np.array([u.flip for u in setups]), frames,
                     res, s, radii, layer_start, needed, at, cell)
         texels = scratch(ws, "maps_texels", (2 * points.shape[0], 2), np.int64)
-        _lookup_texels(cell, point_start, layer_start, boxes, texel_start, texels)
+        _lookup_texels(cell, point_start, layer_start, texel_start, texels)
+        listed = True
     else:
         needed = np.zeros((count, res, res), np.bool_)
         k = 0
@@ -440,7 +439,7 @@ def build_maps_together(setups: list[MapSetup],
             k += layers
     _build_layers(v, n, used, faces, drawn, extensions, starts, setups[0].eye, centers,
                   frames, radii, layer_part, res, s, EXTENSION_REACH * s, coords,
-                  coord_start, ids, core, tally, needed, boxes, texel_start, texels,
+                  coord_start, ids, core, tally, needed, listed, texel_start, texels,
                   numba.get_num_threads())
     out = []
     k = 0
@@ -464,7 +463,7 @@ def build_maps_together(setups: list[MapSetup],
 @njit(cache=True, parallel=True)
 def _build_layers(v, n, used, faces, drawn, extensions, starts, eye, centers, frames, radii,
                   layer_part, res, s, reach_out, coords, coord_start, ids, core, tally,
-                  needed, boxes, texel_start, texels, threads):
+                  needed, listed, texel_start, texels, threads):
     """Every layer's map at once, of one part or several (build_maps_together), layers
     claimed one at a time by whichever thread is free (parallel.py; each layer is work of
     its own, written to its own planes, so no value depends on which thread built it):
@@ -477,10 +476,9 @@ def _build_layers(v, n, used, faces, drawn, extensions, starts, eye, centers, fr
     coords[coord_start[k]:coord_start[k + 1]] (V, 2), ids[k], core[k] (res, res): layer
     k's; tally[k]: texels inside the map's circle filled by faces alone, and left empty
     after the extensions. needed (layers, res, res) bool: the texels lookups will read
-    (build_explosion_maps' `lookups`), or (layers, 0, 0) for whole layers; boxes (layers,
-    4): each layer's box of marked texels (_lookup_texels), or -1 rows where not known;
-    texels[texel_start[k]:texel_start[k + 1]] the marked texels of layer k (_lookup_texels'
-    list), where its box is known.
+    (build_explosion_maps' `lookups`), or (layers, 0, 0) for whole layers; if `listed`,
+    texels[texel_start[k]:texel_start[k + 1]] are the marked texels of layer k
+    (_lookup_texels' list), else each layer finds them.
     `threads`: numba.get_num_threads() of the caller."""
     half = s / 2.0
     # per texel, once for every layer: its center inside the map's circle, and its square
@@ -511,13 +509,13 @@ def _build_layers(v, n, used, faces, drawn, extensions, starts, eye, centers, fr
                          frames[p], res, s, faces[f0:f1], drawn[d0:d1], extensions[e0:e1],
                          f1 - f0, reach_out, circle, reach,
                          coords[coord_start[k]:coord_start[k + 1]], ids[k], core[k], tally,
-                         needed[k], boxes[k], texels[texel_start[k]:texel_start[k + 1]])
+                         needed[k], listed, texels[texel_start[k]:texel_start[k + 1]])
 
 
 @njit(cache=True)
 def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn, extensions,
                  n_faces, reach_out, circle, reach, coords, layer, core, tally, needed,
-                 box, texels):
+                 listed, texels):
     """Layer k of _build_layers into coords, layer (ids) and core, its counts into
     tally[k]. The texel passes are branch-free (counts as sums of booleans) so that they
     vectorise; the nearest fill runs only where a lookup could land in an empty texel.
@@ -540,11 +538,11 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
         tally[k, 1] = -1
         # only the marked texels are read: the layer is not cleared first (17 MB a mask
         # frame); _ids_at_marked writes every marked texel's id and core
-        # the box of the marked texels: from the lookups where known (a scan of the
-        # layer's 40,000 marks took most of a layer's time where few are marked)
-        # (and the texels' list: the lookups', else the box's marks)
-        y0, y1, x0, x1 = box[0], box[1], box[2], box[3]
-        if y0 < 0:
+        # the marked texels and their box: from the lookups' list where known (a scan of
+        # the layer's 40,000 marks took most of a layer's time where few are marked)
+        if listed:
+            y0, y1, x0, x1 = _texels_box(texels)
+        else:
             y0, y1, x0, x1 = _marked_box(needed)
             texels = _marked_texels(needed, y0, y1, x0, x1)
         if y0 > y1:
@@ -665,34 +663,44 @@ def _lookup_at(q0, q1, q2, center, flip_axis, frame, res, s, radii):
 
 
 @njit(cache=True)
-def _lookup_texels(cell, point_start, layer_start, boxes, texel_start, texels):
+def _lookup_texels(cell, point_start, layer_start, texel_start, texels):
     """The texels _mark_parts marked in each layer k, from each point's cell (texel x, y
-    and its part's layer lo; it marks lo and lo + 1): boxes[k] (y0, y1, x0, x1) their box,
-    y0 > y1 where none; texels[texel_start[k]:texel_start[k + 1]] (row, column) the texel
-    of each point looking layer k up, in the points' order (a texel once per point: several
-    may share it). texel_start (K + 1,), texels (2 M, 2) for M points."""
-    boxes[:, 0] = 1 << 30
-    boxes[:, 1] = -1
-    boxes[:, 2] = 1 << 30
-    boxes[:, 3] = -1
+    and its part's layer lo; it marks lo and lo + 1): texels[texel_start[k]:texel_start[k +
+    1]] (row, column) the texel of each point looking layer k up, in the points' order (a
+    texel once per point: several may share it). texel_start (K + 1,), texels (2 M, 2) for
+    M points. (Their boxes are found by each layer from its list, in the layers' parallel
+    region: here, their minima and maxima updated point by point made a chain through
+    memory, three times the time of the lists.)"""
     texel_start[:] = 0
     for p in range(point_start.shape[0] - 1):
+        base = layer_start[p]
         for i in range(point_start[p], point_start[p + 1]):
-            cx, cy = cell[i, 0], cell[i, 1]
-            for k in (layer_start[p] + cell[i, 2], layer_start[p] + cell[i, 2] + 1):
-                boxes[k, 0] = min(boxes[k, 0], cy)
-                boxes[k, 1] = max(boxes[k, 1], cy)
-                boxes[k, 2] = min(boxes[k, 2], cx)
-                boxes[k, 3] = max(boxes[k, 3], cx)
-                texel_start[k + 1] += 1
+            k = base + cell[i, 2]
+            texel_start[k + 1] += 1
+            texel_start[k + 2] += 1
     for k in range(texel_start.shape[0] - 1):
         texel_start[k + 1] += texel_start[k]
     at = texel_start[:-1].copy()  # where each layer's next texel goes
     for p in range(point_start.shape[0] - 1):
+        base = layer_start[p]
         for i in range(point_start[p], point_start[p + 1]):
-            for k in (layer_start[p] + cell[i, 2], layer_start[p] + cell[i, 2] + 1):
-                texels[at[k], 0], texels[at[k], 1] = cell[i, 1], cell[i, 0]
-                at[k] += 1
+            k = base + cell[i, 2]
+            texels[at[k], 0], texels[at[k], 1] = cell[i, 1], cell[i, 0]
+            texels[at[k + 1], 0], texels[at[k + 1], 1] = cell[i, 1], cell[i, 0]
+            at[k] += 1
+            at[k + 1] += 1
+
+
+@njit(cache=True)
+def _texels_box(texels):
+    """(y0, y1, x0, x1): the box of (T, 2) texels (row, column); y0 > y1 if none."""
+    y0, y1, x0, x1 = 1 << 30, -1, 1 << 30, -1
+    for t in range(texels.shape[0]):
+        y0 = min(y0, texels[t, 0])
+        y1 = max(y1, texels[t, 0])
+        x0 = min(x0, texels[t, 1])
+        x1 = max(x1, texels[t, 1])
+    return y0, y1, x0, x1
 
 
 @njit(cache=True, error_model="numpy")
