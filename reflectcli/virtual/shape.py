@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -30,6 +31,21 @@ class PartShape:
 class ReflectorShape:
     mesh: IndexedMesh  # the whole reflector, welded
     parts: tuple[PartShape, ...]
+
+    @cached_property
+    def face_parts(self) -> tuple[np.ndarray, np.ndarray]:
+        """(local, part_of): local (P, F + 1) int32 each reflector face's index among its
+        part's faces, -1 in other parts' rows (and in the last column, which an item
+        buffer's -1 reads); part_of (F + 1,) each face's part (int16 below 32,768 parts:
+        half the owner plane's reads), -1 last. Made once per shape (view.reflector_view
+        made them for every view); shared, not to be written."""
+        count = len(self.mesh.faces)
+        local = np.full((len(self.parts), count + 1), -1, np.int32)
+        part_of = np.full(count + 1, -1, np.int16 if len(self.parts) < 2**15 else np.int32)
+        for p, part in enumerate(self.parts):
+            local[p, part.faces] = np.arange(len(part.faces))
+            part_of[part.faces] = p
+        return local, part_of
 
 
 def reflector_shape(corners: np.ndarray, normals: np.ndarray, decompose: bool) -> ReflectorShape:

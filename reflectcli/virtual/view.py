@@ -105,12 +105,9 @@ def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorSha
         grid = reflector_grid(alone.triangle, alone.b1, alone.b2, corners, normals, camera.eye)
     h, w = alone.triangle.shape
     parts = len(shape.parts)
-    local = np.full((parts, count + 1), -1, np.int32)  # face -> part face
-    # face -> part (the parts split the faces); int16 halves the owner plane's reads
-    part_of = np.full(count + 1, -1, np.int16 if parts < 2**15 else np.int32)
-    for p, part in enumerate(shape.parts):
-        local[p, part.faces] = np.arange(len(part.faces))
-        part_of[part.faces] = p
+    # face -> part face, face -> part (the parts split the faces)
+    assert count == len(shape.mesh.faces)
+    local, part_of = shape.face_parts
     owner = np.empty((h, w), part_of.dtype)
     marks = np.zeros((parts, h // TILE + 1, w // TILE + 1), np.bool_)
     part_views(alone.triangle, part_of, TILE, owner, marks)

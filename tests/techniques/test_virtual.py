@@ -562,6 +562,29 @@ def test_shape_cache_holds_only_the_latest_soup_arrays():
     assert cache.soup_key(b_corners.copy(), b_normals, 2, 5) != key
 
 
+def test_shape_face_parts_map_faces_to_their_parts():
+    """ReflectorShape.face_parts (made once per shape, read by every view): each face's
+    index among its part's faces in that part's row, -1 in the others' and in the last
+    column (an item buffer's -1), each face's part, -1 last; the same arrays on every
+    call."""
+    from reflectcli.virtual.shape import reflector_shape
+
+    m = primitives.torus(1.0, 0.4, 24, 12)
+    shape = reflector_shape(m.corners, m.normals, True)
+    assert len(shape.parts) >= 2
+    local, part_of = shape.face_parts
+    count = len(shape.mesh.faces)
+    assert local.shape == (len(shape.parts), count + 1) and part_of.shape == (count + 1,)
+    assert (local[:, -1] == -1).all() and part_of[-1] == -1
+    for p, part in enumerate(shape.parts):
+        np.testing.assert_array_equal(local[p, part.faces], np.arange(len(part.faces)))
+        assert (part_of[part.faces] == p).all()
+        others = np.setdiff1d(np.arange(count), part.faces)
+        assert (local[p, others] == -1).all()
+    assert (part_of[:-1] >= 0).all()  # the parts split the faces
+    assert shape.face_parts[0] is local
+
+
 def test_welded_tessellation_gives_the_same_virtual_corners():
     """prepare welds the reflected objects' equal points for the sphere method (a grid point
     on a shared edge was searched once per triangle that made it): fewer searches, the
