@@ -359,7 +359,12 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
          VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
     "virtual/mapfill.py:_draw_between": (
         [VE + "test_drawing_between_boxes_draws_the_ring_as_the_whole_layer",
+         VE + "test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins",
          VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
+    "virtual/mapfill.py:_layer_triangles": (
+        [VE + "test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins",
+         VE + "test_drawing_between_boxes_draws_the_ring_as_the_whole_layer"],
+        "_build_layer"),
     "virtual/mapfill.py:_ids_at_marked": (IDS_AT, "_build_layer"),
     "virtual/mapfill.py:_marked_texels": (
         IDS_AT + [VE + "test_lookup_texels_are_the_marked_texels_and_their_boxes"],

@@ -39,6 +39,7 @@ from .mapfill import (
     _fill_faces,
     _holes,
     _ids_at_marked,
+    _layer_triangles,
     _marked_box,
     _marked_texels,
     _nearest_filled,
@@ -570,12 +571,14 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
             hy0, hy1 = holes[0, 0], holes[-1, 0]
             hx0, hx1 = holes[:, 1].min(), holes[:, 1].max()
             found = np.full((holes.shape[0], 2), -1, np.int64)
+            corners, value, rect = _layer_triangles(coords, faces, drawn, extensions,
+                                                    n_faces, res / 2.0, reach_out, res)
             inner = (1, 0, 1, 0)
             for margin in NEAR_MARGINS:
                 outer = (max(hy0 - margin, 0), min(hy1 + margin, res - 1),
                          max(hx0 - margin, 0), min(hx1 + margin, res - 1))
-                _draw_between(layer, needed, coords, faces, drawn, extensions, n_faces,
-                              res / 2.0, reach_out, inner, outer)
+                _draw_between(layer, needed, corners, value, rect, drawn.shape[0], inner,
+                              outer)
                 inner = outer
                 if _nearest_of_holes(layer, holes, found, outer[0], outer[1], outer[2],
                                      outer[3]) == 0:

@@ -501,13 +501,52 @@ def _holes(layer, marks, reach, y0, y1, x0, x1):
 
 
 @njit(cache=True)
-def _draw_between(layer, marks, coords, faces, drawn, extensions, n_faces, center, reach,
-                  inner, outer):
+def _layer_triangles(coords, faces, drawn, extensions, n_faces, center, reach, res):
+    """A layer's triangles in drawing order, as _fill_faces and then _fill_extensions draw
+    them: the drawn faces, then each extension quad's two ((a, b, c), (a, c, d)): corners
+    (T, 6) ax, ay, bx, by, cx, cy; value (T,) the id each writes (the face, or n_faces +
+    the extension); rect (T, 4) x0, x1, y0, y1, the texels _fill_triangle visits over the
+    res x res map (_texel_range: x0 > x1 if none). Made once for a layer's ring draws
+    (_draw_between): each strip then skips the triangles whose texels miss it by four
+    comparisons, instead of every triangle's set-up (and a quad's square roots) in every
+    strip."""
+    n_drawn, n_ext = drawn.shape[0], extensions.shape[0]
+    count = n_drawn + 2 * n_ext
+    corners = np.empty((count, 6))
+    value = np.empty(count, np.int64)
+    for k in range(n_drawn):
+        f = drawn[k]
+        a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+        corners[k, 0], corners[k, 1] = coords[a, 0], coords[a, 1]
+        corners[k, 2], corners[k, 3] = coords[b, 0], coords[b, 1]
+        corners[k, 4], corners[k, 5] = coords[c, 0], coords[c, 1]
+        value[k] = f
+    for e in range(n_ext):
+        ax, ay, bx, by, cx, cy, dx, dy = _quad(coords, extensions, e, center, reach)
+        k = n_drawn + 2 * e
+        corners[k, 0], corners[k, 1], corners[k, 2] = ax, ay, bx
+        corners[k, 3], corners[k, 4], corners[k, 5] = by, cx, cy
+        corners[k + 1, 0], corners[k + 1, 1], corners[k + 1, 2] = ax, ay, cx
+        corners[k + 1, 3], corners[k + 1, 4], corners[k + 1, 5] = cy, dx, dy
+        value[k] = value[k + 1] = n_faces + e
+    rect = np.empty((count, 4), np.int64)
+    for k in range(count):
+        x0, x1, y0, y1 = _texel_range(corners[k, 0], corners[k, 1], corners[k, 2],
+                                      corners[k, 3], corners[k, 4], corners[k, 5], res)
+        rect[k, 0], rect[k, 1], rect[k, 2], rect[k, 3] = x0, x1, y0, y1
+    return corners, value, rect
+
+
+@njit(cache=True)
+def _draw_between(layer, marks, corners, value, rect, n_drawn, inner, outer):
     """The texels of box `outer` outside box `inner` (each (y0, y1, x0, x1); inner empty:
-    y0 > y1) as the whole layer's draw makes them: cleared but where marked, then the faces
-    and the extensions, in up to four strips (a texel's id is the same whichever box it is
-    drawn in: _fill_triangle). Growing a box so draws each texel once. `inner` must lie
-    within `outer` (the boxes grown in turn: the side strips take the inner box's rows)."""
+    y0 > y1) as the whole layer's draw makes them: cleared but where marked, then the
+    layer's triangles (_layer_triangles: corners, value; rect their texels, _triangle_rects;
+    the first n_drawn the faces, the rest the extensions', drawn where still empty), in up
+    to four strips (a texel's id is the same whichever box it is drawn in: _fill_triangle;
+    a triangle whose texels miss a strip writes nothing there). Growing a box so draws each
+    texel once. `inner` must lie within `outer` (the boxes grown in turn: the side strips
+    take the inner box's rows)."""
     oy0, oy1, ox0, ox1 = outer
     iy0, iy1, ix0, ix1 = inner
     strips = np.empty((4, 4), np.int64)
@@ -528,12 +567,16 @@ def _draw_between(layer, marks, coords, faces, drawn, extensions, n_faces, cente
         if ix1 < ox1:  # right
             strips[n, 0], strips[n, 1], strips[n, 2], strips[n, 3] = iy0, iy1, ix1 + 1, ox1
             n += 1
-    for k in range(n):
-        sy0, sy1, sx0, sx1 = strips[k, 0], strips[k, 1], strips[k, 2], strips[k, 3]
+    for j in range(n):
+        sy0, sy1, sx0, sx1 = strips[j, 0], strips[j, 1], strips[j, 2], strips[j, 3]
         _clear_unmarked(layer, marks, sy0, sy1, sx0, sx1)
-        _fill_faces(layer, coords, faces, drawn, sy0, sy1, sx0, sx1)
-        _fill_extensions(layer, coords, extensions, n_faces, center, reach, sy0, sy1, sx0,
-                         sx1)
+        for k in range(corners.shape[0]):
+            if (rect[k, 0] > sx1 or rect[k, 1] < sx0 or rect[k, 2] > sy1
+                    or rect[k, 3] < sy0 or rect[k, 0] > rect[k, 1]):
+                continue
+            _fill_triangle(layer, corners[k, 0], corners[k, 1], corners[k, 2],
+                           corners[k, 3], corners[k, 4], corners[k, 5], value[k],
+                           k >= n_drawn, sy0, sy1, sx0, sx1)
 
 
 @njit(cache=True)

@@ -552,6 +552,8 @@ def test_drawing_between_boxes_draws_the_ring_as_the_whole_layer(sphere_maps):
         want = np.full((res, res), -1, np.int32)
         fill_faces(want, layer.coords, faces, drawn)
         fill_extensions(want, layer.coords, maps.extensions, len(faces), half, reach)
+        table = mapfill._layer_triangles(layer.coords, faces, drawn, maps.extensions,
+                                         len(faces), half, reach, res)
         for _ in range(4):
             marks = rng.random((res, res)) < 0.05
             ids = np.where(marks, want, rng.integers(-3, 40, (res, res))).astype(np.int32)
@@ -562,13 +564,58 @@ def test_drawing_between_boxes_draws_the_ring_as_the_whole_layer(sphere_maps):
             for margin in (0, 3, 11, 40):
                 outer = (max(y0 - margin, 0), min(y1 + margin, res - 1),
                          max(x0 - margin, 0), min(x1 + margin, res - 1))
-                mapfill._draw_between(ids, marks, layer.coords, faces, drawn,
-                                      maps.extensions, len(faces), half, reach, inner, outer)
+                mapfill._draw_between(ids, marks, *table, len(drawn), inner, outer)
                 box = np.zeros((res, res), bool)
                 box[outer[0]:outer[1] + 1, outer[2]:outer[3] + 1] = True
                 np.testing.assert_array_equal(ids[box], want[box])
                 np.testing.assert_array_equal(ids[~box], stale[~box])
                 inner = outer
+
+
+def test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins(sphere_maps):
+    """_draw_between over the layer's triangle table (_layer_triangles, each triangle's
+    texels found once) with degenerate, NaN, tiny, map-wide and off-map triangles and quads
+    among the sphere's, some faces not drawn: every ring as the fill twins draw the whole
+    layer, the texels outside the box untouched."""
+    mesh, _, maps = sphere_maps
+    rng = np.random.default_rng(23)
+    res, half = maps.res, maps.res / 2.0
+    reach = explosion.EXTENSION_REACH * maps.s
+    for case in range(6):
+        layer = maps.layers[case % len(maps.layers)]
+        extra = np.concatenate([rng.uniform(-30, res + 30, (20, 2)),
+                                layer.coords[:5] + rng.normal(size=(5, 2)) * 0.3])
+        extra[3] = np.nan
+        extra[7] = np.floor(extra[7]) + 0.5  # a corner on a texel centre
+        coords = np.concatenate([layer.coords, extra])
+        v = len(layer.coords)
+        faces = np.concatenate([mesh.faces, rng.integers(0, len(coords), (30, 3)),
+                                [[v, v, v + 1], [v + 3, v + 4, v + 5]]]).astype(np.int64)
+        drawn = np.sort(rng.permutation(len(faces))[: int(len(faces) * 0.7)])
+        extensions = np.concatenate([maps.extensions, np.column_stack(
+            [np.zeros(15, np.int64), rng.integers(0, len(coords), (15, 2))])])
+        want = np.full((res, res), -1, np.int32)
+        fill_faces(want, coords, faces, drawn)
+        fill_extensions(want, coords, extensions, len(faces), half, reach)
+        table = mapfill._layer_triangles(coords, faces, drawn, extensions, len(faces), half,
+                                         reach, res)
+        assert len(table[0]) == len(drawn) + 2 * len(extensions)
+        marks = rng.random((res, res)) < 0.05
+        ids = np.where(marks, want, rng.integers(-3, 40, (res, res))).astype(np.int32)
+        stale = ids.copy()
+        y0, x0 = (int(c) for c in rng.integers(0, res, 2))
+        y1, x1 = int(rng.integers(y0, res)), int(rng.integers(x0, res))
+        inner = (1, 0, 1, 0)
+        for margin in (0, 2, 9, res):
+            outer = (max(y0 - margin, 0), min(y1 + margin, res - 1),
+                     max(x0 - margin, 0), min(x1 + margin, res - 1))
+            mapfill._draw_between(ids, marks, *table, len(drawn), inner, outer)
+            box = np.zeros((res, res), bool)
+            box[outer[0]:outer[1] + 1, outer[2]:outer[3] + 1] = True
+            np.testing.assert_array_equal(ids[box], want[box])
+            np.testing.assert_array_equal(ids[~box], stale[~box])
+            inner = outer
+        np.testing.assert_array_equal(ids, want)  # the last box: the whole map
 
 
 def _matmul_sums_as_the_kernel_does() -> bool:
