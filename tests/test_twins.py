@@ -363,6 +363,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
          VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
     "virtual/mapfill.py:_layer_triangles": (
         [VE + "test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins",
+         VE + "test_drawing_lattice_triangles_from_the_table_matches_the_fill_twins",
          VE + "test_drawing_between_boxes_draws_the_ring_as_the_whole_layer"],
         "_build_layer"),
     "virtual/mapfill.py:_ids_at_marked": (IDS_AT, "_build_layer"),

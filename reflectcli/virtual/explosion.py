@@ -210,10 +210,17 @@ def build_explosion_maps(mesh: IndexedMesh, eye: np.ndarray, center: np.ndarray,
 
 def layer_radii(near_radius, far_radius, layers: int) -> np.ndarray:
     """The layers' radii, spaced geometrically from near to far: (L,), or (P, L) for
-    arrays of P parts' near and far radii (one numpy call for a reflector's parts, the
-    same bits as a call each: np.geomspace works element by element; 14 calls of 30-90 us
-    a mask frame)."""
-    return np.geomspace(near_radius, far_radius, max(layers, 2), axis=-1)
+    arrays of P parts' near and far radii, each part's row the bits of its own call: one
+    numpy call for a reflector's parts (14 calls of 30-90 us a mask frame) where
+    np.geomspace works element by element, which it does unless some part's step in
+    log10 is zero (near == far: numpy's linspace then takes its other branch for every
+    element), when each part gets a call of its own."""
+    count = max(layers, 2)
+    near = np.asarray(near_radius, np.float64)
+    far = np.asarray(far_radius, np.float64)
+    if near.ndim and not ((np.log10(far) - np.log10(near)) / (count - 1) != 0).all():
+        return np.array([np.geomspace(a, b, count) for a, b in zip(near, far, strict=True)])
+    return np.geomspace(near, far, count, axis=-1)
 
 
 @dataclass

@@ -224,8 +224,9 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
     first (_holds). Other texels are left as they are. True if every marked texel is
     filled (else a looked-up texel is empty: the nearest fill is needed).
 
-    `texels` (T, 2): the marked texels of the box (row, column), every one at least once,
-    in any order (each texel's answer is its own): the lookups' list (several lookups
+    `texels` (T, 2): the marked texels of the box (row, column), every one at least once
+    and no unmarked texel (the small faces test marked texels only), in any order (each
+    texel's answer is its own): the lookups' list (several lookups
     may read one texel), or _marked_texels'. Scanning the box for its marks instead, twice,
     read about 50 times more texels than were marked (the mask: 787,000 for 24,000)."""
     res = ids.shape[0]
@@ -541,7 +542,7 @@ def _layer_triangles(coords, faces, drawn, extensions, n_faces, center, reach, r
 def _draw_between(layer, marks, corners, value, rect, n_drawn, inner, outer):
     """The texels of box `outer` outside box `inner` (each (y0, y1, x0, x1); inner empty:
     y0 > y1) as the whole layer's draw makes them: cleared but where marked, then the
-    layer's triangles (_layer_triangles: corners, value; rect their texels, _triangle_rects;
+    layer's triangles (_layer_triangles: corners, value, rect (their texels, _texel_range);
     the first n_drawn the faces, the rest the extensions', drawn where still empty), in up
     to four strips (a texel's id is the same whichever box it is drawn in: _fill_triangle;
     a triangle whose texels miss a strip writes nothing there). Growing a box so draws each

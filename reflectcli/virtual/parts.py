@@ -68,10 +68,11 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
         # every part's explosion layers in one region, then their lookups in one (the
         # parts' layer radii in one call where they have as many layers)
         radii = [None] * count
-        if len({part.build_args[6] for part in parts}) == 1:
-            radii = layer_radii(np.array([part.build_args[3] for part in parts]),
-                                np.array([part.build_args[4] for part in parts]),
-                                first.build_args[6])
+        # build_args: (mesh, eye, center, near, far, resolution, layers, boundary)
+        near, far, layers = zip(*(part.build_args[3:5] + part.build_args[6:7]
+                                  for part in parts), strict=True)
+        if len(set(layers)) == 1:
+            radii = layer_radii(np.array(near), np.array(far), layers[0])
         joined = build_maps_together(
             [map_setup(*part.build_args, lookups=pts[a:b], flip_axis=part.flip, radii=radius)
              for part, a, b, radius in zip(parts, row_start[:-1], row_start[1:], radii,

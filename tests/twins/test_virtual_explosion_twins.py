@@ -584,16 +584,21 @@ def test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins(sphere_ma
     for case in range(6):
         layer = maps.layers[case % len(maps.layers)]
         extra = np.concatenate([rng.uniform(-30, res + 30, (20, 2)),
-                                layer.coords[:5] + rng.normal(size=(5, 2)) * 0.3])
+                                layer.coords[:5] + rng.normal(size=(5, 2)) * 0.3,
+                                # corners on texel centres: edges through centres, where
+                                # only the fill's own tests in its winding give its ids
+                                rng.integers(-4, res + 4, (30, 2)) + 0.5])
         extra[3] = np.nan
-        extra[7] = np.floor(extra[7]) + 0.5  # a corner on a texel centre
         coords = np.concatenate([layer.coords, extra])
         v = len(layer.coords)
+        lattice = v + 25 + rng.integers(0, 30, (40, 3))
         faces = np.concatenate([mesh.faces, rng.integers(0, len(coords), (30, 3)),
-                                [[v, v, v + 1], [v + 3, v + 4, v + 5]]]).astype(np.int64)
+                                [[v, v, v + 1], [v + 3, v + 4, v + 5]],
+                                lattice]).astype(np.int64)
         drawn = np.sort(rng.permutation(len(faces))[: int(len(faces) * 0.7)])
         extensions = np.concatenate([maps.extensions, np.column_stack(
-            [np.zeros(15, np.int64), rng.integers(0, len(coords), (15, 2))])])
+            [np.zeros(15, np.int64), rng.integers(0, len(coords), (15, 2))]), np.column_stack(
+            [np.zeros(15, np.int64), v + 25 + rng.integers(0, 30, (15, 2))])])
         want = np.full((res, res), -1, np.int32)
         fill_faces(want, coords, faces, drawn)
         fill_extensions(want, coords, extensions, len(faces), half, reach)
@@ -616,6 +621,75 @@ def test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins(sphere_ma
             np.testing.assert_array_equal(ids[~box], stale[~box])
             inner = outer
         np.testing.assert_array_equal(ids, want)  # the last box: the whole map
+
+
+@pytest.mark.parametrize("res, layers", [(17, 2), (61, 3), (97, 8)])
+def test_maps_built_together_give_each_part_s_maps_at_its_lookups(res, layers):
+    """build_maps_together with the parts' lookups joined (each layer's texels listed from
+    the points' cells: _lookup_texels, _texels_box) gives at every looked-up texel the
+    ids and core of the part's maps built alone for the same lookups (whose texels are
+    found from the marks): a torus split into parts, one part with no lookups, NaN,
+    repeated and far points among the others."""
+    from reflectcli.virtual.shape import reflector_shape
+
+    rng = np.random.default_rng(res + layers)
+    t = primitives.torus(1.0, 0.4, 20, 10)
+    shape = reflector_shape(t.corners, t.normals, True)
+    assert len(shape.parts) >= 3
+    eye = np.array([0.7, 2.5, 4.0])
+    setups, alone, lookups, starts = [], [], [], [0]
+    for p, part in enumerate(shape.parts):
+        n = 0 if p == 1 else int(rng.integers(20, 80))
+        points = rng.normal(size=(n, 3)) * rng.uniform(0.5, 8.0)
+        if n:
+            points[2] = np.nan
+            points[3] = points[4]
+            points[5] = [1e30, 0.0, 0.0]
+        center = part.mesh.vertices.mean(axis=0)
+        near = 1.1 * np.linalg.norm(part.mesh.vertices - center, axis=1).max()
+        args = (part.mesh, eye, center, near, max(30.0, near * 1.01), res, layers,
+                part.boundary, points, None if p % 2 else rng.normal(size=3))
+        setups.append(explosion.map_setup(*args))
+        alone.append(explosion.build_explosion_maps(*args))
+        lookups.append(points)
+        starts.append(starts[-1] + n)
+    joined = explosion.build_maps_together(
+        setups, joined_lookups=(np.concatenate(lookups), np.array(starts, np.int64)))
+    checked = 0
+    for p, maps in enumerate(alone):
+        k0 = joined.layer_start[p]
+        for cx, cy, lo in joined.cell[starts[p]:starts[p + 1]]:
+            for j in (lo, lo + 1):
+                assert joined.ids[k0 + j, cy, cx] == maps.all_ids[j, cy, cx]
+                assert joined.core[k0 + j, cy, cx] == maps.all_cores[j, cy, cx]
+                checked += 1
+    assert checked > 100
+
+
+def test_drawing_lattice_triangles_from_the_table_matches_the_fill_twins():
+    """_layer_triangles and _draw_between on layers of lattice triangles and quads (every
+    corner given on a texel centre, so edges run through centres): the whole map as the
+    fill twins draw it. Only there does a triangle's winding change which texels it holds
+    (the rounding of the edge tests at a centre on an edge), so only there is a table
+    drawn in another winding than _fill_faces' and _fill_extensions' seen."""
+    rng = np.random.default_rng(0)
+    res, half, reach = 48, 24.0, 30.0
+    for _ in range(40):
+        coords = rng.integers(-4, res + 4, (60, 2)) + 0.5
+        faces = rng.integers(0, len(coords), (80, 3)).astype(np.int64)
+        drawn = np.arange(len(faces))
+        extensions = np.column_stack([np.zeros(20, np.int64),
+                                      rng.integers(0, len(coords), (20, 2))])
+        want = np.full((res, res), -1, np.int32)
+        fill_faces(want, coords, faces, drawn)
+        fill_extensions(want, coords, extensions, len(faces), half, reach)
+        table = mapfill._layer_triangles(coords, faces, drawn, extensions, len(faces), half,
+                                         reach, res)
+        ids = np.full((res, res), -5, np.int32)
+        marks = np.zeros((res, res), bool)
+        mapfill._draw_between(ids, marks, *table, len(drawn), (1, 0, 1, 0),
+                              (0, res - 1, 0, res - 1))
+        np.testing.assert_array_equal(ids, want)
 
 
 def _matmul_sums_as_the_kernel_does() -> bool:
@@ -765,10 +839,13 @@ def test_layer_radii_of_several_parts_are_each_part_s(layers):
     rng = np.random.default_rng(layers)
     near = rng.uniform(1e-6, 10.0, 40)
     far = near * rng.uniform(1.01, 1e4, 40)
-    together = explosion.layer_radii(near, far, layers)
-    assert together.shape == (40, max(layers, 2))
-    for p in range(40):
-        alone = explosion.layer_radii(near[p], far[p], layers)
-        assert together[p].tobytes() == alone.tobytes()
-        assert alone.tobytes() == np.geomspace(near[p], far[p], max(layers, 2)).tobytes()
-        assert alone[0] == near[p] and alone[-1] == far[p]
+    for equal in (False, True):
+        if equal:  # a part with near == far: numpy's linspace takes another branch
+            far[7] = near[7]
+        together = explosion.layer_radii(near, far, layers)
+        assert together.shape == (40, max(layers, 2))
+        for p in range(40):
+            alone = explosion.layer_radii(near[p], far[p], layers)
+            assert together[p].tobytes() == alone.tobytes()
+            assert alone.tobytes() == np.geomspace(near[p], far[p], max(layers, 2)).tobytes()
+            assert alone[0] == near[p] and alone[-1] == far[p]
