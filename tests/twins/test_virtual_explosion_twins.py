@@ -538,6 +538,30 @@ def test_nearest_near_marked_texels_matches_twin():
         assert mapfill._nearest_of_holes(empty, holes, found, *box) == 1
 
 
+def _rings_match_the_whole_layer(rng, want, table, n_drawn, margins):
+    """Draws (_draw_between, the layer's triangle table) the rings of a random box grown by
+    each of `margins` in turn over stale ids (random, but the whole layer's `want` at
+    random marked texels), checking that each grown box is `want` and every other texel
+    untouched; returns the ids."""
+    res = want.shape[0]
+    marks = rng.random((res, res)) < 0.05
+    ids = np.where(marks, want, rng.integers(-3, 40, (res, res))).astype(np.int32)
+    stale = ids.copy()
+    y0, x0 = (int(c) for c in rng.integers(0, res, 2))
+    y1, x1 = int(rng.integers(y0, res)), int(rng.integers(x0, res))
+    inner = (1, 0, 1, 0)
+    for margin in margins:
+        outer = (max(y0 - margin, 0), min(y1 + margin, res - 1),
+                 max(x0 - margin, 0), min(x1 + margin, res - 1))
+        mapfill._draw_between(ids, marks, *table, n_drawn, inner, outer)
+        box = np.zeros((res, res), bool)
+        box[outer[0]:outer[1] + 1, outer[2]:outer[3] + 1] = True
+        np.testing.assert_array_equal(ids[box], want[box])
+        np.testing.assert_array_equal(ids[~box], stale[~box])
+        inner = outer
+    return ids
+
+
 def test_drawing_between_boxes_draws_the_ring_as_the_whole_layer(sphere_maps):
     """_draw_between(inner, outer) makes the texels of `outer` outside `inner` what the
     whole layer's draw makes them (marked texels kept, the others cleared first), and
@@ -555,21 +579,7 @@ def test_drawing_between_boxes_draws_the_ring_as_the_whole_layer(sphere_maps):
         table = mapfill._layer_triangles(layer.coords, faces, drawn, maps.extensions,
                                          len(faces), half, reach, res)
         for _ in range(4):
-            marks = rng.random((res, res)) < 0.05
-            ids = np.where(marks, want, rng.integers(-3, 40, (res, res))).astype(np.int32)
-            stale = ids.copy()
-            y0, x0 = (int(v) for v in rng.integers(0, res, 2))
-            y1, x1 = int(rng.integers(y0, res)), int(rng.integers(x0, res))
-            inner = (1, 0, 1, 0)
-            for margin in (0, 3, 11, 40):
-                outer = (max(y0 - margin, 0), min(y1 + margin, res - 1),
-                         max(x0 - margin, 0), min(x1 + margin, res - 1))
-                mapfill._draw_between(ids, marks, *table, len(drawn), inner, outer)
-                box = np.zeros((res, res), bool)
-                box[outer[0]:outer[1] + 1, outer[2]:outer[3] + 1] = True
-                np.testing.assert_array_equal(ids[box], want[box])
-                np.testing.assert_array_equal(ids[~box], stale[~box])
-                inner = outer
+            _rings_match_the_whole_layer(rng, want, table, len(drawn), (0, 3, 11, 40))
 
 
 def test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins(sphere_maps):
@@ -605,21 +615,7 @@ def test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins(sphere_ma
         table = mapfill._layer_triangles(coords, faces, drawn, extensions, len(faces), half,
                                          reach, res)
         assert len(table[0]) == len(drawn) + 2 * len(extensions)
-        marks = rng.random((res, res)) < 0.05
-        ids = np.where(marks, want, rng.integers(-3, 40, (res, res))).astype(np.int32)
-        stale = ids.copy()
-        y0, x0 = (int(c) for c in rng.integers(0, res, 2))
-        y1, x1 = int(rng.integers(y0, res)), int(rng.integers(x0, res))
-        inner = (1, 0, 1, 0)
-        for margin in (0, 2, 9, res):
-            outer = (max(y0 - margin, 0), min(y1 + margin, res - 1),
-                     max(x0 - margin, 0), min(x1 + margin, res - 1))
-            mapfill._draw_between(ids, marks, *table, len(drawn), inner, outer)
-            box = np.zeros((res, res), bool)
-            box[outer[0]:outer[1] + 1, outer[2]:outer[3] + 1] = True
-            np.testing.assert_array_equal(ids[box], want[box])
-            np.testing.assert_array_equal(ids[~box], stale[~box])
-            inner = outer
+        ids = _rings_match_the_whole_layer(rng, want, table, len(drawn), (0, 2, 9, res))
         np.testing.assert_array_equal(ids, want)  # the last box: the whole map
 
 
