@@ -410,15 +410,17 @@ def build_maps_together(setups: list[MapSetup],
     s = res - 2.0
     whole = setups[0].lookups is None
     count = sum(len(u.radii) for u in setups)
-    # per part: its rows of the joined vertex, face, drawn-face and extension arrays;
-    # per layer: its part, and its rows of the joined coordinates
+    # per part: its rows of the joined vertex, face, drawn-face and extension arrays, and
+    # its layers; per layer: its part, and its rows of the joined coordinates
     starts = np.zeros((len(setups) + 1, 4), np.int64)
+    layer_start = np.zeros(len(setups) + 1, np.int64)
     layer_part = np.empty(count, np.int64)
     coord_start = np.zeros(count + 1, np.int64)
     k = 0
     for p, u in enumerate(setups):
         starts[p + 1] = starts[p] + (len(u.mesh.vertices), len(u.mesh.faces), len(u.drawn),
                                      len(u.extensions))
+        layer_start[p + 1] = layer_start[p] + len(u.radii)
         for _ in u.radii:
             layer_part[k] = p
             coord_start[k + 1] = coord_start[k] + len(u.mesh.vertices)
@@ -452,8 +454,6 @@ def build_maps_together(setups: list[MapSetup],
         points, point_start = joined_lookups
         at = scratch(ws, "maps_at", (points.shape[0], 3), np.float64)
         cell = scratch(ws, "maps_cell", (points.shape[0], 3), np.int64)
-        layer_start = np.zeros(len(setups) + 1, np.int64)
-        layer_start[1:] = np.cumsum([len(u.radii) for u in setups])
         _mark_parts(points, point_start, centers, np.array([u.flip for u in setups]), frames,
                     res, s, radii, layer_start, needed, at, cell)
         texels = scratch(ws, "maps_texels", (2 * points.shape[0], 2), np.int64)
@@ -471,8 +471,6 @@ def build_maps_together(setups: list[MapSetup],
                   frames, radii, layer_part, res, s, EXTENSION_REACH * s, coords,
                   coord_start, ids, core, tally, needed, listed, texel_start, texels,
                   numba.get_num_threads())
-    layer_start = np.zeros(len(setups) + 1, np.int64)
-    layer_start[1:] = np.cumsum([len(u.radii) for u in setups])
     return JoinedMaps(setups, tally, v, n, faces, extensions, starts, layer_start, radii,
                       centers, frames, ids, coords, coord_start, core, res, s, at, cell)
 

@@ -538,11 +538,11 @@ def test_nearest_near_marked_texels_matches_twin():
         assert mapfill._nearest_of_holes(empty, holes, found, *box) == 1
 
 
-def _rings_match_the_whole_layer(rng, want, table, n_drawn, margins):
+def _ring_draws(rng, want, table, n_drawn, margins):
     """Draws (_draw_between, the layer's triangle table) the rings of a random box grown by
     each of `margins` in turn over stale ids (random, but the whole layer's `want` at
-    random marked texels), checking that each grown box is `want` and every other texel
-    untouched; returns the ids."""
+    random marked texels); yields after each ring (ids, the stale ids before the first,
+    the grown box as a (res, res) mask)."""
     res = want.shape[0]
     marks = rng.random((res, res)) < 0.05
     ids = np.where(marks, want, rng.integers(-3, 40, (res, res))).astype(np.int32)
@@ -556,10 +556,8 @@ def _rings_match_the_whole_layer(rng, want, table, n_drawn, margins):
         mapfill._draw_between(ids, marks, *table, n_drawn, inner, outer)
         box = np.zeros((res, res), bool)
         box[outer[0]:outer[1] + 1, outer[2]:outer[3] + 1] = True
-        np.testing.assert_array_equal(ids[box], want[box])
-        np.testing.assert_array_equal(ids[~box], stale[~box])
+        yield ids, stale, box
         inner = outer
-    return ids
 
 
 def test_drawing_between_boxes_draws_the_ring_as_the_whole_layer(sphere_maps):
@@ -579,7 +577,9 @@ def test_drawing_between_boxes_draws_the_ring_as_the_whole_layer(sphere_maps):
         table = mapfill._layer_triangles(layer.coords, faces, drawn, maps.extensions,
                                          len(faces), half, reach, res)
         for _ in range(4):
-            _rings_match_the_whole_layer(rng, want, table, len(drawn), (0, 3, 11, 40))
+            for ids, stale, box in _ring_draws(rng, want, table, len(drawn), (0, 3, 11, 40)):
+                np.testing.assert_array_equal(ids[box], want[box])
+                np.testing.assert_array_equal(ids[~box], stale[~box])
 
 
 def test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins(sphere_maps):
@@ -615,7 +615,9 @@ def test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins(sphere_ma
         table = mapfill._layer_triangles(coords, faces, drawn, extensions, len(faces), half,
                                          reach, res)
         assert len(table[0]) == len(drawn) + 2 * len(extensions)
-        ids = _rings_match_the_whole_layer(rng, want, table, len(drawn), (0, 2, 9, res))
+        for ids, stale, box in _ring_draws(rng, want, table, len(drawn), (0, 2, 9, res)):
+            np.testing.assert_array_equal(ids[box], want[box])
+            np.testing.assert_array_equal(ids[~box], stale[~box])
         np.testing.assert_array_equal(ids, want)  # the last box: the whole map
 
 
