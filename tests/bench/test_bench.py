@@ -97,9 +97,12 @@ def test_local_processes_give_the_same_rows(tmp_path):
 
 def test_dask_cluster_gives_the_same_rows(tmp_path):
     distributed = pytest.importorskip("distributed")
+    import dask
     serial = run_bench(str(_bench_file(tmp_path, "s")))
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+    scratch = str(tmp_path / "dask")  # not the shared temp folder's dask-scratch-space
+    with dask.config.set({"temporary-directory": scratch}), \
+            distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                     dashboard_address=None, local_directory=scratch) as cluster:
         remote = run_bench(str(_bench_file(tmp_path, "d")), scheduler=cluster.scheduler_address)
     strip = [{k: v for k, v in r.items() if k != "run"} for r in _stable(serial.rows)]
     assert strip == [{k: v for k, v in r.items() if k != "run"} for r in _stable(remote.rows)]

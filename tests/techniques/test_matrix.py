@@ -231,6 +231,10 @@ def _size(path: str, overrides=()) -> tuple[str, ...]:
     return (f"camera.width={WIDTH}", f"camera.height={height}")
 
 
+# The lit variants written for scenes that ship none; removed when the test session ends.
+_LIT_FOLDER = tempfile.TemporaryDirectory(prefix="reflect-lit-")
+
+
 @cache
 def lit_variant(scene: str) -> tuple[str, tuple[str, ...]]:
     """(scene file, overrides) of the scene under lambert shading."""
@@ -241,8 +245,7 @@ def lit_variant(scene: str) -> tuple[str, tuple[str, ...]]:
     opened = api.open_scene(path, cache=False)
     if opened.config.scene.shading == "lambert":
         return path, ()
-    folder = Path(tempfile.mkdtemp(prefix="reflect-lit-"))
-    lit = folder / f"{scene}-lit.toml"
+    lit = Path(_LIT_FOLDER.name) / f"{scene}-lit.toml"
     lit.write_text(
         f'include = ["{path}"]\n[scene]\nname = "{scene}-lit"\nshading = "lambert"\n'
         "ambient = 0.15\n"
