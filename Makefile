@@ -18,8 +18,10 @@ $(BIN)/reflect: pyproject.toml
 
 install: $(BIN)/reflect
 
+# one pytest worker per core (pytest-xdist): a fresh clone's suite is mostly numba compiling
+# kernels (about 12 of its 16 minutes on 2 cores, one compile at a time in one process)
 test: install
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n auto
 
 lint: install
 	$(BIN)/ruff check reflectcli tests benchmarks scripts
