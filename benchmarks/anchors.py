@@ -9,8 +9,10 @@ are read from `../shared/anchors/` beside the repository when present; without t
 prints reflect's own time only. Where an anchor runs in this process it is timed round-robin
 with reflect's kernel on the same inputs (one call of each per round, medians after warm-up,
 p25-p75 in brackets), so a busy machine slows both alike and the ratio stays meaningful.
-The OpenGL peer needs moderngl (its own venv; `--gl-python`), runs in a subprocess before
-and after reflect's frames, and its two medians are averaged.
+The OpenGL peer needs moderngl, numpy and trimesh (its own venv; `--gl-python`), runs in a
+subprocess before and after reflect's frames, and its two medians are averaged. One venv
+serves both peers: `python3 -m venv /tmp/peer && /tmp/peer/bin/pip install moderngl numpy
+trimesh mitsuba` (Mitsuba's note: benchmarks/mitsuba.py).
 
 Rows (the table of issue 13):
 - warp: the anchor's 512x512 map and camera ("side" motion, whole screen) through reflect's

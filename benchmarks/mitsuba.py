@@ -4,9 +4,11 @@
         [--scene teapot-box] [--reps 15] [--threads 2] [--variant llvm_ad_rgb]
 
 Mitsuba 3 lives in its own venv, never in reflect's (`python -m venv /tmp/mtsvenv &&
-/tmp/mtsvenv/bin/pip install mitsuba`; its LLVM variants need libLLVM, e.g. Debian's
-`libllvm19`, or DRJIT_LIBLLVM_PATH pointing at a libLLVM-NN.so). Without that python the
-script says it skipped and exits 0.
+/tmp/mtsvenv/bin/pip install mitsuba`; its LLVM variants need a recent libLLVM: Debian 12's
+own libLLVM-14 and -15 fail in Dr.Jit 1.5's code generation ("Cannot select ... fmaximum"),
+so `apt-get install libllvm19` and set
+`DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so`, which Dr.Jit does not find by
+itself; seen with mitsuba 3.9.1). Without that python the script says it skipped and exits 0.
 
 The scene is reflect's own, exported from its flattened frame-0 triangles: one Mitsuba mesh
 per material (diffuse, its colour or checkerboard) and per mirror (a `conductor` with the
