@@ -218,7 +218,7 @@ def layer_radii(near_radius, far_radius, layers: int) -> np.ndarray:
     count = max(layers, 2)
     near = np.asarray(near_radius, np.float64)
     far = np.asarray(far_radius, np.float64)
-    if near.ndim and not ((np.log10(far) - np.log10(near)) / (count - 1) != 0).all():
+    if near.ndim and ((np.log10(far) - np.log10(near)) / (count - 1) == 0).any():
         return np.array([np.geomspace(a, b, count) for a, b in zip(near, far, strict=True)])
     return np.geomspace(near, far, count, axis=-1)
 
