@@ -265,9 +265,13 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/compose.py:_fill_crack": (
         [V + "test_fill_cracks_match_twin", V + "test_compose_passes_match_twin"], "fill_cracks"),
     "virtual/refine.py:_ray_at": ([VR + "test_reflector_grid_matches_twin",
-                                   V + "test_mirror_rays_match_reflector_grid"], "_grid"),
+                                   V + "test_mirror_rays_match_reflector_grid",
+                                   V + "test_reflector_rays_match_reflector_grid"], "_grid"),
     "virtual/refine.py:mirror_rays": ([V + "test_mirror_rays_match_reflector_grid"], None),
     "virtual/refine.py:_grid": ([VR + "test_reflector_grid_matches_twin"], "reflector_grid"),
+    # _grid's arithmetic over the rows' spans, barycentrics recovered: held to its bytes
+    "virtual/refine.py:_grid_spans": ([V + "test_reflector_rays_match_reflector_grid"],
+                                      "reflector_rays"),
     "virtual/refine.py:_sample_slope": ([VR + "test_grid_sample_matches_twin",
                                          VR + "test_grid_sample_slope_matches_twin"] + REFINE,
                                         None),

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..raster.primary import Primary
 from ..raster.rasterize import RasterWorkspace
@@ -44,7 +44,7 @@ class PartPassCache:
         return hit[1]
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def part_labels(triangle, surface, sid, first, label_of, y0, y1, x0, x1, depth, labels,
                 stencil, floor, boxes):
     """Within rows y0..y1-1 and columns x0..x1-1 (the reflector's box): labels (uint8) =
@@ -52,31 +52,45 @@ def part_labels(triangle, surface, sid, first, label_of, y0, y1, x0, x1, depth, 
     triangle - first (label_of (F + 1,): a part's label, or 0; its last entry, 0, for any
     other triangle), 0 elsewhere; `stencil` = labels != 0; the depth floor `floor` =
     `depth` on labelled pixels, 0 elsewhere; boxes[l - 1] (y0, y1, x0, x1) the box of label
-    l's pixels, as stencil_box finds it ((0, 0, 0, 0) for a label with none). One thread:
-    a reflector's box, less than a parallel region costs on a busy machine."""
+    l's pixels, as stencil_box finds it ((0, 0, 0, 0) for a label with none). The rows in
+    _LABEL_BANDS bands, each with boxes of its own, then joined (least and greatest rows
+    and columns: the same boxes whichever band a pixel is in)."""
     count = label_of.shape[0] - 1
     h, w = triangle.shape
-    boxes[:, 0] = h
-    boxes[:, 1] = 0
-    boxes[:, 2] = w
-    boxes[:, 3] = 0
-    for y in range(y0, y1):
-        for x in range(x0, x1):
-            f = triangle[y, x] - first
-            f = f if 0 <= f < count else count
-            label = label_of[f] if surface[y, x] == sid else np.uint8(0)
-            labels[y, x] = label
-            stencil[y, x] = label != 0
-            floor[y, x] = depth[y, x] if label != 0 else np.float32(0.0)
-            if label != 0:
-                b = label - 1
-                boxes[b, 0] = min(boxes[b, 0], y)
-                boxes[b, 1] = y + 1
-                boxes[b, 2] = min(boxes[b, 2], x)
-                boxes[b, 3] = max(boxes[b, 3], x + 1)
+    bands = _LABEL_BANDS
+    band_boxes = np.empty((bands, boxes.shape[0], 4), np.int64)
+    for band in prange(bands):
+        own = band_boxes[band]
+        own[:, 0] = h
+        own[:, 1] = 0
+        own[:, 2] = w
+        own[:, 3] = 0
+        for y in range(y0 + (y1 - y0) * band // bands, y0 + (y1 - y0) * (band + 1) // bands):
+            for x in range(x0, x1):
+                f = triangle[y, x] - first
+                f = f if 0 <= f < count else count
+                label = label_of[f] if surface[y, x] == sid else np.uint8(0)
+                labels[y, x] = label
+                stencil[y, x] = label != 0
+                floor[y, x] = depth[y, x] if label != 0 else np.float32(0.0)
+                if label != 0:
+                    b = label - 1
+                    own[b, 0] = min(own[b, 0], y)
+                    own[b, 1] = y + 1
+                    own[b, 2] = min(own[b, 2], x)
+                    own[b, 3] = max(own[b, 3], x + 1)
     for b in range(boxes.shape[0]):
+        boxes[b, 0], boxes[b, 1], boxes[b, 2], boxes[b, 3] = h, 0, w, 0
+        for band in range(bands):
+            boxes[b, 0] = min(boxes[b, 0], band_boxes[band, b, 0])
+            boxes[b, 1] = max(boxes[b, 1], band_boxes[band, b, 1])
+            boxes[b, 2] = min(boxes[b, 2], band_boxes[band, b, 2])
+            boxes[b, 3] = max(boxes[b, 3], band_boxes[band, b, 3])
         if boxes[b, 1] == 0:
             boxes[b, :] = 0
+
+
+_LABEL_BANDS = 16  # row bands of part_labels (a fixed count: no answer depends on threads)
 
 
 def label_parts(primary: Primary, sid: int, first: int, label_of: np.ndarray,

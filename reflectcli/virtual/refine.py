@@ -25,17 +25,19 @@ import numpy as np
 from numba import njit, prange
 
 from ..parallel import claim, counter
-from ..raster.rasterize import recover_barycentrics
+from ..raster.rasterize import RasterBuffers, recover_barycentrics
 from .tiles import owner_plane
 
 
 def reflector_grid(triangle: np.ndarray, b1: np.ndarray, b2: np.ndarray, corners: np.ndarray,
                    normals: np.ndarray, eye: np.ndarray,
                    out: tuple[np.ndarray | None, np.ndarray] | None = None):
-    """Per pixel of a reflector-only item buffer: Q (H, W, 3) world point, R (H, W, 3) unit
-    reflected direction of the eye ray (interpolated normal, two-sided); pixels the reflector
-    does not cover hold NaN. `out`: (Q, R) (H, W, 3) float64 arrays to fill instead of new
-    ones; Q None: R only (Q is returned as None)."""
+    """Per pixel of a reflector-only item buffer, from its barycentrics b1, b2: Q (H, W, 3)
+    world point, R (H, W, 3) unit reflected direction of the eye ray (interpolated normal,
+    two-sided); pixels the reflector does not cover hold NaN. Every pixel of the frame:
+    the tests' grids, and the bytes reflector_rays (a view's rays, over the reflector's
+    pixels only) and mirror_rays are held to. `out`: (Q, R) (H, W, 3) float64 arrays to
+    fill instead of new ones; Q None: R only (Q is returned as None)."""
     h, w = triangle.shape
     if out is None:
         # not filled with NaN first: _grid writes every pixel (one pass over 2 x 6 MB at
@@ -67,6 +69,45 @@ def _grid(triangle, b1, b2, corners, normals, eye, q, r):
                         q[y, x, i] = np.nan
                 continue
             _ray_at(t, b1[y, x], b2[y, x], corners, normals, eye, y, x, q, want_q, r)
+
+
+def reflector_rays(alone: RasterBuffers, corners: np.ndarray, normals: np.ndarray,
+                   eye: np.ndarray, spans: np.ndarray,
+                   out: tuple[np.ndarray, np.ndarray] | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """reflector_grid's Q and R (H, W, 3) for the pixels of each row's span only (spans
+    (H, 2): columns spans[y, 0] .. spans[y, 1] - 1 of row y; part_views makes them, the
+    columns of the reflector's pixels), their barycentrics recovered from `alone`'s drawn
+    corners in the kernel (the bytes RasterBuffers.b1 and b2 would hold). The other pixels
+    are left unwritten: every reader looks at a pixel only where a part owns it (the
+    mask covers a quarter of its frame, and a whole-frame pass made the barycentrics of
+    every pixel and wrote 12 MB of fresh pages). `out`: (Q, R) to fill instead of new
+    arrays."""
+    h, w = alone.triangle.shape
+    q, r = out if out is not None else (np.empty((h, w, 3)), np.empty((h, w, 3)))
+    _grid_spans(alone.triangle, alone.corners, alone.clip_from_world, corners, normals,
+                np.asarray(eye, np.float64), spans, q, r)
+    return q, r
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _grid_spans(triangle, drawn, clip_from_world, corners, normals, eye, spans, q, r):
+    """reflector_rays into q and r: _grid over each row's span, with each pixel's b1, b2
+    recovered as _barycentrics makes them (float32)."""
+    h, w = triangle.shape
+    for y in prange(h):
+        ny = 1.0 - (y + 0.5) * (2.0 / h)
+        for x in range(spans[y, 0], spans[y, 1]):
+            t = triangle[y, x]
+            if t < 0:
+                for i in range(3):
+                    r[y, x, i] = np.nan
+                    q[y, x, i] = np.nan
+                continue
+            c1, c2 = recover_barycentrics(drawn, t, clip_from_world,
+                                          (x + 0.5) * (2.0 / w) - 1.0, ny)
+            _ray_at(t, np.float32(c1), np.float32(c2), corners, normals, eye, y, x, q, True,
+                    r)
 
 
 @njit(cache=True, inline="always")

@@ -1,6 +1,6 @@
 """A reflector seen alone from the eye: its own item buffer and z-buffer (the paper's
 hidden map, without what hides it in the scene, so that points behind it still find it),
-per pixel its reflection rays (refine.reflector_grid), and per part the pixels it covers
+per pixel its reflection rays (refine.reflector_rays), and per part the pixels it covers
 and their tiles (tiles.PartTiles). All of it depends on the reflector's shape and the view
 only, so it is kept while neither changes (a still camera, a rigid reflector)."""
 
@@ -14,7 +14,7 @@ from numba import njit, prange
 
 from ..camera import Camera
 from ..raster.rasterize import rasterize
-from .refine import reflector_grid
+from .refine import reflector_rays
 from .screen import screen_from_world
 from .shape import ReflectorShape
 from .tiles import PartTiles
@@ -100,9 +100,6 @@ def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorSha
     count = len(corners)
     alone = rasterize(corners, np.zeros(count, np.uint8), clip_from_world, camera.width,
                       camera.height)
-    grid = None
-    if refine:
-        grid = reflector_grid(alone.triangle, alone.b1, alone.b2, corners, normals, camera.eye)
     h, w = alone.triangle.shape
     parts = len(shape.parts)
     # face -> part face, face -> part (the parts split the faces)
@@ -110,7 +107,11 @@ def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorSha
     local, part_of = shape.face_parts
     owner = np.empty((h, w), part_of.dtype)
     marks = np.zeros((parts, h // TILE + 1, w // TILE + 1), np.bool_)
-    part_views(alone.triangle, part_of, TILE, owner, marks)
+    spans = np.empty((h, 2), np.int64)
+    part_views(alone.triangle, part_of, TILE, owner, marks, spans)
+    grid = None
+    if refine:  # Q and R where a part owns a pixel (the rows' spans of them)
+        grid = reflector_rays(alone, corners, normals, camera.eye, spans)
     views = []
     on_screen = PointsOnScreen()
     tiles = [None] * parts
@@ -126,14 +127,16 @@ TILE = 12  # pixels a side of the refinement's tiles (tiles.PartTiles)
 
 
 @njit(cache=True, parallel=True)
-def part_views(triangle, part_of, size, owner, marks):
+def part_views(triangle, part_of, size, owner, marks, spans):
     """In one pass over the reflector's item buffer: owner (H, W) the part under each pixel
-    (part_of[reflector face], -1 where none; the buffer's -1 reads the last entry, -1), and
+    (part_of[reflector face], -1 where none; the buffer's -1 reads the last entry, -1),
     marks[p, ty, tx] set for the tiles of size x size pixels holding a pixel of part p (so
     tile ids ty * (W // size + 1) + tx come out ascending, as np.unique of the pixels' ids
-    gives them)."""
+    gives them), and spans (H, 2) per row the columns from its first part pixel to past
+    its last (0, 0 if none)."""
     h, w = triangle.shape
     for y in prange(h):
+        lo, hi = w, 0
         for x in range(w):
             p = part_of[triangle[y, x]]
             owner[y, x] = p
@@ -141,6 +144,10 @@ def part_views(triangle, part_of, size, owner, marks):
                 # rows of one tile row may be on two threads: both store the same True
                 # (a benign race; no value depends on which store lands)
                 marks[p, y // size, x // size] = True
+                lo = min(lo, x)
+                hi = x + 1
+        spans[y, 0] = lo if hi > 0 else 0
+        spans[y, 1] = hi
 
 
 @dataclass

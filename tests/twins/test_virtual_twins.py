@@ -182,6 +182,40 @@ def test_mirror_rays_match_reflector_grid():
     np.testing.assert_allclose(r[box], slow[box], atol=2e-5)  # float32 barycentrics
 
 
+def test_reflector_rays_match_reflector_grid():
+    """Q and R over the rows' spans from barycentrics recovered in the kernel: the very
+    bytes of reflector_grid from the buffers' own b1, b2 (held to its slow twin); NaN at a
+    span's pixels with no triangle; the pixels outside the spans left as they were."""
+    from reflectcli.raster.rasterize import rasterize as fast_rasterize
+
+    cam = Camera(np.array([0.0, 0.4, 3.0]), np.zeros(3), np.array([0.0, 1.0, 0.0]), 50.0, 40,
+                 30, 0.1, 100.0)
+    sphere = primitives.uv_sphere(1.0, 12)
+    corners = sphere.corners.astype(np.float32)
+    normals = sphere.normals.astype(np.float32)
+    buffers = fast_rasterize(corners, np.zeros(len(corners), np.uint8),
+                             cam.clip_from_world(), 40, 30)
+    tri = buffers.triangle
+    want_q, want_r = refine.reflector_grid(tri, buffers.b1, buffers.b2, corners, normals,
+                                           cam.eye)
+    spans = np.zeros((30, 2), np.int64)
+    for y in range(30):
+        cols = np.flatnonzero(tri[y] >= 0)
+        if cols.size:
+            spans[y] = cols[0], cols[-1] + 1
+    spans[12] = 3, 37  # wider than its pixels: the empty ones get NaN
+    q, r = np.full((30, 40, 3), 7.0), np.full((30, 40, 3), 7.0)
+    got = refine.reflector_rays(buffers, corners, normals, cam.eye, spans, out=(q, r))
+    assert got[0] is q and got[1] is r
+    inside = np.zeros((30, 40), bool)
+    for y, (x0, x1) in enumerate(spans):
+        inside[y, x0:x1] = True
+    assert inside.sum() > 300 and (tri[12, 3:37] < 0).any()
+    assert q[inside].tobytes() == want_q[inside].tobytes()
+    assert r[inside].tobytes() == want_r[inside].tobytes()
+    assert (q[~inside] == 7.0).all() and (r[~inside] == 7.0).all()
+
+
 def test_part_stencil_matches_twin():
     rng = np.random.default_rng(11)
     triangle = rng.integers(-1, 60, (21, 27)).astype(np.int32)
@@ -239,10 +273,18 @@ def test_part_views_match_twin():
     for p, f in enumerate(faces):
         local[p, f] = np.arange(len(f))
         part_of[f] = p
+    triangle[5] = -1  # a row with no pixel of any part
+    triangle[6, 30:] = -1
     owner = np.empty((h, w), np.int16)
     marks = np.zeros((len(faces), h // size + 1, w // size + 1), np.bool_)
-    part_views(triangle, part_of, size, owner, marks)
+    spans = np.full((h, 2), -7, np.int64)
+    part_views(triangle, part_of, size, owner, marks, spans)
     ys, xs = np.indices((h, w))
+    for y in range(h):  # each row's span: its first part pixel to past its last
+        cols = np.flatnonzero(part_of[triangle[y]] >= 0)
+        want_span = (cols[0], cols[-1] + 1) if cols.size else (0, 0)
+        assert tuple(spans[y]) == want_span
+    assert tuple(spans[5]) == (0, 0) and spans[6, 1] <= 30
     for p, (want, want_inside, want_tiles) in enumerate(naive_part_views(triangle, local,
                                                                           size)):
         view = PartView(owner, p, triangle, local[p], None, PointsOnScreen())
@@ -363,6 +405,13 @@ def test_part_labels_match_twin():
         inside = np.zeros((h, w), bool)
         inside[5:30, 8:40] = True
         assert (got[~inside] == outside).all()
+    # a box of fewer rows than part_labels' bands (some bands hold none)
+    few = np.where((np.arange(h) >= 10)[:, None] & (np.arange(h) < 13)[:, None], surface, 3)
+    want = naive_part_labels(triangle, few, 2, first, label_of, depth)
+    part_labels(triangle, few, 2, first, label_of, 10, 13, 8, 40, depth, labels, stencil,
+                floor, boxes)
+    np.testing.assert_array_equal(boxes, want[3])
+    np.testing.assert_array_equal(labels[10:13, 8:40], want[0][10:13, 8:40])
 
 
 def _mask_frame(threads):
