@@ -272,6 +272,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     # _grid's arithmetic over the rows' spans, barycentrics recovered: held to its bytes
     "virtual/refine.py:_grid_spans": ([V + "test_reflector_rays_match_reflector_grid"],
                                       "reflector_rays"),
+    "virtual/refine.py:_grid_row": ([V + "test_reflector_rays_match_reflector_grid"],
+                                    "_grid_spans"),
     "virtual/refine.py:_sample_slope": ([VR + "test_grid_sample_matches_twin",
                                          VR + "test_grid_sample_slope_matches_twin"] + REFINE,
                                         None),

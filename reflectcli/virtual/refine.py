@@ -25,7 +25,12 @@ import numpy as np
 from numba import njit, prange
 
 from ..parallel import claim, counter
-from ..raster.rasterize import RasterBuffers, recover_barycentrics
+from ..raster.rasterize import (
+    RasterBuffers,
+    barycentrics_at,
+    clip_corners,
+    recover_barycentrics,
+)
 from .tiles import owner_plane
 
 
@@ -86,28 +91,53 @@ def reflector_rays(alone: RasterBuffers, corners: np.ndarray, normals: np.ndarra
     h, w = alone.triangle.shape
     q, r = out if out is not None else (np.empty((h, w, 3)), np.empty((h, w, 3)))
     _grid_spans(alone.triangle, alone.corners, alone.clip_from_world, corners, normals,
-                np.asarray(eye, np.float64), spans, q, r)
+                np.asarray(eye, np.float64), spans, q, r, numba.get_num_threads())
     return q, r
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _grid_spans(triangle, drawn, clip_from_world, corners, normals, eye, spans, q, r):
+def _grid_spans(triangle, drawn, clip_from_world, corners, normals, eye, spans, q, r,
+                threads):
     """reflector_rays into q and r: _grid over each row's span, with each pixel's b1, b2
-    recovered as _barycentrics makes them (float32)."""
+    recovered as _barycentrics makes them (float32; a triangle's clip corners made once
+    for each run of its pixels along a row). Rows in chunks claimed by whichever thread
+    is free (parallel.py: a reflector's rows lie in a band of the image, which a fixed
+    share per thread splits unevenly); each pixel's values are its own."""
+    h = triangle.shape[0]
+    chunks = (h + _GRID_ROWS - 1) // _GRID_ROWS
+    claimed = counter()
+    for _worker in prange(min(threads, chunks)):
+        while True:
+            c = claim(claimed)
+            if c >= chunks:
+                break
+            for y in range(c * _GRID_ROWS, min(h, (c + 1) * _GRID_ROWS)):
+                _grid_row(triangle, drawn, clip_from_world, corners, normals, eye, spans, q,
+                          r, y)
+
+
+_GRID_ROWS = 8  # rows a _grid_spans chunk
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _grid_row(triangle, drawn, clip_from_world, corners, normals, eye, spans, q, r, y):
+    """Row y of _grid_spans."""
     h, w = triangle.shape
-    for y in prange(h):
-        ny = 1.0 - (y + 0.5) * (2.0 / h)
-        for x in range(spans[y, 0], spans[y, 1]):
-            t = triangle[y, x]
-            if t < 0:
-                for i in range(3):
-                    r[y, x, i] = np.nan
-                    q[y, x, i] = np.nan
-                continue
-            c1, c2 = recover_barycentrics(drawn, t, clip_from_world,
-                                          (x + 0.5) * (2.0 / w) - 1.0, ny)
-            _ray_at(t, np.float32(c1), np.float32(c2), corners, normals, eye, y, x, q, True,
-                    r)
+    ny = 1.0 - (y + 0.5) * (2.0 / h)
+    last = -1  # the triangle whose clip corners `clip` holds (a row crosses each in a run)
+    clip = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    for x in range(spans[y, 0], spans[y, 1]):
+        t = triangle[y, x]
+        if t < 0:
+            for i in range(3):
+                r[y, x, i] = np.nan
+                q[y, x, i] = np.nan
+            continue
+        if t != last:
+            clip = clip_corners(drawn, t, clip_from_world)
+            last = t
+        c1, c2 = barycentrics_at(clip, (x + 0.5) * (2.0 / w) - 1.0, ny)
+        _ray_at(t, np.float32(c1), np.float32(c2), corners, normals, eye, y, x, q, True, r)
 
 
 @njit(cache=True, inline="always")
