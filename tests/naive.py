@@ -1413,6 +1413,15 @@ def part_candidates(points, center, radius, axis, half):
     return out
 
 
+def rows_of(marks, block):
+    """Twin of virtual.tiles.rows_of: each part's marked points by np.flatnonzero, joined;
+    where each part's rows and blocks of `block` rows start."""
+    per = [np.flatnonzero(m) for m in marks]
+    row_start = np.concatenate([[0], np.cumsum([len(x) for x in per])])
+    block_start = np.concatenate([[0], np.cumsum([-(-len(x) // block) for x in per])])
+    return np.concatenate(per), row_start, block_start
+
+
 def joined(flag, polygons):
     """Twin of virtual.tiles._join (tiles.joined): the flagged points and every point of a
     polygon holding a flagged one."""

@@ -312,6 +312,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/view.py:_faces_behind": ([V + "test_faces_behind_match_twin"],
                                       "PartView.faces_behind"),
     "virtual/view.py:part_views": ([V + "test_part_views_match_twin"], "reflector_view"),
+    "virtual/tiles.py:_rows_of": ([VR + "test_rows_of_matches_twin"], "rows_of"),
     "virtual/tiles.py:_balls": ([VR + "test_part_balls_match_twin_bit_for_bit"],
                                 "_parts_balls"),
     "virtual/tiles.py:_tile_bounds": ([VR + "test_tile_bounds_match_twin"], "PartTiles"),

@@ -598,14 +598,35 @@ def scan_parts(parts: list[PartTiles], points: np.ndarray, q: np.ndarray, r: np.
 
 
 def rows_of(marks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(rows: the marked points of each part (P, N) joined, row_start (P + 1,): part p's
-    rows, block_start (P + 1,): the first _BLOCK of part p's rows)."""
-    per = [np.flatnonzero(m) for m in marks]
-    row_start = np.zeros(len(per) + 1, np.int64)
-    row_start[1:] = np.cumsum([len(x) for x in per])
-    block_start = np.zeros(len(per) + 1, np.int64)
-    block_start[1:] = np.cumsum([(len(x) + _BLOCK - 1) // _BLOCK for x in per])
-    return np.concatenate(per).astype(np.int64), row_start, block_start
+    """(rows: the marked points of each part (P, N) joined, ascending within a part,
+    row_start (P + 1,): part p's rows, block_start (P + 1,): the first _BLOCK of part p's
+    rows). One kernel (a flatnonzero a part was 14 numpy calls, three times a mask
+    frame)."""
+    marks = np.ascontiguousarray(marks, np.bool_)
+    row_start = np.zeros(marks.shape[0] + 1, np.int64)
+    block_start = np.zeros(marks.shape[0] + 1, np.int64)
+    rows = _rows_of(marks, row_start, block_start)
+    return rows, row_start, block_start
+
+
+@njit(cache=True)
+def _rows_of(marks, row_start, block_start):
+    """rows_of's rows, with row_start and block_start filled."""
+    parts, n = marks.shape
+    for p in range(parts):
+        count = 0
+        for k in range(n):
+            count += marks[p, k]
+        row_start[p + 1] = row_start[p] + count
+        block_start[p + 1] = block_start[p] + (count + _BLOCK - 1) // _BLOCK
+    rows = np.empty(row_start[parts], np.int64)
+    i = 0
+    for p in range(parts):
+        for k in range(n):
+            if marks[p, k]:
+                rows[i] = k
+                i += 1
+    return rows
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

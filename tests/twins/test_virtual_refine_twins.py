@@ -15,6 +15,7 @@ from naive import (
     refine_point,
     refine_walk,
     reflector_grid,
+    rows_of,
     scan,
     tile_bounds,
 )
@@ -357,6 +358,24 @@ def test_tile_scan_blocks_skip_only_tiles_that_reach_none_of_them():
                               part.margin, q, r)
                 assert not got.any()
     assert skipped > 100
+
+
+def test_rows_of_matches_twin():
+    """tiles.rows_of (one kernel) against flatnonzero part by part: parts with no marked
+    point, with every point marked, a part of exactly a block."""
+    rng = np.random.default_rng(4)
+    for n in (0, 1, 300, tiles._BLOCK):
+        marks = rng.random((6, n)) < 0.3
+        marks[1] = False
+        marks[2] = True
+        if n >= tiles._BLOCK:
+            marks[3] = False
+            marks[3, :tiles._BLOCK] = True
+        got = tiles.rows_of(marks)
+        want = rows_of(marks, tiles._BLOCK)
+        for g, w in zip(got, want, strict=True):
+            assert g.dtype == np.int64
+            np.testing.assert_array_equal(g, w)
 
 
 def test_part_candidates_and_join_match_twins():
