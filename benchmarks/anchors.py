@@ -33,7 +33,9 @@ Rows (the table of issue 13):
   primary rays on the same triangles through embreex, two threads.
 - mitsuba: a teapot-box frame (640x480, 1 spp, max_depth 4) against Mitsuba 3's LLVM variant
   on the same triangles and camera (benchmarks/mitsuba.py; Mitsuba in its own venv:
-  `--mitsuba-python`, else the row says it skipped).
+  `--mitsuba-python`, else the row says it skipped); and like for like, reflect's Embree
+  scenes built as Mitsuba builds its own (raytrace's `embree = "fast"`: no robust flag,
+  high build quality; reflect's own renders keep the robust scenes).
 """
 
 from __future__ import annotations
@@ -348,10 +350,15 @@ def bench_mitsuba(reps: int, python: str | None, threads: int) -> None:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     # frames alternating one by one, each after an idle gap; then runs of frames back to back
-    # (as a batch render runs them; the first of each run, woken from the gap, not counted)
-    for run, label in ((1, "frames alternating"), (6, "runs of 6 frames")):
+    # (as a batch render runs them; the first of each run, woken from the gap, not counted);
+    # then the runs with reflect's Embree scenes built as Mitsuba builds its own (no robust
+    # flag, high build quality: raytrace's `embree = "fast"`), like for like
+    for run, label, embree in ((1, "frames alternating", "robust"),
+                               (6, "runs of 6 frames", "robust"),
+                               (6, "runs of 6 frames, reflect's Embree scenes as Mitsuba "
+                                   "builds its own (embree = \"fast\")", "fast")):
         r = module.compare("teapot-box", python, reps if run == 1 else max(2, reps // 3),
-                           threads, "llvm_ad_rgb", run=run)
+                           threads, "llvm_ad_rgb", run=run, embree=embree)
         if r is None:
             add("raytrace frame vs Mitsuba 3 (teapot-box)", "(skipped: no --mitsuba-python)",
                 "-", None, "<= 1")

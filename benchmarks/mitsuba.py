@@ -264,7 +264,8 @@ class Worker:
 
 
 def compare(scene: str, python: str, reps: int, threads: int, variant: str,
-            max_depth: int | None = None, gap: float = 0.1, run: int = 1) -> dict | None:
+            max_depth: int | None = None, gap: float = 0.1, run: int = 1,
+            embree: str = "robust") -> dict | None:
     """Alternating frames of reflect's raytrace and Mitsuba's; None when Mitsuba is missing.
     Returns seconds per frame (arrays; also each side's CPU time for its frame, and the other
     side's CPU time during it), the Mitsuba first frame, rays, and an image check.
@@ -274,12 +275,15 @@ def compare(scene: str, python: str, reps: int, threads: int, variant: str,
     several parallel loops a frame, each waiting at its end for a thread that lost its core,
     where Mitsuba launches one kernel; 1 thread (`--threads 1`) is the steadier comparison.
     `run` > 1: each side renders `run` frames back to back after its gap, as a batch render
-    does, and the first of each run (the one woken from the idle gap) is not counted."""
+    does, and the first of each run (the one woken from the idle gap) is not counted.
+    `embree`: reflect's raytrace parameter; "fast" builds its Embree scenes as Mitsuba
+    builds its own (no robust flag, high build quality): like for like."""
     if not python or not Path(python).exists():
         return None
     from reflectcli import api
 
     overrides = [f"technique.max_depth={max_depth}"] if max_depth is not None else []
+    overrides.append(f"technique.embree={embree}")
     opened = api.open_scene(str(ROOT / "scenes" / f"{scene}.toml"), technique="raytrace",
                             overrides=overrides, threads=threads, cache=False)
     opened.prepare()
@@ -355,6 +359,9 @@ def main() -> None:
     ap.add_argument("--run", type=int, default=1,
                     help="frames each side renders back to back a round, the first not "
                          "counted (default 1: frames alternate one by one)")
+    ap.add_argument("--embree", choices=("robust", "fast"), default="robust",
+                    help="reflect's Embree scenes: robust (its default), or fast as Mitsuba "
+                         "builds its own (no robust flag, high build quality)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
@@ -368,11 +375,11 @@ def main() -> None:
 
     numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     r = compare(args.scene, args.mitsuba_python, args.reps, args.threads, args.variant,
-                args.max_depth, args.gap, args.run)
+                args.max_depth, args.gap, args.run, args.embree)
     h, w = r["size"]
     print(f"{args.scene}, {w}x{h}, 1 spp, max_depth {r['max_depth']}, {r['rays']:,} rays a "
           f"reflect frame; Mitsuba {r['version']['ready']} {r['version']['variant']}, "
-          f"{args.threads} threads"
+          f"{args.threads} threads, reflect's Embree scenes {args.embree}"
           + (f"; runs of {args.run} frames back to back, the first not counted"
              if args.run > 1 else ""))
     print(f"  Mitsuba first frame (kernel compile or cache load): "

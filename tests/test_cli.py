@@ -113,7 +113,7 @@ def test_render_writes_exr_and_log(tmp_path):
 
     assert attrs["reflect:technique"] == "raytrace"
     params = json.loads(attrs["reflect:parameters"])
-    assert params == {"name": "raytrace", "max_depth": 4, "samples": 1}
+    assert params == {"name": "raytrace", "max_depth": 4, "samples": 1, "embree": "robust"}
     scene_hash = attrs["reflect:scene_hash"]
     from reflectcli import api
 
@@ -241,6 +241,7 @@ def test_scene_without_technique_renders_with_raytrace(here):
         "name": "raytrace",
         "max_depth": 4,
         "samples": 1,
+        "embree": "robust",
     }
 
 
@@ -288,7 +289,7 @@ def test_techniques_lists_parameters_and_defaults():
         return rows
 
     raytrace = {row[0]: row for row in block("raytrace")}
-    assert set(raytrace) == {"max_depth", "samples"}
+    assert set(raytrace) == {"max_depth", "samples", "embree"}
     assert raytrace["max_depth"][1:4] == ["int", "=", "4"]
     assert raytrace["samples"][1:4] == ["int", "=", "1"]
     assert block("raster") == [["(no", "parameters)"]]

@@ -5,6 +5,9 @@ over numba's threads), no Python loop and no per-call array copies.
 The scene is built as embreex builds it (one triangle geometry of unshared float3 vertices,
 scene flag ROBUST, default build quality), so hits are bit-identical to embreex's
 `EmbreeScene.run`; when the library cannot be found the embreex binding is used instead.
+`fast` scenes are built as Mitsuba 3 builds its own (no scene flag, high build quality:
+`src/render/scene_embree.inl`): a like-for-like speed comparison with it, at the price of
+Embree's robust traversal (a ray may slip through the shared edge of two triangles).
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ _LANES = 8
 # Embree 4 with one instance level) of 8 lanes each
 _PACKET_FLOATS = 22 * _LANES
 _ROBUST = 1 << 2  # RTC_SCENE_FLAG_ROBUST (embreex's default)
+_QUALITY_HIGH = 2  # RTC_BUILD_QUALITY_HIGH (Mitsuba 3's, with no scene flag)
 _TRIANGLE, _INDEX, _VERTEX, _UINT3, _FLOAT3 = 0, 0, 1, 0x5003, 0x9003
 
 _rtc_intersect8 = types.ExternalFunction(
@@ -46,7 +50,7 @@ class _Embree:
             ("rtcSetNewGeometryBuffer", p, [p, i, u, i, z, z]),
             ("rtcCommitGeometry", None, [p]), ("rtcAttachGeometry", u, [p, p]),
             ("rtcReleaseGeometry", None, [p]), ("rtcCommitScene", None, [p]),
-            ("rtcReleaseScene", None, [p]),
+            ("rtcReleaseScene", None, [p]), ("rtcSetSceneBuildQuality", None, [p, i]),
         ]:
             fn = getattr(lib, name)
             fn.restype, fn.argtypes = res, args
@@ -54,11 +58,14 @@ class _Embree:
         if not self.device:
             raise OSError("Embree: no device")
 
-    def scene(self, corners: np.ndarray) -> int:
-        """A committed scene over (T, 3, 3) float32 triangles; its handle."""
+    def scene(self, corners: np.ndarray, fast: bool = False) -> int:
+        """A committed scene over (T, 3, 3) float32 triangles; its handle. `fast`: Mitsuba
+        3's settings (no ROBUST flag, high build quality), else embreex's."""
         lib, nt = self.lib, corners.shape[0]
         scene = lib.rtcNewScene(self.device)
-        lib.rtcSetSceneFlags(scene, _ROBUST)
+        lib.rtcSetSceneFlags(scene, 0 if fast else _ROBUST)
+        if fast:
+            lib.rtcSetSceneBuildQuality(scene, _QUALITY_HIGH)
         geom = lib.rtcNewGeometry(self.device, _TRIANGLE)
         vp = lib.rtcSetNewGeometryBuffer(geom, _VERTEX, 0, _FLOAT3, 16, nt * 3)
         vertices = np.ctypeslib.as_array(ctypes.cast(vp, ctypes.POINTER(ctypes.c_float)),
@@ -180,9 +187,11 @@ def intersect_range(scene, origins, directions, tfar, a, b, t, prim, u, v, buf, 
 
 
 class TriangleScene:
-    """An Embree scene over world-space triangles (T, 3, 3); empty scenes never hit."""
+    """An Embree scene over world-space triangles (T, 3, 3); empty scenes never hit.
+    `fast`: built with Mitsuba 3's settings (see the module's docstring); the embreex
+    binding (numba's JIT off) builds its own robust scenes whichever is asked."""
 
-    def __init__(self, corners: np.ndarray) -> None:
+    def __init__(self, corners: np.ndarray, fast: bool = False) -> None:
         start = time.perf_counter()
         self.count = int(corners.shape[0])
         self._handle = 0
@@ -191,7 +200,7 @@ class TriangleScene:
         if self.count:
             corners = np.ascontiguousarray(corners, dtype=np.float32)
             if self._embree is not None:
-                self._handle = self._embree.scene(corners)
+                self._handle = self._embree.scene(corners, fast)
             else:
                 from embreex import rtcore_scene
                 from embreex.mesh_construction import TriangleMesh

@@ -88,14 +88,16 @@ class Accelerators:
         return self.objects.build_seconds + self.mirrors.build_seconds
 
 
-def build_accelerators(geometry: Geometry) -> Accelerators:
+def build_accelerators(geometry: Geometry, fast: bool = False) -> Accelerators:
+    """The frame's Embree scenes (objects, exact mirror triangles); `fast`: built with
+    Mitsuba 3's settings instead of robust ones (embree.TriangleScene)."""
     m = geometry.mirror_tris
     exact = geometry.mirror_exact
     corners = np.ascontiguousarray(m.corners[exact])
     return Accelerators(
         geometry.key,
-        TriangleScene(geometry.objects.corners),
-        TriangleScene(corners),
+        TriangleScene(geometry.objects.corners, fast),
+        TriangleScene(corners, fast),
         corners,
         np.ascontiguousarray(m.normals[exact]),
         np.ascontiguousarray(m.surface[exact]),

@@ -99,6 +99,26 @@ def test_embree_hits_are_common_in_the_property_test():
     np.testing.assert_allclose(t[clear], bt[clear], rtol=T_REL)
 
 
+def test_fast_scenes_find_the_brute_force_hits():
+    """Scenes built with Mitsuba 3's settings (`fast`: no robust flag, high build quality:
+    another tree, and hits worked with other rounding) find brute force's nearest hit
+    wherever it is clear, within the same tolerance as the robust ones, on the same soup
+    and rays."""
+    rng = np.random.default_rng(3)
+    corners = rng.uniform(-1, 1, (50, 3, 3)).astype(np.float32)
+    origins = rng.uniform(-2, 2, (4000, 3)).astype(np.float32)
+    tri = rng.integers(0, 50, 4000)
+    goal = np.einsum("rk,rkc->rc", rng.dirichlet([1, 1, 1], 4000), corners[tri])
+    d = (goal - origins).astype(np.float32)
+    tfar = np.full(4000, np.inf, np.float32)
+    t, prim, u, v = TriangleScene(corners, fast=True).intersect(origins, d, tfar, threads=2)
+    bt, bprim, bu, bv, ambiguous = brute_force(corners, origins, d, tfar.astype(np.float64))
+    assert (bprim >= 0).mean() > 0.99
+    clear = ~ambiguous
+    np.testing.assert_array_equal(prim[clear], bprim[clear])
+    np.testing.assert_allclose(t[clear], bt[clear], rtol=T_REL)
+
+
 def test_empty_scene_never_hits():
     t, prim, u, v = TriangleScene(np.zeros((0, 3, 3), np.float32)).intersect(
         np.zeros((3, 3), np.float32), np.ones((3, 3), np.float32), np.full(3, np.inf, np.float32))

@@ -22,12 +22,16 @@ class Raytrace(Technique):
     name = "raytrace"
     Params = RaytraceParams
 
+    @property
+    def _fast(self) -> bool:
+        return self.params.embree == "fast"
+
     def prepare(self, scene: Scene) -> RaytraceState:
         """The Embree scenes of frame 0's geometry are built here, in the one-time work:
         a static scene never builds again, and frame 0's time holds no build."""
         state = RaytraceState(scene)
         if scene.frame_count:
-            state.accel = build_accelerators(scene.geometry(0))
+            state.accel = build_accelerators(scene.geometry(0), self._fast)
         return state
 
     def render(self, state: RaytraceState, frame_index: int, camera: Camera) -> Frame:
@@ -36,7 +40,7 @@ class Raytrace(Technique):
         built = 0.0
         if state.accel is None or state.accel.key != geometry.key:
             kept = state.accel.buffers if state.accel is not None else None
-            state.accel = build_accelerators(geometry)
+            state.accel = build_accelerators(geometry, self._fast)
             if kept is not None:  # work arrays outlive the geometry (moving objects)
                 state.accel.buffers = kept
             built = state.accel.build_seconds
