@@ -51,6 +51,7 @@ class _Embree:
             ("rtcCommitGeometry", None, [p]), ("rtcAttachGeometry", u, [p, p]),
             ("rtcReleaseGeometry", None, [p]), ("rtcCommitScene", None, [p]),
             ("rtcReleaseScene", None, [p]), ("rtcSetSceneBuildQuality", None, [p, i]),
+            ("rtcGetSceneFlags", i, [p]),
         ]:
             fn = getattr(lib, name)
             fn.restype, fn.argtypes = res, args
@@ -80,6 +81,11 @@ class _Embree:
         lib.rtcReleaseGeometry(geom)
         lib.rtcCommitScene(scene)
         return int(scene)
+
+    def scene_flags(self, scene: int) -> int:
+        """The scene's RTCSceneFlags (the tests read which settings a scene was built
+        with)."""
+        return int(self.lib.rtcGetSceneFlags(scene))
 
 
 _EMBREE: _Embree | None | bool = None

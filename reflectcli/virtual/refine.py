@@ -88,6 +88,7 @@ def reflector_rays(alone: RasterBuffers, corners: np.ndarray, normals: np.ndarra
     mask covers a quarter of its frame, and a whole-frame pass made the barycentrics of
     every pixel and wrote 12 MB of fresh pages). `out`: (Q, R) to fill instead of new
     arrays."""
+    assert alone.corners is not None, "reflector_rays recovers barycentrics: drawn corners"
     h, w = alone.triangle.shape
     q, r = out if out is not None else (np.empty((h, w, 3)), np.empty((h, w, 3)))
     _grid_spans(alone.triangle, alone.corners, alone.clip_from_world, corners, normals,

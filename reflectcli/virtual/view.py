@@ -90,7 +90,9 @@ def face_behind(x, y, z, depth, triangle, local):
 @dataclass(frozen=True)
 class ReflectorView:
     depth: np.ndarray  # (H, W) screen: eye depth of the reflector alone
-    grid: tuple[np.ndarray, np.ndarray] | None  # (Q, R) (H, W, 3) world, if refining
+    # (Q, R) (H, W, 3) world, if refining: defined on the pixels a part owns (the rows'
+    # spans), unwritten elsewhere (every reader tests the owner plane first)
+    grid: tuple[np.ndarray, np.ndarray] | None
     parts: tuple[PartView, ...]  # as shape.parts
 
 

@@ -17,6 +17,7 @@ from naive import (
 )
 
 from reflectcli.scene.types import CYLINDER, MESH, MIRROR_PARAMS, PLANAR, SPHERE
+from reflectcli.trace import embree
 from reflectcli.trace.analytic import intersect_analytic
 from reflectcli.trace.embree import TriangleScene
 
@@ -99,6 +100,7 @@ def test_embree_hits_are_common_in_the_property_test():
     np.testing.assert_allclose(t[clear], bt[clear], rtol=T_REL)
 
 
+@compiled_only  # (with the JIT off embreex traces, robust whichever is asked)
 def test_fast_scenes_find_the_brute_force_hits():
     """Scenes built with Mitsuba 3's settings (`fast`: no robust flag, high build quality:
     another tree, and hits worked with other rounding) find brute force's nearest hit
@@ -111,7 +113,11 @@ def test_fast_scenes_find_the_brute_force_hits():
     goal = np.einsum("rk,rkc->rc", rng.dirichlet([1, 1, 1], 4000), corners[tri])
     d = (goal - origins).astype(np.float32)
     tfar = np.full(4000, np.inf, np.float32)
-    t, prim, u, v = TriangleScene(corners, fast=True).intersect(origins, d, tfar, threads=2)
+    scene = TriangleScene(corners, fast=True)
+    library = embree._embree()
+    assert library.scene_flags(scene.handle) == 0  # not robust: Mitsuba's
+    assert library.scene_flags(TriangleScene(corners).handle) == embree._ROBUST
+    t, prim, u, v = scene.intersect(origins, d, tfar, threads=2)
     bt, bprim, bu, bv, ambiguous = brute_force(corners, origins, d, tfar.astype(np.float64))
     assert (bprim >= 0).mean() > 0.99
     clear = ~ambiguous

@@ -67,6 +67,9 @@ def test_fast_embree_scenes_give_nearly_the_same_frames(scene, extra):
     assert opened.technique.params.embree == "fast"
     for x, y in zip(*runs, strict=True):
         assert x.tobytes() == y.tobytes()
+    # (limits with room: another ISA's non-robust code may round otherwise)
     close = np.all(np.abs(runs[0][0] - robust[0]) <= 1e-3, axis=-1)
-    assert close.mean() > 0.999, close.mean()
-    assert (runs[0][2] == robust[2]).mean() > 0.999  # the surface under each pixel
+    assert close.mean() > 0.995, close.mean()
+    assert (runs[0][2] == robust[2]).mean() > 0.995  # the surface under each pixel
+    accel = opened._state.accel
+    assert accel.objects._embree.scene_flags(accel.objects.handle) == 0  # not robust

@@ -275,6 +275,7 @@ def test_part_views_match_twin():
         part_of[f] = p
     triangle[5] = -1  # a row with no pixel of any part
     triangle[6, 30:] = -1
+    triangle[7, 0] = 10  # a span from column 0
     owner = np.empty((h, w), np.int16)
     marks = np.zeros((len(faces), h // size + 1, w // size + 1), np.bool_)
     spans = np.full((h, 2), -7, np.int64)
@@ -284,7 +285,7 @@ def test_part_views_match_twin():
         cols = np.flatnonzero(part_of[triangle[y]] >= 0)
         want_span = (cols[0], cols[-1] + 1) if cols.size else (0, 0)
         assert tuple(spans[y]) == want_span
-    assert tuple(spans[5]) == (0, 0) and spans[6, 1] <= 30
+    assert tuple(spans[5]) == (0, 0) and spans[6, 1] <= 30 and spans[7, 0] == 0
     for p, (want, want_inside, want_tiles) in enumerate(naive_part_views(triangle, local,
                                                                           size)):
         view = PartView(owner, p, triangle, local[p], None, PointsOnScreen())
@@ -431,6 +432,34 @@ def _mask_frame(threads):
     cam = camera_from_config(cfg.camera, 0)
     technique = Virtual(cfg.technique)
     return cfg, scene, cam, technique, technique.prepare(scene)
+
+
+@compiled_only
+def test_view_rays_outside_the_spans_are_never_read(monkeypatch):
+    """reflector_rays leaves the pixels outside the reflector's spans unwritten: whatever
+    they hold, the mask's frame is the same bytes (the tile bounds, scans, seeds and
+    refinement read a pixel only where a part owns it). The fills are plausible numbers, not
+    NaN: the walks reject a NaN sample, which would hide a stray read (the last pixel of
+    each span left at the fill changes the frame)."""
+    import numba
+
+    from reflectcli.frame import Frame
+    from reflectcli.virtual import view
+
+    cfg, scene, cam, technique, state = _mask_frame(numba.get_num_threads())
+    real = view.reflector_rays
+    frames = []
+    for fill in (0.3, 0.7):
+        def rays(alone, corners, normals, eye, spans, out=None, fill=fill):
+            h, w = alone.triangle.shape
+            return real(alone, corners, normals, eye, spans,
+                        out=(np.full((h, w, 3), fill), np.full((h, w, 3), fill)))
+        monkeypatch.setattr(view, "reflector_rays", rays)
+        technique.forget_view(state)
+        frame = technique.render(state, 0, cam)
+        assert isinstance(frame, Frame)
+        frames.append(frame.rgb.tobytes())
+    assert frames[0] == frames[1]
 
 
 @compiled_only

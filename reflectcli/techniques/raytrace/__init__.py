@@ -4,7 +4,7 @@
 |---|---|---|---|
 | `max_depth` | int in [0, 64] | 4 | mirror bounces followed; beyond, mirrors show (1 - r) * base |
 | `samples` | int in [1, 16] | 1 | samples per pixel axis (s x s grid); Z, A, ids from the center |
-| `embree` | "robust", "fast" | "robust" | how Embree's scenes are built (below) |
+| `embree` | "robust", "fast" | "robust" | Embree scenes as embreex builds them, or as Mitsuba 3 |
 
 Triangles are intersected by Embree (objects and exact mirror triangles in two scenes, so a
 mirror flush with a wall wins the depth tie); spheres and cylinders exactly in numba.
