@@ -82,15 +82,21 @@ def test_embree_matches_moller_trumbore(corners, rays, far, seed):
     assert np.all(np.isinf(t[prim < 0]))
 
 
-def test_embree_hits_are_common_in_the_property_test():
-    """A fixed soup: most rays aimed at interiors hit, and every hit equals brute force."""
+def _fixed_soup():
+    """50 random triangles and 4000 rays, most aimed at their interiors: (corners, origins,
+    directions, tfar)."""
     rng = np.random.default_rng(3)
     corners = rng.uniform(-1, 1, (50, 3, 3)).astype(np.float32)
     origins = rng.uniform(-2, 2, (4000, 3)).astype(np.float32)
     tri = rng.integers(0, 50, 4000)
     goal = np.einsum("rk,rkc->rc", rng.dirichlet([1, 1, 1], 4000), corners[tri])
     d = (goal - origins).astype(np.float32)
-    tfar = np.full(4000, np.inf, np.float32)
+    return corners, origins, d, np.full(4000, np.inf, np.float32)
+
+
+def test_embree_hits_are_common_in_the_property_test():
+    """A fixed soup: most rays aimed at interiors hit, and every hit equals brute force."""
+    corners, origins, d, tfar = _fixed_soup()
     t, prim, u, v = TriangleScene(corners).intersect(origins, d, tfar, threads=2)
     bt, bprim, bu, bv, ambiguous = brute_force(corners, origins, d, tfar.astype(np.float64))
     assert (bprim >= 0).mean() > 0.99
@@ -106,13 +112,7 @@ def test_fast_scenes_find_the_brute_force_hits():
     another tree, and hits worked with other rounding) find brute force's nearest hit
     wherever it is clear, within the same tolerance as the robust ones, on the same soup
     and rays."""
-    rng = np.random.default_rng(3)
-    corners = rng.uniform(-1, 1, (50, 3, 3)).astype(np.float32)
-    origins = rng.uniform(-2, 2, (4000, 3)).astype(np.float32)
-    tri = rng.integers(0, 50, 4000)
-    goal = np.einsum("rk,rkc->rc", rng.dirichlet([1, 1, 1], 4000), corners[tri])
-    d = (goal - origins).astype(np.float32)
-    tfar = np.full(4000, np.inf, np.float32)
+    corners, origins, d, tfar = _fixed_soup()
     scene = TriangleScene(corners, fast=True)
     library = embree._embree()
     assert library.scene_flags(scene.handle) == 0  # not robust: Mitsuba's
