@@ -425,11 +425,12 @@ class OpenedScene:
             interrupts.check()  # a Ctrl-C a compile swallowed stops the run here
             wants_preview = self.config.output.preview if preview is None else preview
             params = json.loads(self.params.model_dump_json())
+            defaults = json.loads(type(self.params)().model_dump_json())
             for frame_index in frame_indices:
                 interrupts.check()  # between frames, even if the interrupt was swallowed
                 exr = os.path.join(result.folder, f"frame_{frame_index:04d}.exr")
                 if resume and os.path.exists(exr) and matches(
-                        stored.get(os.path.basename(exr)), self.scene_hash, params):
+                        stored.get(os.path.basename(exr)), self.scene_hash, params, defaults):
                     if wants_preview and not os.path.exists(exr[:-4] + ".png"):
                         write_missing_preview(exr)
                     result.skipped.append(frame_index)

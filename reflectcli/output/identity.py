@@ -56,7 +56,26 @@ def check_same_overrides(rows: dict[str, dict], overrides: list[str], folder: st
                 "use another --out, the same --set, or remove those frames"))])
 
 
-def matches(row: dict | None, scene_hash: str, parameters: dict) -> bool:
-    """Whether a stored frame was made from this scene with these parameters."""
-    return (row is not None and row.get("scene_hash") == scene_hash
-            and row.get("parameters") == parameters)
+def matches(row: dict | None, scene_hash: str, parameters: dict,
+            defaults: dict | None = None) -> bool:
+    """Whether a stored frame was made from this scene with these parameters. `defaults`:
+    the technique's parameters at their defaults; a parameter the stored row does not name
+    (added to the technique after the frame was made) counts as its default then, so a
+    new parameter left at its default does not make --resume render old frames again."""
+    if row is None or row.get("scene_hash") != scene_hash:
+        return False
+    stored = row.get("parameters")
+    if defaults is not None and isinstance(stored, dict):
+        stored = _with_defaults(stored, defaults)
+    return stored == parameters
+
+
+def _with_defaults(stored: dict, defaults: dict) -> dict:
+    """`stored` with the keys it lacks taken from `defaults`, nested dicts likewise."""
+    out = dict(stored)
+    for key, value in defaults.items():
+        if key not in out:
+            out[key] = value
+        elif isinstance(value, dict) and isinstance(out[key], dict):
+            out[key] = _with_defaults(out[key], value)
+    return out

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 
 from reflectcli.output.exr import read_exr
+from reflectcli.output.identity import matches
 from reflectcli.output.log import read_jsonl
 
 from .common import TINY, assert_one_line, chdir, invoke, write
@@ -68,3 +69,25 @@ def test_run_id_and_scene_hash_of_the_scene_alone(tmp_path):
     assert hashes["raytrace"] == hashes["raster"]  # an image pairs with its reference
     assert rows["raytrace"]["run_id"] != rows["raster"]["run_id"]
     assert len(rows["raster"]["run_id"]) == 12
+
+
+def test_resume_takes_a_parameter_added_since_as_its_default(tmp_path):
+    """Frames logged before a parameter existed (their rows do not name it) are skipped by
+    --resume while it is at its default, and rendered again once it is not."""
+    scene = write(tmp_path, "s.toml", WALK)
+    with chdir(tmp_path):
+        render(scene, tmp_path / "o")
+        log = tmp_path / "o" / "tiny" / "raytrace" / "timings.jsonl"
+        rows = read_jsonl(str(log))
+        for row in rows:  # as a run before raytrace had `embree` wrote them
+            del row["parameters"]["embree"]
+        log.write_text("".join(json.dumps(row) + "\n" for row in rows))
+        result = render(scene, tmp_path / "o", "--resume")
+        assert "wrote 0 frame(s)" in result.output and "3 skipped" in result.output
+    row = {"scene_hash": "h", "parameters": {"name": "raytrace", "max_depth": 4}}
+    defaults = {"name": "raytrace", "max_depth": 4, "embree": "robust"}
+    assert matches(row, "h", dict(defaults), defaults)
+    assert not matches(row, "h", dict(defaults, embree="fast"), defaults)
+    assert not matches(row, "h", dict(defaults))  # without the defaults: as before
+    nested = {"scene_hash": "h", "parameters": {"a": {"b": 1}}}
+    assert matches(nested, "h", {"a": {"b": 1, "c": 2}}, {"a": {"b": 0, "c": 2}})
