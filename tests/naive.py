@@ -1522,8 +1522,8 @@ def nearest_filled_distance(empty):
 
 
 def nearest_filled_texel(layer, y, x):
-    """Twin of virtual.mapfill._nearest_in_box / _nearest_of_holes, by brute force over
-    the whole map: the filled (>= 0) texel nearest to (y, x), ties to the least column and
+    """Twin of virtual.mapfill._fill_holes' nearest filled texels, by brute force over the
+    whole map: the filled (>= 0) texel nearest to (y, x), ties to the least column and
     then the least row (the rule _nearest_filled's two passes follow); None if none."""
     fy, fx = np.nonzero(layer >= 0)
     if not len(fy):

@@ -56,6 +56,10 @@ PASSES = [SR + "test_rasterize_passes_match_twin",
 SEARCH = [D + "test_search_matches_naive_twin", D + "test_box_room_hit_is_exact_on_planes"]
 LOOKUP = [VE + "test_explosion_lookup_matches_twin"]
 IDS_AT = [VE + "test_ids_at_marked_texels_match_the_fill_twins"]
+HOLES = [VE + "test_hole_fill_matches_the_whole_layer_s_nearest_fill",
+         VE + "test_hole_fill_of_lattice_triangles_matches_the_fill_twins",
+         VE + "test_hole_fill_takes_a_tie_at_the_corner_of_a_triangle_s_texels",
+         VE + "test_maps_built_for_their_lookups_match_whole_maps_there"]
 # a reflector's parts stage by stage, against each part's own call (its stages twin-tested)
 PARTS = [V + "test_parts_together_give_each_part_s_answers"]
 PART_PASSES = [V + "test_part_passes_together_give_the_frame_part_by_part"]
@@ -350,8 +354,6 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/explosion.py:_mark_lookups": (
         [VE + "test_maps_built_for_their_lookups_match_whole_maps_there"],
         "build_explosion_maps"),
-    "virtual/mapfill.py:_nearest_in_box": (
-        [VE + "test_nearest_near_marked_texels_matches_twin"], "_nearest_of_holes"),
     "virtual/explosion.py:_lookup_texels": (
         [VE + "test_lookup_texels_are_the_marked_texels_and_their_boxes"] + PARTS,
         "build_maps_together"),
@@ -359,20 +361,14 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
         [VE + "test_lookup_texels_are_the_marked_texels_and_their_boxes"] + PARTS,
         "_build_layer"),
     "virtual/mapfill.py:_holes": (
-        [VE + "test_nearest_near_marked_texels_matches_twin",
+        [VE + "test_holes_are_the_marked_empty_texels_of_the_box",
          VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
-    "virtual/mapfill.py:_nearest_of_holes": (
-        [VE + "test_nearest_near_marked_texels_matches_twin",
-         VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
-    "virtual/mapfill.py:_draw_between": (
-        [VE + "test_drawing_between_boxes_draws_the_ring_as_the_whole_layer",
-         VE + "test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins",
-         VE + "test_maps_built_for_their_lookups_match_whole_maps_there"], "_build_layer"),
-    "virtual/mapfill.py:_layer_triangles": (
-        [VE + "test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins",
-         VE + "test_drawing_lattice_triangles_from_the_table_matches_the_fill_twins",
-         VE + "test_drawing_between_boxes_draws_the_ring_as_the_whole_layer"],
-        "_build_layer"),
+    "virtual/mapfill.py:_fill_holes": (HOLES, "_build_layer"),
+    "virtual/mapfill.py:_nearest_held": (HOLES, "_fill_holes"),
+    "virtual/mapfill.py:_center_held": (HOLES, "_nearest_held"),
+    "virtual/mapfill.py:_before": (HOLES, "_fill_holes"),
+    "virtual/mapfill.py:_holds_at": (HOLES, "_fill_holes"),
+    "virtual/mapfill.py:_layer_triangles": (HOLES, "_build_layer"),
     "virtual/mapfill.py:_ids_at_marked": (IDS_AT, "_build_layer"),
     "virtual/mapfill.py:_marked_texels": (
         IDS_AT + [VE + "test_lookup_texels_are_the_marked_texels_and_their_boxes"],

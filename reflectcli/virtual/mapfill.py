@@ -1,6 +1,7 @@
 """Filling an explosion map's texels (explosion.py): triangles by their texel centers, the
 extension quads where still empty, and the nearest filled texel for the texels left empty,
-over the whole map or near the texels lookups will read."""
+over the whole map, or at the texels lookups will read (their ids found texel by texel,
+and an empty one's nearest from the triangles themselves, nothing drawn)."""
 
 from __future__ import annotations
 
@@ -442,44 +443,6 @@ def _nearest_filled(empty, rows, cols):
 
 
 @njit(cache=True)
-def _nearest_in_box(layer, y0, y1, x0, x1, y, x):
-    """(row, column) of the filled texel of `layer` nearest to empty texel (y, x) among rows
-    y0..y1, columns x0..x1, by the whole map's rule (_nearest_filled: least squared
-    distance, then least column, then least row), or (-1, -1) if it is not sure to be the
-    whole map's answer: none found, or a texel outside the box (and inside the map) could
-    be as near."""
-    h, w = layer.shape
-    out = 1 << 62  # squared distance to the nearest texel outside the box, in the map
-    if y0 > 0:
-        out = min(out, (y - y0 + 1) ** 2)
-    if y1 < h - 1:
-        out = min(out, (y1 + 1 - y) ** 2)
-    if x0 > 0:
-        out = min(out, (x - x0 + 1) ** 2)
-    if x1 < w - 1:
-        out = min(out, (x1 + 1 - x) ** 2)
-    best, by, bx = 1 << 62, -1, -1
-    # rings beyond this one lie wholly outside the box (with the box the whole map and no
-    # filled texel in it, `best` and `out` never bound the search: an empty layer)
-    last = max(y - y0, y1 - y, x - x0, x1 - x)
-    r = 1
-    while r * r <= best and r * r < out and r <= last:
-        # the square ring at Chebyshev distance r, clipped to the box
-        for yy in range(max(y - r, y0), min(y + r, y1) + 1):
-            step = 1 if yy == y - r or yy == y + r else 2 * r
-            for xx in range(x - r, x + r + 1, step):
-                if xx < x0 or xx > x1 or layer[yy, xx] < 0:
-                    continue
-                d = (yy - y) ** 2 + (xx - x) ** 2
-                if d < best or (d == best and (xx < bx or (xx == bx and yy < by))):
-                    best, by, bx = d, yy, xx
-        r += 1
-    if by < 0 or best >= out:
-        return -1, -1
-    return by, bx
-
-
-@njit(cache=True)
 def _holes(layer, marks, reach, y0, y1, x0, x1):
     """(H, 2) rows, columns of the marked texels of rows y0..y1, columns x0..x1 that are
     empty (ids < 0), in row order; or (0, 2) and False if one lies where the whole map's
@@ -507,10 +470,9 @@ def _layer_triangles(coords, faces, drawn, extensions, n_faces, center, reach, r
     them: the drawn faces, then each extension quad's two ((a, b, c), (a, c, d)): corners
     (T, 6) ax, ay, bx, by, cx, cy; value (T,) the id each writes (the face, or n_faces +
     the extension); rect (T, 4) x0, x1, y0, y1, the texels _fill_triangle visits over the
-    res x res map (_texel_range: x0 > x1 if none). Made once for a layer's ring draws
-    (_draw_between): each strip then skips the triangles whose texels miss it by four
-    comparisons, instead of every triangle's set-up (and a quad's square roots) in every
-    strip."""
+    res x res map (_texel_range: x0 > x1 if none). Made once for a layer's hole fill
+    (_fill_holes), which sorts them into cells by their texels and tries each one near a
+    hole (a quad's square roots worked out once)."""
     n_drawn, n_ext = drawn.shape[0], extensions.shape[0]
     count = n_drawn + 2 * n_ext
     corners = np.empty((count, 6))
@@ -538,59 +500,207 @@ def _layer_triangles(coords, faces, drawn, extensions, n_faces, center, reach, r
     return corners, value, rect
 
 
+@njit(cache=True, inline="always")
+def _before(d, x, y, bd, bx, by):
+    """Whether texel (x, y) at squared distance d comes before (bx, by) at bd by the whole
+    map's rule (_nearest_filled): least squared distance, then least column, then least
+    row."""
+    return d < bd or (d == bd and (x < bx or (x == bx and y < by)))
+
+
+@njit(cache=True, inline="always")
+def _center_held(ax, ay, bx, by, cx, cy, area, sign, px, py):
+    """_fill_triangle's tests of a texel center (px, py) inside its row's span."""
+    n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
+    if sign * n0 < 0.0:
+        return False
+    n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
+    if sign * n1 < 0.0:
+        return False
+    return 1.0 - n0 / area - n1 / area >= 0.0
+
+
 @njit(cache=True)
-def _draw_between(layer, marks, corners, value, rect, n_drawn, inner, outer):
-    """The texels of box `outer` outside box `inner` (each (y0, y1, x0, x1); inner empty:
-    y0 > y1) as the whole layer's draw makes them: cleared but where marked, then the
-    layer's triangles (_layer_triangles: corners, value, rect (their texels, _texel_range);
-    the first n_drawn the faces, the rest the extensions', drawn where still empty), in up
-    to four strips (a texel's id is the same whichever box it is drawn in: _fill_triangle;
-    a triangle whose texels miss a strip writes nothing there). Growing a box so draws each
-    texel once. `inner` must lie within `outer` (the boxes grown in turn: the side strips
-    take the inner box's rows)."""
-    oy0, oy1, ox0, ox1 = outer
-    iy0, iy1, ix0, ix1 = inner
-    strips = np.empty((4, 4), np.int64)
-    n = 0
-    if iy0 > iy1:
-        strips[0, 0], strips[0, 1], strips[0, 2], strips[0, 3] = oy0, oy1, ox0, ox1
-        n = 1
-    else:
-        if oy0 < iy0:  # above
-            strips[n, 0], strips[n, 1], strips[n, 2], strips[n, 3] = oy0, iy0 - 1, ox0, ox1
-            n += 1
-        if iy1 < oy1:  # below
-            strips[n, 0], strips[n, 1], strips[n, 2], strips[n, 3] = iy1 + 1, oy1, ox0, ox1
-            n += 1
-        if ox0 < ix0:  # left, beside the inner box
-            strips[n, 0], strips[n, 1], strips[n, 2], strips[n, 3] = iy0, iy1, ox0, ix0 - 1
-            n += 1
-        if ix1 < ox1:  # right
-            strips[n, 0], strips[n, 1], strips[n, 2], strips[n, 3] = iy0, iy1, ix1 + 1, ox1
-            n += 1
-    for j in range(n):
-        sy0, sy1, sx0, sx1 = strips[j, 0], strips[j, 1], strips[j, 2], strips[j, 3]
-        _clear_unmarked(layer, marks, sy0, sy1, sx0, sx1)
+def _nearest_held(corner, rect, hy, hx, bd, bx, by):
+    """The texel a triangle fills (_fill_triangle over the whole map: corner (6,) ax, ay, bx,
+    by, cx, cy; rect its texels, _texel_range) that comes first by the whole map's rule for
+    the texel (hy, hx), if it comes before (bx, by) at squared distance bd; else
+    (bd, bx, by). Rows from the hole's outward, each tested from the hole's column outward
+    within its span (left before right: the lesser column wins a tie), while a texel could
+    still come first."""
+    ax, ay, qx, qy, cx, cy = (corner[0], corner[1], corner[2], corner[3], corner[4],
+                              corner[5])
+    area = (qx - ax) * (cy - ay) - (cx - ax) * (qy - ay)
+    x0, x1, y0, y1 = rect[0], rect[1], rect[2], rect[3]
+    sign = 1.0 if area > 0.0 else -1.0
+    s0 = sign * (qy - cy)
+    s1 = sign * (cy - ay)
+    s2 = -s0 - s1
+    m0, l0 = sign * (qx * cy - cx * qy), sign * (cx - qx)
+    m1, l1 = sign * (cx * ay - ax * cy), sign * (ax - cx)
+    m2, l2 = sign * area - m0 - m1, -l0 - l1
+    i0 = -1.0 / s0 if s0 != 0.0 else 0.0
+    i1 = -1.0 / s1 if s1 != 0.0 else 0.0
+    i2 = -1.0 / s2 if s2 != 0.0 else 0.0
+    yc = min(max(hy, y0), y1)
+    for direction in range(2):
+        y = yc if direction == 0 else yc - 1
+        while y0 <= y <= y1:
+            dy2 = (y - hy) * (y - hy)
+            if dy2 > bd:
+                break
+            py = y + 0.5
+            lo, hi = _span(float(x0), float(x1), s0, (m0 + l0 * py) * i0)
+            lo, hi = _span(lo, hi, s1, (m1 + l1 * py) * i1)
+            lo, hi = _span(lo, hi, s2, (m2 + l2 * py) * i2)
+            if lo <= hi:
+                xa, xb = int(math.ceil(lo)), int(math.floor(hi))
+                # columns in the order of their distance from hx, the lesser first
+                j = max(xa - hx, hx - xb, 0)
+                while True:
+                    d = dy2 + j * j
+                    if d > bd or (hx - j < xa and hx + j > xb):
+                        break
+                    x = hx - j
+                    if xa <= x <= xb and _center_held(ax, ay, qx, qy, cx, cy, area, sign,
+                                                      x + 0.5, py):
+                        if _before(d, x, y, bd, bx, by):
+                            bd, bx, by = d, x, y
+                        break
+                    x = hx + j
+                    if j > 0 and xa <= x <= xb and _center_held(ax, ay, qx, qy, cx, cy, area,
+                                                                sign, x + 0.5, py):
+                        if _before(d, x, y, bd, bx, by):
+                            bd, bx, by = d, x, y
+                        break
+                    j += 1
+            y = y + 1 if direction == 0 else y - 1
+    return bd, bx, by
+
+
+_HOLE_CELL = 8  # texels a side of the cells _fill_holes sorts the triangles into
+
+
+@njit(cache=True)
+def _fill_holes(layer, texels, holes, corners, value, rect, n_drawn):
+    """Each hole (holes (H, 2) rows, columns: marked texels left empty) given the id of its
+    nearest filled texel by the whole map's rule, as the whole layer's nearest fill gives
+    it, without drawing: a texel is filled where one of the layer's triangles
+    (_layer_triangles: corners, value, rect) holds it, so the nearest is the first of each
+    triangle's own nearest (_nearest_held), and its id the last face holding it, else the
+    first quad (as _fill_faces and _fill_extensions draw). The looked-up texels already
+    filled (texels (T, 2), their ids in `layer`) bound each hole's search first; the
+    triangles whose texels lie within the farthest bound of the holes' box (one holding
+    a texel nearer than a bound is among them) are sorted into cells of _HOLE_CELL
+    texels by their texels, in drawing order, and each hole tries its cell's triangles,
+    then each ring of cells around it, until no texel of the next ring can come first.
+    Returns False, writing nothing, if a hole has no filled texel (a layer with nothing
+    filled: the whole layer's build then takes over). The holes are written last (each
+    hole is empty to the others' searches)."""
+    res = layer.shape[0]
+    count = holes.shape[0]
+    best = np.empty((count, 3), np.int64)  # squared distance, column, row
+    far = 1 << 62
+    for i in range(count):
+        hy, hx = holes[i, 0], holes[i, 1]
+        bd, bx, by = far, -1, -1
+        for t in range(texels.shape[0]):
+            y, x = texels[t, 0], texels[t, 1]
+            if layer[y, x] >= 0:
+                d = (y - hy) * (y - hy) + (x - hx) * (x - hx)
+                if _before(d, x, y, bd, bx, by):
+                    bd, bx, by = d, x, y
+        best[i, 0], best[i, 1], best[i, 2] = bd, bx, by
+    # the cells: over the holes' box grown by the farthest bound (in the map)
+    gy0, gy1 = holes[0, 0], holes[count - 1, 0]
+    gx0, gx1 = holes[0, 1], holes[0, 1]
+    bound = 0
+    for i in range(count):
+        gx0, gx1 = min(gx0, holes[i, 1]), max(gx1, holes[i, 1])
+        bound = max(bound, best[i, 0])
+    grow = res if bound == far else int(math.sqrt(bound)) + 1
+    gy0, gy1 = max(gy0 - grow, 0), min(gy1 + grow, res - 1)
+    gx0, gx1 = max(gx0 - grow, 0), min(gx1 + grow, res - 1)
+    rows = (gy1 - gy0) // _HOLE_CELL + 1
+    cols = (gx1 - gx0) // _HOLE_CELL + 1
+    start = np.zeros(rows * cols + 1, np.int64)
+    for step in range(2):  # counted, then filled
+        if step == 1:
+            for c in range(rows * cols):
+                start[c + 1] += start[c]
+            items = np.empty(start[rows * cols], np.int64)
+            fill = start[:rows * cols].copy()
         for k in range(corners.shape[0]):
-            if (rect[k, 0] > sx1 or rect[k, 1] < sx0 or rect[k, 2] > sy1
-                    or rect[k, 3] < sy0 or rect[k, 0] > rect[k, 1]):
-                continue
-            _fill_triangle(layer, corners[k, 0], corners[k, 1], corners[k, 2],
-                           corners[k, 3], corners[k, 4], corners[k, 5], value[k],
-                           k >= n_drawn, sy0, sy1, sx0, sx1)
+            x0, x1 = max(rect[k, 0], gx0), min(rect[k, 1], gx1)
+            y0, y1 = max(rect[k, 2], gy0), min(rect[k, 3], gy1)
+            if x0 > x1 or y0 > y1:
+                continue  # fills nothing here (or nothing at all: x0 > x1)
+            for r in range((y0 - gy0) // _HOLE_CELL, (y1 - gy0) // _HOLE_CELL + 1):
+                for c in range((x0 - gx0) // _HOLE_CELL, (x1 - gx0) // _HOLE_CELL + 1):
+                    if step == 0:
+                        start[r * cols + c + 1] += 1
+                    else:
+                        items[fill[r * cols + c]] = k
+                        fill[r * cols + c] += 1
+    tried = np.full(corners.shape[0], -1, np.int64)  # the hole that last tried a triangle
+    for i in range(count):
+        hy, hx = holes[i, 0], holes[i, 1]
+        bd, bx, by = best[i, 0], best[i, 1], best[i, 2]
+        hr, hc = (hy - gy0) // _HOLE_CELL, (hx - gx0) // _HOLE_CELL
+        ring = 0
+        while True:
+            if ring > 0:
+                gap = (ring - 1) * _HOLE_CELL + 1  # texels from the hole to the ring, at least
+                if gap * gap > bd:
+                    break
+            if hr - ring < 0 and hc - ring < 0 and hr + ring >= rows and hc + ring >= cols:
+                break  # the ring lies outside the cells
+            for r in range(max(hr - ring, 0), min(hr + ring, rows - 1) + 1):
+                edge = r == hr - ring or r == hr + ring
+                step = 1 if edge or ring == 0 else 2 * ring
+                for c in range(hc - ring, hc + ring + 1, step):
+                    if c < 0 or c >= cols:
+                        continue
+                    cell = r * cols + c
+                    for t in range(start[cell], start[cell + 1]):
+                        k = items[t]
+                        if tried[k] == i:
+                            continue
+                        tried[k] = i
+                        gx = max(rect[k, 0] - hx, hx - rect[k, 1], 0)
+                        gy = max(rect[k, 2] - hy, hy - rect[k, 3], 0)
+                        if gx * gx + gy * gy <= bd:
+                            bd, bx, by = _nearest_held(corners[k], rect[k], hy, hx, bd, bx,
+                                                       by)
+            ring += 1
+        if bx < 0:
+            return False
+        best[i, 0], best[i, 1], best[i, 2] = bd, bx, by
+    ids = np.empty(count, np.int32)
+    for i in range(count):
+        x, y = best[i, 1], best[i, 2]
+        cell = ((y - gy0) // _HOLE_CELL) * cols + (x - gx0) // _HOLE_CELL
+        ids[i] = -1
+        for t in range(start[cell + 1] - 1, start[cell] - 1, -1):  # the last face holding it
+            k = items[t]
+            if k < n_drawn and _holds_at(corners[k], rect[k], res, x, y):
+                ids[i] = value[k]
+                break
+        if ids[i] < 0:
+            for t in range(start[cell], start[cell + 1]):  # else the first quad
+                k = items[t]
+                if k >= n_drawn and _holds_at(corners[k], rect[k], res, x, y):
+                    ids[i] = value[k]
+                    break
+    for i in range(count):
+        layer[holes[i, 0], holes[i, 1]] = ids[i]
+    return True
 
 
-@njit(cache=True)
-def _nearest_of_holes(layer, holes, found, y0, y1, x0, x1):
-    """For each hole (row, column) not yet answered (found[i, 0] < 0): its nearest filled
-    texel (_nearest_in_box, by the whole map's rule) among rows y0..y1, columns x0..x1, if
-    sure there, into found[i]. Nothing is written to the layer (a hole filled first would
-    be filled for the others). Returns how many holes are still without an answer."""
-    left = 0
-    for i in range(holes.shape[0]):
-        if found[i, 0] >= 0:
-            continue
-        found[i, 0], found[i, 1] = _nearest_in_box(layer, y0, y1, x0, x1, holes[i, 0],
-                                                   holes[i, 1])
-        left += found[i, 0] < 0
-    return left
+@njit(cache=True, inline="always")
+def _holds_at(corner, rect, res, x, y):
+    """Whether the triangle (corner, rect: _nearest_held's) fills texel (x, y): _holds."""
+    if not (rect[0] <= x <= rect[1] and rect[2] <= y <= rect[3]):
+        return False
+    return _holds(corner[0], corner[1], corner[2], corner[3], corner[4], corner[5], res,
+                  x, y)

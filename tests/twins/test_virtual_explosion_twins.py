@@ -493,33 +493,16 @@ def test_nearest_filled_matches_twin():
         np.testing.assert_allclose(got, nearest_filled_distance(empty), rtol=0, atol=1e-12)
 
 
-def test_nearest_near_marked_texels_matches_twin():
-    """_nearest_in_box answers as the whole map's rule would (nearest, then least column,
-    then least row), or not at all when a texel outside its box could be as near; and
-    _nearest_of_holes answers the marked empty texels (_holes) as _nearest_filled does over
-    the whole map (which the rule matches), where sure, keeping earlier answers."""
+def test_holes_are_the_marked_empty_texels_of_the_box():
+    """_holes lists the marked empty texels of a box in row order, or none and False where
+    one lies outside `reach` (the whole layer's build then takes over)."""
     rng = np.random.default_rng(13)
-    answered = declined = 0
     for _ in range(60):
         h, w = (int(v) for v in rng.integers(8, 40, 2))
         layer = np.where(rng.random((h, w)) < rng.choice([0.02, 0.1, 0.5]),
                          rng.integers(0, 50, (h, w)), -1).astype(np.int32)
         y0, x0 = int(rng.integers(0, h)), int(rng.integers(0, w))
         y1, x1 = int(rng.integers(y0, h)), int(rng.integers(x0, w))
-        for y, x in zip(*np.nonzero(layer[y0:y1 + 1, x0:x1 + 1] < 0), strict=True):
-            y, x = int(y + y0), int(x + x0)
-            got = mapfill._nearest_in_box(layer, y0, y1, x0, x1, y, x)
-            want = nearest_filled_texel(layer, y, x)
-            if got != (-1, -1):
-                assert got == want
-                answered += 1
-                continue
-            declined += 1
-            sides = [(y - y0 + 1) ** 2 if y0 > 0 else np.inf,
-                     (y1 + 1 - y) ** 2 if y1 < h - 1 else np.inf,
-                     (x - x0 + 1) ** 2 if x0 > 0 else np.inf,
-                     (x1 + 1 - x) ** 2 if x1 < w - 1 else np.inf]
-            assert want is None or (want[0] - y) ** 2 + (want[1] - x) ** 2 >= min(sides)
         marks = rng.random((h, w)) < 0.2
         reach = rng.random((h, w)) < 0.97
         holes, reached = mapfill._holes(layer, marks, reach, y0, y1, x0, x1)
@@ -527,119 +510,141 @@ def test_nearest_near_marked_texels_matches_twin():
         box[y0:y1 + 1, x0:x1 + 1] = True
         sel = marks & box & (layer < 0)
         assert reached == bool(reach[sel].all())
-        if not reached:
-            continue
-        assert holes.tolist() == np.argwhere(sel).tolist()
-        found = np.full((len(holes), 2), -1, np.int64)
-        found[::3] = (-1, -7)  # unanswered still
-        found[1::3] = (0, 0)  # answered before: kept
-        kept = found.copy()
-        gy0, gy1 = max(y0 - 4, 0), min(y1 + 4, h - 1)
-        gx0, gx1 = max(x0 - 4, 0), min(x1 + 4, w - 1)
-        left = mapfill._nearest_of_holes(layer, holes, found, gy0, gy1, gx0, gx1)
-        assert (found[1::3] == kept[1::3]).all()
-        asked = np.ones(len(holes), bool)
-        asked[1::3] = False
-        for (y, x), got in zip(holes[asked], found[asked], strict=True):
-            assert tuple(got) == mapfill._nearest_in_box(layer, gy0, gy1, gx0, gx1, y, x)
-            if got[0] >= 0:
-                assert tuple(got) == nearest_filled_texel(layer, y, x)
-        assert left == int((found[:, 0] < 0).sum())
-    assert answered > 100 and declined > 10
-    # a layer with no filled texel (a part seen only from behind), the box the whole map or
-    # a part of it: no answer (the whole layer's build takes over), and no endless search
-    empty = np.full((12, 12), -1, np.int32)
-    marks = np.zeros((12, 12), bool)
-    marks[5, 5] = True
-    holes, reached = mapfill._holes(empty, marks, np.ones((12, 12), bool), 0, 11, 0, 11)
-    assert reached and holes.tolist() == [[5, 5]]
-    for box in ((0, 11, 0, 11), (5, 5, 5, 5), (2, 9, 0, 11)):
-        assert mapfill._nearest_in_box(empty, *box, 5, 5) == (-1, -1)
-        found = np.full((1, 2), -1, np.int64)
-        assert mapfill._nearest_of_holes(empty, holes, found, *box) == 1
+        if reached:
+            assert holes.tolist() == np.argwhere(sel).tolist()
 
 
-def _ring_draws(rng, want, table, n_drawn, margins):
-    """Draws (_draw_between, the layer's triangle table) the rings of a random box grown by
-    each of `margins` in turn over stale ids (random, but the whole layer's `want` at
-    random marked texels); yields after each ring (ids, the stale ids before the first,
-    the grown box as a (res, res) mask)."""
+def _hole_fills(rng, want, table, n_drawn, densities=(0.002, 0.02, 0.2)):
+    """_fill_holes over a layer's triangle table (_layer_triangles) against the whole layer
+    `want` (the fill twins' faces and quads) and its nearest fill (nearest_filled_texel):
+    random marked texels hold want's ids (as _ids_at_marked leaves them), the other texels
+    stale; each hole (a marked texel want leaves empty) must take the id of its nearest
+    filled texel by the whole map's rule, every other texel untouched. Some cases mark
+    holes alone (no looked-up texel filled to bound the search). Returns the holes
+    checked."""
     res = want.shape[0]
-    marks = rng.random((res, res)) < 0.05
-    ids = np.where(marks, want, rng.integers(-3, 40, (res, res))).astype(np.int32)
-    stale = ids.copy()
-    y0, x0 = (int(c) for c in rng.integers(0, res, 2))
-    y1, x1 = int(rng.integers(y0, res)), int(rng.integers(x0, res))
-    inner = (1, 0, 1, 0)
-    for margin in margins:
-        outer = (max(y0 - margin, 0), min(y1 + margin, res - 1),
-                 max(x0 - margin, 0), min(x1 + margin, res - 1))
-        mapfill._draw_between(ids, marks, *table, n_drawn, inner, outer)
-        box = np.zeros((res, res), bool)
-        box[outer[0]:outer[1] + 1, outer[2]:outer[3] + 1] = True
-        yield ids, stale, box
-        inner = outer
+    checked = 0
+    empty = np.argwhere(want < 0)
+    for density in densities:
+        for mode in ("some", "alone", "pairs"):
+            marks = rng.random((res, res)) < density
+            if mode == "alone":
+                marks &= want < 0
+            elif mode == "pairs" and (want >= 0).any() and len(empty):
+                # a hole or two and, of their nearest filled texels, the one the rule takes
+                # last alone: the searches' bounds are as near as their answers, which lie
+                # on the edge of the cells' box (or tie with them)
+                marks[:] = False
+                fy, fx = np.nonzero(want >= 0)
+                for y, x in empty[rng.permutation(len(empty))[:2]]:
+                    d2 = (fy - y) ** 2 + (fx - x) ** 2
+                    tied = np.flatnonzero(d2 == d2.min())
+                    last = max(tied, key=lambda i: (fx[i], fy[i]))
+                    marks[y, x] = marks[fy[last], fx[last]] = True
+            if not (marks & (want < 0)).any():
+                continue
+            ids = np.where(marks, want, rng.integers(-3, 40, (res, res))).astype(np.int32)
+            stale = ids.copy()
+            texels = np.argwhere(marks).astype(np.int64)
+            texels = np.concatenate([texels, texels[:3]])  # repeats, in any order
+            texels = texels[rng.permutation(len(texels))]
+            holes = np.argwhere(marks & (want < 0)).astype(np.int64)
+            ok = mapfill._fill_holes(ids, texels, holes, *table, n_drawn)
+            if not (want >= 0).any():
+                assert not ok
+                np.testing.assert_array_equal(ids, stale)
+                continue
+            assert ok
+            expect = stale.copy()
+            for y, x in holes:
+                ny, nx = nearest_filled_texel(want, y, x)
+                expect[y, x] = want[ny, nx]
+            np.testing.assert_array_equal(ids, expect)
+            checked += len(holes)
+    return checked
 
 
-def test_drawing_between_boxes_draws_the_ring_as_the_whole_layer(sphere_maps):
-    """_draw_between(inner, outer) makes the texels of `outer` outside `inner` what the
-    whole layer's draw makes them (marked texels kept, the others cleared first), and
-    leaves every other texel alone; boxes grown in turn so make the largest box whole."""
-    mesh, _, maps = sphere_maps
-    rng = np.random.default_rng(17)
-    res, half = maps.res, maps.res / 2.0
-    reach = explosion.EXTENSION_REACH * maps.s
-    faces = np.ascontiguousarray(mesh.faces, np.int64)
-    drawn = np.arange(len(faces))
-    for layer in maps.layers:
-        want = np.full((res, res), -1, np.int32)
-        fill_faces(want, layer.coords, faces, drawn)
-        fill_extensions(want, layer.coords, maps.extensions, len(faces), half, reach)
-        table = mapfill._layer_triangles(layer.coords, faces, drawn, maps.extensions,
-                                         len(faces), half, reach, res)
-        for _ in range(4):
-            for ids, stale, box in _ring_draws(rng, want, table, len(drawn), (0, 3, 11, 40)):
-                np.testing.assert_array_equal(ids[box], want[box])
-                np.testing.assert_array_equal(ids[~box], stale[~box])
-
-
-def test_drawing_between_boxes_of_odd_triangles_matches_the_fill_twins(sphere_maps):
-    """_draw_between over the layer's triangle table (_layer_triangles, each triangle's
-    texels found once) with degenerate, NaN, tiny, map-wide and off-map triangles and quads
-    among the sphere's, some faces not drawn: every ring as the fill twins draw the whole
-    layer, the texels outside the box untouched."""
+def test_hole_fill_matches_the_whole_layer_s_nearest_fill(sphere_maps):
+    """_fill_holes (each hole's nearest filled texel from the layer's triangles, without
+    drawing) against the fill twins' whole layer and the whole map's nearest rule, on the
+    sphere's layers with some faces not drawn (holes inside the disk) and with degenerate,
+    NaN, tiny, map-wide and off-map triangles and quads among them."""
     mesh, _, maps = sphere_maps
     rng = np.random.default_rng(23)
     res, half = maps.res, maps.res / 2.0
     reach = explosion.EXTENSION_REACH * maps.s
-    for case in range(6):
+    checked = 0
+    for case in range(8):
         layer = maps.layers[case % len(maps.layers)]
-        extra = np.concatenate([rng.uniform(-30, res + 30, (20, 2)),
-                                layer.coords[:5] + rng.normal(size=(5, 2)) * 0.3,
-                                # corners on texel centres: edges through centres, where
-                                # only the fill's own tests in its winding give its ids
-                                rng.integers(-4, res + 4, (30, 2)) + 0.5])
-        extra[3] = np.nan
-        coords = np.concatenate([layer.coords, extra])
-        v = len(layer.coords)
-        lattice = v + 25 + rng.integers(0, 30, (40, 3))
-        faces = np.concatenate([mesh.faces, rng.integers(0, len(coords), (30, 3)),
-                                [[v, v, v + 1], [v + 3, v + 4, v + 5]],
-                                lattice]).astype(np.int64)
-        drawn = np.sort(rng.permutation(len(faces))[: int(len(faces) * 0.7)])
-        extensions = np.concatenate([maps.extensions, np.column_stack(
-            [np.zeros(15, np.int64), rng.integers(0, len(coords), (15, 2))]), np.column_stack(
-            [np.zeros(15, np.int64), v + 25 + rng.integers(0, 30, (15, 2))])])
+        faces = np.ascontiguousarray(mesh.faces, np.int64)
+        coords, extensions = layer.coords, maps.extensions
+        if case >= 2:
+            extra = np.concatenate([rng.uniform(-30, res + 30, (20, 2)),
+                                    layer.coords[:5] + rng.normal(size=(5, 2)) * 0.3,
+                                    # corners on texel centres: edges through centres
+                                    rng.integers(-4, res + 4, (30, 2)) + 0.5])
+            extra[3] = np.nan
+            coords = np.concatenate([layer.coords, extra])
+            v = len(layer.coords)
+            lattice = v + 25 + rng.integers(0, 30, (40, 3))
+            faces = np.concatenate([faces, rng.integers(0, len(coords), (30, 3)),
+                                    [[v, v, v + 1], [v + 3, v + 4, v + 5]],
+                                    lattice]).astype(np.int64)
+            extensions = np.concatenate([maps.extensions, np.column_stack(
+                [np.zeros(15, np.int64), rng.integers(0, len(coords), (15, 2))]),
+                np.column_stack([np.zeros(15, np.int64), v + 25 + rng.integers(0, 30, (15, 2))])])
+        keep = 0.3 if case % 2 else 0.8
+        drawn = np.sort(rng.permutation(len(faces))[: int(len(faces) * keep)])
+        if case == 1:
+            extensions = extensions[:3]  # the circle left mostly open: far holes
         want = np.full((res, res), -1, np.int32)
         fill_faces(want, coords, faces, drawn)
         fill_extensions(want, coords, extensions, len(faces), half, reach)
         table = mapfill._layer_triangles(coords, faces, drawn, extensions, len(faces), half,
                                          reach, res)
         assert len(table[0]) == len(drawn) + 2 * len(extensions)
-        for ids, stale, box in _ring_draws(rng, want, table, len(drawn), (0, 2, 9, res)):
-            np.testing.assert_array_equal(ids[box], want[box])
-            np.testing.assert_array_equal(ids[~box], stale[~box])
-        np.testing.assert_array_equal(ids, want)  # the last box: the whole map
+        checked += _hole_fills(rng, want, table, len(drawn))
+    assert checked > 500
+
+
+def test_hole_fill_takes_a_tie_at_the_corner_of_a_triangle_s_texels():
+    """A hole's nearest texels tie, the one the rule takes (the lesser column) at the
+    corner of its triangle's texel range, exactly as far as the search's bound (the other,
+    looked up): that triangle is tried all the same."""
+    coords = np.array([[5.3, 5.3], [5.8, 5.4], [5.4, 5.8], [9.3, 1.3], [9.8, 1.4], [9.4, 1.8]])
+    faces = np.array([[0, 1, 2], [3, 4, 5]], np.int64)
+    want = np.full((16, 16), -1, np.int32)
+    fill_faces(want, coords, faces, np.arange(2))
+    assert np.argwhere(want >= 0).tolist() == [[1, 9], [5, 5]]
+    table = mapfill._layer_triangles(coords, faces, np.arange(2), np.zeros((0, 3), np.int64),
+                                     2, 8.0, 6.0, 16)
+    ids = want.copy()
+    texels = np.array([[1, 5], [1, 9]], np.int64)  # the hole (row 1, column 5), the tie
+    assert mapfill._fill_holes(ids, texels, texels[:1], *table, 2)
+    assert ids[1, 5] == 0 == want[5, 5]
+
+
+def test_hole_fill_of_lattice_triangles_matches_the_fill_twins():
+    """_fill_holes on layers of lattice triangles and quads (every corner on a texel
+    centre, so edges run through centres and a triangle's winding decides which texels it
+    holds; many nearest texels tie on distance): as the fill twins and the nearest rule;
+    and a layer that fills nothing gives no answer and writes nothing."""
+    rng = np.random.default_rng(0)
+    res, half, reach = 48, 24.0, 30.0
+    checked = 0
+    for case in range(40):
+        coords = rng.integers(-4, res + 4, (60, 2)) + 0.5
+        faces = rng.integers(0, len(coords), (80 if case else 0, 3)).astype(np.int64)
+        drawn = np.arange(len(faces))
+        extensions = np.column_stack([np.zeros(20 if case else 0, np.int64),
+                                      rng.integers(0, len(coords), (20 if case else 0, 2))])
+        want = np.full((res, res), -1, np.int32)
+        fill_faces(want, coords, faces, drawn)
+        fill_extensions(want, coords, extensions, len(faces), half, reach)
+        table = mapfill._layer_triangles(coords, faces, drawn, extensions, len(faces), half,
+                                         reach, res)
+        checked += _hole_fills(rng, want, table, len(drawn), (0.01, 0.3))
+    assert checked > 500
 
 
 @pytest.mark.parametrize("res, layers", [(17, 2), (61, 3), (97, 8)])
@@ -683,32 +688,6 @@ def test_maps_built_together_give_each_part_s_maps_at_its_lookups(res, layers):
                 assert joined.core[k0 + j, cy, cx] == maps.all_cores[j, cy, cx]
                 checked += 1
     assert checked > 100
-
-
-def test_drawing_lattice_triangles_from_the_table_matches_the_fill_twins():
-    """_layer_triangles and _draw_between on layers of lattice triangles and quads (every
-    corner given on a texel centre, so edges run through centres): the whole map as the
-    fill twins draw it. Only there does a triangle's winding change which texels it holds
-    (the rounding of the edge tests at a centre on an edge), so only there is a table
-    drawn in another winding than _fill_faces' and _fill_extensions' seen."""
-    rng = np.random.default_rng(0)
-    res, half, reach = 48, 24.0, 30.0
-    for _ in range(40):
-        coords = rng.integers(-4, res + 4, (60, 2)) + 0.5
-        faces = rng.integers(0, len(coords), (80, 3)).astype(np.int64)
-        drawn = np.arange(len(faces))
-        extensions = np.column_stack([np.zeros(20, np.int64),
-                                      rng.integers(0, len(coords), (20, 2))])
-        want = np.full((res, res), -1, np.int32)
-        fill_faces(want, coords, faces, drawn)
-        fill_extensions(want, coords, extensions, len(faces), half, reach)
-        table = mapfill._layer_triangles(coords, faces, drawn, extensions, len(faces), half,
-                                         reach, res)
-        ids = np.full((res, res), -5, np.int32)
-        marks = np.zeros((res, res), bool)
-        mapfill._draw_between(ids, marks, *table, len(drawn), (1, 0, 1, 0),
-                              (0, res - 1, 0, res - 1))
-        np.testing.assert_array_equal(ids, want)
 
 
 def _matmul_sums_as_the_kernel_does() -> bool:
