@@ -539,9 +539,6 @@ def _build_layer(k, v, n, used, eye, center, radius, frame, res, s, faces, drawn
     nothing, or a hole lies where the whole map's fill would be skipped, is the whole
     layer made (drawing over texels already found changes nothing: a face's texel takes
     its last face again, and the extensions fill only texels no face holds)."""
-    for i in range(coords.shape[0]):
-        coords[i, 0] = np.nan
-        coords[i, 1] = np.nan
     _vertex_coords(v, n, used, eye, center, radius, frame, res, s, coords)
     if needed.shape[0] > 0:
         tally[k, 0] = -1
@@ -623,23 +620,50 @@ def boundary_edges(faces: np.ndarray) -> np.ndarray:
                     np.int64).reshape(-1, 3)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _vertex_coords(v, n, used, eye, center, radius, frame, res, s, coords):
-    for i in range(v.shape[0]):
-        if not used[i]:
-            continue
-        dx, dy, dz = v[i, 0] - eye[0], v[i, 1] - eye[1], v[i, 2] - eye[2]
+    """coords (V, 2): each used vertex's map coordinates on the sphere (center, radius), NaN
+    for the others. Every vertex is worked out, from its coordinates and normal copied
+    into one array each, and the unused ones' answers replaced afterwards (numpy's error
+    model: no check of a division), so that the loop has no branch and no stride and
+    vectorises: its three square roots and six divisions a vertex made it 27 ns a vertex
+    one at a time, 10 ns so (the same numbers; 31,000 vertices over the mask's layers)."""
+    count = v.shape[0]
+    soa = np.empty((8, count))  # vertex x, y, z, normal x, y, z; then map x, y
+    for i in range(count):
+        for c in range(3):
+            soa[c, i] = v[i, c]
+            soa[3 + c, i] = n[i, c]
+    vx, vy, vz, nx, ny, nz, mx, my = (soa[0], soa[1], soa[2], soa[3], soa[4], soa[5],
+                                      soa[6], soa[7])
+    e0, e1, e2 = eye[0], eye[1], eye[2]
+    c0, c1, c2 = center[0], center[1], center[2]
+    f00, f01, f02 = frame[0, 0], frame[0, 1], frame[0, 2]
+    f10, f11, f12 = frame[1, 0], frame[1, 1], frame[1, 2]
+    f20, f21, f22 = frame[2, 0], frame[2, 1], frame[2, 2]
+    for i in range(count):
+        dx, dy, dz = vx[i] - e0, vy[i] - e1, vz[i] - e2
         inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
         dx, dy, dz = dx * inv, dy * inv, dz * inv
-        dn = dx * n[i, 0] + dy * n[i, 1] + dz * n[i, 2]
-        rx, ry, rz = dx - 2 * dn * n[i, 0], dy - 2 * dn * n[i, 1], dz - 2 * dn * n[i, 2]
+        dn = dx * nx[i] + dy * ny[i] + dz * nz[i]
+        rx, ry, rz = dx - 2 * dn * nx[i], dy - 2 * dn * ny[i], dz - 2 * dn * nz[i]
         # the reflection ray leaves V (inside the sphere): its far root
-        ox, oy, oz = v[i, 0] - center[0], v[i, 1] - center[1], v[i, 2] - center[2]
+        ox, oy, oz = vx[i] - c0, vy[i] - c1, vz[i] - c2
         b = ox * rx + oy * ry + oz * rz
         c = ox * ox + oy * oy + oz * oz - radius * radius
         t = -b + math.sqrt(max(b * b - c, 0.0))
-        coords[i, 0], coords[i, 1] = map_coords(frame, res, s, ox + t * rx, oy + t * ry,
-                                                oz + t * rz)
+        # map_coords of the hit's direction from the center
+        hx, hy, hz = ox + t * rx, oy + t * ry, oz + t * rz
+        length = math.sqrt(hx * hx + hy * hy + hz * hz)
+        x = (f00 * hx + f01 * hy + f02 * hz) / length
+        y = (f10 * hx + f11 * hy + f12 * hz) / length
+        z = (f20 * hx + f21 * hy + f22 * hz) / length
+        m = 2.0 * math.sqrt(max(2.0 * (z + 1.0), 1e-24))
+        mx[i] = s * x / m + res / 2.0
+        my[i] = s * y / m + res / 2.0
+    for i in range(count):
+        coords[i, 0] = mx[i] if used[i] else np.nan
+        coords[i, 1] = my[i] if used[i] else np.nan
 
 
 @njit(cache=True, inline="always")
