@@ -170,7 +170,7 @@ def _explosion_reflector(rule: MethodRule, scene: Scene, primary: Primary, k: in
     mode = rule.decompose_overrides.get(scene.mirrors.names[k], rule.decompose)
     soup = shapes.soup_key(tris.corners, tris.normals, first, count)
     shape = shapes.get(soup, corners, normals, mode == "auto")
-    clip_from_world = camera.clip_from_world()
+    clip_from_world = primary.buffers.clip_from_world  # the camera's, as the primary drew
     view = views.get((soup, mode == "auto"), corners, normals, shape, camera, clip_from_world,
                      rule.explosion.refine == "screen")
     return first, count, shape, view, clip_from_world
