@@ -23,6 +23,48 @@ def _span(lo, hi, slope, cross):
     return lo, hi
 
 
+@njit(cache=True, inline="always")
+def _edges(ax, ay, bx, by, cx, cy, area, sign):
+    """A triangle's edge functions as _fill_triangle narrows its rows by them: area * w_i
+    as functions of px (w0 = e0 / area, ...), signed to be >= 0 inside, s_i px + k_i(py)
+    with k_i(py) = m_i + l_i py, crossing at -k_i / s_i: (s_i, m_i, l_i, -1 / s_i) for
+    each edge (no division per row)."""
+    s0 = sign * (by - cy)
+    s1 = sign * (cy - ay)
+    s2 = -s0 - s1
+    m0, l0 = sign * (bx * cy - cx * by), sign * (cx - bx)
+    m1, l1 = sign * (cx * ay - ax * cy), sign * (ax - cx)
+    m2, l2 = sign * area - m0 - m1, -l0 - l1
+    i0 = -1.0 / s0 if s0 != 0.0 else 0.0
+    i1 = -1.0 / s1 if s1 != 0.0 else 0.0
+    i2 = -1.0 / s2 if s2 != 0.0 else 0.0
+    return s0, m0, l0, i0, s1, m1, l1, i1, s2, m2, l2, i2
+
+
+@njit(cache=True, inline="always")
+def _row_span(x0, x1, edges, py):
+    """The columns [lo, hi] of texels x0..x1 on the row of centers py that _fill_triangle
+    tests (_span of each edge; its rounding is far inside the 2 texels to spare)."""
+    s0, m0, l0, i0, s1, m1, l1, i1, s2, m2, l2, i2 = edges
+    lo, hi = _span(float(x0), float(x1), s0, (m0 + l0 * py) * i0)
+    lo, hi = _span(lo, hi, s1, (m1 + l1 * py) * i1)
+    return _span(lo, hi, s2, (m2 + l2 * py) * i2)
+
+
+@njit(cache=True, inline="always")
+def _center_held(ax, ay, bx, by, cx, cy, area, sign, px, py):
+    """_fill_triangle's tests of a texel center (px, py) inside its row's span. w0 = n0 /
+    area < 0 exactly when sign * n0 < 0 (a quotient keeps the signs' product): the
+    divisions are made only for texels both first tests pass."""
+    n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
+    if sign * n0 < 0.0:
+        return False
+    n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
+    if sign * n1 < 0.0:
+        return False
+    return 1.0 - n0 / area - n1 / area >= 0.0
+
+
 @njit(cache=True)
 def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty, box_y0=0, box_y1=1 << 30,
                    box_x0=0, box_x1=1 << 30):
@@ -44,39 +86,16 @@ def _fill_triangle(ids, ax, ay, bx, by, cx, cy, value, only_empty, box_y0=0, box
     if x0 > x1:
         return
     sign = 1.0 if area > 0.0 else -1.0
-    # area * w_i as functions of px (w0 = e0 / area, ...), signed to be >= 0 inside:
-    # s_i px + k_i(py), k_i(py) = m_i + l_i py, crossing at -k_i / s_i
-    s0 = sign * (by - cy)
-    s1 = sign * (cy - ay)
-    s2 = -s0 - s1
-    m0, l0 = sign * (bx * cy - cx * by), sign * (cx - bx)
-    m1, l1 = sign * (cx * ay - ax * cy), sign * (ax - cx)
-    m2, l2 = sign * area - m0 - m1, -l0 - l1
-    i0 = -1.0 / s0 if s0 != 0.0 else 0.0
-    i1 = -1.0 / s1 if s1 != 0.0 else 0.0
-    i2 = -1.0 / s2 if s2 != 0.0 else 0.0
+    edges = _edges(ax, ay, bx, by, cx, cy, area, sign)
     for y in range(y0, y1 + 1):
         py = y + 0.5
-        lo, hi = _span(float(x0), float(x1), s0, (m0 + l0 * py) * i0)
-        lo, hi = _span(lo, hi, s1, (m1 + l1 * py) * i1)
-        lo, hi = _span(lo, hi, s2, (m2 + l2 * py) * i2)
+        lo, hi = _row_span(x0, x1, edges, py)
         if not lo <= hi:
             continue
         for x in range(int(math.ceil(lo)), int(math.floor(hi)) + 1):
             if only_empty and ids[y, x] >= 0:
                 continue  # taken: no test needed
-            px = x + 0.5
-            # w0 = n0 / area < 0 exactly when sign * n0 < 0 (a quotient keeps the signs'
-            # product): the divisions are made only for texels both first tests pass
-            n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
-            if sign * n0 < 0.0:
-                continue
-            n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
-            if sign * n1 < 0.0:
-                continue
-            w0 = n0 / area
-            w1 = n1 / area
-            if 1.0 - w0 - w1 >= 0.0:
+            if _center_held(ax, ay, bx, by, cx, cy, area, sign, x + 0.5, py):
                 ids[y, x] = value
 
 
@@ -150,33 +169,13 @@ def _holds(ax, ay, bx, by, cx, cy, res, x, y):
     if area == 0.0 or math.isnan(area):
         return False
     sign = 1.0 if area > 0.0 else -1.0
-    px = x + 0.5
     py = y + 0.5
-    n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
-    if sign * n0 < 0.0:
-        return False
-    n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
-    if sign * n1 < 0.0:
-        return False
-    w0 = n0 / area
-    w1 = n1 / area
-    if not 1.0 - w0 - w1 >= 0.0:
+    if not _center_held(ax, ay, bx, by, cx, cy, area, sign, x + 0.5, py):
         return False
     x0, x1, y0, y1 = _texel_range(ax, ay, bx, by, cx, cy, res)
     if not (x0 <= x <= x1 and y0 <= y <= y1):
         return False
-    s0 = sign * (by - cy)
-    s1 = sign * (cy - ay)
-    s2 = -s0 - s1
-    m0, l0 = sign * (bx * cy - cx * by), sign * (cx - bx)
-    m1, l1 = sign * (cx * ay - ax * cy), sign * (ax - cx)
-    m2, l2 = sign * area - m0 - m1, -l0 - l1
-    i0 = -1.0 / s0 if s0 != 0.0 else 0.0
-    i1 = -1.0 / s1 if s1 != 0.0 else 0.0
-    i2 = -1.0 / s2 if s2 != 0.0 else 0.0
-    lo, hi = _span(float(x0), float(x1), s0, (m0 + l0 * py) * i0)
-    lo, hi = _span(lo, hi, s1, (m1 + l1 * py) * i1)
-    lo, hi = _span(lo, hi, s2, (m2 + l2 * py) * i2)
+    lo, hi = _row_span(x0, x1, _edges(ax, ay, bx, by, cx, cy, area, sign), py)
     return lo <= hi and int(math.ceil(lo)) <= x <= int(math.floor(hi))
 
 
@@ -508,18 +507,6 @@ def _before(d, x, y, bd, bx, by):
     return d < bd or (d == bd and (x < bx or (x == bx and y < by)))
 
 
-@njit(cache=True, inline="always")
-def _center_held(ax, ay, bx, by, cx, cy, area, sign, px, py):
-    """_fill_triangle's tests of a texel center (px, py) inside its row's span."""
-    n0 = (bx - px) * (cy - py) - (cx - px) * (by - py)
-    if sign * n0 < 0.0:
-        return False
-    n1 = (cx - px) * (ay - py) - (ax - px) * (cy - py)
-    if sign * n1 < 0.0:
-        return False
-    return 1.0 - n0 / area - n1 / area >= 0.0
-
-
 @njit(cache=True)
 def _nearest_held(corner, rect, hy, hx, bd, bx, by):
     """The texel a triangle fills (_fill_triangle over the whole map: corner (6,) ax, ay, bx,
@@ -533,15 +520,7 @@ def _nearest_held(corner, rect, hy, hx, bd, bx, by):
     area = (qx - ax) * (cy - ay) - (cx - ax) * (qy - ay)
     x0, x1, y0, y1 = rect[0], rect[1], rect[2], rect[3]
     sign = 1.0 if area > 0.0 else -1.0
-    s0 = sign * (qy - cy)
-    s1 = sign * (cy - ay)
-    s2 = -s0 - s1
-    m0, l0 = sign * (qx * cy - cx * qy), sign * (cx - qx)
-    m1, l1 = sign * (cx * ay - ax * cy), sign * (ax - cx)
-    m2, l2 = sign * area - m0 - m1, -l0 - l1
-    i0 = -1.0 / s0 if s0 != 0.0 else 0.0
-    i1 = -1.0 / s1 if s1 != 0.0 else 0.0
-    i2 = -1.0 / s2 if s2 != 0.0 else 0.0
+    edges = _edges(ax, ay, qx, qy, cx, cy, area, sign)
     yc = min(max(hy, y0), y1)
     for direction in range(2):
         y = yc if direction == 0 else yc - 1
@@ -550,9 +529,7 @@ def _nearest_held(corner, rect, hy, hx, bd, bx, by):
             if dy2 > bd:
                 break
             py = y + 0.5
-            lo, hi = _span(float(x0), float(x1), s0, (m0 + l0 * py) * i0)
-            lo, hi = _span(lo, hi, s1, (m1 + l1 * py) * i1)
-            lo, hi = _span(lo, hi, s2, (m2 + l2 * py) * i2)
+            lo, hi = _row_span(x0, x1, edges, py)
             if lo <= hi:
                 xa, xb = int(math.ceil(lo)), int(math.floor(hi))
                 # columns in the order of their distance from hx, the lesser first
