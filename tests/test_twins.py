@@ -59,6 +59,9 @@ IDS_AT = [VE + "test_ids_at_marked_texels_match_the_fill_twins"]
 HOLES = [VE + "test_hole_fill_matches_the_whole_layer_s_nearest_fill",
          VE + "test_hole_fill_of_lattice_triangles_matches_the_fill_twins",
          VE + "test_hole_fill_takes_a_tie_at_the_corner_of_a_triangle_s_texels",
+         VE + "test_hole_fill_keeps_a_tie_at_the_bound_of_its_ring_of_cells",
+         VE + "test_hole_fill_rings_start_at_the_hole_s_own_cell",
+         VE + "test_hole_fill_of_random_small_layers_matches_the_fill_twins",
          VE + "test_maps_built_for_their_lookups_match_whole_maps_there"]
 # a reflector's parts stage by stage, against each part's own call (its stages twin-tested)
 PARTS = [V + "test_parts_together_give_each_part_s_answers"]
