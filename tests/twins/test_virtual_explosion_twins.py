@@ -654,20 +654,27 @@ def test_hole_fill_takes_a_tie_at_the_corner_of_a_triangle_s_texels():
     assert ids[1, 5] == 0 == want[5, 5]
 
 
+def _one_texel_faces(texels, res):
+    """A layer of faces each holding one texel (row, column) alone, in order: (the fill
+    twins' whole layer, its _layer_triangles table)."""
+    coords = np.array([[x + dx, y + dy] for y, x in texels
+                       for dx, dy in ((0.2, 0.2), (0.8, 0.3), (0.3, 0.8))])
+    faces = np.arange(len(coords), dtype=np.int64).reshape(-1, 3)
+    drawn = np.arange(len(faces))
+    want = np.full((res, res), -1, np.int32)
+    fill_faces(want, coords, faces, drawn)
+    assert np.argwhere(want >= 0).tolist() == sorted([list(t) for t in texels])
+    return want, mapfill._layer_triangles(coords, faces, drawn, np.zeros((0, 3), np.int64),
+                                          len(faces), res / 2.0, res / 3.0, res)
+
+
 def test_hole_fill_keeps_a_tie_at_the_bound_of_its_ring_of_cells():
     """Two filled texels tie at squared distance 289 (17 = 15 + 2 texels straight down,
     and 8^2 + 15^2): the one the rule takes (the lesser column) is as far as the search's
     bound (the other, looked up) and lies in a ring of cells whose nearest texel is that
     far: the ring is searched all the same."""
-    res = 64
-    coords = np.array([[20.2, 32.2], [20.8, 32.3], [20.3, 32.8],
-                       [35.2, 7.2], [35.8, 7.3], [35.3, 7.8]])
-    faces = np.array([[0, 1, 2], [3, 4, 5]], np.int64)
-    want = np.full((res, res), -1, np.int32)
-    fill_faces(want, coords, faces, np.arange(2))
+    want, table = _one_texel_faces([(32, 20), (7, 35)], 64)
     assert nearest_filled_texel(want, 15, 20) == (32, 20)
-    table = mapfill._layer_triangles(coords, faces, np.arange(2), np.zeros((0, 3), np.int64),
-                                     2, 32.0, 20.0, res)
     ids = want.copy()
     texels = np.array([[15, 20], [7, 35]], np.int64)
     assert mapfill._fill_holes(ids, texels, texels[:1], *table, 2)
@@ -679,15 +686,7 @@ def test_hole_fill_rings_start_at_the_hole_s_own_cell():
     its nearest filled texel 6 texels left, in the cell before its own, nearer than its
     bound (a looked-up texel 8 below): found in the first ring (a ring counted from the
     cell the hole would be in 4 texels on stops before it)."""
-    res = 64
-    coords = np.array([[24.2, 30.2], [24.8, 30.3], [24.3, 30.8],
-                       [30.2, 38.2], [30.8, 38.3], [30.3, 38.8]])
-    faces = np.array([[0, 1, 2], [3, 4, 5]], np.int64)
-    want = np.full((res, res), -1, np.int32)
-    fill_faces(want, coords, faces, np.arange(2))
-    assert np.argwhere(want >= 0).tolist() == [[30, 24], [38, 30]]
-    table = mapfill._layer_triangles(coords, faces, np.arange(2), np.zeros((0, 3), np.int64),
-                                     2, 32.0, 20.0, res)
+    want, table = _one_texel_faces([(30, 24), (38, 30)], 64)
     ids = want.copy()
     texels = np.array([[30, 27], [30, 30], [38, 30]], np.int64)
     assert mapfill._fill_holes(ids, texels, texels[:2], *table, 2)
