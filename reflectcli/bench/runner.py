@@ -380,8 +380,12 @@ def _execute(jobs, settings, workers, scheduler):
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        # spawn: a fork after numba's OpenMP threads have started aborts (STACK-NOTES.md)
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as ex:
+        from .. import openmp
+
+        # spawn: a fork after numba's OpenMP threads have started aborts (STACK-NOTES.md);
+        # the workers share the cores, so their idle threads sleep at once (openmp.py)
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                                 initializer=openmp.no_spin if openmp.defaulted else None) as ex:
             futures = [ex.submit(execute_job, job, settings) for job in jobs]
             for f in futures:
                 yield f.result()

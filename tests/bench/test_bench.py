@@ -295,3 +295,24 @@ set = ["camera.width=24", "camera.height=18"]
     caplog.set_level("WARNING", logger="reflect")
     run_bench(str(path))
     assert not [r for r in caplog.records if "do not apply" in r.getMessage()]
+
+
+def test_local_processes_sleep_when_idle(tmp_path, monkeypatch):
+    """`--workers` processes share the cores: their OpenMP threads spin none (openmp.py),
+    unless the user set how they wait."""
+    import concurrent.futures
+
+    from reflectcli import openmp
+
+    seen = []
+
+    class Recording(concurrent.futures.ProcessPoolExecutor):
+        def __init__(self, *args, initializer=None, **kwargs):
+            seen.append(initializer)
+            super().__init__(*args, initializer=initializer, **kwargs)
+
+    monkeypatch.setattr(concurrent.futures, "ProcessPoolExecutor", Recording)
+    for defaulted, expected in ((True, openmp.no_spin), (False, None)):
+        monkeypatch.setattr(openmp, "defaulted", defaulted)
+        run_bench(str(_bench_file(tmp_path, f"w{int(defaulted)}")), workers=2)
+        assert seen.pop() is expected
