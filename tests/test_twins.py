@@ -22,6 +22,7 @@ M = "tests/twins/test_maps_twins.py::"
 V = "tests/twins/test_virtual_twins.py::"
 VR = "tests/twins/test_virtual_refine_twins.py::"
 VE = "tests/twins/test_virtual_explosion_twins.py::"
+VS = "tests/twins/test_virtual_partsetup_twins.py::"
 D = "tests/maps/test_distance_search.py::"
 
 RASTER = [R + "test_matches_reference_on_random_scenes",
@@ -339,6 +340,12 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/screen.py:_screen_from_ndc": (
         [VE + "test_screen_from_world_matches_twin_bit_for_bit"], "_screen_rows"),
     "virtual/part.py:_extent": ([VE + "test_part_extent_matches_twin_bit_for_bit"], None),
+    "virtual/partsetup.py:_focus_sums_parts": ([VS + "test_parts_foci_are_ray_foci"] + PARTS,
+                                               "parts_foci"),
+    "virtual/partsetup.py:_extent_parts": ([VS + "test_parts_extents_are_each_part_s"] + PARTS,
+                                           "parts_extents"),
+    "virtual/partsetup.py:_setup_arrays_parts": (
+        [VS + "test_parts_map_setups_are_each_part_s"] + PARTS, "parts_map_setups"),
     "virtual/part.py:_farthest": ([VE + "test_part_extent_matches_twin_bit_for_bit"],
                                   "_extent"),
     "fused.py:fma": ([VE + "test_screen_from_world_matches_twin_bit_for_bit",

@@ -19,9 +19,9 @@ from ..scene.types import CYLINDER, PLANAR, SPHERE, Mirrors, Scene
 from .circle import cylinder_virtual_vertices, sphere_virtual_vertices
 from .compose import part_stencil
 from .direct import profile_virtual_vertices
-from .explosion import ray_foci
 from .part import ExplosionPart
 from .partpasses import label_parts
+from .partsetup import parts_extents, parts_foci
 from .shape import ShapeCache
 from .view import ViewCache
 
@@ -149,11 +149,19 @@ def explosion_group(rule: MethodRule, scene: Scene, primary: Primary, k: int, ca
         labelled = label_parts(primary, sid, first, label_of, box, ws)
     if len(seen) < 2:
         return None  # drawn as one part
-    foci = [None] * len(seen)
-    if rule.explosion.center == "focus":  # every part's in one solve
-        foci = ray_foci([shape.parts[p].mesh for p in seen], camera.eye)
+    # every part's focus, extent and screen positions in one kernel call each (partsetup.py)
+    joined = shape.joined
+    chosen = np.array(seen, np.int64)
+    meshes = [shape.parts[p].mesh for p in seen]
+    if rule.explosion.center == "focus":
+        centres = parts_foci(joined, chosen, meshes, camera.eye)
+    else:
+        centres = [mesh.vertices.mean(axis=0) for mesh in meshes]
+    extents = parts_extents(joined, chosen, np.array(centres, np.float64), scene_points,
+                            camera.eye, reflector[4], camera.width, camera.height)
     parts = [_explosion_part(rule, camera, scene_points, reflector, shape.parts[p],
-                             view.parts[p], focus) for p, focus in zip(seen, foci, strict=True)]
+                             view.parts[p], centre, extent, (joined, p))
+             for p, centre, extent in zip(seen, centres, extents, strict=True)]
     return parts, labelled
 
 
@@ -177,12 +185,13 @@ def _explosion_reflector(rule: MethodRule, scene: Scene, primary: Primary, k: in
 
 
 def _explosion_part(rule: MethodRule, camera: Camera, scene_points: np.ndarray,
-                    reflector: tuple, part, part_view,
-                    focus: np.ndarray | None = None) -> ExplosionPart:
+                    reflector: tuple, part, part_view, focus: np.ndarray | None = None,
+                    extent: tuple | None = None,
+                    together: tuple | None = None) -> ExplosionPart:
     """One part's ExplosionPart (reflector: _explosion_reflector's; focus: its ray_focus,
-    if made)."""
+    or the centre its `center` rule gives, if made; extent, together: ExplosionPart's)."""
     view, clip_from_world = reflector[3], reflector[4]
     params = rule.explosion
     return ExplosionPart(part, part_view, view.depth, view.grid, camera, clip_from_world,
                          scene_points, params.center, params.near_scale, params.resolution,
-                         params.layers, focus)
+                         params.layers, focus, extent, together)

@@ -111,7 +111,13 @@ def ray_foci(meshes: list[IndexedMesh], eye: np.ndarray) -> list[np.ndarray]:
     numbers and solves each in one numpy call for all: the same bits (numpy's linalg
     works a stack matrix by matrix), without two calls a part (14 a mask frame)."""
     eye = np.asarray(eye, np.float64)
-    sums = [_focus_sums(m.vertices, m.normals, eye) for m in meshes]
+    return foci_from_sums([_focus_sums(m.vertices, m.normals, eye) for m in meshes], meshes)
+
+
+def foci_from_sums(sums: list[tuple], meshes: list[IndexedMesh]) -> list[np.ndarray]:
+    """ray_foci from each mesh's _focus_sums (a, b, front count): the normal equations of
+    those with three or more front vertices solved where well posed, else the mesh's
+    vertex mean."""
     out = [None] * len(meshes)
     posed = [i for i, (_, _, front) in enumerate(sums) if front >= 3]
     if posed:
@@ -391,7 +397,7 @@ class JoinedMaps:
 
 def build_maps_together(setups: list[MapSetup],
                         joined_lookups: tuple[np.ndarray, np.ndarray] | None = None,
-                        ws=None) -> JoinedMaps:
+                        ws=None, joined: tuple | None = None) -> JoinedMaps:
     """The explosion maps of several parts (map_setup: the same eye and resolution, all
     with lookups or all without), every layer of every part in one parallel region
     (_build_layers): each layer is what building its part alone makes. The mask's 14
@@ -401,7 +407,9 @@ def build_maps_together(setups: list[MapSetup],
     region for all parts (_mark_parts), and where each point is looked up kept
     (JoinedMaps.at, .cell) for virtual_vertices_together. `ws`: a RasterWorkspace whose
     arrays hold the maps (tens of megabytes a frame: fresh, their page faults cost more
-    than the work in them); they are then valid until its next use."""
+    than the work in them); they are then valid until its next use. `joined`: the setups'
+    (vertices, fixed normals, used, faces, drawn, extensions) already joined in their order
+    (partsetup.parts_map_setups), else joined here."""
     res = setups[0].res
     s = res - 2.0
     whole = setups[0].lookups is None
@@ -422,13 +430,18 @@ def build_maps_together(setups: list[MapSetup],
             coord_start[k + 1] = coord_start[k] + len(u.mesh.vertices)
             k += 1
     one = len(setups) == 1
-    v = setups[0].mesh.vertices if one else np.concatenate([u.mesh.vertices for u in setups])
-    n = setups[0].fixed if one else np.concatenate([u.fixed for u in setups])
-    used = setups[0].used if one else np.concatenate([u.used for u in setups])
-    faces = setups[0].mesh.faces if one else np.concatenate([u.mesh.faces for u in setups])
-    drawn = setups[0].drawn if one else np.concatenate([u.drawn for u in setups])
-    extensions = (setups[0].extensions if one
-                  else np.concatenate([u.extensions for u in setups]))
+    if joined is not None:
+        v, n, used, faces, drawn, extensions = joined
+    else:
+        v = setups[0].mesh.vertices if one else np.concatenate([u.mesh.vertices
+                                                                for u in setups])
+        n = setups[0].fixed if one else np.concatenate([u.fixed for u in setups])
+        used = setups[0].used if one else np.concatenate([u.used for u in setups])
+        faces = setups[0].mesh.faces if one else np.concatenate([u.mesh.faces
+                                                                 for u in setups])
+        drawn = setups[0].drawn if one else np.concatenate([u.drawn for u in setups])
+        extensions = (setups[0].extensions if one
+                      else np.concatenate([u.extensions for u in setups]))
     centers = np.array([u.center for u in setups])
     frames = np.array([u.frame for u in setups])
     radii = np.concatenate([u.radii for u in setups])

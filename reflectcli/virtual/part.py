@@ -56,19 +56,28 @@ class ExplosionPart:
                  grid: tuple[np.ndarray, np.ndarray] | None, camera: Camera,
                  clip_from_world: np.ndarray, scene_points: np.ndarray, center: str,
                  near_scale: float, resolution: int, layers: int,
-                 focus: np.ndarray | None = None) -> None:
+                 focus: np.ndarray | None = None, extent: tuple | None = None,
+                 together: tuple | None = None) -> None:
         """`focus`: ray_focus(shape.mesh, camera.eye) if already made (explosion.ray_foci
-        makes a reflector's parts' at once)."""
+        makes a reflector's parts' at once). `extent`: (bound, far, front, screen) as made
+        here from the centre, if already made (partsetup.parts_extents). `together`:
+        (JoinedParts of the reflector's parts, this part's index among them), with which
+        parts_vertices sets up the maps of all parts at once."""
         part = shape.mesh
         # the map center (world): the reflection rays' focus, or the paper's vertex mean
         if center == "focus":
             centre = ray_focus(part, camera.eye) if focus is None else focus
         else:
             centre = part.vertices.mean(axis=0)
-        eye = np.asarray(camera.eye, np.float64)
-        front = np.empty(len(part.vertices), np.bool_)
-        bound, far = _extent(part.vertices, part.normals, np.asarray(centre, np.float64),
-                             np.ascontiguousarray(scene_points, np.float64), eye, front)
+        if extent is None:
+            front = np.empty(len(part.vertices), np.bool_)
+            bound, far = _extent(part.vertices, part.normals, np.asarray(centre, np.float64),
+                                 np.ascontiguousarray(scene_points, np.float64),
+                                 np.asarray(camera.eye, np.float64), front)
+            screen = screen_from_world(part.vertices, clip_from_world, camera.width,
+                                       camera.height)[:, :2]
+        else:
+            bound, far, front, screen = extent
         far *= 1.01
         near = max(bound * near_scale, 1e-6)
         # build_explosion_maps' arguments (before lookups), and the maps once built whole
@@ -86,8 +95,8 @@ class ExplosionPart:
         self.grid = grid
         self.camera = camera
         self.clip_from_world = clip_from_world
-        self.screen = screen_from_world(part.vertices, clip_from_world, camera.width,
-                                        camera.height)[:, :2]
+        self.screen = screen  # (V, 2) the part's vertices on the screen
+        self.together = together
 
     @property
     def maps(self) -> ExplosionMaps:

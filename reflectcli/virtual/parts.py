@@ -15,6 +15,7 @@ from ..raster.rasterize import RasterWorkspace
 from ..raster.rasterize.buffers import scratch
 from .explosion import build_maps_together, layer_radii, map_setup, virtual_vertices_together
 from .part import ExplosionPart
+from .partsetup import parts_map_setups
 from .refine import BOUNDARY, EXACT, NONE, refine_parts
 from .screen import screen_from_world
 from .tiles import rows_of, scan_parts
@@ -73,11 +74,25 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
                                   for part in parts), strict=True)
         if len(set(layers)) == 1:
             radii = layer_radii(np.array(near), np.array(far), layers[0])
-        joined = build_maps_together(
-            [map_setup(*part.build_args, lookups=pts[a:b], flip_axis=part.flip, radii=radius)
-             for part, a, b, radius in zip(parts, row_start[:-1], row_start[1:], radii,
-                                           strict=True)],
-            joined_lookups=(pts, row_start), ws=ws)
+        together = first.together
+        if together is not None and radii[0] is not None and all(
+                part.together is not None and part.together[0] is together[0]
+                for part in parts):
+            # every part's map set-up in one kernel call (partsetup.py)
+            setups, arrays = parts_map_setups(
+                together[0], np.array([part.together[1] for part in parts], np.int64),
+                [part.build_args[0] for part in parts], first.build_args[1],
+                [part.build_args[2] for part in parts], list(radii), first.build_args[5],
+                [pts[a:b] for a, b in zip(row_start[:-1], row_start[1:], strict=True)],
+                [part.flip for part in parts])
+        else:
+            setups = [map_setup(*part.build_args, lookups=pts[a:b], flip_axis=part.flip,
+                                radii=radius)
+                      for part, a, b, radius in zip(parts, row_start[:-1], row_start[1:],
+                                                    radii, strict=True)]
+            arrays = None
+        joined = build_maps_together(setups, joined_lookups=(pts, row_start), ws=ws,
+                                     joined=arrays)
         virtual, hidden = virtual_vertices_together(joined, pts, row_start, face, proj,
                                                     [part.screen for part in parts], ws)
         # seeds where the maps' virtual vertices land, each part's projected as it alone

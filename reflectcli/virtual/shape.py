@@ -28,6 +28,37 @@ class PartShape:
 
 
 @dataclass(frozen=True)
+class JoinedParts:
+    """A reflector's parts' meshes in one set of arrays: part p's vertices and normals are
+    rows vstart[p] .. vstart[p + 1], its faces rows fstart[p] .. (indices into its own
+    vertices), its boundary edges rows bstart[p] .. ((face, i, j) in its own indices)."""
+
+    vertices: np.ndarray  # (V, 3) float64, world
+    normals: np.ndarray  # (V, 3) float64
+    vstart: np.ndarray  # (P + 1,) int64
+    faces: np.ndarray  # (F, 3) int64
+    fstart: np.ndarray  # (P + 1,) int64
+    boundary: np.ndarray  # (B, 3) int64
+    bstart: np.ndarray  # (P + 1,) int64
+
+
+def join_parts(meshes: list, boundaries: list[np.ndarray]) -> JoinedParts:
+    """JoinedParts of the parts' IndexedMeshes and boundary edges (B, 3), in order."""
+    def starts(sizes):
+        return np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+
+    return JoinedParts(
+        np.ascontiguousarray(np.concatenate([m.vertices for m in meshes]), np.float64),
+        np.ascontiguousarray(np.concatenate([m.normals for m in meshes]), np.float64),
+        starts([len(m.vertices) for m in meshes]),
+        np.ascontiguousarray(np.concatenate([m.faces for m in meshes]), np.int64),
+        starts([len(m.faces) for m in meshes]),
+        np.ascontiguousarray(np.concatenate([np.asarray(b, np.int64).reshape(-1, 3)
+                                             for b in boundaries]), np.int64),
+        starts([len(np.asarray(b).reshape(-1, 3)) for b in boundaries]))
+
+
+@dataclass(frozen=True)
 class ReflectorShape:
     mesh: IndexedMesh  # the whole reflector, welded
     parts: tuple[PartShape, ...]
@@ -46,6 +77,13 @@ class ReflectorShape:
             local[p, part.faces] = np.arange(len(part.faces))
             part_of[part.faces] = p
         return local, part_of
+
+    @cached_property
+    def joined(self) -> JoinedParts:
+        """The parts' meshes and boundary edges joined (partsetup.py's kernels take every
+        part's at once); made once per shape, shared, not to be written."""
+        return join_parts([part.mesh for part in self.parts],
+                          [part.boundary for part in self.parts])
 
 
 def reflector_shape(corners: np.ndarray, normals: np.ndarray, decompose: bool) -> ReflectorShape:

@@ -473,7 +473,8 @@ def test_parts_together_give_each_part_s_answers(threads):
 
     from reflectcli.raster.primary import render_primary
     from reflectcli.raster.rasterize import RasterWorkspace
-    from reflectcli.virtual.dispatch import reflector_parts
+    from reflectcli.virtual.compose import mirror_boxes
+    from reflectcli.virtual.dispatch import explosion_group, reflector_parts
     from reflectcli.virtual.parts import parts_vertices
 
     before = numba.get_num_threads()
@@ -499,6 +500,24 @@ def test_parts_together_give_each_part_s_answers(threads):
         virtual, flags = parts_vertices(parts, tess.points, tess.corner_index, ws, np.float32)
         for p, (v, f) in enumerate(want):
             assert virtual[p].tobytes() == v.astype(np.float32).tobytes()
+            assert flags[p].tobytes() == f.tobytes()
+        # the parts as the technique makes them (explosion_group: every part's focus,
+        # extent and, in parts_vertices, map set-up in one kernel call; partsetup.py)
+        counts, boxes = mirror_boxes(primary.frame.surface, scene.n_objects,
+                                     scene.mirrors.count)
+        together, _ = explosion_group(cfg.technique, scene, primary, 0, cam,
+                                      state.scene_points, state.shapes, state.views,
+                                      tuple(int(b) for b in boxes[0]), ws)
+        assert len(together) == len(parts)
+        assert all(part.together is not None for part in together)
+        for a, b in zip(together, parts, strict=True):
+            assert a.screen.tobytes() == b.screen.tobytes()
+            assert a.flip.tobytes() == b.flip.tobytes()
+            assert [np.asarray(x).tobytes() for x in a.build_args[1:7]] == \
+                [np.asarray(x).tobytes() for x in b.build_args[1:7]]
+        virtual, flags = parts_vertices(together, tess.points, tess.corner_index, ws)
+        for p, (v, f) in enumerate(want):
+            assert virtual[p].tobytes() == v.tobytes()
             assert flags[p].tobytes() == f.tobytes()
     finally:
         numba.set_num_threads(before)
