@@ -340,6 +340,12 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/screen.py:_screen_from_ndc": (
         [VE + "test_screen_from_world_matches_twin_bit_for_bit"], "_screen_rows"),
     "virtual/part.py:_extent": ([VE + "test_part_extent_matches_twin_bit_for_bit"], None),
+    "virtual/explosion.py:_surely_well_posed": (
+        [VE + "test_surely_well_posed_never_contradicts_numpy",
+         VE + "test_ray_foci_are_each_mesh_s_ray_focus"], "foci_from_sums"),
+    "virtual/explosion.py:_map_frames": ([VS + "test_map_frames_are_map_frame",
+                                          VS + "test_parts_map_setups_are_each_part_s"],
+                                         "parts_map_setups"),
     "virtual/partsetup.py:_focus_sums_parts": ([VS + "test_parts_foci_are_ray_foci"] + PARTS,
                                                "parts_foci"),
     "virtual/partsetup.py:_extent_parts": ([VS + "test_parts_extents_are_each_part_s"] + PARTS,

@@ -157,7 +157,8 @@ def explosion_group(rule: MethodRule, scene: Scene, primary: Primary, k: int, ca
         centres = parts_foci(joined, chosen, meshes, camera.eye)
     else:
         centres = [mesh.vertices.mean(axis=0) for mesh in meshes]
-    extents = parts_extents(joined, chosen, np.array(centres, np.float64), scene_points,
+    extents = parts_extents(joined, chosen, np.array(centres, np.float64),
+                            np.array([shape.parts[p].concave for p in seen]), scene_points,
                             camera.eye, reflector[4], camera.width, camera.height)
     parts = [_explosion_part(rule, camera, scene_points, reflector, shape.parts[p],
                              view.parts[p], centre, extent, (joined, p))

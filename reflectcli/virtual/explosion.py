@@ -30,6 +30,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from ..fused import fma
 from ..parallel import claim, counter
 from ..raster.rasterize.buffers import scratch
 from .mapfill import (
@@ -121,7 +122,14 @@ def foci_from_sums(sums: list[tuple], meshes: list[IndexedMesh]) -> list[np.ndar
     out = [None] * len(meshes)
     posed = [i for i, (_, _, front) in enumerate(sums) if front >= 3]
     if posed:
-        cond = np.linalg.cond(np.array([sums[i][0] for i in posed]))
+        a = np.array([sums[i][0] for i in posed])
+        # np.linalg.cond's answer to "not > 1e8", where the eigenvalues' closed form is sure
+        # of it (a numpy call of 25-180 us a frame); numpy's where it is not
+        sure = np.empty(len(posed), np.bool_)
+        _surely_well_posed(a, sure)
+        cond = np.zeros(len(posed))
+        if not sure.all():
+            cond[~sure] = np.linalg.cond(a[~sure])
         solved = [i for i, c in zip(posed, cond, strict=True) if not c > 1e8]
         if solved:
             x = np.linalg.solve(np.array([sums[i][0] for i in solved]),
@@ -139,9 +147,10 @@ def _focus_sums(v, n, eye):
     normal, a = sum of (I - r r^T), b = sum of (I - r r^T) v. The numbers numpy's
     whole-array version made (0.1-0.5 ms a part, 14 parts a mask frame), in its order of
     operations: a norm's squares summed in order, np.einsum's three-term dot products as
-    (x0 y0 + x2 y2) + x1 y1, the sums over vertices in order."""
-    a = np.zeros((3, 3))
-    b = np.zeros(3)
+    (x0 y0 + x2 y2) + x1 y1, the sums over vertices in order. The twelve sums are kept in
+    locals (in the arrays, each vertex's twelve additions waited on memory: 20 ns a vertex)."""
+    a00 = a01 = a02 = a10 = a11 = a12 = a20 = a21 = a22 = 0.0
+    b0 = b1 = b2 = 0.0
     front = 0
     for k in range(v.shape[0]):
         d0, d1, d2 = v[k, 0] - eye[0], v[k, 1] - eye[1], v[k, 2] - eye[2]
@@ -153,19 +162,69 @@ def _focus_sums(v, n, eye):
         front += 1
         twice = 2.0 * ((d0 * n0 + d2 * n2) + d1 * n1)
         r0, r1, r2 = d0 - twice * n0, d1 - twice * n1, d2 - twice * n2
-        for i in range(3):
-            ri = r0 if i == 0 else r1 if i == 1 else r2
-            p0 = (1.0 if i == 0 else 0.0) - ri * r0
-            p1 = (1.0 if i == 1 else 0.0) - ri * r1
-            p2 = (1.0 if i == 2 else 0.0) - ri * r2
-            a[i, 0] += p0
-            a[i, 1] += p1
-            a[i, 2] += p2
-            b[i] += (p0 * v[k, 0] + p2 * v[k, 2]) + p1 * v[k, 1]
+        x0, x1, x2 = v[k, 0], v[k, 1], v[k, 2]
+        # row i of I - r r^T: (delta_i0 - r_i r0, delta_i1 - r_i r1, delta_i2 - r_i r2)
+        p0, p1, p2 = 1.0 - r0 * r0, 0.0 - r0 * r1, 0.0 - r0 * r2
+        a00 += p0
+        a01 += p1
+        a02 += p2
+        b0 += (p0 * x0 + p2 * x2) + p1 * x1
+        p0, p1, p2 = 0.0 - r1 * r0, 1.0 - r1 * r1, 0.0 - r1 * r2
+        a10 += p0
+        a11 += p1
+        a12 += p2
+        b1 += (p0 * x0 + p2 * x2) + p1 * x1
+        p0, p1, p2 = 0.0 - r2 * r0, 0.0 - r2 * r1, 1.0 - r2 * r2
+        a20 += p0
+        a21 += p1
+        a22 += p2
+        b2 += (p0 * x0 + p2 * x2) + p1 * x1
+    a = np.empty((3, 3))
+    a[0, 0], a[0, 1], a[0, 2] = a00, a01, a02
+    a[1, 0], a[1, 1], a[1, 2] = a10, a11, a12
+    a[2, 0], a[2, 1], a[2, 2] = a20, a21, a22
+    b = np.empty(3)
+    b[0], b[1], b[2] = b0, b1, b2
     return a, b, front
 
 
+@njit(cache=True)
+def _surely_well_posed(a, sure):
+    """sure[j]: the symmetric 3x3 a[j] (a focus's normal equations: a sum of projectors,
+    positive semi-definite) has a 2-norm condition number below 1e7 beyond doubt, so that
+    np.linalg.cond (its singular values, here its eigenvalues, each within about 1e-15 of
+    the largest) says it is not above 1e8. Its eigenvalues in closed form (the
+    trigonometric solution of the characteristic cubic), with a margin of 1e-6 of the
+    largest for their error (an arccos near +-1, at a double eigenvalue, loses half the
+    digits: 1.5e-8); False where unsure, not finite or all zero."""
+    for j in range(a.shape[0]):
+        m = a[j]
+        sure[j] = False
+        q = (m[0, 0] + m[1, 1] + m[2, 2]) / 3.0
+        p1 = m[0, 1] * m[0, 1] + m[0, 2] * m[0, 2] + m[1, 2] * m[1, 2]
+        d0, d1, d2 = m[0, 0] - q, m[1, 1] - q, m[2, 2] - q
+        p2 = d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * p1
+        if not (np.isfinite(q) and np.isfinite(p2)) or q <= 0.0:
+            continue
+        if p2 == 0.0:  # q times the identity
+            sure[j] = True
+            continue
+        p = math.sqrt(p2 / 6.0)
+        b00, b11, b22 = d0 / p, d1 / p, d2 / p
+        b01, b02, b12 = m[0, 1] / p, m[0, 2] / p, m[1, 2] / p
+        det = (b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02)
+               + b02 * (b01 * b12 - b11 * b02))
+        r = min(max(det / 2.0, -1.0), 1.0)
+        phi = math.acos(r) / 3.0
+        largest = q + 2.0 * p * math.cos(phi)
+        least = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
+        margin = 1e-6 * (abs(q) + 2.0 * p)
+        sure[j] = least - margin > (largest + margin) * 1e-7
+
+
 def map_frame(center: np.ndarray, eye: np.ndarray) -> np.ndarray:
+    """Rows: the map's x, y, z axes (world), z the unit direction from `center` to the
+    eye. (Kept in numpy as the twin of _map_frames, which makes a reflector's parts'.)"""
     z = eye - center
     z = z / np.linalg.norm(z)
     helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
@@ -179,6 +238,27 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     set-up took 15 us a call, twice per part and frame)."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
                      a[0] * b[1] - a[1] * b[0]])
+
+
+@njit(cache=True)
+def _map_frames(centers, eye, frames):
+    """frames[j] = map_frame(centers[j], eye) for each row (a numpy call of 15 us a part
+    between a frame's kernels; 14 parts a mask frame), the same bits on this machine kind:
+    np.linalg.norm of a 3-vector as sqrt(fma(x2, x2, fma(x1, x1, x0 x0))) (OpenBLAS's
+    ddot), the divisions and _cross's products and differences as they are written."""
+    for j in range(centers.shape[0]):
+        z0, z1, z2 = eye[0] - centers[j, 0], eye[1] - centers[j, 1], eye[2] - centers[j, 2]
+        length = math.sqrt(fma(z2, z2, fma(z1, z1, z0 * z0)))
+        z0, z1, z2 = z0 / length, z1 / length, z2 / length
+        h0, h1, h2 = (0.0, 1.0, 0.0) if abs(z1) < 0.9 else (1.0, 0.0, 0.0)
+        x0, x1, x2 = h1 * z2 - h2 * z1, h2 * z0 - h0 * z2, h0 * z1 - h1 * z0
+        length = math.sqrt(fma(x2, x2, fma(x1, x1, x0 * x0)))
+        x0, x1, x2 = x0 / length, x1 / length, x2 / length
+        frames[j, 0, 0], frames[j, 0, 1], frames[j, 0, 2] = x0, x1, x2
+        frames[j, 1, 0] = z1 * x2 - z2 * x1
+        frames[j, 1, 1] = z2 * x0 - z0 * x2
+        frames[j, 1, 2] = z0 * x1 - z1 * x0
+        frames[j, 2, 0], frames[j, 2, 1], frames[j, 2, 2] = z0, z1, z2
 
 
 @njit(cache=True)

@@ -59,8 +59,8 @@ class ExplosionPart:
                  focus: np.ndarray | None = None, extent: tuple | None = None,
                  together: tuple | None = None) -> None:
         """`focus`: ray_focus(shape.mesh, camera.eye) if already made (explosion.ray_foci
-        makes a reflector's parts' at once). `extent`: (bound, far, front, screen) as made
-        here from the centre, if already made (partsetup.parts_extents). `together`:
+        makes a reflector's parts' at once). `extent`: (bound, far, front, screen, flip) as
+        made here from the centre, if already made (partsetup.parts_extents). `together`:
         (JoinedParts of the reflector's parts, this part's index among them), with which
         parts_vertices sets up the maps of all parts at once."""
         part = shape.mesh
@@ -77,7 +77,7 @@ class ExplosionPart:
             screen = screen_from_world(part.vertices, clip_from_world, camera.width,
                                        camera.height)[:, :2]
         else:
-            bound, far, front, screen = extent
+            bound, far, front, screen, flip = extent
         far *= 1.01
         near = max(bound * near_scale, 1e-6)
         # build_explosion_maps' arguments (before lookups), and the maps once built whole
@@ -86,10 +86,12 @@ class ExplosionPart:
         self.built: ExplosionMaps | None = None
         # a concave part looks maps up along its mean front normal (see virtual_vertices);
         # front-facing vertices as build_explosion_maps finds them (_extent)
-        self.flip = np.zeros(3)
-        if shape.concave and front.any():
-            flip = part.normals[front].mean(axis=0)
-            self.flip = flip / max(np.linalg.norm(flip), 1e-30)
+        if extent is None:
+            flip = np.zeros(3)
+            if shape.concave and front.any():
+                flip = part.normals[front].mean(axis=0)
+                flip = flip / max(np.linalg.norm(flip), 1e-30)
+        self.flip = flip
         self.view = view
         self.depth = depth
         self.grid = grid

@@ -12,10 +12,13 @@ per-part kernels on the part's rows.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-from .explosion import MapSetup, _focus_sums, _setup_arrays, foci_from_sums, map_frame
+from ..fused import fma
+from .explosion import MapSetup, _focus_sums, _map_frames, _setup_arrays, foci_from_sums
 from .part import _extent
 from .screen import screen_from_world
 from .shape import JoinedParts
@@ -47,21 +50,24 @@ def _focus_sums_parts(v, n, vstart, chosen, eye, a, b, front):
 
 
 def parts_extents(joined: JoinedParts, chosen: np.ndarray, centres: np.ndarray,
-                  scene_points: np.ndarray, eye: np.ndarray, clip_from_world: np.ndarray,
-                  width: int, height: int) -> list[tuple]:
+                  concave: np.ndarray, scene_points: np.ndarray, eye: np.ndarray,
+                  clip_from_world: np.ndarray, width: int, height: int) -> list[tuple]:
     """Per chosen part, what ExplosionPart works out from its vertices (its `extent`):
-    (bound, far, front (V,) bool, screen (V, 2)) as part._extent and screen_from_world give
-    them for the part alone."""
+    (bound, far, front (V,) bool, screen (V, 2), flip (3,)) as part._extent,
+    screen_from_world and ExplosionPart's lookup axis (`concave` parts: their front
+    normals' mean, made unit) give them for the part alone."""
     count = len(chosen)
     sizes = joined.vstart[chosen + 1] - joined.vstart[chosen]
     out_start = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
     front = np.empty(int(out_start[-1]), np.bool_)
     bound = np.empty(count)
     far = np.empty(count)
+    flips = np.empty((count, 3))
     _extent_parts(joined.vertices, joined.normals, joined.vstart, chosen,
                   np.ascontiguousarray(centres, np.float64),
+                  np.asarray(concave, np.bool_),
                   np.ascontiguousarray(scene_points, np.float64),
-                  np.asarray(eye, np.float64), out_start, front, bound, far)
+                  np.asarray(eye, np.float64), out_start, front, bound, far, flips)
     everyone = count == len(joined.vstart) - 1 and (chosen == np.arange(count)).all()
     if everyone and (sizes > 1).all():
         # a row's projection is its own among two or more rows (screen._screen_rows)
@@ -71,19 +77,38 @@ def parts_extents(joined: JoinedParts, chosen: np.ndarray, centres: np.ndarray,
         screens = [screen_from_world(joined.vertices[joined.vstart[p]:joined.vstart[p + 1]],
                                      clip_from_world, width, height)[:, :2] for p in chosen]
     return [(float(bound[j]), float(far[j]), front[out_start[j]:out_start[j + 1]],
-             screens[j]) for j in range(count)]
+             screens[j], flips[j]) for j in range(count)]
 
 
 @njit(cache=True)
-def _extent_parts(v, n, vstart, chosen, centres, scene_points, eye, out_start, front, bound,
-                  far):
+def _extent_parts(v, n, vstart, chosen, centres, concave, scene_points, eye, out_start,
+                  front, bound, far, flips):
     """part._extent of each chosen part (row j: part chosen[j], centre centres[j]); its
-    front rows out_start[j] .. of `front`."""
+    front rows out_start[j] .. of `front`; flips[j] its lookup axis: 0 unless the part is
+    concave and has front vertices, then their normals' mean made unit as numpy makes it
+    (`normals[front].mean(axis=0)`: the rows summed in order, divided by their count;
+    np.linalg.norm as explosion._map_frames' fma chain; at least 1e-30)."""
     for j in range(chosen.shape[0]):
         p = chosen[j]
         a, b = vstart[p], vstart[p + 1]
-        bound[j], far[j] = _extent(v[a:b], n[a:b], centres[j], scene_points, eye,
-                                   front[out_start[j]:out_start[j + 1]])
+        faces_eye = front[out_start[j]:out_start[j + 1]]
+        bound[j], far[j] = _extent(v[a:b], n[a:b], centres[j], scene_points, eye, faces_eye)
+        flips[j, 0] = flips[j, 1] = flips[j, 2] = 0.0
+        if not concave[j]:
+            continue
+        s0 = s1 = s2 = 0.0
+        count = 0
+        for k in range(b - a):
+            if faces_eye[k]:
+                s0 += n[a + k, 0]
+                s1 += n[a + k, 1]
+                s2 += n[a + k, 2]
+                count += 1
+        if count:
+            m0, m1, m2 = s0 / count, s1 / count, s2 / count
+            length = math.sqrt(fma(m2, m2, fma(m1, m1, m0 * m0)))
+            length = 1e-30 if length < 1e-30 else length  # Python's max(length, 1e-30)
+            flips[j, 0], flips[j, 1], flips[j, 2] = m0 / length, m1 / length, m2 / length
 
 
 def parts_map_setups(joined: JoinedParts, chosen: np.ndarray, meshes: list, eye: np.ndarray,
@@ -112,6 +137,8 @@ def parts_map_setups(joined: JoinedParts, chosen: np.ndarray, meshes: list, eye:
     v0 = np.concatenate([[0], np.cumsum(vsize)])
     d0 = np.concatenate([[0], np.cumsum(counts[:, 0])])
     e0 = np.concatenate([[0], np.cumsum(counts[:, 1])])
+    frames = np.empty((count, 3, 3))
+    _map_frames(np.array(centres, np.float64).reshape(-1, 3), eye, frames)
     setups = []
     s = res - 2.0
     for j in range(count):
@@ -120,7 +147,7 @@ def parts_map_setups(joined: JoinedParts, chosen: np.ndarray, meshes: list, eye:
         setups.append(MapSetup(meshes[j], eye, fixed[v0[j]:v0[j + 1]],
                                front[v0[j]:v0[j + 1]], used[v0[j]:v0[j + 1]],
                                drawn[d0[j]:d0[j + 1]], extensions[e0[j]:e0[j + 1]],
-                               map_frame(centres[j], eye), np.asarray(centres[j], np.float64),
+                               frames[j], np.asarray(centres[j], np.float64),
                                radii[j], res, s, looked, flip))
     everyone = count == len(joined.vstart) - 1 and (chosen == np.arange(count)).all()
     v = joined.vertices if everyone else np.concatenate([m.vertices for m in meshes])

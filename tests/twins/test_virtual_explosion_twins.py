@@ -996,3 +996,39 @@ def test_layer_radii_of_several_parts_are_each_part_s(layers):
             assert together[p].tobytes() == alone.tobytes()
             assert alone.tobytes() == np.geomspace(near[p], far[p], max(layers, 2)).tobytes()
             assert alone[0] == near[p] and alone[-1] == far[p]
+
+
+def test_surely_well_posed_never_contradicts_numpy():
+    """_surely_well_posed (ray_foci's closed-form test) says sure only of matrices whose
+    np.linalg.cond is not above 1e8, and is sure of the well-conditioned ones: random
+    positive semi-definite 3x3 matrices with condition numbers from 1 to 1e14 (around 1e7
+    and 1e8 densely), double and triple eigenvalues, scales from 1e-12 to 1e12, the zero
+    matrix and matrices with NaN or inf."""
+    rng = np.random.default_rng(21)
+    mats = []
+    for _ in range(20000):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        top = 10.0 ** rng.uniform(-12, 12)
+        cond = 10.0 ** rng.choice([rng.uniform(0, 14), rng.uniform(6.5, 8.5)])
+        e = np.sort(top / 10.0 ** rng.uniform(0, np.log10(cond), 3))
+        e[-1], e[0] = top, top / cond
+        kind = rng.integers(4)
+        if kind == 1:
+            e[1] = e[0]  # a double least eigenvalue
+        elif kind == 2:
+            e[1] = e[2]  # a double largest
+        elif kind == 3 and rng.random() < 0.2:
+            e[:] = top  # q times the identity
+        m = (q * e) @ q.T
+        mats.append((m + m.T) / 2.0)  # exactly symmetric, as the sums are
+    mats += [np.zeros((3, 3)), np.full((3, 3), np.nan), np.diag([1.0, np.inf, 1.0]),
+             np.diag([1.0, 1.0, 0.0]), np.diag([1.0, 1.0, 1e-8]), np.diag([1.0, 1.0, 1e-9])]
+    a = np.array(mats)
+    sure = np.empty(len(a), np.bool_)
+    explosion._surely_well_posed(a, sure)
+    with np.errstate(all="ignore"):
+        cond = np.array([np.linalg.cond(m) if np.isfinite(m).all() else np.nan for m in a])
+    assert not (sure & ~(cond <= 1e8)).any()  # never sure where numpy says above (or NaN)
+    assert (cond[sure] < 1e7).all()  # what it claims: below 1e7 beyond doubt
+    assert sure[cond < 1e5].all()  # sure of every well-conditioned one
+    assert sure.sum() > len(a) // 5 and (~sure).sum() > len(a) // 4

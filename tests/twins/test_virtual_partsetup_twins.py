@@ -78,21 +78,22 @@ def test_parts_foci_are_ray_foci(parts):
 
 
 def test_parts_extents_are_each_part_s(parts):
-    """(bound, far, front, screen) of each chosen part: part._extent's and
-    screen_from_world's for the part alone, whether the parts are projected together
-    (every part, none of one vertex) or one by one."""
+    """(bound, far, front, screen, flip) of each chosen part: part._extent's,
+    screen_from_world's and ExplosionPart's lookup axis for the part alone, whether the
+    parts are projected together (every part, none of one vertex) or one by one."""
     meshes, boundaries, eyes, camera = parts
     m = camera.clip_from_world()
     joined = join_parts(meshes, boundaries)
     scene_points = np.random.default_rng(2).normal(0.0, 4.0, (300, 3))
+    concave = np.arange(len(meshes)) % 2 == 0  # every other part, whatever its shape
     for chosen in _choices(len(meshes)):
         for eye in eyes[:3]:
             centres = np.array([meshes[p].vertices.mean(axis=0) + 0.1 for p in chosen])
-            got = partsetup.parts_extents(joined, chosen, centres, scene_points, eye, m,
-                                          camera.width, camera.height)
+            got = partsetup.parts_extents(joined, chosen, centres, concave[chosen],
+                                          scene_points, eye, m, camera.width, camera.height)
             assert len(got) == len(chosen)
-            for (bound, far, front, screen), p, centre in zip(got, chosen, centres,
-                                                              strict=True):
+            for (bound, far, front, screen, flip), p, centre in zip(got, chosen, centres,
+                                                                    strict=True):
                 mesh = meshes[p]
                 want_front = np.empty(len(mesh.vertices), np.bool_)
                 want = _extent(mesh.vertices, mesh.normals, centre, scene_points, eye,
@@ -102,6 +103,12 @@ def test_parts_extents_are_each_part_s(parts):
                 alone = screen_from_world(mesh.vertices, m, camera.width, camera.height)
                 assert screen.shape == (len(mesh.vertices), 2)
                 assert screen.tobytes() == alone[:, :2].tobytes()
+                # ExplosionPart's lookup axis, as it makes it alone
+                want_flip = np.zeros(3)
+                if concave[p] and want_front.any():
+                    mean = mesh.normals[want_front].mean(axis=0)
+                    want_flip = mean / max(np.linalg.norm(mean), 1e-30)
+                assert flip.tobytes() == want_flip.tobytes()
 
 
 def test_parts_map_setups_are_each_part_s(parts):
@@ -142,3 +149,38 @@ def test_parts_map_setups_are_each_part_s(parts):
                            np.concatenate([u.extensions for u in setups]))
             for g, w in zip(arrays, want_arrays, strict=True):
                 assert g.dtype == w.dtype and g.tobytes() == w.tobytes()
+
+
+def _numpy_norm_is_an_fma_chain() -> bool:
+    """Whether this machine's np.linalg.norm of a 3-vector is sqrt(fma(x2, x2, fma(x1, x1,
+    x0 x0))) (OpenBLAS's ddot on this machine kind): the order _map_frames reproduces.
+    Elsewhere it matches numpy to rounding only."""
+    from fractions import Fraction
+
+    rng = np.random.default_rng(4)
+    for x in rng.normal(0.0, 3.0, (500, 3)):
+        inner = float(Fraction(x[1]) * Fraction(x[1]) + Fraction(x[0] * x[0]))
+        chain = float(Fraction(x[2]) * Fraction(x[2]) + Fraction(inner))
+        if np.linalg.norm(x) != np.sqrt(chain):
+            return False
+    return True
+
+
+def test_map_frames_are_map_frame():
+    """Each part's map frame in one kernel (_map_frames) is map_frame's (numpy) bit for bit:
+    random centres and eyes, directions whose y is near the 0.9 where the helper axis
+    changes, and far and near centres."""
+    rng = np.random.default_rng(9)
+    eye = np.array([0.2, 1.7, 3.1])
+    directions = rng.normal(0.0, 1.0, (4000, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    tilt = rng.uniform(0.88, 0.92, 1000)
+    directions[:1000, 1] = tilt * np.sign(rng.normal(size=1000))
+    centres = eye - directions * rng.uniform(1e-3, 1e3, (4000, 1))
+    frames = np.empty((len(centres), 3, 3))
+    explosion._map_frames(centres, eye, frames)
+    want = np.array([explosion.map_frame(c, eye) for c in centres])
+    if _numpy_norm_is_an_fma_chain():
+        assert frames.tobytes() == want.tobytes()
+    else:
+        np.testing.assert_allclose(frames, want, rtol=1e-14, atol=1e-15)
