@@ -340,6 +340,10 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/screen.py:_screen_from_ndc": (
         [VE + "test_screen_from_world_matches_twin_bit_for_bit"], "_screen_rows"),
     "virtual/part.py:_extent": ([VE + "test_part_extent_matches_twin_bit_for_bit"], None),
+    "virtual/explosion.py:_unmark": (
+        [VE + "test_lookup_texels_are_the_marked_texels_and_their_boxes",
+         VE + "test_maps_built_together_give_each_part_s_maps_at_its_lookups"],
+        "build_maps_together"),
     "virtual/explosion.py:_surely_well_posed": (
         [VE + "test_surely_well_posed_never_contradicts_numpy",
          VE + "test_ray_foci_are_each_mesh_s_ray_focus"], "foci_from_sums"),

@@ -374,6 +374,29 @@ def test_chunk_bounds_not_kept_for_the_workspace_own_buffers():
     assert (first == 1.0).all() and (again == 5.0).all()
 
 
+def test_zeroed_is_cleared_unless_given_back_zeroed():
+    """RasterWorkspace.zeroed holds zeros: when made and grown, and after a user that did
+    not say it left them (an interrupted frame); one that did is trusted, not cleared
+    again (what saves the whole-array clear: a marker left there shows it was not)."""
+    from reflectcli.raster.rasterize import RasterWorkspace
+
+    ws = RasterWorkspace()
+    a = ws.zeroed("marks", (4, 5), np.bool_)
+    assert a.shape == (4, 5) and not a.any()
+    a[1, 2] = True  # not given back: cleared on the next call
+    assert not ws.zeroed("marks", (4, 5), np.bool_).any()
+    b = ws.zeroed("marks", (4, 5), np.bool_)
+    b[3, 3] = True
+    ws.given_back_zeroed("marks")  # (a lie, to see that it is believed once)
+    assert ws.zeroed("marks", (4, 5), np.bool_)[3, 3]
+    assert not ws.zeroed("marks", (4, 5), np.bool_).any()  # the flag was used up
+    c = ws.zeroed("marks", (2, 5), np.bool_)  # smaller: a view of the same zeros
+    c[0, 0] = True
+    ws.given_back_zeroed("marks")
+    grown = ws.zeroed("marks", (40, 50), np.bool_)  # grown: made anew
+    assert grown.shape == (40, 50) and not grown.any()
+
+
 def test_claim_hands_out_each_piece_once():
     """parallel.claim against its twin: on one thread the same sequence; over two threads
     every piece is claimed exactly once (each worker records what it claimed)."""

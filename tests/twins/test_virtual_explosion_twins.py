@@ -828,6 +828,23 @@ def test_maps_built_together_give_each_part_s_maps_at_its_lookups(res, layers):
         starts.append(starts[-1] + n)
     joined = explosion.build_maps_together(
         setups, joined_lookups=(np.concatenate(lookups), np.array(starts, np.int64)))
+    # in a workspace, twice: the same maps at the looked-up texels, its marks all False
+    # after each call (given back zeroed: not cleared whole on the next)
+    from reflectcli.raster.rasterize import RasterWorkspace
+
+    ws = RasterWorkspace()
+    for _ in range(2):
+        again = explosion.build_maps_together(
+            setups, joined_lookups=(np.concatenate(lookups), np.array(starts, np.int64)),
+            ws=ws)
+        marks = ws.get("maps_needed", joined.ids.shape, np.bool_)
+        assert not marks.any() and ws._arrays["maps_needed:zeroed"]
+        looked = [(k, cy, cx) for p in range(len(setups))
+                  for cx, cy, lo in joined.cell[starts[p]:starts[p + 1]]
+                  for k in (joined.layer_start[p] + lo, joined.layer_start[p] + lo + 1)]
+        for k, cy, cx in looked:
+            assert again.ids[k, cy, cx] == joined.ids[k, cy, cx]
+            assert again.core[k, cy, cx] == joined.core[k, cy, cx]
     checked = 0
     for p, maps in enumerate(alone):
         k0 = joined.layer_start[p]
@@ -957,6 +974,9 @@ def test_lookup_texels_are_the_marked_texels_and_their_boxes():
         marked = mapfill._marked_texels(needed[k], 0, res - 1, 0, res - 1)
         assert {tuple(t) for t in listed} == {tuple(t) for t in marked}
     assert empty >= 2  # part 1's layers, at least
+    # the lists clear every mark (build_maps_together gives its workspace's marks back so)
+    explosion._unmark(needed, texel_start, texels)
+    assert not needed.any()
 
 
 def test_ray_foci_are_each_mesh_s_ray_focus(part_meshes):

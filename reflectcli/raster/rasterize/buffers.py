@@ -81,6 +81,24 @@ class RasterWorkspace:
             self._arrays[name] = a
         return a[:size].reshape(shape)
 
+    def zeroed(self, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+        """`get`'s array, holding zeros: filled with them when made, or when its last user
+        did not give it back zeroed (`given_back_zeroed`), so that a user who marks a few
+        entries and clears just those need not clear the whole array each call."""
+        size = math.prod(shape)
+        a = self._arrays.get(name)
+        zeroed = self._arrays.pop(f"{name}:zeroed", False)  # dirty until given back
+        if a is None or a.dtype != np.dtype(dtype) or a.size < size:
+            a = np.zeros(max(size, 1), dtype)
+            self._arrays[name] = a
+        elif not zeroed:
+            a.fill(0)
+        return a[:size].reshape(shape)
+
+    def given_back_zeroed(self, name: str) -> None:
+        """The caller of `zeroed(name, ...)` left every entry of it zero again."""
+        self._arrays[f"{name}:zeroed"] = True
+
     def chunk_bounds(self, corners: np.ndarray) -> np.ndarray:
         """(chunks, 6) world-space boxes (min xyz, max xyz) of `corners` (T, 3, 3) in runs
         of _CHUNK triangles, kept while the same array comes back (a scene's geometry is
