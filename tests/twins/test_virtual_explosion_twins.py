@@ -1004,13 +1004,16 @@ def test_layer_radii_of_several_parts_are_each_part_s(layers):
     """layer_radii of P parts' near and far radii in one call (parts.py) gives each part
     the bits of its own call, and both those of np.geomspace from near to far."""
     rng = np.random.default_rng(layers)
-    near = rng.uniform(1e-6, 10.0, 40)
-    far = near * rng.uniform(1.01, 1e4, 40)
+    near = rng.uniform(1e-6, 10.0, 40) * 10.0 ** rng.integers(-3, 4, 40)
+    far = near * rng.uniform(1.0000001, 1e4, 40)
     for equal in (False, True):
         if equal:  # a part with near == far: numpy's linspace takes another branch
             far[7] = near[7]
         together = explosion.layer_radii(near, far, layers)
         assert together.shape == (40, max(layers, 2))
+        if not equal:  # numpy's own call for all parts, bit for bit
+            whole = np.geomspace(near, far, max(layers, 2), axis=-1)
+            assert together.tobytes() == whole.tobytes()
         for p in range(40):
             alone = explosion.layer_radii(near[p], far[p], layers)
             assert together[p].tobytes() == alone.tobytes()
