@@ -63,9 +63,8 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
         reach_m = scratch(ws, "parts_reach", (m,), np.bool_)
         face = scratch(ws, "parts_face", (m,), np.int64)
         _gather_parts(points, np.ascontiguousarray(screen, np.float64), retry, reach, rows,
-                      row_part, first.depth, first.view.triangle,
-                      np.stack([part.view.local for part in parts]), pts, proj, seeds_retry,
-                      reach_m, face)
+                      row_part, first.depth, first.view.triangle, _locals(parts), pts, proj,
+                      seeds_retry, reach_m, face)
         # every part's explosion layers in one region, then their lookups in one (the
         # parts' layer radii in one call where they have as many layers)
         radii = [None] * count
@@ -116,6 +115,18 @@ def parts_vertices(parts: list[ExplosionPart], points: np.ndarray,
         status = np.empty(0, np.int8)
     _scatter_parts(points, rows, row_start, virtual, hidden, refined, status, out, flags)
     return out, flags
+
+
+def _locals(parts: list[ExplosionPart]) -> np.ndarray:
+    """(P, F + 1) the parts' face tables (PartView.local) stacked: rows of the shape's own
+    table (PartView.tables) where the parts are its parts p0, p0 + 1, .. (a frame's: not
+    copied, 0.5 MB on the mask), else a stack of them."""
+    whole = parts[0].view.tables
+    p0 = parts[0].view.part
+    if whole is not None and all(part.view.tables is whole and part.view.part == p0 + j
+                                 for j, part in enumerate(parts)):
+        return whole[p0:p0 + len(parts)]
+    return np.stack([part.view.local for part in parts])
 
 
 @njit(cache=True, parallel=True)

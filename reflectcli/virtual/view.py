@@ -55,6 +55,8 @@ class PartView:
     local: np.ndarray  # (F + 1,) int32: reflector face -> this part's face, or -1 (last: -1)
     tiles: PartTiles | None  # (with refinement only)
     points: PointsOnScreen  # the scene points on the screen (one for the whole reflector)
+    # (P, F + 1) every part's `local` (its row `part`: this one's), shared by the parts
+    tables: np.ndarray | None = None
 
     def faces_behind(self, screen: np.ndarray, depth: np.ndarray) -> np.ndarray:
         """(N,) int64: for points at `screen` (N, 3: screen x, y, eye depth) behind the
@@ -121,7 +123,8 @@ def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorSha
         tiles = PartTiles.of_parts(owner, grid[0], grid[1], TILE,
                                    [np.flatnonzero(marks[p]) for p in range(parts)])
     for p in range(parts):
-        views.append(PartView(owner, p, alone.triangle, local[p], tiles[p], on_screen))
+        views.append(PartView(owner, p, alone.triangle, local[p], tiles[p], on_screen,
+                              local))
     return ReflectorView(alone.depth, grid, tuple(views))
 
 

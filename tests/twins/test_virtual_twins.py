@@ -475,7 +475,7 @@ def test_parts_together_give_each_part_s_answers(threads):
     from reflectcli.raster.rasterize import RasterWorkspace
     from reflectcli.virtual.compose import mirror_boxes
     from reflectcli.virtual.dispatch import explosion_group, reflector_parts
-    from reflectcli.virtual.parts import parts_vertices
+    from reflectcli.virtual.parts import _locals, parts_vertices
 
     before = numba.get_num_threads()
     try:
@@ -519,6 +519,11 @@ def test_parts_together_give_each_part_s_answers(threads):
         for p, (v, f) in enumerate(want):
             assert virtual[p].tobytes() == v.tobytes()
             assert flags[p].tobytes() == f.tobytes()
+        # the parts' face tables: the shape's own rows where the parts run p0, p0 + 1, ..
+        for chosen in (parts, parts[1:4], parts[::2], parts[::-1]):
+            tables = _locals(chosen)
+            assert tables.tobytes() == np.stack([q.view.local for q in chosen]).tobytes()
+        assert _locals(parts[1:4]).base is parts[0].view.tables
     finally:
         numba.set_num_threads(before)
 
