@@ -36,6 +36,9 @@ def screen_from_ndc(x_ndc: float, y_ndc: float, width: int, height: int) -> tupl
     return (x_ndc + 1.0) * 0.5 * width, (1.0 - y_ndc) * 0.5 * height
 
 
+_CLIP_FROM_WORLD: dict[tuple, np.ndarray] = {}  # Camera.clip_from_world's, by the camera's values
+
+
 @dataclass(frozen=True)
 class Camera:
     eye: np.ndarray  # world
@@ -79,8 +82,18 @@ class Camera:
         return p
 
     def clip_from_world(self) -> np.ndarray:
-        """World -> clip (4x4): the view-projection product, written here once."""
-        return self.projection_matrix() @ self.view_matrix()
+        """World -> clip (4x4): the view-projection product, written here once. A new
+        array each call; made once per camera (by its values: a scene hands a new Camera
+        each frame) and copied after (making it took 50-150 us between a frame's kernels)."""
+        key = tuple((a.dtype.str, a.shape, a.tobytes())
+                    for a in map(np.asarray, (self.eye, self.target, self.up))) + (
+            type(self), self.fov_y, self.width, self.height, self.near, self.far)
+        made = _CLIP_FROM_WORLD.get(key)
+        if made is None:
+            if len(_CLIP_FROM_WORLD) >= 64:  # an animated camera: keep the latest few
+                _CLIP_FROM_WORLD.clear()
+            made = _CLIP_FROM_WORLD[key] = self.projection_matrix() @ self.view_matrix()
+        return made.copy()
 
     def pixel_directions(self, samples: int = 1) -> np.ndarray:
         """World-space ray directions (H, W, s*s, 3) through a regular s x s grid in each pixel.

@@ -191,3 +191,29 @@ def test_no_path_gives_the_static_camera():
     cam = camera_from_config(cfg, 0)
     np.testing.assert_array_equal(cam.eye, [1, 2, 3])
     assert (cam.width, cam.height, cam.near, cam.far, cam.aspect) == (32, 16, 0.5, 9.0, 2.0)
+
+
+def test_clip_from_world_is_made_once_per_camera_values():
+    """clip_from_world is the view-projection product, made once per camera (by value:
+    scenes hand a new Camera each frame) and copied: each call's array is its own, a
+    camera with any value changed gets its own product."""
+    import dataclasses
+
+    base = Camera(np.array([0.3, 1.2, 4.0]), np.zeros(3), np.array([0.0, 1.0, 0.0]), 50.0,
+                  64, 48, 0.1, 100.0)
+    first = base.clip_from_world()
+    assert first.tobytes() == (base.projection_matrix() @ base.view_matrix()).tobytes()
+    first[:] = 0.0  # the caller's own array
+    again = dataclasses.replace(base, eye=base.eye.copy()).clip_from_world()
+    assert again.tobytes() == (base.projection_matrix() @ base.view_matrix()).tobytes()
+    for field, value in (("eye", np.array([0.3, 1.2, 4.5])), ("target", np.ones(3)),
+                         ("up", np.array([0.0, 1.0, 0.1])), ("fov_y", 60.0), ("width", 65),
+                         ("height", 40), ("near", 0.2), ("far", 90.0)):
+        other = dataclasses.replace(base, **{field: value})
+        want = other.projection_matrix() @ other.view_matrix()
+        assert other.clip_from_world().tobytes() == want.tobytes(), field
+        assert not np.array_equal(want, again), field
+    for k in range(200):  # a moving camera: every frame its own product
+        moved = dataclasses.replace(base, eye=base.eye + [0.01 * k, 0.0, 0.0])
+        want = moved.projection_matrix() @ moved.view_matrix()
+        assert moved.clip_from_world().tobytes() == want.tobytes()

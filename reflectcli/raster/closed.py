@@ -100,9 +100,13 @@ def primary_pass_flags(geometry: Geometry, camera: Camera, n_objects: int,
     """`primary_flags` of the geometry's triangles for this camera, kept in `workspace`
     while the triangles and the pieces whose back faces are hidden stay the same."""
     tris = geometry.all_triangles()
-    hidden = hidden_back_faces(geometry, camera)
-    key = (n_objects, None if hidden is None else hidden.tobytes())
     ws = RasterWorkspace() if workspace is None else workspace
+    # which pieces, kept while the boxes and the eye stay (50-130 us of numpy a frame)
+    eye = np.asarray(camera.eye, np.float64)
+    hidden = ws.kept("primary_hidden", geometry.closed_boxes,
+                     (eye.tobytes(), near_reach(camera)),
+                     lambda: hidden_back_faces(geometry, camera))
+    key = (n_objects, None if hidden is None else hidden.tobytes())
     return ws.kept("primary_flags", tris, key,
                    lambda: primary_flags(tris, n_objects, geometry.closed_piece, hidden))
 
