@@ -374,6 +374,25 @@ def test_chunk_bounds_not_kept_for_the_workspace_own_buffers():
     assert (first == 1.0).all() and (again == 5.0).all()
 
 
+def test_guarded_planes_are_made_once_per_arguments():
+    """guarded_planes, kept by its arguments' values, gives each call an array of its own
+    holding the planes and the guard band for that size."""
+    from reflectcli.camera import standard_planes
+    from reflectcli.raster.rasterize.fixed import _subpixel_bits, guarded_planes
+
+    planes = standard_planes()
+    for width, height in ((64, 48), (640, 480), (64, 48), (5000, 7)):
+        got, bits = guarded_planes(planes, width, height)
+        want_bits, guard = _subpixel_bits(width, height)
+        gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
+        assert bits == want_bits and got.flags.c_contiguous
+        assert got.tobytes() == np.vstack([planes, [[1.0, 0, 0, gx], [-1.0, 0, 0, gx],
+                                                    [0, 1.0, 0, gy], [0, -1.0, 0, gy]]]).tobytes()
+        got[:] = 0.0  # the caller's own
+    other = np.vstack([planes, [[0.0, 0.0, 1.0, 0.5]]])
+    assert guarded_planes(other, 64, 48)[0].shape == (len(other) + 4, 4)
+
+
 def test_zeroed_is_cleared_unless_given_back_zeroed():
     """RasterWorkspace.zeroed holds zeros: when made and grown, and after a user that did
     not say it left them (an interrupted frame); one that did is trusted, not cleared

@@ -801,6 +801,14 @@ def test_pieces_holding_the_eye_keep_their_faces():
     around = dataclasses.replace(geometry, closed_boxes=np.tile([-50.0, -50, -50, 50, 50, 50],
                                                                 (len(boxes), 1)))
     assert pieces_holding_eye(around, camera) == tuple(range(len(boxes)))
+    # kept in a workspace while the boxes and the eye stay: the same answers, in any order
+    from reflectcli.raster.rasterize import RasterWorkspace
+
+    ws = RasterWorkspace()
+    for g, c, want in ((geometry, camera, ()), (geometry, inside, (tabletop,)),
+                       (geometry, inside, (tabletop,)), (around, inside, tuple(range(len(boxes)))),
+                       (geometry, camera, ()), (around, camera, tuple(range(len(boxes))))):
+        assert pieces_holding_eye(g, c, ws) == want
     state = opened.prepare()
     rule = opened.technique.params.tessellation
     made = state.reflected.get(geometry, opened.scene.n_objects, 0, rule, exact=True)

@@ -22,10 +22,21 @@ def guarded_planes(planes: np.ndarray, width: int, height: int) -> tuple[np.ndar
     """(the clip-space planes followed by the guard band's four, subpixel bits S): what a
     draw's setup tests corners against. The band keeps x_ndc in [-gx, gx] and y_ndc in
     [-gy, gy] (clip x + gx w >= 0, ...), `_subpixel_bits`' guard pixels past each side."""
-    bits, guard = _subpixel_bits(width, height)
-    gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
-    band = np.array([[1.0, 0, 0, gx], [-1.0, 0, 0, gx], [0, 1.0, 0, gy], [0, -1.0, 0, gy]])
-    return np.ascontiguousarray(np.vstack([planes, band])), bits
+    planes = np.asarray(planes)
+    key = (planes.dtype.str, planes.shape, planes.tobytes(), width, height)
+    made = _GUARDED.get(key)
+    if made is None:  # made once per planes and size (50 us between a frame's kernels)
+        bits, guard = _subpixel_bits(width, height)
+        gx, gy = 1.0 + 2.0 * guard / width, 1.0 + 2.0 * guard / height
+        band = np.array([[1.0, 0, 0, gx], [-1.0, 0, 0, gx], [0, 1.0, 0, gy],
+                         [0, -1.0, 0, gy]])
+        if len(_GUARDED) >= 64:
+            _GUARDED.clear()
+        made = _GUARDED[key] = (np.ascontiguousarray(np.vstack([planes, band])), bits)
+    return made[0].copy(), made[1]
+
+
+_GUARDED: dict[tuple, tuple[np.ndarray, int]] = {}  # guarded_planes', by their arguments
 
 
 

@@ -177,7 +177,8 @@ class Virtual(Technique):
         result = primary.frame
         geometry = scene.geometry(frame_index)
         clip_from_world = primary.buffers.clip_from_world  # the camera's (85 us to make)
-        inside = pieces_holding_eye(geometry, camera)  # faces of theirs are never dropped
+        # the closed pieces holding the eye: faces of theirs are never dropped
+        inside = pieces_holding_eye(geometry, camera, state.virtual_raster)
         stats = {"virtual_vertices": 0, "virtual_triangles": 0, "reflector_parts": 0}
         seconds = dict.fromkeys(("tessellate", "maps", "virtual_vertices", "virtual_raster"),
                                 0.0)
