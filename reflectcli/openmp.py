@@ -18,24 +18,33 @@ from __future__ import annotations
 import os
 
 SPIN = "50000"  # GOMP_SPINCOUNT: rounds a worker spins before it sleeps
-_MARK = "REFLECT_OPENMP_DEFAULT"  # exported with the default, so child processes know it
+# exported with the values this module set ("policy/spin count"), so that a child process
+# knows them for reflect's default while its environment still holds just those
+_MARK = "REFLECT_OPENMP_DEFAULT"
 
 defaulted = False  # True when the waiting is reflect's default (not the user's setting)
 
 
+def _held() -> str:
+    return f"{os.environ.get('OMP_WAIT_POLICY')}/{os.environ.get('GOMP_SPINCOUNT')}"
+
+
 def default_waiting() -> None:
     """Passive workers after `SPIN` rounds of spinning, unless the environment says how
-    they wait (OMP_WAIT_POLICY or GOMP_SPINCOUNT: an explicit setting is kept; one this
-    function made in a parent process, marked, counts as the default)."""
+    they wait (OMP_WAIT_POLICY or GOMP_SPINCOUNT: an explicit setting is kept; the values
+    this function or `no_spin` set in a parent process, still as they were, count as the
+    default). Sets the process's environment, which its children inherit; a process that
+    has loaded libgomp before (another library's, a parallel kernel run before reflect was
+    imported) keeps what it read then."""
     global defaulted
-    if os.environ.get(_MARK) == "1":
+    if os.environ.get(_MARK) is not None and os.environ[_MARK] == _held():
         defaulted = True
         return
     if "OMP_WAIT_POLICY" in os.environ or "GOMP_SPINCOUNT" in os.environ:
         return
     os.environ["OMP_WAIT_POLICY"] = "passive"
     os.environ["GOMP_SPINCOUNT"] = SPIN
-    os.environ[_MARK] = "1"
+    os.environ[_MARK] = _held()
     defaulted = True
 
 
@@ -44,3 +53,4 @@ def no_spin() -> None:
     of its kind. Call before the first parallel kernel (a spawned child's initializer)."""
     os.environ["OMP_WAIT_POLICY"] = "passive"
     os.environ["GOMP_SPINCOUNT"] = "0"
+    os.environ[_MARK] = _held()

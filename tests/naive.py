@@ -1974,3 +1974,26 @@ def part_ball(center, radius, axis, half):
     part_half = (float(np.max(np.arccos(np.clip(axis @ part_axis, -1, 1)) + half)) + 1e-9
                  if n and norm > 0 else math.pi)
     return part_center, part_radius, part_axis, part_half
+
+def map_frame(center, eye):
+    """virtual.explosion.map_frame (its kernel _map_frames) as whole-vector numpy, its code
+    before session 22: rows x, y, z of the map's axes."""
+    def cross(a, b):
+        return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                         a[0] * b[1] - a[1] * b[0]])
+
+    z = eye - center
+    z = z / np.linalg.norm(z)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = cross(helper, z)
+    x /= np.linalg.norm(x)
+    return np.array([x, cross(z, x), z])
+
+
+def lookup_axis(normals, front):
+    """virtual.part._lookup_axis as numpy, its code before session 22: the front vertices'
+    mean normal made unit (0 with no front vertex)."""
+    if not front.any():
+        return np.zeros(3)
+    flip = normals[front].mean(axis=0)
+    return flip / max(np.linalg.norm(flip), 1e-30)

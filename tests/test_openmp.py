@@ -35,6 +35,18 @@ def test_default_is_passive_after_a_short_spin():
 @pytest.mark.parametrize("env, shown", [
     ({"OMP_WAIT_POLICY": "ACTIVE"}, "ACTIVE None False"),
     ({"GOMP_SPINCOUNT": "7"}, "None 7 False"),
+    # a parent's mark, inherited, with the user's own setting since: the user's
+    ({"REFLECT_OPENMP_DEFAULT": f"passive/{openmp.SPIN}", "OMP_WAIT_POLICY": "active"},
+     "active None False"),
+    ({"REFLECT_OPENMP_DEFAULT": f"passive/{openmp.SPIN}", "OMP_WAIT_POLICY": "passive",
+      "GOMP_SPINCOUNT": "1000000"}, "passive 1000000 False"),
+    # the mark alone, its values unset since: the default made anew
+    ({"REFLECT_OPENMP_DEFAULT": f"passive/{openmp.SPIN}"}, f"passive {openmp.SPIN} True"),
+    # the parent's default as it left it: still the default
+    ({"REFLECT_OPENMP_DEFAULT": f"passive/{openmp.SPIN}", "OMP_WAIT_POLICY": "passive",
+      "GOMP_SPINCOUNT": openmp.SPIN}, f"passive {openmp.SPIN} True"),
+    ({"REFLECT_OPENMP_DEFAULT": "passive/0", "OMP_WAIT_POLICY": "passive",
+      "GOMP_SPINCOUNT": "0"}, "passive 0 True"),
 ])
 def test_an_explicit_setting_is_kept(env, shown):
     assert _fresh(env, _SHOW) == shown
@@ -53,7 +65,8 @@ def _spin_count() -> str | None:
 
 
 def test_spawned_workers_sharing_the_cores_do_not_spin(monkeypatch):
-    """What `reflect bench --workers` gives its processes (which inherit the default)."""
+    """The initializer `reflect bench --workers` gives its processes (which inherit the
+    default; tests/bench/test_bench.py checks that it is given) leaves them no spin."""
     monkeypatch.setenv("GOMP_SPINCOUNT", openmp.SPIN)
     with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
                              initializer=openmp.no_spin) as ex:

@@ -347,6 +347,9 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "virtual/explosion.py:_surely_well_posed": (
         [VE + "test_surely_well_posed_never_contradicts_numpy",
          VE + "test_ray_foci_are_each_mesh_s_ray_focus"], "foci_from_sums"),
+    "virtual/part.py:_lookup_axis": ([VS + "test_lookup_axis_matches_twin",
+                                      VS + "test_parts_extents_are_each_part_s"],
+                                     "ExplosionPart"),
     "virtual/explosion.py:_map_frames": ([VS + "test_map_frames_are_map_frame",
                                           VS + "test_parts_map_setups_are_each_part_s"],
                                          "parts_map_setups"),

@@ -196,7 +196,8 @@ def _surely_well_posed(a, sure):
     the largest) says it is not above 1e8. Its eigenvalues in closed form (the
     trigonometric solution of the characteristic cubic), with a margin of 1e-6 of the
     largest for their error (an arccos near +-1, at a double eigenvalue, loses half the
-    digits: 1.5e-8); False where unsure, not finite or all zero."""
+    digits: 1.5e-8); False where unsure, not finite, all zero or so small that the squares
+    underflow (a focus's sums have a trace of twice their front vertices)."""
     for j in range(a.shape[0]):
         m = a[j]
         sure[j] = False
@@ -204,8 +205,8 @@ def _surely_well_posed(a, sure):
         p1 = m[0, 1] * m[0, 1] + m[0, 2] * m[0, 2] + m[1, 2] * m[1, 2]
         d0, d1, d2 = m[0, 0] - q, m[1, 1] - q, m[2, 2] - q
         p2 = d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * p1
-        if not (np.isfinite(q) and np.isfinite(p2)) or q <= 0.0:
-            continue
+        if not (np.isfinite(q) and np.isfinite(p2)) or not q > 1e-150:
+            continue  # (below 1e-150 the squares may underflow: p2 says nothing)
         if p2 == 0.0:  # q times the identity
             sure[j] = True
             continue
@@ -224,28 +225,21 @@ def _surely_well_posed(a, sure):
 
 def map_frame(center: np.ndarray, eye: np.ndarray) -> np.ndarray:
     """Rows: the map's x, y, z axes (world), z the unit direction from `center` to the
-    eye. (Kept in numpy as the twin of _map_frames, which makes a reflector's parts'.)"""
-    z = eye - center
-    z = z / np.linalg.norm(z)
-    helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    x = _cross(helper, z)
-    x /= np.linalg.norm(x)
-    return np.array([x, _cross(z, x), z])
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """np.cross of two 3-vectors, by the same products and differences (np.cross's own
-    set-up took 15 us a call, twice per part and frame)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+    eye (_map_frames' for one centre, which a reflector's parts make together)."""
+    frames = np.empty((1, 3, 3))
+    _map_frames(np.asarray(center, np.float64).reshape(1, 3), np.asarray(eye, np.float64),
+                frames)
+    return frames[0]
 
 
 @njit(cache=True)
 def _map_frames(centers, eye, frames):
-    """frames[j] = map_frame(centers[j], eye) for each row (a numpy call of 15 us a part
-    between a frame's kernels; 14 parts a mask frame), the same bits on this machine kind:
-    np.linalg.norm of a 3-vector as sqrt(fma(x2, x2, fma(x1, x1, x0 x0))) (OpenBLAS's
-    ddot), the divisions and _cross's products and differences as they are written."""
+    """frames[j]: the map axes of centre centers[j] (rows x, y, z; z the unit direction to
+    the eye, x the unit cross product of a helper axis (y, or x where z is within 0.9 of
+    y) and z, y = z cross x). The numbers of numpy's whole-vector version (tests/naive.py
+    map_frame: 15 us a part between a frame's kernels, 14 parts a mask frame) on this
+    machine kind: np.linalg.norm of a 3-vector as sqrt(fma(x2, x2, fma(x1, x1, x0 x0)))
+    (OpenBLAS's ddot), the cross products' products and differences as written."""
     for j in range(centers.shape[0]):
         z0, z1, z2 = eye[0] - centers[j, 0], eye[1] - centers[j, 1], eye[2] - centers[j, 2]
         length = math.sqrt(fma(z2, z2, fma(z1, z1, z0 * z0)))

@@ -12,14 +12,11 @@ per-part kernels on the part's rows.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
-from ..fused import fma
 from .explosion import MapSetup, _focus_sums, _map_frames, _setup_arrays, foci_from_sums
-from .part import _extent
+from .part import _extent, _lookup_axis
 from .screen import screen_from_world
 from .shape import JoinedParts
 
@@ -84,31 +81,16 @@ def parts_extents(joined: JoinedParts, chosen: np.ndarray, centres: np.ndarray,
 def _extent_parts(v, n, vstart, chosen, centres, concave, scene_points, eye, out_start,
                   front, bound, far, flips):
     """part._extent of each chosen part (row j: part chosen[j], centre centres[j]); its
-    front rows out_start[j] .. of `front`; flips[j] its lookup axis: 0 unless the part is
-    concave and has front vertices, then their normals' mean made unit as numpy makes it
-    (`normals[front].mean(axis=0)`: the rows summed in order, divided by their count;
-    np.linalg.norm as explosion._map_frames' fma chain; at least 1e-30)."""
+    front rows out_start[j] .. of `front`; flips[j] its lookup axis (part._lookup_axis) if
+    the part is concave, else 0."""
     for j in range(chosen.shape[0]):
         p = chosen[j]
         a, b = vstart[p], vstart[p + 1]
         faces_eye = front[out_start[j]:out_start[j + 1]]
         bound[j], far[j] = _extent(v[a:b], n[a:b], centres[j], scene_points, eye, faces_eye)
         flips[j, 0] = flips[j, 1] = flips[j, 2] = 0.0
-        if not concave[j]:
-            continue
-        s0 = s1 = s2 = 0.0
-        count = 0
-        for k in range(b - a):
-            if faces_eye[k]:
-                s0 += n[a + k, 0]
-                s1 += n[a + k, 1]
-                s2 += n[a + k, 2]
-                count += 1
-        if count:
-            m0, m1, m2 = s0 / count, s1 / count, s2 / count
-            length = math.sqrt(fma(m2, m2, fma(m1, m1, m0 * m0)))
-            length = 1e-30 if length < 1e-30 else length  # Python's max(length, 1e-30)
-            flips[j, 0], flips[j, 1], flips[j, 2] = m0 / length, m1 / length, m2 / length
+        if concave[j]:
+            _lookup_axis(n[a:b], faces_eye, flips[j])
 
 
 def parts_map_setups(joined: JoinedParts, chosen: np.ndarray, meshes: list, eye: np.ndarray,

@@ -1026,7 +1026,8 @@ def test_surely_well_posed_never_contradicts_numpy():
     np.linalg.cond is not above 1e8, and is sure of the well-conditioned ones: random
     positive semi-definite 3x3 matrices with condition numbers from 1 to 1e14 (around 1e7
     and 1e8 densely), double and triple eigenvalues, scales from 1e-12 to 1e12, the zero
-    matrix and matrices with NaN or inf."""
+    matrix, matrices with NaN or inf, and ones so small or large that squares underflow or
+    overflow."""
     rng = np.random.default_rng(21)
     mats = []
     for _ in range(20000):
@@ -1045,7 +1046,9 @@ def test_surely_well_posed_never_contradicts_numpy():
         m = (q * e) @ q.T
         mats.append((m + m.T) / 2.0)  # exactly symmetric, as the sums are
     mats += [np.zeros((3, 3)), np.full((3, 3), np.nan), np.diag([1.0, np.inf, 1.0]),
-             np.diag([1.0, 1.0, 0.0]), np.diag([1.0, 1.0, 1e-8]), np.diag([1.0, 1.0, 1e-9])]
+             np.diag([1.0, 1.0, 0.0]), np.diag([1.0, 1.0, 1e-8]), np.diag([1.0, 1.0, 1e-9]),
+             np.diag([1e-300, 1e-300, 1e-310]), np.diag([1e-160, 1e-160, 1e-170]),
+             np.diag([1e300, 1e300, 1e290]), np.full((3, 3), 1e-200) + np.eye(3) * 1e-190]
     a = np.array(mats)
     sure = np.empty(len(a), np.bool_)
     explosion._surely_well_posed(a, sure)
@@ -1053,5 +1056,8 @@ def test_surely_well_posed_never_contradicts_numpy():
         cond = np.array([np.linalg.cond(m) if np.isfinite(m).all() else np.nan for m in a])
     assert not (sure & ~(cond <= 1e8)).any()  # never sure where numpy says above (or NaN)
     assert (cond[sure] < 1e7).all()  # what it claims: below 1e7 beyond doubt
-    assert sure[cond < 1e5].all()  # sure of every well-conditioned one
+    scale = np.trace(a, axis1=1, axis2=2) / 3.0
+    # sure of every well-conditioned one not so small that its squares could underflow
+    assert sure[(cond < 1e5) & (scale > 1e-150)].all()
+    assert not sure[scale <= 1e-150].any()
     assert sure.sum() > len(a) // 5 and (~sure).sum() > len(a) // 4

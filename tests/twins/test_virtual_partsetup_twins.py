@@ -8,12 +8,14 @@ import dataclasses
 
 import numpy as np
 import pytest
+from naive import lookup_axis as naive_lookup_axis
+from naive import map_frame as naive_map_frame
 
 from reflectcli.scene import primitives
 from reflectcli.virtual import explosion, partsetup
 from reflectcli.virtual.explosion import boundary_edges
 from reflectcli.virtual.mesh import IndexedMesh, weld
-from reflectcli.virtual.part import _extent
+from reflectcli.virtual.part import _extent, _lookup_axis
 from reflectcli.virtual.screen import screen_from_world
 from reflectcli.virtual.shape import join_parts
 
@@ -105,9 +107,8 @@ def test_parts_extents_are_each_part_s(parts):
                 assert screen.tobytes() == alone[:, :2].tobytes()
                 # ExplosionPart's lookup axis, as it makes it alone
                 want_flip = np.zeros(3)
-                if concave[p] and want_front.any():
-                    mean = mesh.normals[want_front].mean(axis=0)
-                    want_flip = mean / max(np.linalg.norm(mean), 1e-30)
+                if concave[p]:
+                    _lookup_axis(mesh.normals, want_front, want_flip)
                 assert flip.tobytes() == want_flip.tobytes()
 
 
@@ -167,9 +168,10 @@ def _numpy_norm_is_an_fma_chain() -> bool:
 
 
 def test_map_frames_are_map_frame():
-    """Each part's map frame in one kernel (_map_frames) is map_frame's (numpy) bit for bit:
-    random centres and eyes, directions whose y is near the 0.9 where the helper axis
-    changes, and far and near centres."""
+    """The map frames' kernel (_map_frames, map_frame's for one centre) against its numpy
+    twin, bit for bit where numpy's norm is the kernel's fused chain: random centres,
+    directions whose y is near the 0.9 where the helper axis changes, far and near
+    centres."""
     rng = np.random.default_rng(9)
     eye = np.array([0.2, 1.7, 3.1])
     directions = rng.normal(0.0, 1.0, (4000, 3))
@@ -179,8 +181,35 @@ def test_map_frames_are_map_frame():
     centres = eye - directions * rng.uniform(1e-3, 1e3, (4000, 1))
     frames = np.empty((len(centres), 3, 3))
     explosion._map_frames(centres, eye, frames)
-    want = np.array([explosion.map_frame(c, eye) for c in centres])
+    alone = np.array([explosion.map_frame(c, eye) for c in centres])
+    assert frames.tobytes() == alone.tobytes()
+    want = np.array([naive_map_frame(c, eye) for c in centres])
     if _numpy_norm_is_an_fma_chain():
         assert frames.tobytes() == want.tobytes()
     else:
         np.testing.assert_allclose(frames, want, rtol=1e-14, atol=1e-15)
+
+
+def test_lookup_axis_matches_twin():
+    """A concave part's lookup axis (part._lookup_axis: its front vertices' mean normal
+    made unit) against its numpy twin, bit for bit where numpy's norm is the kernel's
+    fused chain: random normals and fronts, none in front (0), one, all, a mean of zero
+    length (the 1e-30 floor) and NaN normals."""
+    rng = np.random.default_rng(13)
+    bits = _numpy_norm_is_an_fma_chain()
+    cases = []
+    for _ in range(2000):
+        k = int(rng.integers(1, 300))
+        normals = rng.normal(0.0, 1.0, (k, 3)) * rng.uniform(1e-3, 1e3, (k, 1))
+        cases.append((normals, rng.random(k) < rng.uniform(0.0, 1.0)))
+    opposed = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    cases += [(opposed, np.ones(2, bool)), (opposed, np.zeros(2, bool)),
+              (np.array([[np.nan, 0.0, 1.0], [0.0, 1.0, 0.0]]), np.ones(2, bool))]
+    for normals, front in cases:
+        got = np.empty(3)
+        _lookup_axis(normals, front, got)
+        want = naive_lookup_axis(normals, front)
+        if bits:
+            assert got.tobytes() == want.tobytes()
+        else:
+            np.testing.assert_allclose(got, want, rtol=1e-14, atol=1e-300)
