@@ -217,3 +217,14 @@ def test_clip_from_world_is_made_once_per_camera_values():
         moved = dataclasses.replace(base, eye=base.eye + [0.01 * k, 0.0, 0.0])
         want = moved.projection_matrix() @ moved.view_matrix()
         assert moved.clip_from_world().tobytes() == want.tobytes()
+    # made once: a camera of the same values finds its product kept (the cache holds one
+    # entry for them), and the cache stays bounded
+    from reflectcli import camera as camera_module
+
+    camera_module._CLIP_FROM_WORLD.clear()
+    base.clip_from_world()
+    kept = dict(camera_module._CLIP_FROM_WORLD)
+    dataclasses.replace(base, eye=base.eye.copy()).clip_from_world()
+    assert len(camera_module._CLIP_FROM_WORLD) == 1
+    assert next(iter(camera_module._CLIP_FROM_WORLD.values())) is next(iter(kept.values()))
+    assert len(camera_module._CLIP_FROM_WORLD) <= 64

@@ -391,6 +391,14 @@ def test_guarded_planes_are_made_once_per_arguments():
         got[:] = 0.0  # the caller's own
     other = np.vstack([planes, [[0.0, 0.0, 1.0, 0.5]]])
     assert guarded_planes(other, 64, 48)[0].shape == (len(other) + 4, 4)
+    # made once per arguments: asked again, the kept pair is what is copied out
+    from reflectcli.raster.rasterize import fixed
+
+    fixed._GUARDED.clear()
+    guarded_planes(planes, 64, 48)
+    kept = next(iter(fixed._GUARDED.values()))
+    guarded_planes(planes.copy(), 64, 48)
+    assert len(fixed._GUARDED) == 1 and next(iter(fixed._GUARDED.values())) is kept
 
 
 def test_zeroed_is_cleared_unless_given_back_zeroed():
