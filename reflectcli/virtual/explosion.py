@@ -112,29 +112,32 @@ def ray_foci(meshes: list[IndexedMesh], eye: np.ndarray) -> list[np.ndarray]:
     numbers and solves each in one numpy call for all: the same bits (numpy's linalg
     works a stack matrix by matrix), without two calls a part (14 a mask frame)."""
     eye = np.asarray(eye, np.float64)
-    return foci_from_sums([_focus_sums(m.vertices, m.normals, eye) for m in meshes], meshes)
+    sums = [_focus_sums(m.vertices, m.normals, eye) for m in meshes]
+    return foci_from_sums(np.array([a for a, _, _ in sums]).reshape(-1, 3, 3),
+                          np.array([b for _, b, _ in sums]).reshape(-1, 3),
+                          np.array([f for _, _, f in sums], np.int64), meshes)
 
 
-def foci_from_sums(sums: list[tuple], meshes: list[IndexedMesh]) -> list[np.ndarray]:
-    """ray_foci from each mesh's _focus_sums (a, b, front count): the normal equations of
-    those with three or more front vertices solved where well posed, else the mesh's
-    vertex mean."""
+def foci_from_sums(a: np.ndarray, b: np.ndarray, front: np.ndarray,
+                   meshes: list[IndexedMesh]) -> list[np.ndarray]:
+    """ray_foci from each mesh's _focus_sums (a (M, 3, 3), b (M, 3), front counts (M,)):
+    the normal equations of those with three or more front vertices solved where well
+    posed, else the mesh's vertex mean."""
     out = [None] * len(meshes)
-    posed = [i for i, (_, _, front) in enumerate(sums) if front >= 3]
-    if posed:
-        a = np.array([sums[i][0] for i in posed])
+    posed = np.flatnonzero(front >= 3)
+    if posed.size:
+        posed_a = a[posed]
         # np.linalg.cond's answer to "not > 1e8", where the eigenvalues' closed form is sure
         # of it (a numpy call of 25-180 us a frame); numpy's where it is not
-        sure = np.empty(len(posed), np.bool_)
-        _surely_well_posed(a, sure)
-        cond = np.zeros(len(posed))
+        sure = np.empty(posed.size, np.bool_)
+        _surely_well_posed(posed_a, sure)
+        cond = np.zeros(posed.size)
         if not sure.all():
-            cond[~sure] = np.linalg.cond(a[~sure])
-        solved = [i for i, c in zip(posed, cond, strict=True) if not c > 1e8]
-        if solved:
-            x = np.linalg.solve(np.array([sums[i][0] for i in solved]),
-                                np.array([sums[i][1] for i in solved])[..., None])[..., 0]
-            for i, focus in zip(solved, x, strict=True):
+            cond[~sure] = np.linalg.cond(posed_a[~sure])
+        solved = posed[~(cond > 1e8)]
+        if solved.size:
+            x = np.linalg.solve(a[solved], b[solved][..., None])[..., 0]
+            for i, focus in zip(solved.tolist(), x, strict=True):
                 out[i] = focus
     return [m.vertices.mean(axis=0) if focus is None else focus
             for m, focus in zip(meshes, out, strict=True)]

@@ -18,7 +18,13 @@ from numba import njit
 from .explosion import MapSetup, _focus_sums, _map_frames, _setup_arrays, foci_from_sums
 from .part import _extent, _lookup_axis
 from .screen import screen_from_world
-from .shape import JoinedParts
+from .shape import JoinedParts, starts_of
+
+
+def _every_part(joined: JoinedParts, chosen: np.ndarray) -> bool:
+    """Whether `chosen` is every part of `joined`, in order (their joined arrays serve as
+    they are)."""
+    return len(chosen) == len(joined.vstart) - 1 and bool((chosen == np.arange(len(chosen))).all())
 
 
 def parts_foci(joined: JoinedParts, chosen: np.ndarray, meshes: list,
@@ -31,7 +37,7 @@ def parts_foci(joined: JoinedParts, chosen: np.ndarray, meshes: list,
     front = np.empty(len(chosen), np.int64)
     _focus_sums_parts(joined.vertices, joined.normals, joined.vstart, chosen, eye, a, b,
                       front)
-    return foci_from_sums([(a[j], b[j], int(front[j])) for j in range(len(chosen))], meshes)
+    return foci_from_sums(a, b, front, meshes)
 
 
 @njit(cache=True)
@@ -55,7 +61,7 @@ def parts_extents(joined: JoinedParts, chosen: np.ndarray, centres: np.ndarray,
     normals' mean, made unit) give them for the part alone."""
     count = len(chosen)
     sizes = joined.vstart[chosen + 1] - joined.vstart[chosen]
-    out_start = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    out_start = starts_of(sizes)
     front = np.empty(int(out_start[-1]), np.bool_)
     bound = np.empty(count)
     far = np.empty(count)
@@ -65,8 +71,7 @@ def parts_extents(joined: JoinedParts, chosen: np.ndarray, centres: np.ndarray,
                   np.asarray(concave, np.bool_),
                   np.ascontiguousarray(scene_points, np.float64),
                   np.asarray(eye, np.float64), out_start, front, bound, far, flips)
-    everyone = count == len(joined.vstart) - 1 and (chosen == np.arange(count)).all()
-    if everyone and (sizes > 1).all():
+    if _every_part(joined, chosen) and (sizes > 1).all():
         # a row's projection is its own among two or more rows (screen._screen_rows)
         screen = screen_from_world(joined.vertices, clip_from_world, width, height)
         screens = [screen[out_start[j]:out_start[j + 1], :2] for j in range(count)]
@@ -116,9 +121,7 @@ def parts_map_setups(joined: JoinedParts, chosen: np.ndarray, meshes: list, eye:
     _setup_arrays_parts(joined.vertices, joined.normals, joined.vstart, joined.faces,
                         joined.fstart, joined.boundary, joined.bstart, chosen, eye, fixed,
                         front, used, drawn, extensions, counts)
-    v0 = np.concatenate([[0], np.cumsum(vsize)])
-    d0 = np.concatenate([[0], np.cumsum(counts[:, 0])])
-    e0 = np.concatenate([[0], np.cumsum(counts[:, 1])])
+    v0, d0, e0 = starts_of(vsize), starts_of(counts[:, 0]), starts_of(counts[:, 1])
     frames = np.empty((count, 3, 3))
     _map_frames(np.array(centres, np.float64).reshape(-1, 3), eye, frames)
     setups = []
@@ -131,7 +134,7 @@ def parts_map_setups(joined: JoinedParts, chosen: np.ndarray, meshes: list, eye:
                                drawn[d0[j]:d0[j + 1]], extensions[e0[j]:e0[j + 1]],
                                frames[j], np.asarray(centres[j], np.float64),
                                radii[j], res, s, looked, flip))
-    everyone = count == len(joined.vstart) - 1 and (chosen == np.arange(count)).all()
+    everyone = _every_part(joined, chosen)
     v = joined.vertices if everyone else np.concatenate([m.vertices for m in meshes])
     faces = joined.faces if everyone else np.concatenate([m.faces for m in meshes])
     return setups, (v, fixed, used, faces, drawn[:d0[-1]], extensions[:e0[-1]])

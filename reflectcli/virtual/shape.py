@@ -42,11 +42,15 @@ class JoinedParts:
     bstart: np.ndarray  # (P + 1,) int64
 
 
+def starts_of(sizes) -> np.ndarray:
+    """(N + 1,) int64 where each of N runs of `sizes` starts in their joined array, and
+    its end."""
+    return np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+
+
 def join_parts(meshes: list, boundaries: list[np.ndarray]) -> JoinedParts:
     """JoinedParts of the parts' IndexedMeshes and boundary edges (B, 3), in order."""
-    def starts(sizes):
-        return np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-
+    starts = starts_of
     return JoinedParts(
         np.ascontiguousarray(np.concatenate([m.vertices for m in meshes]), np.float64),
         np.ascontiguousarray(np.concatenate([m.normals for m in meshes]), np.float64),
