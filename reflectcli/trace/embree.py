@@ -16,6 +16,7 @@ import ctypes
 import glob
 import os
 import time
+import weakref
 from concurrent.futures import ThreadPoolExecutor
 
 import numba
@@ -207,6 +208,10 @@ class TriangleScene:
             corners = np.ascontiguousarray(corners, dtype=np.float32)
             if self._embree is not None:
                 self._handle = self._embree.scene(corners, fast)
+                # released when the scene object goes, or at exit: a finalizer holds what
+                # it calls (a __del__ run at interpreter shutdown found ctypes torn down)
+                self._release = weakref.finalize(self, self._embree.lib.rtcReleaseScene,
+                                                 ctypes.c_void_p(self._handle))
             else:
                 from embreex import rtcore_scene
                 from embreex.mesh_construction import TriangleMesh
@@ -223,11 +228,6 @@ class TriangleScene:
         """The scene's Embree handle for the kernels (`intersect_range`); 0 when it is empty
         or the embreex binding traces it."""
         return self._handle
-
-    def __del__(self) -> None:
-        if getattr(self, "_handle", 0) and self._embree is not None:
-            self._embree.lib.rtcReleaseScene(ctypes.c_void_p(self._handle))
-            self._handle = 0
 
     def intersect(
         self, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray, threads: int = 1,

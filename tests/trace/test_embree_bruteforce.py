@@ -293,3 +293,31 @@ def test_embreex_fallback_gives_the_same_hits(monkeypatch):
         np.testing.assert_array_equal(a, b)
     for a, b in zip(fast[2:], slow[2:], strict=True):
         np.testing.assert_array_equal(a[hit], b[hit])
+
+
+
+def test_scene_released_when_dropped_even_after_module_teardown(monkeypatch):
+    """A scene's Embree handle is released when the object goes, and still without an
+    error once the module's globals are gone, as at interpreter exit (a __del__ then found
+    `ctypes` None: "Exception ignored ... 'NoneType' object has no attribute
+    'c_void_p'")."""
+    import gc
+    import sys
+
+    import reflectcli.trace.embree as embree
+
+    corners = np.random.default_rng(3).uniform(-1, 1, (20, 3, 3)).astype(np.float32)
+    scene = TriangleScene(corners)
+    release = scene._release
+    assert release.alive
+    del scene
+    gc.collect()
+    assert not release.alive
+    raised = []
+    monkeypatch.setattr(sys, "unraisablehook", raised.append)
+    late = TriangleScene(corners)
+    assert late.handle
+    monkeypatch.setattr(embree, "ctypes", None)  # what shutdown does to module globals
+    del late
+    gc.collect()
+    assert raised == []
