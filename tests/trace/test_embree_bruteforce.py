@@ -295,7 +295,6 @@ def test_embreex_fallback_gives_the_same_hits(monkeypatch):
         np.testing.assert_array_equal(a[hit], b[hit])
 
 
-
 def test_scene_released_when_dropped_even_after_module_teardown(monkeypatch):
     """A scene's Embree handle is released when the object goes, and still without an
     error once the module's globals are gone, as at interpreter exit (a __del__ then found
