@@ -295,38 +295,40 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
         rect[k, 0], rect[k, 1], rect[k, 2], rect[k, 3] = tx0, tx1, ty0, ty1
         span[k, 0], span[k, 1] = ty0 // _CELL - cy0, ty1 // _CELL - cy0
         span[k, 2], span[k, 3] = tx0 // _CELL - cx0, tx1 // _CELL - cx0
-    # cell lists in drawing order (counted, then filled): faces and quads apart
-    count = np.zeros((2, rows * cols + 1), np.int64)
+    # each cell's faces and quads as linked items, made in one pass over the triangles'
+    # cells: faces put at their cells' heads in drawing order (a cell's list then starts
+    # at its last face), quads in reverse order (a list starts at its first quad).
+    # Counted first, then filled, the lists read every triangle's cells twice (the mask's
+    # maps: 12% more of this function's time)
+    cap = 0
     for k in range(n_drawn + n_ext):
+        if span[k, 0] <= span[k, 1]:
+            cap += (span[k, 1] - span[k, 0] + 1) * (span[k, 3] - span[k, 2] + 1)
+    head = np.full((2, rows * cols), -1, np.int64)
+    item = np.empty(cap, np.int64)
+    nxt = np.empty(cap, np.int64)
+    i = 0
+    for j in range(n_drawn + n_ext):
+        k = j if j < n_drawn else n_drawn + n_ext - 1 - (j - n_drawn)
         kind = 0 if k < n_drawn else 1
         for r in range(span[k, 0], span[k, 1] + 1):
             for c in range(span[k, 2], span[k, 3] + 1):
                 if want[r, c]:
-                    count[kind, r * cols + c + 1] += 1
-    for kind in range(2):
-        for i in range(rows * cols):
-            count[kind, i + 1] += count[kind, i]
-    items = np.empty(count[0, rows * cols] + count[1, rows * cols], np.int64)
-    fill = np.empty((2, rows * cols), np.int64)
-    base = count[0, rows * cols]
-    for i in range(rows * cols):
-        fill[0, i] = count[0, i]
-        fill[1, i] = base + count[1, i]
-    for k in range(n_drawn + n_ext):
-        kind = 0 if k < n_drawn else 1
-        for r in range(span[k, 0], span[k, 1] + 1):
-            for c in range(span[k, 2], span[k, 3] + 1):
-                if want[r, c]:
-                    items[fill[kind, r * cols + c]] = k
-                    fill[kind, r * cols + c] += 1
+                    cell = r * cols + c
+                    item[i] = k
+                    nxt[i] = head[kind, cell]
+                    head[kind, cell] = i
+                    i += 1
     full = True
     for u in range(n_unique):
         y, x = texels[unique[u], 0], texels[unique[u], 1]
         cell = (y // _CELL - cy0) * cols + x // _CELL - cx0
         small = ids[y, x]  # the last small face holding it (drawing index), or -1
         found = -1
-        for t in range(count[0, cell + 1] - 1, count[0, cell] - 1, -1):
-            k = items[t]
+        t = head[0, cell]
+        while t >= 0:
+            k = item[t]
+            t = nxt[t]
             if k < small:
                 break  # drawn before that small face: it is the last holding the texel
             if not (rect[k, 0] <= x <= rect[k, 1] and rect[k, 2] <= y <= rect[k, 3]):
@@ -341,8 +343,10 @@ def _ids_at_marked(ids, core, marks, coords, faces, drawn, extensions, n_faces, 
             found = drawn[small]
         core[y, x] = found >= 0
         if found < 0:
-            for t in range(base + count[1, cell], base + count[1, cell + 1]):
-                k = items[t]
+            t = head[1, cell]
+            while t >= 0:
+                k = item[t]
+                t = nxt[t]
                 if not (rect[k, 0] <= x <= rect[k, 1] and rect[k, 2] <= y <= rect[k, 3]):
                     continue
                 e = k - n_drawn
