@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from .scene.types import CHECKER, POINT, TEXTURE, UNLIT
@@ -28,20 +29,22 @@ def _texel(texels, offset, w, h, x, y):
 
 @njit(cache=True, inline="always")
 def material_albedo(mat, u, v, mat_i, mat_f, texels):
-    """The material's linear RGB at (u, v)."""
-    kind = mat_i[mat, 0]
+    """The material's linear RGB at (u, v). (Material and column indices unsigned: numba
+    then leaves out each signed index's test for a negative value, Python's wraparound.)"""
+    m = np.uint64(mat)
+    kind = mat_i[m, 0]
     if kind == CHECKER:
-        i = math.floor(u * mat_f[mat, 6])
-        j = math.floor(v * mat_f[mat, 7])
-        c = 0 if (int(i) + int(j)) % 2 == 0 else 3
-        return mat_f[mat, c], mat_f[mat, c + 1], mat_f[mat, c + 2]
+        i = math.floor(u * mat_f[m, 6])
+        j = math.floor(v * mat_f[m, 7])
+        c = np.uint64(0) if (int(i) + int(j)) % 2 == 0 else np.uint64(3)
+        return mat_f[m, c], mat_f[m, c + np.uint64(1)], mat_f[m, c + np.uint64(2)]
     if kind == TEXTURE:
-        off, w, h = mat_i[mat, 1], mat_i[mat, 2], mat_i[mat, 3]
-        su = u * mat_f[mat, 6]
-        sv = v * mat_f[mat, 7]
+        off, w, h = mat_i[m, 1], mat_i[m, 2], mat_i[m, 3]
+        su = u * mat_f[m, 6]
+        sv = v * mat_f[m, 7]
         fx = (su - math.floor(su)) * w  # map space: texel units, row 0 at the top (v = 1)
         fy = (1.0 - (sv - math.floor(sv))) * h
-        if mat_i[mat, 4] == 0:
+        if mat_i[m, 4] == 0:
             return _texel(texels, off, w, h, int(fx), int(fy))
         fx -= 0.5
         fy -= 0.5
@@ -64,7 +67,7 @@ def material_albedo(mat, u, v, mat_i, mat_f, texels):
             w00 * g00 + w10 * g10 + w01 * g01 + w11 * g11,
             w00 * b00 + w10 * b10 + w01 * b01 + w11 * b11,
         )
-    return mat_f[mat, 0], mat_f[mat, 1], mat_f[mat, 2]
+    return mat_f[m, 0], mat_f[m, 1], mat_f[m, 2]
 
 
 @njit(cache=True, inline="always")

@@ -246,8 +246,9 @@ def intersect_rows(a, b, j0, per_row, spp, boxes, origins, directions, tfar, kin
             if boxes[k, 2] <= j < boxes[k, 3]:
                 lo = min(lo, boxes[k, 0] * spp)
                 hi = max(hi, boxes[k, 1] * spp)
-        for i in range(first, last):
-            if lo <= i - first < hi:
+        for n in range(first, last):
+            i = np.uint64(n)  # unsigned: no test for a negative index (wraparound) per access
+            if lo <= n - first < hi:
                 _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out,
                               idx_out)
             else:

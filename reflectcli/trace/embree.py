@@ -28,6 +28,8 @@ _LANES = 8
 # RTCRayHit8: 12 ray + 10 hit fields (Ng xyz, u, v, primID, geomID, instID, instPrimID of
 # Embree 4 with one instance level) of 8 lanes each
 _PACKET_FLOATS = 22 * _LANES
+# where each field's lanes start in a packet (unsigned: see intersect_range)
+_F = tuple(np.uint64(f * _LANES) for f in range(22))
 _ROBUST = 1 << 2  # RTC_SCENE_FLAG_ROBUST (embreex's default)
 _QUALITY_HIGH = 2  # RTC_BUILD_QUALITY_HIGH (Mitsuba 3's, with no scene flag)
 _TRIANGLE, _INDEX, _VERTEX, _UINT3, _FLOAT3 = 0, 0, 1, 0x5003, 0x9003
@@ -162,31 +164,37 @@ def intersect_range(scene, origins, directions, tfar, a, b, t, prim, u, v, buf, 
     address = buf.ctypes.data + 4 * off
     valid = off + _PACKET_FLOATS
     one_tfar = tfar.shape[0] == 1
+    # indices as unsigned integers (all are >= 0): numba then leaves out each signed index's
+    # test for a negative value (Python's wraparound) at every access. Lane q of field f
+    # (of the structure's 22) is at off + f * _LANES + q.
+    lane0 = np.uint64(off)
     for first in range(a, b, _LANES):
         lanes = min(_LANES, b - first)
         for lane in range(_LANES):
             ints[valid + lane] = -1 if lane < lanes else 0
         for lane in range(lanes):
-            i = first + lane
-            buf[off + 0 * _LANES + lane] = origins[i, 0]
-            buf[off + 1 * _LANES + lane] = origins[i, 1]
-            buf[off + 2 * _LANES + lane] = origins[i, 2]
-            buf[off + 4 * _LANES + lane] = directions[i, 0]
-            buf[off + 5 * _LANES + lane] = directions[i, 1]
-            buf[off + 6 * _LANES + lane] = directions[i, 2]
-            buf[off + 8 * _LANES + lane] = tfar[0] if one_tfar else tfar[i]
-            ints[off + 17 * _LANES + lane] = -1  # primID
-            ints[off + 18 * _LANES + lane] = -1  # geomID
-            ints[off + 19 * _LANES + lane] = -1  # instID
+            i = np.uint64(first + lane)
+            q = lane0 + np.uint64(lane)
+            buf[q + _F[0]] = origins[i, 0]
+            buf[q + _F[1]] = origins[i, 1]
+            buf[q + _F[2]] = origins[i, 2]
+            buf[q + _F[4]] = directions[i, 0]
+            buf[q + _F[5]] = directions[i, 1]
+            buf[q + _F[6]] = directions[i, 2]
+            buf[q + _F[8]] = tfar[0] if one_tfar else tfar[i]
+            ints[q + _F[17]] = -1  # primID
+            ints[q + _F[18]] = -1  # geomID
+            ints[q + _F[19]] = -1  # instID
         _rtc_intersect8(address + 4 * _PACKET_FLOATS, scene, address, 0)
         for lane in range(lanes):
-            i = first + lane
-            p = ints[off + 17 * _LANES + lane]
+            i = np.uint64(first + lane)
+            q = lane0 + np.uint64(lane)
+            p = ints[q + _F[17]]
             prim[i] = p
             if p >= 0:
-                t[i] = buf[off + 8 * _LANES + lane]
-                u[i] = buf[off + 15 * _LANES + lane]
-                v[i] = buf[off + 16 * _LANES + lane]
+                t[i] = buf[q + _F[8]]
+                u[i] = buf[q + _F[15]]
+                v[i] = buf[q + _F[16]]
             else:
                 t[i] = np.inf
                 u[i] = 0.0

@@ -88,9 +88,11 @@ def rows_of_rays(j0, j1, shift, cam, origins, dirs):
 @njit(cache=True, inline="always")
 def _row(first, width, x_right, yx, yy, yz, bx, by, bz, ex, ey, ez, near, origins, dirs):
     """One sample per pixel: the rays of one row, from ray `first` on, in a loop with no
-    inner loops (it vectorises)."""
-    for i in range(width):
-        k = first + i
+    inner loops (it vectorises). Indices unsigned (all are >= 0): numba then leaves out
+    each signed index's test for a negative value (Python's wraparound)."""
+    for n in range(width):
+        i = np.uint64(n)
+        k = np.uint64(first + n)
         dx = x_right[i, 0] + yx - bx
         dy = x_right[i, 1] + yy - by
         dz = x_right[i, 2] + yz - bz

@@ -99,13 +99,16 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
      background, unit) = surfaces
     hit_t, hit_surface = hits
     out_o, out_d, out_w, out_slot = out_rays
-    j = out_start
-    for i in range(lo, hi):
+    j = np.uint64(out_start)
+    # indices as unsigned integers (all are >= 0 here): numba then leaves out each signed
+    # index's test for a negative value (Python's wraparound) at every array access
+    for n in range(hi - lo):
+        i = np.uint64(lo + n)
         if first:
-            s = np.int64(i)
+            s = i
             w = (np.float32(1.0), np.float32(1.0), np.float32(1.0))
         else:
-            s = slot[i]
+            s = np.uint64(slot[i])
             w = (weight[i, 0], weight[i, 1], weight[i, 2])
         which = _pick(t_o[i], t_m[i], t_a[i])
         if which < 0:
@@ -116,7 +119,7 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
             continue
         if which == 0:
             t = np.float64(t_o[i])
-            tri = p_o[i]
+            tri = np.uint64(p_o[i])
             b1, b2 = np.float64(u_o[i]), np.float64(v_o[i])
             b0 = 1.0 - b1 - b2
             hit_t[i] = t
@@ -141,9 +144,9 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
         ox, oy, oz, dx, dy, dz = _ray(origins, dirs, i)
         if which == 1:
             t = np.float64(t_m[i])
-            tri = p_m[i]
+            tri = np.uint64(p_m[i])
             planar = False
-            k = m_surface[tri] - n_objects
+            k = np.uint64(m_surface[tri] - n_objects)
             b1, b2 = np.float64(u_m[i]), np.float64(v_m[i])
             b0 = 1.0 - b1 - b2
             e1x = m_corners[tri, 1, 0] - m_corners[tri, 0, 0]
@@ -159,7 +162,7 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
             px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
         else:
             t = np.float64(t_a[i])
-            k = k_a[i]
+            k = np.uint64(k_a[i])
             planar = m_kind[k] == PLANAR
             px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
             if m_kind[k] == PLANAR:
@@ -181,7 +184,7 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
                 gx, gy, gz = lx - h * ax, ly - h * ay, lz - h * az
             nx, ny, nz = gx, gy, gz
         hit_t[i] = t
-        hit_surface[i] = n_objects + k
+        hit_surface[i] = n_objects + np.int64(k)
         for c in range(3):
             _add(color, s, c, w[c] * (1.0 - m_refl[k, c]) * m_base[k, c], first)
         if not follow:
@@ -215,5 +218,5 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
         out_d[j, 0], out_d[j, 1], out_d[j, 2] = rx, ry, rz
         out_w[j, 0], out_w[j, 1], out_w[j, 2] = w0, w1, w2
         out_slot[j] = s
-        j += 1
-    return j - out_start
+        j += np.uint64(1)
+    return np.int64(j) - out_start

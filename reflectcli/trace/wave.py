@@ -172,13 +172,15 @@ def _wave(lo, hi, j0, rows_per_seg, cam, rays, tfar, objects, mirrors, analytic,
     else:
         emitted = resolve_range(lo, hi, rays, (t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m),
                                 (t_a, k_a), surfaces, follow, color, hits, out_rays, lo, False)
+    # (indices unsigned: no test for a negative index, Python's wraparound, per access)
     if first:  # depth: t + near (a miss's inf stays inf)
-        for i in range(lo, hi):
-            hit_t[i] += near
+        for n in range(lo, hi):
+            hit_t[np.uint64(n)] += near
     elif bounce == 1:
-        for i in range(lo, hi):
+        for n in range(lo, hi):
+            i = np.uint64(n)
             if hit_surface[i] >= 0:
-                reflected_hit[slot[i]] = 1.0
+                reflected_hit[np.uint64(slot[i])] = 1.0
     return emitted
 
 
