@@ -185,6 +185,8 @@ class RenderResult:
     written: list[str] = field(default_factory=list)
     skipped: list[int] = field(default_factory=list)
     compile_seconds: float = 0.0
+    # the timings summary's warning (too few renders after the warm-up to quote), if any
+    timing_warning: str = ""
 
 
 class OpenedScene:
@@ -340,7 +342,8 @@ class OpenedScene:
 
         `repeats` > 1 renders the frame that many times in a row (timing a scene of one frame:
         the bench's warm-up and timed samples); the first render is written and every
-        render's seconds go to the log's `repeat_seconds`. Techniques with temporal reuse see
+        render's seconds go to the log's `repeat_seconds`, its stages to `repeat_stages`
+        (`stages` is the first render's). Techniques with temporal reuse see
         the repeats as extra frames. `on_written(exr, log row)` runs once the three are
         written, before an interrupt held meanwhile is raised (so a count of kept frames is
         exact). With an overlapping `writer` the files are written while the caller goes on
@@ -351,11 +354,14 @@ class OpenedScene:
         frame = self.render_frame(frame_index)
         render_seconds = time.perf_counter() - start
         repeat_seconds = [render_seconds]
+        repeat_stages = [frame.timings]  # each render's own stages, for the summary's spread
         for _ in range(repeats - 1):
             self.technique.forget_view(self._state)  # a repeat pays what a new view pays
             start = time.perf_counter()
-            self.render_frame(frame_index)
+            again = self.render_frame(frame_index)
             repeat_seconds.append(time.perf_counter() - start)
+            repeat_stages.append(again.timings)
+            del again
         overlapped = writer is not None and writer.overlap
         params = json.loads(self.params.model_dump_json())
         row = {
@@ -375,7 +381,8 @@ class OpenedScene:
             "scene_hash": self.scene_hash,
             "run_id": self.run_id,
             "overrides": self.overrides,
-            **({"repeat_seconds": repeat_seconds} if repeats > 1 else {}),
+            **({"repeat_seconds": repeat_seconds, "repeat_stages": repeat_stages}
+               if repeats > 1 else {}),
             # the previous frame's files were being written (another thread) while this
             # frame rendered: its times include that competition for the cores
             **({"writes_overlapped": True} if overlapped else {}),
@@ -455,7 +462,8 @@ class OpenedScene:
         finally:
             if rows:
                 with interrupts.deferred(), contextlib.suppress(OSError):
-                    write_summary(os.path.join(result.folder, SUMMARY_NAME), rows)
+                    summary = write_summary(os.path.join(result.folder, SUMMARY_NAME), rows)
+                    result.timing_warning = summary["warning"] if summary else ""
         return result
 
     def precompute(self, on_map: Callable[[dict], None] | None = None,

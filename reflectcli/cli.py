@@ -112,6 +112,8 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
         progress.__exit__(None, None, None)
     skipped = f", {len(result.skipped)} skipped (--resume)" if result.skipped else ""
     click.echo(f"wrote {len(result.written)} frame(s) to {result.folder}{skipped}")
+    if result.timing_warning:
+        click.echo(f"warning: {result.timing_warning} (timings-summary.json)", err=True)
 
 
 def _warn_frames_past_end(spec: str | None, count: int) -> None:
@@ -259,6 +261,15 @@ def bench(file, resume, workers, scheduler, threads, out, overrides) -> None:
         if progress is not None:
             progress.__exit__(None, None, None)
     click.echo(f"{result.ran} run(s), {result.skipped} kept; results in {result.out}")
+    from .bench.runner import timing_warned
+
+    warned = timing_warned(result.rows)
+    if warned:
+        click.echo(f"warning: {len(warned)} run(s) timed on too few renders or with no warm-up "
+                   f"(e.g. {warned[0]['run']}: "
+                   f"{warned[0]['timing_warning'] or warned[0]['reference_timing_warning']}); "
+                   "their frame times and ratios are marked in report.md, not figures to "
+                   "quote", err=True)
 
 
 @cli.command()

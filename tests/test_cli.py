@@ -345,6 +345,20 @@ BAD_SCENES = {
         TINY + '\n[output]\ndir = "blocker/sub"\n',
         ("scene.toml: output.dir:", "blocker/sub"),
     ),
+    # strict types: pydantic's lax mode took `true` as 1 (a 1-pixel-wide render), and
+    # "32" or 32.0 as 32
+    "bool-for-int": (TINY.replace("width = 32", "width = true"),
+                     ("scene.toml: camera.width: must be an integer",)),
+    "string-for-int": (TINY.replace("width = 32", 'width = "32"'),
+                       ("scene.toml: camera.width: must be an integer",)),
+    "float-for-int": (TINY.replace("segments = 8", "segments = 8.0"),
+                      ("scene.toml: objects.0.segments: must be an integer",)),
+    "string-for-float": (TINY.replace("radius = 0.5", 'radius = "0.5"'),
+                         ("scene.toml: objects.0.radius:",)),
+    # one mistake, one line: not also "radius: required"
+    "misspelled-required-key": (TINY.replace("radius = 0.5", "raduis = 0.5"),
+                                ("scene.toml: objects.0.raduis: unknown key (did you mean "
+                                 "radius?)",)),
 }
 
 BAD_ARGS = {
@@ -399,6 +413,23 @@ def test_validate_reports_bad_scene_on_stdout(here, case):
     text, expected = BAD_SCENES[case]
     result = invoke("validate", write_scene(here, text))
     assert_bad_input(result, "stdout", expected, here)
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc")
+def test_validate_refuses_an_output_dir_render_could_not_make(here):
+    """/proc passes a permission test for root, yet nothing can be made in it: validate
+    tries, as render would, and says so in render's words."""
+    scene = write_scene(here, TINY + '\n[output]\ndir = "/proc/nope"\n')
+    result = invoke("validate", scene)
+    assert_bad_input(result, "stdout", ("scene.toml: output.dir: cannot write to "
+                                        "'/proc/nope/tiny/raytrace'",), here)
+    assert not list(Path("/proc").glob(".reflect-validate-*"))
+
+
+def test_render_warns_when_its_timings_are_too_few_to_quote(here):
+    result = render_ok(TEAPOT_BOX, "--frames", "0:2", "--out", here, *SMALL)
+    assert "warning: only 1 render(s) after 1 warm-up" in result.stderr
+    assert "timings-summary.json" in result.stderr
 
 
 def test_validate_reports_several_problems_one_line_each(here):

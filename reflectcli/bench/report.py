@@ -15,8 +15,8 @@ _METRIC_COLUMNS = [f"{m}_{scope}" for scope in ("mirror", "image") for m in (
 CSV_COLUMNS = [
     "run", "scene", "technique", "sweep", *_METRIC_COLUMNS,
     "hole_fraction", "unreached_fraction", "frame_ms_median", "frame_ms_p25", "frame_ms_p75",
-    "timing_warning", "reference_ms_median", "capture_ms_per_frame", "prepare_seconds",
-    "first_frame_ms", "numba_compile_seconds",
+    "timing_warning", "reference_ms_median", "reference_timing_warning", "capture_ms_per_frame",
+    "prepare_seconds", "first_frame_ms", "numba_compile_seconds",
     "triangles", "frames", "repeats", "warmup_renders", "timed_frames", "threads", "cpu",
     "parameters", "overrides", "scene_file",
 ]
@@ -111,11 +111,15 @@ def report_markdown(name: str, rows: list[dict]) -> str:
              "the median (p25-p75) of the timed renders after the warm-up ones; one-time work "
              "(prepare: map capture, decomposition, ...) is its own column and never in frame "
              "time; 'first' is the first render (warm-up: first-frame caches, JIT). Ratios are "
-             "frame-time ratios measured in this run. 'holes': of the mirror pixels whose "
+             "frame-time ratios measured in this run; a ratio marked * has a side timed on "
+             "too few renders or with no warm-up (its frame time says which): it is not a "
+             "figure to quote. 'holes': of the mirror pixels whose "
              "reflected ray meets geometry in the reference, those the technique left empty; "
              "'unreached': every mirror pixel it did not reach, background reflections "
              "included.", ""]
     rerender = {_scene_key(r): r["frame_ms_median"] for r in rows if r["technique"] == "rerender"}
+    rerender_warned = {_scene_key(r) for r in rows
+                       if r["technique"] == "rerender" and r.get("timing_warning")}
     if rows:
         first = rows[0]
         lines += [f"Machine: {first['cpu']}, {first['threads']} threads; versions: "
@@ -133,6 +137,13 @@ def report_markdown(name: str, rows: list[dict]) -> str:
                       f"{_fmt(r['frame_ms_p75'])})")
             if r.get("timing_warning"):
                 timing += f" **warning: {r['timing_warning']}**"
+            # a ratio is only as sound as its worse side: marked when either side is warned
+            mark = "*" if r.get("timing_warning") else ""
+            x_rerender = (_fmt(r["frame_ms_median"] / rr, 2)
+                          + (mark or ("*" if _scene_key(r) in rerender_warned else ""))
+                          if rr else "-")
+            x_raytrace = (_fmt(r["frame_ms_median"] / r["reference_ms_median"], 2)
+                          + (mark or ("*" if r.get("reference_timing_warning") else "")))
             lines.append(
                 f"| {r['technique']} | {parameters_text(r)} | {_fmt(r['psnr_mirror'])} | "
                 f"{_fmt(r.get('flip_mirror'), 3)} | {_fmt(r.get('ssim_mirror'), 3)} | "
@@ -142,8 +153,7 @@ def report_markdown(name: str, rows: list[dict]) -> str:
                 f"{_fmt(100 * r.get('unreached_fraction', 0.0), 2)}% | "
                 f"{timing} | {_fmt(r.get('prepare_seconds'), 2)} | "
                 f"{_fmt(r.get('first_frame_ms'))} | "
-                f"{_fmt(r['frame_ms_median'] / rr, 2) if rr else '-'} | "
-                f"{_fmt(r['frame_ms_median'] / r['reference_ms_median'], 2)} | "
+                f"{x_rerender} | {x_raytrace} | "
                 f"{r['triangles']} |")
         lines.append("")
         for key, group in scene_groups([r for r in rows if r["scene"] == scene]).items():

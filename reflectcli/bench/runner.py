@@ -172,6 +172,18 @@ def timing_stats(samples: list[float], warmup: int) -> dict:
     }
 
 
+def _reference_timing(stats: dict) -> dict:
+    """The reference's frame time for the `x raytrace` ratio, with its own timing warning
+    (a ratio is only as good as its worse side)."""
+    return {"reference_ms_median": stats["frame_ms_median"],
+            "reference_timing_warning": stats["timing_warning"]}
+
+
+def timing_warned(rows: list[dict]) -> list[dict]:
+    """The rows whose frame time, or whose reference's, carries a timing warning."""
+    return [r for r in rows if r.get("timing_warning") or r.get("reference_timing_warning")]
+
+
 def _rgb(channels: dict) -> np.ndarray:
     return np.stack([channels[c] for c in "RGB"], axis=-1)
 
@@ -226,9 +238,8 @@ def execute_job(job: dict, settings: dict) -> dict:
         "sweep": job["sweep"], "overrides": job["overrides"], "parameters": job["parameters"],
         "frames": len(per_frame), "repeats": repeats,
         **timing_stats(timing_samples(log), settings["warmup"]),
-        "reference_ms_median": timing_stats(
-            timing_samples([ref_log[r["file"]] for r in log]),
-            settings["warmup"])["frame_ms_median"],
+        **_reference_timing(timing_stats(timing_samples([ref_log[r["file"]] for r in log]),
+                                         settings["warmup"])),
         # one-time work, never in frame time: everything the technique does before its first
         # frame (map capture, decomposition, ...); first_frame_ms shows first-frame caches
         "prepare_seconds": float(first.get("prepare_seconds", 0.0)),

@@ -5,10 +5,18 @@ from __future__ import annotations
 from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Strict as StrictMode
 
-Vec3 = tuple[float, float, float]
-Vec2 = tuple[float, float]
-Color = Annotated[tuple[float, float, float], Field(description="linear RGB")]
+
+def array_of(*items):
+    """A fixed-length tuple field that takes a TOML array (a list): only the container is
+    lax under the models' strict mode, its items stay strict."""
+    return Annotated[tuple[items], StrictMode(False)]
+
+
+Vec3 = array_of(float, float, float)
+Vec2 = array_of(float, float)
+Color = Annotated[Vec3, Field(description="linear RGB")]
 PositiveInt = Annotated[int, Field(gt=0)]
 UnitFloat = Annotated[float, Field(ge=0.0, le=1.0)]
 # map techniques: capture at frame 0 only, every frame, or every N frames (maps/update.py)
@@ -17,9 +25,13 @@ UpdatePolicy = Literal["once", "every"] | Annotated[int, Field(ge=1)]
 
 class Strict(BaseModel):
     """Unknown keys are errors (pbrt-style): a typo must not silently fall back to a default.
-    NaN and infinity are errors too: every range check would let them through."""
+    NaN and infinity are errors too: every range check would let them through. Types are
+    strict: `width = true`, `"160"` or `160.0` for an integer, or a string for a number, is
+    an error, not converted (pydantic's lax mode rendered `width = true` 1 pixel wide); an
+    integer still serves for a float."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True,
+                              strict=True)
 
 
 # ---------------------------------------------------------------- parameter tables

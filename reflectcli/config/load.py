@@ -10,6 +10,7 @@ writes them. Every value remembers the file it came from, so an error names that
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -243,7 +244,26 @@ def validation_problems(e: ValidationError, data: dict, prov: Provenance, defaul
             continue  # the other members of a union (`1.5` vs `[r, g, b]`): report the first
         seen.add((file, field))
         problems.append(Problem(file, field, _message(err, root, loc, data)))
-    return problems
+    return _one_line_per_typo(problems)
+
+
+def _one_line_per_typo(problems: list[Problem]) -> list[Problem]:
+    """A misspelled key is one mistake: its "unknown key (did you mean camera?)" line says
+    it all, so the "required" lines of the key it meant (or of the keys inside it:
+    `camera.eye: required`) are dropped."""
+    meant = []
+    for p in problems:
+        m = re.search(r"unknown key \(did you mean (.+)\?\)$", p.message)
+        if m:
+            parent = p.field.rpartition(".")[0]
+            meant.append((p.file, f"{parent}.{m.group(1)}" if parent else m.group(1)))
+
+    def covered(p: Problem) -> bool:
+        return p.message == "required" and any(
+            p.file == file and (p.field == key or p.field.startswith(key + "."))
+            for file, key in meant)
+
+    return [p for p in problems if not covered(p)]
 
 
 def load_document(

@@ -6,7 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import Discriminator, Field, Tag
 
-from .base import Color, Strict
+from .base import Color, Strict, array_of
 
 
 class SolidMaterial(Strict):
@@ -20,7 +20,7 @@ class CheckerMaterial(Strict):
     kind: Literal["checker"]
     color0: Color = (0.0, 0.0, 0.0)
     color1: Color = (1.0, 1.0, 1.0)
-    scale: tuple[Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]] = (8.0, 8.0)
+    scale: array_of(Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]) = (8.0, 8.0)
 
 
 class TextureMaterial(Strict):
@@ -30,7 +30,7 @@ class TextureMaterial(Strict):
     path: str
     srgb: bool = Field(default=True, description="decode sRGB to linear on load")
     filter: Literal["nearest", "bilinear"] = "bilinear"
-    scale: tuple[Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]] = (1.0, 1.0)
+    scale: array_of(Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]) = (1.0, 1.0)
 
 
 def _kind(value) -> str:

@@ -6,7 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from .base import Color, PositiveInt, Strict, UnitFloat, Vec2, Vec3
+from .base import Color, PositiveInt, Strict, UnitFloat, Vec2, Vec3, array_of
 from .objects import Transform
 
 
@@ -14,7 +14,7 @@ class _Mirror(Strict):
     """final = (1 - r) * base + r * reflected, per channel."""
 
     name: str
-    reflectance: UnitFloat | tuple[UnitFloat, UnitFloat, UnitFloat] = 1.0
+    reflectance: UnitFloat | array_of(UnitFloat, UnitFloat, UnitFloat) = 1.0
     base: Color = (0.0, 0.0, 0.0)
 
     @property
@@ -29,7 +29,7 @@ class _Mirror(Strict):
 
 class QuadMirror(_Mirror):
     shape: Literal["quad"]
-    corners: tuple[Vec3, Vec3, Vec3, Vec3]
+    corners: array_of(Vec3, Vec3, Vec3, Vec3)
 
     @property
     def planar(self) -> bool:
@@ -43,7 +43,7 @@ class RectangleMirror(_Mirror):
     center: Vec3
     normal: Vec3
     up: Vec3 = (0.0, 1.0, 0.0)
-    size: tuple[Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]]
+    size: array_of(Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)])
 
     @property
     def planar(self) -> bool:

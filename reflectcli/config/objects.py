@@ -6,7 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from .base import PositiveInt, Strict, Vec2, Vec3
+from .base import PositiveInt, Strict, Vec2, Vec3, array_of
 
 
 class Transform(Strict):
@@ -45,8 +45,8 @@ class _Object(Strict):
 
 class QuadObject(_Object):
     shape: Literal["quad"]
-    corners: tuple[Vec3, Vec3, Vec3, Vec3]
-    uv: tuple[Vec2, Vec2, Vec2, Vec2] = ((0, 0), (1, 0), (1, 1), (0, 1))
+    corners: array_of(Vec3, Vec3, Vec3, Vec3)
+    uv: array_of(Vec2, Vec2, Vec2, Vec2) = ((0, 0), (1, 0), (1, 1), (0, 1))
 
 
 class BoxObject(_Object):

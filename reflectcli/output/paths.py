@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import tempfile
 
 from ..errors import Problem, Problems
 
@@ -23,8 +24,10 @@ def inside(folder: str, name: str, source: str = "output", field: str = "") -> s
 
 
 def check_writable(folder: str, source: str, field: str) -> None:
-    """Refuse in one line a folder that a render could not create or write into, creating
-    nothing (`validate`): its nearest existing ancestor must be a directory we may write."""
+    """Refuse in one line a folder that a render could not create or write into, leaving
+    nothing behind (`validate`): its nearest existing ancestor must be a directory in which
+    a directory can be made (one is made and removed at once: permission bits alone pass
+    /proc for root, where render's makedirs then fails)."""
     existing = os.path.abspath(folder)
     while not os.path.lexists(existing) and os.path.dirname(existing) != existing:
         existing = os.path.dirname(existing)
@@ -33,7 +36,11 @@ def check_writable(folder: str, source: str, field: str) -> None:
     elif not os.access(existing, os.W_OK | os.X_OK):
         reason = "Permission denied"
     else:
-        return
+        try:
+            os.rmdir(tempfile.mkdtemp(prefix=".reflect-validate-", dir=existing))
+            return
+        except OSError as e:
+            reason = e.strerror or str(e)
     raise Problems([Problem(source, field, f"cannot write to '{folder}': {reason}")])
 
 

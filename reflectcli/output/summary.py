@@ -27,15 +27,18 @@ def spread_ms(seconds: list[float]) -> dict:
 
 
 def timings_summary(rows: list[dict], warmup: int = WARMUP_FRAMES) -> dict:
-    """The summary of a run's log rows (in render order): renders after `warmup` (the
-    repeats of a frame count as renders), per stage over the frames after `warmup`."""
+    """The summary of a run's log rows (in render order): the frame and each stage over
+    the renders after `warmup` (the repeats of a frame count as renders)."""
     samples = [t for row in rows for t in row.get("repeat_seconds", [row["frame_seconds"]])]
     warm = min(warmup, len(samples) - 1)
     timed = samples[warm:]
-    frame_rows = rows[min(warmup, len(rows) - 1):]
+    # each render's stages, in the same order: a still scene's repeats are timed renders
+    # too (its one log row's `stages` are its first, warm-up, render's)
+    renders_stages = [s for row in rows
+                      for s in row.get("repeat_stages", [row.get("stages", {})])]
     stages: dict[str, list[float]] = {}
-    for row in frame_rows:
-        for stage, seconds in row.get("stages", {}).items():
+    for render in renders_stages[warm:]:
+        for stage, seconds in render.items():
             stages.setdefault(stage, []).append(seconds)
     writes = [row["write_seconds"] for row in rows if "write_seconds" in row]
     warning = ""
@@ -65,11 +68,13 @@ def renders(rows: list[dict]) -> int:
     return sum(len(row.get("repeat_seconds", [0])) for row in rows)
 
 
-def write_summary(path: str, rows: list[dict]) -> None:
+def write_summary(path: str, rows: list[dict]) -> dict | None:
     """timings_summary of the rows as indented JSON, written atomically (nothing for fewer
-    than two renders)."""
+    than two renders); the summary written."""
     if renders(rows) < 2:
-        return
-    text = json.dumps(timings_summary(rows), indent=1, sort_keys=True) + "\n"
+        return None
+    summary = timings_summary(rows)
+    text = json.dumps(summary, indent=1, sort_keys=True) + "\n"
     with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as f:
         f.write(text)
+    return summary

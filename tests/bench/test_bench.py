@@ -261,6 +261,12 @@ set = ["camera.width=24", "camera.height=24"]
     path.write_text(text.replace("warmup = 1", "warmup = 1\nrepeats = 1"))
     row = run_bench(str(path)).rows[0]
     assert row["repeats"] == 1 and "timed" in row["timing_warning"]
+    # ... which the command line says too, not only report.md
+    result = CliRunner().invoke(cli, ["bench", str(path)])
+    assert result.exit_code == 0, result.output
+    assert "warning: 1 run(s) timed on too few renders" in result.stderr
+    report = (tmp_path / "out-still" / "report.md").read_text()
+    assert "**warning:" in report and "*" in report.split("**warning:")[1].split("\n")[0]
 
 
 def test_modern_preset_measures_screen_space_alone_and_the_chain_apart():

@@ -57,6 +57,24 @@ def test_report_rows_show_every_override_and_warnings():
     assert text.count("### Quality at equal time budget") == 2
 
 
+def test_ratios_from_a_warned_side_are_marked():
+    """A ratio is only as sound as its worse side: the warned row's own ratios, a ratio to
+    a warned rerender row and a ratio to a warned reference all carry a *."""
+    rows = [_row("rerender", 4.0, 0.0), _row("virtual", 8.0, 0.2), _row("envmap", 2.0, 0.5)]
+    rows[1]["timing_warning"] = "0 warm-up, 1 timed (want >= 1 warm-up, >= 3 timed)"
+    rows[2]["reference_timing_warning"] = "1 timed (want >= 1 warm-up, >= 3 timed)"
+    lines = {line.split(" | ")[0]: line.split(" | ") for line in
+             report_markdown("b", rows).splitlines() if line.startswith("| ")}
+    # x rerender, x raytrace: the 16th and 17th columns
+    assert lines["| rerender"][15:17] == ["1.00", "0.40"]
+    assert lines["| virtual"][15:17] == ["2.00*", "0.80*"]
+    assert lines["| envmap"][15:17] == ["0.50", "0.20*"]
+    rows[0]["timing_warning"] = "1 timed"
+    lines = {line.split(" | ")[0]: line.split(" | ") for line in
+             report_markdown("b", rows).splitlines() if line.startswith("| ")}
+    assert lines["| envmap"][15:17] == ["0.50*", "0.20*"]
+
+
 def test_plot_lines_never_join_scenes_or_other_values():
     pytest.importorskip("matplotlib")
     from reflectcli.bench.plots import _lines

@@ -6,7 +6,7 @@ import json
 import os
 
 import pytest
-from conftest import open_scene
+from conftest import SCENES, open_scene
 
 from reflectcli.output.log import read_jsonl
 from reflectcli.output.summary import SUMMARY_NAME, timings_summary
@@ -44,6 +44,37 @@ def test_timings_summary_warns_on_one_cold_frame():
     assert summary["frame"]["median_ms"] == 500.0
     repeated = timings_summary([{**row, "repeat_seconds": [0.5, 0.2, 0.3, 0.4]}])
     assert repeated["warning"] == "" and repeated["frame"]["median_ms"] == pytest.approx(300)
+
+
+def test_a_still_frames_stages_come_from_its_timed_repeats():
+    """A still scene's one log row holds its first render's stages (the warm-up: JIT, first
+    touches) in `stages`; the summary's stages are the repeats after it, as its frame time
+    is. (They were that one warm-up render's: a bench of a still scene showed seconds of
+    compilation as a stage's median.)"""
+    row = {"scene": "s", "technique": "t", "frame": 0, "frame_seconds": 5.0,
+           "stages": {"a": 4.0, "b": 1.0},
+           "repeat_seconds": [5.0, 0.3, 0.2, 0.4],
+           "repeat_stages": [{"a": 4.0, "b": 1.0}, {"a": 0.1, "b": 0.2},
+                             {"a": 0.05, "b": 0.15}, {"a": 0.2, "b": 0.2}]}
+    summary = timings_summary([row])
+    assert summary["timed_renders"] == 3 and summary["warning"] == ""
+    assert summary["stages"]["a"]["median_ms"] == pytest.approx(100.0)
+    assert summary["stages"]["b"]["median_ms"] == pytest.approx(200.0)
+    assert summary["stages"]["a"]["p75_ms"] < 4000.0
+
+
+def test_render_repeats_log_each_renders_stages(tmp_path):
+    from reflectcli import api
+
+    result = api.render(str(SCENES / "teapot-box.toml"), out=str(tmp_path), frames="0",
+                        technique="rerender", overrides=list(SMALL[:2]), threads=1, repeats=4)
+    (row,) = read_jsonl(os.path.join(result.folder, "timings.jsonl"))
+    assert len(row["repeat_stages"]) == 4 and row["repeat_stages"][0] == row["stages"]
+    assert all(set(s) == set(row["stages"]) for s in row["repeat_stages"])
+    with open(os.path.join(result.folder, SUMMARY_NAME)) as f:
+        summary = json.load(f)
+    timed = sorted(1e3 * s["rasterize"] for s in row["repeat_stages"][1:])
+    assert summary["stages"]["rasterize"]["median_ms"] == pytest.approx(timed[1])
 
 
 @pytest.mark.parametrize("technique,extra", [
