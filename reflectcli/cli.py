@@ -265,11 +265,11 @@ def bench(file, resume, workers, scheduler, threads, out, overrides) -> None:
 
     warned = timing_warned(result.rows)
     if warned:
+        first = warned[0]
+        why = first.get("timing_warning") or first.get("reference_timing_warning")
         click.echo(f"warning: {len(warned)} run(s) timed on too few renders or with no warm-up "
-                   f"(e.g. {warned[0]['run']}: "
-                   f"{warned[0]['timing_warning'] or warned[0]['reference_timing_warning']}); "
-                   "their frame times and ratios are marked in report.md, not figures to "
-                   "quote", err=True)
+                   f"(e.g. {first.get('run')}: {why}); their frame times and ratios are "
+                   "marked in report.md, not figures to quote", err=True)
 
 
 @cli.command()

@@ -17,7 +17,8 @@ from .loading import load_config
 
 
 def _check_output_folder(cfg, display: str) -> None:
-    """The checks render makes of its output folder, short of creating it."""
+    """The checks render makes of its output folder, short of creating it (a folder is
+    made and removed where it would go: paths.check_writable)."""
     from .output.paths import check_writable, inside
 
     folder = inside(inside(cfg.output.dir, cfg.scene.name, display, "scene.name"),

@@ -415,6 +415,18 @@ def test_validate_reports_bad_scene_on_stdout(here, case):
     assert_bad_input(result, "stdout", expected, here)
 
 
+def test_strict_types_still_take_toml_arrays_in_unions(here):
+    """Strict models keep a TOML array valid for a tuple, also as a union's member
+    (`reflectance = 0.5 | [r, g, b]`, `scale = 2 | [x, y, z]`): pydantic before 2.11 forced
+    strictness onto every member of a strict union and refused them."""
+    text = (TINY.replace("reflectance = 0.5", "reflectance = [0.5, 0.6, 0.7]")
+            .replace("transform = { translate = [0.0, 0.5, 0.0] }",
+                     "transform = { translate = [0.0, 0.5, 0.0], scale = [1, 2, 1] }"))
+    assert text != TINY and "scale = [1, 2, 1]" in text
+    result = invoke("validate", write_scene(here, text))
+    assert result.exit_code == 0 and result.stdout.strip() == "ok", result.output
+
+
 @pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc")
 def test_validate_refuses_an_output_dir_render_could_not_make(here):
     """/proc passes a permission test for root, yet nothing can be made in it: validate

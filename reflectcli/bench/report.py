@@ -117,9 +117,10 @@ def report_markdown(name: str, rows: list[dict]) -> str:
              "reflected ray meets geometry in the reference, those the technique left empty; "
              "'unreached': every mirror pixel it did not reach, background reflections "
              "included.", ""]
-    rerender = {_scene_key(r): r["frame_ms_median"] for r in rows if r["technique"] == "rerender"}
-    rerender_warned = {_scene_key(r) for r in rows
-                       if r["technique"] == "rerender" and r.get("timing_warning")}
+    # per scene key, the rerender row's frame time and whether it is warned (one row: the
+    # ratio and its mark come from the same run)
+    rerender = {_scene_key(r): (r["frame_ms_median"], bool(r.get("timing_warning")))
+                for r in rows if r["technique"] == "rerender"}
     if rows:
         first = rows[0]
         lines += [f"Machine: {first['cpu']}, {first['threads']} threads; versions: "
@@ -132,7 +133,7 @@ def report_markdown(name: str, rows: list[dict]) -> str:
                   "| x raytrace | triangles |",
                   "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in (r for r in rows if r["scene"] == scene):
-            rr = rerender.get(_scene_key(r))
+            rr, rr_warned = rerender.get(_scene_key(r), (None, False))
             timing = (f"{_fmt(r['frame_ms_median'])} ({_fmt(r['frame_ms_p25'])}-"
                       f"{_fmt(r['frame_ms_p75'])})")
             if r.get("timing_warning"):
@@ -140,7 +141,7 @@ def report_markdown(name: str, rows: list[dict]) -> str:
             # a ratio is only as sound as its worse side: marked when either side is warned
             mark = "*" if r.get("timing_warning") else ""
             x_rerender = (_fmt(r["frame_ms_median"] / rr, 2)
-                          + (mark or ("*" if _scene_key(r) in rerender_warned else ""))
+                          + (mark or ("*" if rr_warned else ""))
                           if rr else "-")
             x_raytrace = (_fmt(r["frame_ms_median"] / r["reference_ms_median"], 2)
                           + (mark or ("*" if r.get("reference_timing_warning") else "")))

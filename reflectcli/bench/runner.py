@@ -103,10 +103,12 @@ def _plan_jobs(plan: BenchPlan, cfg: BenchConfig, path: str, display: str,
             f"technique.max_depth={cfg.bench.reference_depth}"]
         ref = api.open_scene(job["scene"], overrides=ref_overrides, technique="raytrace")
         # the scene's content (files it reads included) is in the id: an edited scene gets a
-        # new reference instead of being scored against the old one
+        # new reference instead of being scored against the old one; so are its renders
+        # (repeats, warm-up): a reference timed on too few renders is not reused once the
+        # bench file asks for more (its `x raytrace` ratios stayed marked)
         job["reference"] = {
             "id": _digest(os.path.relpath(job["scene"]), ref_overrides, job["frames"],
-                          ref.scene_hash),
+                          ref.scene_hash, job["repeats"], cfg.bench.warmup),
             "overrides": ref_overrides,
             "scene_name": ref.name,
         }

@@ -37,10 +37,13 @@ def check_writable(folder: str, source: str, field: str) -> None:
         reason = "Permission denied"
     else:
         try:
-            os.rmdir(tempfile.mkdtemp(prefix=".reflect-validate-", dir=existing))
-            return
+            made = tempfile.mkdtemp(prefix=".reflect-validate-", dir=existing)
         except OSError as e:
             reason = e.strerror or str(e)
+        else:
+            with contextlib.suppress(OSError):
+                os.rmdir(made)
+            return
     raise Problems([Problem(source, field, f"cannot write to '{folder}': {reason}")])
 
 

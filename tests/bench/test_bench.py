@@ -269,6 +269,31 @@ set = ["camera.width=24", "camera.height=24"]
     assert "**warning:" in report and "*" in report.split("**warning:")[1].split("\n")[0]
 
 
+def test_a_reference_is_rendered_again_when_the_renders_asked_for_change(tmp_path):
+    """A reference timed on too few renders is not reused once the bench file asks for
+    more: its renders are in its id, as a run's are in the run's."""
+    from reflectcli.bench.runner import load_bench
+
+    text = f"""
+[bench]
+name = "ids"
+frames = "0"
+warmup = 1
+repeats = REPEATS
+
+[[runs]]
+scenes = ["{ROOT / 'scenes' / 'four-spheres.toml'}"]
+techniques = ["envmap"]
+"""
+    ids = []
+    for repeats in (1, 4):
+        path = tmp_path / f"r{repeats}.toml"
+        path.write_text(text.replace("REPEATS", str(repeats)))
+        (job,) = load_bench(str(path)).jobs
+        ids.append(job["reference"]["id"])
+    assert ids[0] != ids[1]
+
+
 def test_modern_preset_measures_screen_space_alone_and_the_chain_apart():
     from reflectcli.bench.runner import load_bench
 

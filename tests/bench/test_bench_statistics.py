@@ -73,6 +73,12 @@ def test_ratios_from_a_warned_side_are_marked():
     lines = {line.split(" | ")[0]: line.split(" | ") for line in
              report_markdown("b", rows).splitlines() if line.startswith("| ")}
     assert lines["| envmap"][15:17] == ["0.50*", "0.20*"]
+    # two rerender rows on one scene (a sweep): the ratio and its mark are the same row's
+    other = _row("rerender", 8.0, 0.0)
+    (envmap,) = [line.split(" | ") for line in
+                 report_markdown("b", [rows[0], rows[2], other]).splitlines()
+                 if line.startswith("| envmap | ")]
+    assert envmap[15] == "0.25"  # the last rerender row (8 ms, not warned): no mark
 
 
 def test_plot_lines_never_join_scenes_or_other_values():
