@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic import Strict as StrictMode
 
 
-def array_of(*items):
+def array_of(*items: Any) -> Any:
     """A fixed-length tuple field that takes a TOML array (a list): only the container is
     lax under the models' strict mode, its items stay strict."""
     return Annotated[tuple[items], StrictMode(False)]
