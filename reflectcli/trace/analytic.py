@@ -247,7 +247,7 @@ def intersect_rows(a, b, j0, per_row, spp, boxes, origins, directions, tfar, kin
                 lo = min(lo, boxes[k, 0] * spp)
                 hi = max(hi, boxes[k, 1] * spp)
         for n in range(first, last):
-            i = np.uint64(n)  # unsigned: no test for a negative index (wraparound) per access
+            i = np.uint64(n)  # unsigned, as in resolve.resolve_range
             if lo <= n - first < hi:
                 _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out,
                               idx_out)

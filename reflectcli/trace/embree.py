@@ -164,9 +164,8 @@ def intersect_range(scene, origins, directions, tfar, a, b, t, prim, u, v, buf, 
     address = buf.ctypes.data + 4 * off
     valid = off + _PACKET_FLOATS
     one_tfar = tfar.shape[0] == 1
-    # indices as unsigned integers (all are >= 0): numba then leaves out each signed index's
-    # test for a negative value (Python's wraparound) at every access. Lane q of field f
-    # (of the structure's 22) is at off + f * _LANES + q.
+    # (indices unsigned, as in resolve_range.) Lane q of field f (of the structure's 22) is
+    # at off + f * _LANES + q.
     lane0 = np.uint64(off)
     for first in range(a, b, _LANES):
         lanes = min(_LANES, b - first)

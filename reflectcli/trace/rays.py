@@ -88,8 +88,7 @@ def rows_of_rays(j0, j1, shift, cam, origins, dirs):
 @njit(cache=True, inline="always")
 def _row(first, width, x_right, yx, yy, yz, bx, by, bz, ex, ey, ez, near, origins, dirs):
     """One sample per pixel: the rays of one row, from ray `first` on, in a loop with no
-    inner loops (it vectorises). Indices unsigned (all are >= 0): numba then leaves out
-    each signed index's test for a negative value (Python's wraparound)."""
+    inner loops (it vectorises). Indices unsigned, as in resolve.resolve_range."""
     for n in range(width):
         i = np.uint64(n)
         k = np.uint64(first + n)

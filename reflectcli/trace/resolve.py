@@ -101,7 +101,8 @@ def resolve_range(lo, hi, rays, object_hits, mirror_hits, analytic_hits, surface
     out_o, out_d, out_w, out_slot = out_rays
     j = np.uint64(out_start)
     # indices as unsigned integers (all are >= 0 here): numba then leaves out each signed
-    # index's test for a negative value (Python's wraparound) at every array access
+    # index's test for a negative value (Python's wraparound) at every array access; the
+    # tracer's other per-ray loops and shading.material_albedo do the same
     for n in range(hi - lo):
         i = np.uint64(lo + n)
         if first:

@@ -172,7 +172,7 @@ def _wave(lo, hi, j0, rows_per_seg, cam, rays, tfar, objects, mirrors, analytic,
     else:
         emitted = resolve_range(lo, hi, rays, (t_o, p_o, u_o, v_o), (t_m, p_m, u_m, v_m),
                                 (t_a, k_a), surfaces, follow, color, hits, out_rays, lo, False)
-    # (indices unsigned: no test for a negative index, Python's wraparound, per access)
+    # (indices unsigned, as in resolve.resolve_range)
     if first:  # depth: t + near (a miss's inf stays inf)
         for n in range(lo, hi):
             hit_t[np.uint64(n)] += near
