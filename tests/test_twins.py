@@ -166,12 +166,14 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
                                       + WAVE, "_intersect"),
     "trace/analytic.py:_sphere": (ANALYTIC, "_intersect"),
     "trace/analytic.py:_cylinder": (ANALYTIC, "_intersect"),
-    "trace/analytic.py:_inner": (ANALYTIC, "_quad"),
-    "trace/analytic.py:_quad": (ANALYTIC, "_intersect"),
+    "trace/analytic.py:_inner": (ANALYTIC, "_quad_run"),
+    "trace/analytic.py:_quad_run": (ANALYTIC + WAVE, "_mirror_run"),
+    "trace/analytic.py:_mirror_run": (ANALYTIC + WAVE, "intersect_range"),
+    "trace/analytic.py:_start": (ANALYTIC + WAVE, "intersect_range"),
+    "trace/analytic.py:_finish": (ANALYTIC + WAVE, "intersect_range"),
     "trace/analytic.py:_intersect": (
         ANALYTIC + [E + "test_analytic_property_cases_are_mostly_clear"], "intersect_analytic"),
-    "trace/analytic.py:_nearest_into": (ANALYTIC, "_intersect"),
-    "trace/analytic.py:intersect_range": (WAVE, "_wave"),
+    "trace/analytic.py:intersect_range": (ANALYTIC + WAVE, "_wave"),
     "trace/analytic.py:intersect_rows": (
         WAVE + ["tests/trace/test_screen_boxes.py::test_every_mirror_hit_lies_in_its_box"],
         "_wave"),

@@ -46,6 +46,8 @@ def intersect_analytic(
         t, idx = out
     if has_analytic(kind):
         params = np.ascontiguousarray(params, dtype=np.float64)
+        # contiguous: the kernels read the rays through flat views
+        origins, directions = np.ascontiguousarray(origins), np.ascontiguousarray(directions)
         if edges is None:
             edges = quad_edges(kind, params)
         _intersect(origins, directions, tfar, kind, params, edges, tmin, t, idx)
@@ -187,103 +189,143 @@ def _cylinder(ox, oy, oz, dx, dy, dz, params, k, tmin):
 
 
 @njit(cache=True, inline="always")
-def _quad(ox, oy, oz, dx, dy, dz, params, edges, k, tmin):
-    """t > tmin where the ray meets planar mirror k's quad (triangles p00 p10 p11 and p00 p11
-    p01, edges inclusive; `edges`: quad_edges). Rows are read in place (a row view per ray
-    costs reference counting)."""
+def _quad_run(lo, hi, base, o_flat, d_flat, params, edges, k, tmin, best, found):
+    """Planar mirror k (triangles p00 p10 p11 and p00 p11 p01, edges inclusive; `edges`:
+    quad_edges) against rays lo .. hi - 1 (origins and directions as flat float32 views, ray
+    i at 3 * i): where the ray meets the quad at t > tmin and t < best[i - base], best
+    becomes t and found[i] k. The loop has no branch and no exit, so it runs as vector code:
+    the mirror's plane and edges are read into scalars first (a read of `edges` inside it
+    could be the same memory as a write to `best`, for all the compiler knows), and the
+    division is by 1 where the ray runs parallel to the plane (numba's check for a zero
+    divisor would leave the loop). Lane by lane the same arithmetic as scalar code, so the
+    same bits."""
     nx, ny, nz = params[k, PLANE_NORMAL], params[k, PLANE_NORMAL + 1], params[k, PLANE_NORMAL + 2]
-    denom = nx * dx + ny * dy + nz * dz
-    if denom == 0.0:
-        return np.inf
-    t = -(nx * ox + ny * oy + nz * oz + params[k, PLANE_D]) / denom
-    if not t > tmin:
-        return np.inf
-    px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
-    if (_inner(edges, k, 0, px, py, pz) and _inner(edges, k, 1, px, py, pz)
-            and _inner(edges, k, 2, px, py, pz)):
-        return t
-    if (_inner(edges, k, 3, px, py, pz) and _inner(edges, k, 4, px, py, pz)
-            and _inner(edges, k, 5, px, py, pz)):
-        return t
-    return np.inf
+    pd = params[k, PLANE_D]
+    a0, a1, a2, a3 = edges[k, 0, 0], edges[k, 0, 1], edges[k, 0, 2], edges[k, 0, 3]
+    b0, b1, b2, b3 = edges[k, 1, 0], edges[k, 1, 1], edges[k, 1, 2], edges[k, 1, 3]
+    c0, c1, c2, c3 = edges[k, 2, 0], edges[k, 2, 1], edges[k, 2, 2], edges[k, 2, 3]
+    d0, d1, d2, d3 = edges[k, 3, 0], edges[k, 3, 1], edges[k, 3, 2], edges[k, 3, 3]
+    e0, e1, e2, e3 = edges[k, 4, 0], edges[k, 4, 1], edges[k, 4, 2], edges[k, 4, 3]
+    f0, f1, f2, f3 = edges[k, 5, 0], edges[k, 5, 1], edges[k, 5, 2], edges[k, 5, 3]
+    mirror = np.int32(k)
+    f64 = np.float64
+    three = np.uint64(3)
+    for n in range(hi - lo):
+        i = np.uint64(lo + n)  # unsigned, as in resolve.resolve_range
+        r = np.uint64(lo + n - base)
+        x, y, z = three * i, three * i + np.uint64(1), three * i + np.uint64(2)
+        ox, oy, oz = f64(o_flat[x]), f64(o_flat[y]), f64(o_flat[z])
+        dx, dy, dz = f64(d_flat[x]), f64(d_flat[y]), f64(d_flat[z])
+        denom = nx * dx + ny * dy + nz * dz
+        crosses = denom != 0.0
+        t = -(nx * ox + ny * oy + nz * oz + pd) / (denom if crosses else 1.0)
+        px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
+        # inner side of (or on) each edge; NaN counts in
+        first = (_inner(a0, a1, a2, a3, px, py, pz) & _inner(b0, b1, b2, b3, px, py, pz)
+                 & _inner(c0, c1, c2, c3, px, py, pz))
+        second = (_inner(d0, d1, d2, d3, px, py, pz) & _inner(e0, e1, e2, e3, px, py, pz)
+                  & _inner(f0, f1, f2, f3, px, py, pz))
+        nearer = crosses & (t > tmin) & (first | second) & (t < best[r])
+        best[r] = t if nearer else best[r]
+        found[i] = mirror if nearer else found[i]
 
 
 @njit(cache=True, inline="always")
-def _inner(edges, k, e, px, py, pz):
-    """Is the point on the inner side of (or on) edge e of mirror k's quad_edges (NaN counts
-    in)?"""
-    return not (edges[k, e, 0] * px + edges[k, e, 1] * py + edges[k, e, 2] * pz
-                - edges[k, e, 3] < 0.0)
+def _inner(mx, my, mz, w, px, py, pz):
+    """Is the point on the inner side of (or on) the edge plane m . p = w (quad_edges; NaN
+    counts in)?"""
+    return not (mx * px + my * py + mz * pz - w < 0.0)
+
+
+@njit(cache=True, inline="always")
+def _mirror_run(lo, hi, base, origins, directions, o_flat, d_flat, kind, params, edges, k,
+                tmin, best, found):
+    """Mirror k against rays lo .. hi - 1: where a ray meets it at t > tmin nearer than
+    best[i - base], best becomes t and found[i] k (planar mirrors as vector code,
+    `_quad_run`)."""
+    if kind[k] == PLANAR:
+        _quad_run(lo, hi, base, o_flat, d_flat, params, edges, k, tmin, best, found)
+        return
+    if kind[k] != SPHERE and kind[k] != CYLINDER:
+        return
+    f64 = np.float64
+    for n in range(hi - lo):
+        i = np.uint64(lo + n)
+        r = np.uint64(lo + n - base)
+        ox, oy, oz = f64(origins[i, 0]), f64(origins[i, 1]), f64(origins[i, 2])
+        dx, dy, dz = f64(directions[i, 0]), f64(directions[i, 1]), f64(directions[i, 2])
+        if kind[k] == SPHERE:
+            t = _sphere(ox, oy, oz, dx, dy, dz, params[k, SPHERE_CENTER],
+                        params[k, SPHERE_CENTER + 1], params[k, SPHERE_CENTER + 2],
+                        params[k, SPHERE_RADIUS], tmin)
+        else:
+            t = _cylinder(ox, oy, oz, dx, dy, dz, params, k, tmin)
+        if t < best[r]:
+            best[r] = t
+            found[i] = k
+
+
+@njit(cache=True, inline="always")
+def _start(a, b, tfar, found):
+    """The running nearest t (float64) of rays a .. b - 1, from their tfar (tfar[i], or
+    tfar[0] for all when it has one entry), and no mirror found yet."""
+    best = np.empty(b - a)
+    one = tfar.shape[0] == 1
+    for n in range(b - a):
+        i = np.uint64(a + n)
+        best[n] = np.float64(tfar[0] if one else tfar[i])
+        found[i] = -1
+    return best
+
+
+@njit(cache=True, inline="always")
+def _finish(a, b, best, t_out, found):
+    """t_out[i] of rays a .. b - 1: the nearest t found (as float32), inf where none was."""
+    for n in range(b - a):
+        i = np.uint64(a + n)
+        t_out[i] = best[n] if found[i] >= 0 else np.inf
 
 
 @njit(cache=True, parallel=True)
 def _intersect(origins, directions, tfar, kind, params, edges, tmin, t_out, idx_out):
-    for i in prange(origins.shape[0]):
-        _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out, idx_out)
+    """intersect_range over all rays, in runs of 4096 shared among the threads."""
+    n = origins.shape[0]
+    for c in prange((n + 4095) // 4096):
+        intersect_range(c * 4096, min(n, (c + 1) * 4096), origins, directions, tfar, kind,
+                        params, edges, tmin, t_out, idx_out)
 
 
 @njit(cache=True, inline="always")
 def intersect_range(a, b, origins, directions, tfar, kind, params, edges, tmin, t_out,
                     idx_out):
     """intersect_analytic for rays a .. b - 1 (tfar[i], or tfar[0] for all when it has one
-    entry), written at their indices: t or inf, mirror index or -1."""
-    for i in range(a, b):
-        _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out, idx_out)
+    entry), written at their indices: t or inf, mirror index or -1. Mirror by mirror over the
+    rays, in the mirrors' order (the nearer wins, the first on a tie), each ray's running
+    nearest t in float64."""
+    best = _start(a, b, tfar, idx_out)
+    o_flat, d_flat = origins.reshape(-1), directions.reshape(-1)
+    for k in range(kind.shape[0]):
+        _mirror_run(a, b, a, origins, directions, o_flat, d_flat, kind, params, edges, k, tmin,
+                    best, idx_out)
+    _finish(a, b, best, t_out, idx_out)
 
 
 @njit(cache=True, inline="always")
 def intersect_rows(a, b, j0, per_row, spp, boxes, origins, directions, tfar, kind, params,
                    edges, tmin, t_out, idx_out):
     """intersect_range for primary rays a .. b - 1, image rows j0 onward (per_row rays a
-    row, spp a pixel): in each row only the rays of pixels within some mirror's
-    `screen_boxes` box are traced (all mirrors, as intersect_range traces them); the others
-    can meet none and get a miss."""
+    row, spp a pixel): each mirror is traced only on the rays of pixels within its
+    `screen_boxes` box; the others can meet none and get a miss."""
+    best = _start(a, b, tfar, idx_out)
+    o_flat, d_flat = origins.reshape(-1), directions.reshape(-1)
     j = j0
     for first in range(a, b, per_row):
         last = min(b, first + per_row)
-        lo, hi = per_row, 0  # the row's rays to trace, counted from the row's start
         for k in range(boxes.shape[0]):
             if boxes[k, 2] <= j < boxes[k, 3]:
-                lo = min(lo, boxes[k, 0] * spp)
-                hi = max(hi, boxes[k, 1] * spp)
-        for n in range(first, last):
-            i = np.uint64(n)  # unsigned, as in resolve.resolve_range
-            if lo <= n - first < hi:
-                _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out,
-                              idx_out)
-            else:
-                t_out[i] = np.inf
-                idx_out[i] = -1
+                lo = first + boxes[k, 0] * spp
+                hi = min(last, first + boxes[k, 1] * spp)
+                _mirror_run(lo, hi, a, origins, directions, o_flat, d_flat, kind, params,
+                            edges, k, tmin, best, idx_out)
         j += 1
-
-
-@njit(cache=True, inline="always")
-def _nearest_into(i, origins, directions, tfar, kind, params, edges, tmin, t_out, idx_out):
-    """Ray i's nearest analytic mirror in (tmin, tfar), worked in float64, into t_out[i]
-    (float32; inf on a miss) and idx_out[i] (-1 on a miss)."""
-    # np.float64, not float(): numba's float() keeps a float32 a float32
-    f64 = np.float64
-    ox, oy, oz = f64(origins[i, 0]), f64(origins[i, 1]), f64(origins[i, 2])
-    dx, dy, dz = f64(directions[i, 0]), f64(directions[i, 1]), f64(directions[i, 2])
-    best = f64(tfar[0] if tfar.shape[0] == 1 else tfar[i])
-    found = -1
-    for k in range(kind.shape[0]):
-        if kind[k] == SPHERE:
-            t = _sphere(ox, oy, oz, dx, dy, dz, params[k, SPHERE_CENTER],
-                        params[k, SPHERE_CENTER + 1], params[k, SPHERE_CENTER + 2],
-                        params[k, SPHERE_RADIUS], tmin)
-        elif kind[k] == CYLINDER:
-            t = _cylinder(ox, oy, oz, dx, dy, dz, params, k, tmin)
-        elif kind[k] == PLANAR:
-            t = _quad(ox, oy, oz, dx, dy, dz, params, edges, k, tmin)
-        else:
-            continue
-        if t < best:
-            best = t
-            found = k
-    if found >= 0:
-        t_out[i] = best
-        idx_out[i] = found
-    else:
-        t_out[i] = np.inf
-        idx_out[i] = -1
+    _finish(a, b, best, t_out, idx_out)
