@@ -40,9 +40,10 @@ from .output.identity import (
     new_run_id,
     scene_identity,
 )
+from .output.names import SUMMARY_NAME
 from .output.paths import inside, remove_stale_temps
 from .output.png import write_png
-from .output.summary import SUMMARY_NAME, write_summary
+from .output.summary import write_summary
 from .provenance import cpu_name, versions
 from .scene.build import build_scene, scene_hashes
 from .scene.types import Scene

@@ -129,8 +129,9 @@ def _huge_numbers(node, loc: tuple, add) -> bool:
 
 def output_names(cfg, add) -> None:
     """Outputs stay inside the output folder and never replace one another: the scene name is
-    a folder name, the log a plain file name that is not a frame's."""
-    import re
+    a folder name, the log a plain file name that is no other output's (a frame's, the
+    timings summary's, the lock's: output/names.py)."""
+    from ..output.names import taken_by
 
     if cfg.scene.name in (".", ".."):
         add(("scene", "name"), "must name a folder ('.' and '..' are not names)")
@@ -138,8 +139,8 @@ def output_names(cfg, add) -> None:
     if (not log or "/" in log or "\\" in log or "\0" in log or log in (".", "..")
             or log.startswith(".")):
         add(("output", "log"), "must be a plain file name inside the frame folder")
-    elif re.fullmatch(r"(?i)frame_\d+\.(exr|png)|.*\.(exr|png)", log):
-        add(("output", "log"), "must not be named like a frame (.exr or .png)")
+    elif (taken := taken_by(log)) is not None:
+        add(("output", "log"), f"must not be named like {taken}")
     if "\0" in cfg.output.dir:
         add(("output", "dir"), "path contains a NUL byte")
 

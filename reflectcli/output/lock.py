@@ -8,8 +8,7 @@ import os
 from collections.abc import Iterator
 
 from ..errors import Problem, Problems
-
-LOCK_NAME = ".reflect.lock"
+from .names import LOCK_NAME
 
 
 @contextlib.contextmanager

@@ -15,7 +15,6 @@ import numpy as np
 
 from .atomic import atomic_path
 
-SUMMARY_NAME = "timings-summary.json"
 WARMUP_FRAMES = 1  # renders left out of the statistics
 MIN_TIMED = 3  # renders after the warm-up for a spread worth quoting
 

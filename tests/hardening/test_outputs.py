@@ -36,6 +36,15 @@ def test_log_named_like_a_frame_in_the_file(tmp_path):
         check_bad(scene, "s.toml: output.log:")
 
 
+@pytest.mark.parametrize("name", ["timings-summary.json", "Timings-Summary.JSON"])
+def test_log_named_like_the_summary_is_refused(tmp_path, name):
+    # the summary, written last, replaced every frame's row
+    scene = write(tmp_path, "s.toml", TINY + f'\n[output]\nlog = "{name}"\n')
+    with chdir(tmp_path):
+        line = check_bad(scene, "s.toml: output.log:", "timings summary")
+    assert "timings-summary.json" in line
+
+
 def test_cache_clear_deletes_only_cache_files(tmp_path):
     cache = tmp_path / "cache"
     cache.mkdir()

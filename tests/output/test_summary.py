@@ -9,7 +9,8 @@ import pytest
 from conftest import SCENES, open_scene
 
 from reflectcli.output.log import read_jsonl
-from reflectcli.output.summary import SUMMARY_NAME, timings_summary
+from reflectcli.output.names import SUMMARY_NAME
+from reflectcli.output.summary import timings_summary
 
 SMALL = ("camera.width=64", "camera.height=48", "camera.path.frames=4")
 
