@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .atomic import atomic_path
+from .failures import image_failure
 
 FIXED_DATETIME = "2000:01:01 00:00:00"
 
@@ -28,6 +29,15 @@ def write_exr(path: str, channels: dict[str, np.ndarray], attributes: dict[str, 
 def write_exr_packed(path: str, names: list[str], data: np.ndarray,
                      attributes: dict[str, str]) -> None:
     """write_exr of channels already packed by pack_channels."""
+    with atomic_path(path) as tmp:
+        write_exr_at(tmp, path, names, data, attributes)
+
+
+def write_exr_at(tmp: str, path: str, names: list[str], data: np.ndarray,
+                 attributes: dict[str, str]) -> None:
+    """write_exr_packed into `tmp`, an atomic_path of `path` that the caller renames (a frame
+    renames its files once its log row is written: frame_writer.py). A failure raises
+    WriteFailed naming `path`, its reason found while `tmp` still fills the disk."""
     import OpenImageIO as oiio
 
     h, w = data.shape[:2]
@@ -37,14 +47,13 @@ def write_exr_packed(path: str, names: list[str], data: np.ndarray,
     for key, value in attributes.items():
         spec.attribute(key, str(value))
     spec.attribute("DateTime", FIXED_DATETIME)
-    with atomic_path(path) as tmp:
-        out = oiio.ImageOutput.create(tmp)
-        if out is None or not out.open(tmp, spec):
-            raise OSError(f"cannot write {path}: {oiio.geterror()}")
-        ok = out.write_image(data)
-        ok = out.close() and ok
-        if not ok:
-            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+    out = oiio.ImageOutput.create(tmp)
+    if out is None or not out.open(tmp, spec):
+        raise image_failure(path, oiio.geterror())
+    ok = out.write_image(data)
+    ok = out.close() and ok
+    if not ok:
+        raise image_failure(path, oiio.geterror())
 
 
 def read_exr(path: str) -> tuple[dict[str, np.ndarray], dict[str, str]]:
@@ -93,13 +102,13 @@ def write_exr_parts(
     with atomic_path(path) as tmp:
         out = oiio.ImageOutput.create(tmp)
         if out is None or not out.open(tmp, specs):
-            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+            raise image_failure(path, oiio.geterror())
         ok = out.write_image(datas[0])
         for spec, data in zip(specs[1:], datas[1:], strict=True):
             ok = ok and out.open(tmp, spec, "AppendSubimage") and out.write_image(data)
         ok = out.close() and ok
         if not ok:
-            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+            raise image_failure(path, oiio.geterror())
 
 
 def read_exr_parts(path: str) -> list[tuple[str, dict[str, np.ndarray], dict[str, str]]]:

@@ -40,11 +40,11 @@ def write_failure(e: BaseException, path: str) -> WriteFailed:
     return e if isinstance(e, WriteFailed) else WriteFailed(path, reason(e, path))
 
 
-def discard(*paths: str) -> None:
-    """Remove files written for an item that cannot be completed (kept whole or not at all)."""
-    for path in paths:
-        with contextlib.suppress(OSError):
-            os.unlink(path)
+def image_failure(path: str, error: str) -> WriteFailed:
+    """An image library's failure to write `path`, as WriteFailed. Called while the partial
+    temporary file is still on disk: once it is removed, a full disk no longer looks full
+    and the reason would be "unknown error"."""
+    return WriteFailed(path, reason(OSError(error), path))
 
 
 def one_line(e: BaseException) -> str:

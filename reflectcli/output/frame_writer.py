@@ -1,8 +1,11 @@
 """A rendered frame's files (EXR, optional PNG preview, log row), written all or nothing,
 either at once or on one background thread while the next frame renders.
 
-A frame is kept with its log line or not at all: the EXR, then the preview, then the log row;
-if any of them fails, what was written of the frame is removed and the failure names the file.
+A frame is kept with its log line or not at all: the EXR and the preview are written under
+temporary names, then the log row is appended, and only then are the two renamed into place.
+If any of them fails, only the temporary files are removed: a frame written by an earlier
+run stays whole with its own log row (a full disk on a re-render loses nothing), and the
+failure names the file and the OS reason.
 With `overlap`, at most one frame is in flight: submitting the next one first waits for it,
 so log rows stay in frame order and a write failure stops the run one frame later at most.
 The writer thread receives private copies of the pixels (the technique reuses its buffers).
@@ -10,6 +13,7 @@ The writer thread receives private copies of the pixels (the technique reuses it
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -18,10 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..interrupts import deferred
-from .exr import pack_channels, write_exr_packed
-from .failures import discard, write_failure
-from .log import append_jsonl
-from .png import write_png
+from .atomic import atomic_path
+from .exr import pack_channels, write_exr_at
+from .failures import write_failure
+from .log import append_jsonl, cut_back
+from .png import write_png_at
 
 
 @dataclass
@@ -50,20 +55,30 @@ class FrameFiles:
 
 def write_frame_files(files: FrameFiles) -> dict:
     """EXR, preview, log row; returns the row as logged (with its write_seconds). On an
-    OSError the frame's files are removed and a WriteFailed naming the file being written is
-    raised."""
+    OSError a WriteFailed naming the file being written is raised, and the files a previous
+    run left under these names are as they were."""
     start = time.perf_counter()
     target = files.exr
     try:
-        write_exr_packed(files.exr, files.channel_names, files.channel_data, files.attributes)
-        if files.preview_rgb is not None:
-            target = files.png
-            write_png(target, files.preview_rgb)
-        target = files.log_path
-        row = {**files.row, "write_seconds": time.perf_counter() - start}
-        append_jsonl(files.log_path, row)
+        # temporary names until the row is logged; staged.close() renames them, preview first
+        with contextlib.ExitStack() as staged:
+            tmp = staged.enter_context(atomic_path(files.exr))
+            write_exr_at(tmp, files.exr, files.channel_names, files.channel_data,
+                         files.attributes)
+            if files.preview_rgb is not None:
+                target = files.png
+                write_png_at(staged.enter_context(atomic_path(target)), target,
+                             files.preview_rgb)
+            target = files.log_path
+            row = {**files.row, "write_seconds": time.perf_counter() - start}
+            logged_at = append_jsonl(files.log_path, row)
+            target = files.exr
+            try:
+                staged.close()  # the renames
+            except OSError:
+                cut_back(files.log_path, logged_at)  # no row for files not in place
+                raise
     except OSError as e:
-        discard(files.exr, *([files.png] if files.preview_rgb is not None else []))
         raise write_failure(e, target) from None
     return row
 

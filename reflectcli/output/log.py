@@ -33,7 +33,8 @@ def _drop_torn_tail(fd: int, size: int) -> int:
     return new
 
 
-def append_jsonl(path: str, row: dict) -> None:
+def append_jsonl(path: str, row: dict) -> int:
+    """Append `row` as one line; the offset the line starts at (for cut_back)."""
     line = (json.dumps(row, sort_keys=True) + "\n").encode("utf-8")
     try:
         fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o666)
@@ -53,6 +54,18 @@ def append_jsonl(path: str, row: dict) -> None:
             raise WriteFailed(path, reason(e, path)) from None
     finally:
         os.close(fd)
+    return size
+
+
+def cut_back(path: str, size: int) -> None:
+    """Remove the lines appended from offset `size` on (a frame whose files could not be
+    renamed into place after its row was logged); best effort."""
+    with contextlib.suppress(OSError):
+        fd = os.open(path, os.O_WRONLY | os.O_NOFOLLOW)
+        try:
+            os.ftruncate(fd, size)
+        finally:
+            os.close(fd)
 
 
 def read_jsonl(path: str) -> list[dict]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .atomic import atomic_path
+from .failures import image_failure
 
 
 def linear_to_srgb(c: np.ndarray) -> np.ndarray:
@@ -13,16 +14,22 @@ def linear_to_srgb(c: np.ndarray) -> np.ndarray:
 
 
 def write_png(path: str, rgb: np.ndarray) -> None:
+    with atomic_path(path) as tmp:
+        write_png_at(tmp, path, rgb)
+
+
+def write_png_at(tmp: str, path: str, rgb: np.ndarray) -> None:
+    """write_png into `tmp`, an atomic_path of `path` that the caller renames (as
+    exr.write_exr_at)."""
     import OpenImageIO as oiio
 
     data = np.ascontiguousarray((linear_to_srgb(rgb) * 255.0 + 0.5).astype(np.uint8))
     h, w = data.shape[:2]
     spec = oiio.ImageSpec(w, h, 3, oiio.UINT8)
-    with atomic_path(path) as tmp:
-        out = oiio.ImageOutput.create(tmp)
-        if out is None or not out.open(tmp, spec):
-            raise OSError(f"cannot write {path}: {oiio.geterror()}")
-        ok = out.write_image(data)
-        ok = out.close() and ok
-        if not ok:
-            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+    out = oiio.ImageOutput.create(tmp)
+    if out is None or not out.open(tmp, spec):
+        raise image_failure(path, oiio.geterror())
+    ok = out.write_image(data)
+    ok = out.close() and ok
+    if not ok:
+        raise image_failure(path, oiio.geterror())

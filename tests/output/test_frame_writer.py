@@ -3,6 +3,7 @@ same bytes, same log rows in frame order, and a failure keeps every earlier fram
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import threading
@@ -12,7 +13,7 @@ import pytest
 from conftest import open_scene
 from hardening.test_faults import WALK, consistent
 
-from reflectcli.output import frame_writer
+from reflectcli.output import atomic, frame_writer
 from reflectcli.output.failures import WriteFailed
 from reflectcli.output.frame_writer import FrameFiles, FrameWriter
 
@@ -60,16 +61,16 @@ def test_repeats_are_never_timed_against_a_write(tmp_path):
 
 def test_a_failed_write_behind_the_renderer_keeps_earlier_frames_whole(tmp_path, monkeypatch):
     scene = _scene(tmp_path)
-    real = frame_writer.write_exr_packed
+    real = frame_writer.write_exr_at
     calls = {"n": 0}
 
-    def failing(path, *args):
+    def failing(tmp, path, *args):
         calls["n"] += 1
         if calls["n"] == 4:  # the 4th frame's EXR: the disk is full
             raise OSError(28, "No space left on device")
-        return real(path, *args)
+        return real(tmp, path, *args)
 
-    monkeypatch.setattr(frame_writer, "write_exr_packed", failing)
+    monkeypatch.setattr(frame_writer, "write_exr_at", failing)
     kept = []
     with pytest.raises(WriteFailed) as failure:
         scene.write_frames(scene.frames(), out=str(tmp_path / "o"), overlap_writes=True,
@@ -93,3 +94,40 @@ def test_on_written_runs_in_the_submitting_thread_in_order(tmp_path, monkeypatch
     writer.close()
     assert written == [str(tmp_path / f"f{i}.exr") for i in range(5)]
     assert threads == [(i, True) for i in range(5)]
+
+
+def _fail(monkeypatch, module, name):
+    """`module.name` writes part of its file, then finds the disk full."""
+    real = getattr(module, name)
+
+    def failing(*args):
+        if name.endswith("_at"):
+            with open(args[0], "wb") as f:
+                f.write(b"half a frame")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(module, name, failing)
+    return real
+
+
+@pytest.mark.parametrize(("module", "name", "named"), [
+    (frame_writer, "write_exr_at", "frame_0001.exr"),
+    (frame_writer, "write_png_at", "frame_0001.png"),
+    (frame_writer, "append_jsonl", "timings.jsonl"),
+    (atomic.os, "replace", "frame_0001.exr"),
+])
+def test_a_failed_rewrite_keeps_the_finished_frame_and_its_row(tmp_path, monkeypatch,
+                                                               module, name, named):
+    # a re-render on a full disk once deleted the finished frame it never replaced
+    scene = _scene(tmp_path)
+    first = scene.write_frames(scene.frames("0:2"), out=str(tmp_path / "o"), preview=True)
+    folder = first.folder
+    before = {n: (tmp_path / folder / n).read_bytes() for n in sorted(os.listdir(folder))}
+    _fail(monkeypatch, module, name)
+    with pytest.raises(WriteFailed) as failure:
+        scene.write_frames(scene.frames("1:2"), out=str(tmp_path / "o"), preview=True)
+    monkeypatch.undo()
+    assert str(failure.value).endswith(f"{named}: cannot write (No space left on device)")
+    assert {n: (tmp_path / folder / n).read_bytes() for n in sorted(os.listdir(folder))} \
+        == before  # no temporary file left, the frames and their rows as they were
+    assert consistent(folder) == ["frame_0000.exr", "frame_0001.exr"]
