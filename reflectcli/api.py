@@ -41,7 +41,7 @@ from .output.identity import (
     scene_identity,
 )
 from .output.names import SUMMARY_NAME
-from .output.paths import inside, remove_stale_temps
+from .output.paths import check_links, inside, remove_stale_temps
 from .output.png import write_png
 from .output.summary import write_summary
 from .provenance import cpu_name, versions
@@ -326,8 +326,9 @@ class OpenedScene:
         root = out if out is not None else self.config.output.dir
         folder = inside(inside(root, self.name, self.display, "scene.name"),
                         self.technique_name, self.display)
-        prepare_output(folder, "--out" if out is not None else self.display,
-                       "" if out is not None else "output.dir")
+        source, field = ("--out", "") if out is not None else (self.display, "output.dir")
+        check_links(root, folder, self.config.output.log, source, field, self.display)
+        prepare_output(folder, source, field)
         remove_stale_temps(folder)
         return folder
 

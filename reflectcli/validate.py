@@ -19,11 +19,12 @@ from .loading import load_config
 def _check_output_folder(cfg, display: str) -> None:
     """The checks render makes of its output folder, short of creating it (a folder is
     made and removed where it would go: paths.check_writable)."""
-    from .output.paths import check_writable, inside
+    from .output.paths import check_links, check_writable, inside
 
     folder = inside(inside(cfg.output.dir, cfg.scene.name, display, "scene.name"),
                     cfg.technique.name, display)
     inside(folder, cfg.output.log, display, "output.log")
+    check_links(cfg.output.dir, folder, cfg.output.log, display, "output.dir", display)
     check_writable(folder, display, "output.dir")
 
 

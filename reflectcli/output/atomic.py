@@ -18,8 +18,11 @@ def atomic_path(path: str) -> Iterator[str]:
     # unique per process and thread: bench jobs on a Dask worker share a process
     tmp = os.path.join(folder, f".{stem}.tmp{os.getpid()}-{threading.get_ident()}{ext}")
     try:
+        # a link left at the name (it is predictable) would be written through
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
         yield tmp
-        os.replace(tmp, path)
+        os.replace(tmp, path)  # replaces a link at `path`; never writes through it
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import os
 from collections.abc import Iterator
@@ -16,7 +17,13 @@ def folder_lock(folder: str, source: str, field: str = "") -> Iterator[None]:
     """Hold an exclusive lock on `folder` (released when the process ends, however)."""
     os.makedirs(folder, exist_ok=True)
     path = os.path.join(folder, LOCK_NAME)
-    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:  # never through a link: it would create a file wherever the link points
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o666)
+    except OSError as e:
+        if e.errno != errno.ELOOP:
+            raise
+        raise Problems([Problem(source, field, f"'{path}' is a symbolic link; reflect "
+                                "writes no file through a link (remove it)")]) from None
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

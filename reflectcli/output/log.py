@@ -18,6 +18,7 @@ import os
 from .failures import WriteFailed, reason
 
 log = logging.getLogger("reflect")
+LINK = "a symbolic link; reflect writes no file through a link"
 
 
 def _drop_torn_tail(fd: int, size: int) -> int:
@@ -36,10 +37,10 @@ def _drop_torn_tail(fd: int, size: int) -> int:
 def append_jsonl(path: str, row: dict) -> int:
     """Append `row` as one line; the offset the line starts at (for cut_back)."""
     line = (json.dumps(row, sort_keys=True) + "\n").encode("utf-8")
-    try:
-        fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o666)
+    try:  # never through a link: it would append outside the folder (paths.check_links)
+        fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666)
     except OSError as e:
-        raise WriteFailed(path, reason(e, path)) from None
+        raise WriteFailed(path, LINK if e.errno == errno.ELOOP else reason(e, path)) from None
     try:
         size = os.fstat(fd).st_size
         try:

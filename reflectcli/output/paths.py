@@ -9,6 +9,7 @@ import re
 import tempfile
 
 from ..errors import Problem, Problems
+from .names import taken_by
 
 # atomic.py: .<stem>.tmp<pid>-<thread id><ext>; log appends: .<name>.append<pid>
 TEMP = re.compile(r"^\..+\.(tmp|append)(\d+)(-\d+)?(\.\w+)?$")
@@ -21,6 +22,35 @@ def inside(folder: str, name: str, source: str = "output", field: str = "") -> s
     if os.path.dirname(path) != root or os.path.basename(path) in ("", ".", ".."):
         raise Problems([Problem(source, field, f"'{name}' would be written outside {folder}")])
     return path
+
+
+def check_links(root: str, folder: str, log: str, source: str, field: str,
+                log_source: str) -> None:
+    """Refuse in one line, before anything is written: a folder between `root` and the frame
+    `folder` that resolves outside `root` (a link: the frames would land elsewhere), and a
+    link in `folder` at a name reflect writes (the log, the summary, the lock, a frame): an
+    append would follow it out of the folder, and a replace would drop the link. `log_source`
+    names the file output.log came from."""
+    top = os.path.realpath(root)
+    path = os.path.normpath(root)
+    for part in os.path.relpath(os.path.normpath(folder), path).split(os.sep):
+        path = os.path.join(path, part)
+        if not os.path.lexists(path):
+            break
+        real = os.path.realpath(path)
+        if os.path.commonpath([top, real]) != top:
+            raise Problems([Problem(source, field, f"'{path}' leads to '{real}', outside "
+                                    f"{root}; reflect writes nothing outside its output "
+                                    "folder")])
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return  # not made yet: no link in it
+    for entry in entries:
+        if entry.is_symlink() and (entry.name == log or taken_by(entry.name)):
+            where = (log_source, "output.log") if entry.name == log else (source, field)
+            raise Problems([Problem(*where, f"'{entry.path}' is a symbolic link; reflect "
+                                    "writes no file through a link (remove it)")])
 
 
 def check_writable(folder: str, source: str, field: str) -> None:

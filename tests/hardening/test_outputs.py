@@ -45,6 +45,48 @@ def test_log_named_like_the_summary_is_refused(tmp_path, name):
     assert "timings-summary.json" in line
 
 
+@pytest.mark.parametrize("name", ["timings.jsonl", "frame_0000.exr", "frame_0000.png",
+                                  "timings-summary.json"])
+def test_a_link_at_an_output_name_is_refused_and_never_written_through(tmp_path, name):
+    # a linked log once had its target's last line cut and a row appended, exit 0
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "raster"\n'
+                  '[output]\ndir = "o"\n')
+    victim = write(tmp_path, "victim.txt", "line1\nline2 no newline")
+    folder = tmp_path / "o" / "tiny" / "raster"
+    folder.mkdir(parents=True)
+    (folder / name).symlink_to(victim)
+    field = "output.log" if name == "timings.jsonl" else "output.dir"
+    with chdir(tmp_path):
+        line = assert_one_line(invoke("validate", scene), f"s.toml: {field}:",
+                               f"{folder.relative_to(tmp_path) / name}", "symbolic link")
+        assert assert_one_line(invoke("render", scene, "--preview")) == line
+        via_out = assert_one_line(invoke("render", scene, "--out", "o"), "symbolic link")
+        assert via_out == line if field == "output.log" else via_out.startswith("--out: ")
+    assert victim.read_text() == "line1\nline2 no newline"
+    assert os.listdir(folder) == [name]
+
+
+def test_a_scene_folder_leading_outside_the_output_folder_is_refused(tmp_path):
+    # frames once landed in the folder a link under the output folder pointed to
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "raster"\n'
+                  '[output]\ndir = "o"\n')
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "o").mkdir()
+    (tmp_path / "o" / "tiny").symlink_to(tmp_path / "elsewhere")
+    with chdir(tmp_path):
+        line = assert_one_line(invoke("validate", scene), "s.toml: output.dir:",
+                               "o/tiny", "outside o")
+        assert assert_one_line(invoke("render", scene)) == line
+        assert os.listdir("elsewhere") == []
+        os.unlink("o/tiny")  # a link that stays inside the output folder is a folder
+        os.makedirs("o/real")
+        os.symlink("real", "o/tiny")
+        assert invoke("validate", scene).exit_code == 0
+        result = invoke("render", scene, "--frames", "0")
+        assert result.exit_code == 0, result.output
+        assert os.listdir("o/real/raster") == ["frame_0000.exr", "timings.jsonl"]
+
+
 def test_cache_clear_deletes_only_cache_files(tmp_path):
     cache = tmp_path / "cache"
     cache.mkdir()
