@@ -41,7 +41,7 @@ from .output.identity import (
     scene_identity,
 )
 from .output.names import SUMMARY_NAME
-from .output.paths import check_links, inside, remove_stale_temps
+from .output.paths import check_links, check_writable, inside, remove_stale_temps
 from .output.png import write_png
 from .output.summary import write_summary
 from .provenance import cpu_name, versions
@@ -74,7 +74,8 @@ def check_technique(name: str | None) -> None:
                                 f"(known: {', '.join(technique_names())})")])
 
 
-def _check_threads(threads: int | None) -> None:
+def check_threads(threads: int | None) -> None:
+    """--threads must be 1..the cores numba sees (one Problem, before anything is written)."""
     import numba
 
     if threads is not None and not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
@@ -273,7 +274,7 @@ class OpenedScene:
         if self._technique is None:
             import numba
 
-            _check_threads(self.threads)
+            check_threads(self.threads)
             # None is every core, whatever an earlier run in this process set
             numba.set_num_threads(self.threads if self.threads is not None
                                   else numba.config.NUMBA_NUM_THREADS)
@@ -327,10 +328,17 @@ class OpenedScene:
         folder = inside(inside(root, self.name, self.display, "scene.name"),
                         self.technique_name, self.display)
         source, field = ("--out", "") if out is not None else (self.display, "output.dir")
+        self.check_cache()
         check_links(root, folder, self.config.output.log, source, field, self.display)
         prepare_output(folder, source, field)
         remove_stale_temps(folder)
         return folder
+
+    def check_cache(self) -> None:
+        """A map technique's cache folder must be one it can make and write into: refused in
+        one line before any folder is made, not a failed write after the output folder."""
+        if self.cache is not None and uses_maps(technique_class(self.technique_name)):
+            check_writable(self.cache, "--cache" if self.cache_option else self.display, "")
 
     def log_path(self, folder: str) -> str:
         """The folder's log (output.log), refused if it would leave the folder."""
@@ -421,7 +429,7 @@ class OpenedScene:
         frame renders (`reflect render` does; the bench does not, and repeats never do, so
         that their times are the render's alone). Rows rendered so are marked
         `writes_overlapped`."""
-        _check_threads(self.threads)  # before the build and the folder, as any bad argument
+        check_threads(self.threads)  # before the build and the folder, as any bad argument
         result = RenderResult(self.output_folder(out))
         stored = logged_rows(self.log_path(result.folder))
         check_same_overrides(stored, self.overrides, result.folder,

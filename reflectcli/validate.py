@@ -50,6 +50,9 @@ def validate_file(path: str) -> str:
 
         build_scene(cfg, path)
         _check_output_folder(cfg, display)
+        from .api import OpenedScene
+
+        OpenedScene(cfg, path).check_cache()  # the default cache, beside the scene
         return "scene"
     section = create_model("Section", __base__=Strict,
                            **{key: (fields[key].annotation, fields[key]) for key in raw})

@@ -315,7 +315,10 @@ def run_bench(path: str, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, threads: int | None = None,
               on_row: Callable[[dict], None] | None = None, out: str | None = None,
               overrides: list[str] | tuple = ()) -> BenchResult:
+    from .. import api
+
     plan = load_bench(path, out, overrides)
+    api.check_threads(threads)  # bad arguments before the lock makes the folder
     if scheduler is not None:
         check_scheduler(scheduler)  # fail fast, before any reference is rendered
     with folder_lock(plan.out, "--out" if out is not None else os.path.relpath(path)):

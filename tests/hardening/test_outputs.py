@@ -87,6 +87,26 @@ def test_a_scene_folder_leading_outside_the_output_folder_is_refused(tmp_path):
         assert os.listdir("o/real/raster") == ["frame_0000.exr", "timings.jsonl"]
 
 
+def test_refused_arguments_make_no_folder(tmp_path):
+    # --threads 0 once left the bench's lock file, an unusable --cache the frame folder
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "dprm"\n'
+                  '[technique.maps]\nresolution = 16\n')
+    bench = write(tmp_path, "b.toml", '[bench]\nname = "b"\nframes = "0"\nplots = false\n'
+                  '[[runs]]\nscenes = ["s.toml"]\ntechniques = ["raster"]\n')
+    (tmp_path / "afile").write_text("a file, not a folder")
+    with chdir(tmp_path):
+        assert_one_line(invoke("bench", bench, "--out", "o-th", "--threads", "0"),
+                        "--threads:")
+        assert_one_line(invoke("render", scene, "--out", "oc", "--cache", "afile/sub"),
+                        "--cache: cannot write to 'afile/sub': Not a directory")
+        os.rename("afile", ".reflect-cache")  # the default cache, beside the scene
+        line = assert_one_line(invoke("validate", scene), "s.toml: cannot write to",
+                               ".reflect-cache", "Not a directory")
+        assert assert_one_line(invoke("render", scene, "--out", "oc")) == line
+        assert invoke("validate", write(tmp_path, "r.toml", TINY)).exit_code == 0  # no maps
+    assert sorted(os.listdir(tmp_path)) == [".reflect-cache", "b.toml", "r.toml", "s.toml"]
+
+
 def test_cache_clear_deletes_only_cache_files(tmp_path):
     cache = tmp_path / "cache"
     cache.mkdir()
