@@ -114,7 +114,9 @@ def prepare_output(folder: str, source: str, field: str) -> None:
     try:
         os.makedirs(folder, exist_ok=True)
         probe = os.path.join(folder, f".write-test-{os.getpid()}")
-        with open(probe, "w"):
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(probe)  # a link left at the name would be written through
+        with open(probe, "x"):
             pass
         os.unlink(probe)
     except OSError as e:
