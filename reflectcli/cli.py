@@ -241,14 +241,15 @@ def cache_clear(scene, folder) -> None:
               help="override a config field in every run (repeatable)")
 def bench(file, resume, workers, scheduler, threads, out, overrides) -> None:
     """Run the bench matrix in FILE; write results.csv/.jsonl, report.md and plots."""
-    from .bench.runner import load_bench, run_bench
+    from .bench.runner import check_workers, load_bench, run_bench
 
     progress = None
     try:
+        check_workers(workers)  # a bad argument before the bench file is read
         plan = load_bench(file, out, overrides)
         progress = _open_bar(len(plan.jobs), "runs")
         result = run_bench(file, resume=resume, workers=workers, scheduler=scheduler,
-                           threads=threads, out=out, overrides=overrides,
+                           threads=threads, out=out, overrides=overrides, plan=plan,
                            on_row=(lambda row: progress.update(1)) if progress else None)
     except Problems as e:
         _fail(e)

@@ -1,14 +1,26 @@
-"""Bench matrices: which scenes, techniques and parameter sweeps to run, and how."""
+"""Bench matrices: which scenes, techniques and parameter sweeps to run, and how.
+
+Every size has a limit: the number of runs is counted from the list lengths before a single
+job is made (each job opens its scene to be checked, so a huge matrix would take minutes to
+refuse), and warm-up, repeats and worker processes are bounded.
+"""
 
 from __future__ import annotations
 
 import itertools
+import math
 import os
 from typing import Any
 
 from pydantic import Field
 
 from ..config.base import Strict
+from ..errors import Problem
+
+MAX_RUNS = 2000  # jobs in one bench file (validate opens each one's scene: ~10 ms a job)
+MAX_WARMUP = 100  # leading renders left out of a run's timings
+MAX_REPEATS = 100  # renders of each frame
+MAX_WORKERS = 64  # local worker processes (`bench --workers`)
 
 
 class RunGroup(Strict):
@@ -25,13 +37,15 @@ class RunGroup(Strict):
 class BenchSection(Strict):
     name: str = Field(pattern=r"^[A-Za-z0-9._-]+$")
     frames: str = Field(default="0:3", description="frames of each run: N or A:B")
-    warmup: int = Field(default=1, ge=0, description="leading renders left out of timings")
-    repeats: int = Field(default=1, ge=1, le=100, description="renders of each frame (a "
-                         "one-frame scene needs warmup + 3 for an honest median)")
-    threshold: float = Field(default=0.1, gt=0, description="error counted as 'off'")
+    warmup: int = Field(default=1, ge=0, le=MAX_WARMUP,
+                        description="leading renders left out of timings")
+    repeats: int = Field(default=1, ge=1, le=MAX_REPEATS, description="renders of each frame "
+                         "(a one-frame scene needs warmup + 3 for an honest median)")
+    threshold: float = Field(default=0.1, gt=0, allow_inf_nan=False,
+                             description="error counted as 'off'")
     reference_depth: int = Field(default=1, ge=0, description="raytrace max_depth")
-    out: str | None = Field(default=None, description="relative to this file; default: "
-                            "out/bench/<name> in the working directory")
+    out: str | None = Field(default=None, min_length=1, description="relative to this file; "
+                            "default: out/bench/<name> in the working directory")
     plots: bool = True
 
 
@@ -40,12 +54,41 @@ class BenchConfig(Strict):
     runs: list[RunGroup] = Field(min_length=1)
 
 
+def group_runs(group: RunGroup) -> int:
+    """Jobs a group expands to (an empty sweep list counted as absent: it is refused)."""
+    return (len(group.scenes) * len(group.techniques)
+            * math.prod(len(v) for v in group.sweep.values() if v))
+
+
+def run_count(cfg: BenchConfig) -> int:
+    return sum(group_runs(g) for g in cfg.runs)
+
+
+def matrix_problems(cfg: BenchConfig, display: str) -> list[Problem]:
+    """Empty sweep lists (each would silently drop its group) and a matrix past MAX_RUNS,
+    found from the list lengths alone."""
+    problems = [Problem(display, f"runs.{i}.sweep.{key}",
+                        "empty list (give at least one value, or leave the key out)")
+                for i, group in enumerate(cfg.runs)
+                for key, values in group.sweep.items() if not values]
+    total = run_count(cfg)
+    if total > MAX_RUNS:
+        sizes = [group_runs(g) for g in cfg.runs]
+        big = max(range(len(sizes)), key=sizes.__getitem__)
+        problems.append(Problem(display, "runs", f"{total:,} runs (scenes x techniques x sweep "
+                                f"values; runs.{big} alone has {sizes[big]:,}); a bench file "
+                                f"may have at most {MAX_RUNS:,}"))
+    return problems
+
+
 def expand(cfg: BenchConfig, source: str) -> list[dict]:
-    """The matrix as a list of jobs: {scene (path), technique, overrides, sweep (dict)}."""
+    """The matrix as a list of jobs: {scene (path), technique, overrides, sweep (dict)}.
+    Sweep keys with no values are left out (matrix_problems reports them), so that the
+    rest of the matrix is still checked."""
     here = os.path.dirname(os.path.abspath(source))
     jobs = []
-    for group in cfg.runs:
-        keys = list(group.sweep)
+    for index, group in enumerate(cfg.runs):
+        keys = [k for k, v in group.sweep.items() if v]
         for scene in group.scenes:
             path = os.path.normpath(os.path.join(here, scene))
             for technique in group.techniques:
@@ -54,7 +97,9 @@ def expand(cfg: BenchConfig, source: str) -> list[dict]:
                     overrides = list(group.set) + [f"{k}={_toml(v)}" for k, v in sweep.items()]
                     jobs.append({"scene": path, "technique": technique,
                                  "overrides": overrides, "sweep": sweep,
-                                 "frames": group.frames or cfg.bench.frames})
+                                 "frames": group.frames or cfg.bench.frames,
+                                 "frames_field": (f"runs.{index}.frames" if group.frames
+                                                  else "bench.frames")})
     return jobs
 
 

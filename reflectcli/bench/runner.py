@@ -25,7 +25,15 @@ from ..errors import Problem, Problems
 from ..output.exr import read_exr
 from ..output.lock import folder_lock
 from ..output.log import append_jsonl, read_jsonl
-from .config import BenchConfig, expand
+from .config import (
+    MAX_REPEATS,
+    MAX_RUNS,
+    MAX_WORKERS,
+    BenchConfig,
+    expand,
+    matrix_problems,
+    run_count,
+)
 
 
 def _digest(*parts) -> str:
@@ -65,55 +73,96 @@ def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple =
     run's own."""
     from .. import api
 
+    if out == "":
+        raise Problems([Problem("--out", "", "empty folder name ('.' is the working "
+                                "directory)")])
     display = os.path.relpath(path)
     cfg = api.load_settings(path, BenchConfig)
+    problems = matrix_problems(cfg, display)  # from the list lengths: nothing expanded yet
+    if run_count(cfg) > MAX_RUNS:
+        raise Problems(problems)
     # an `out` written in the bench file is relative to it; the default is out/bench/<name>
     default_out = (os.path.join(os.path.dirname(os.path.abspath(path)), cfg.bench.out)
                    if cfg.bench.out else os.path.join("out", "bench", cfg.bench.name))
     plan = BenchPlan(cfg, path, out if out is not None else default_out)
-    problems: list[Problem] = []
     with technique_notices_quiet():
         _plan_jobs(plan, cfg, path, display, overrides, problems)
     if problems:
-        raise Problems(problems[:20])
+        # one line per problem: the same frames or reference_depth problem of every job once
+        unique: dict[str, Problem] = {}
+        for p in problems:
+            unique.setdefault(str(p), p)
+        raise Problems(list(unique.values())[:20])
     return plan
+
+
+def check_workers(workers: int) -> None:
+    """`--workers` must be 1..MAX_WORKERS (one line, before anything is read)."""
+    if not 1 <= workers <= MAX_WORKERS:
+        raise Problems([Problem("--workers", "", f"must be 1..{MAX_WORKERS}")])
 
 
 def _plan_jobs(plan: BenchPlan, cfg: BenchConfig, path: str, display: str,
                overrides: list[str] | tuple, problems: list[Problem]) -> None:
     from .. import api
 
+    references: dict[tuple, tuple] = {}  # (scene, overrides) -> (name, hash) or Problems
     for i, job in enumerate(expand(cfg, path)):
         job["overrides"] = job["overrides"] + list(overrides)  # `bench --set`: on top
+        where = f"runs ({job['technique']} on {os.path.relpath(job['scene'])})"
         try:
             run = api.open_scene(job["scene"], overrides=job["overrides"],
                                  technique=job["technique"])
+            selected = run.frames(job["frames"])
         except Problems as e:
-            where = f"runs ({job['technique']} on {os.path.relpath(job['scene'])})"
-            problems += [Problem(display, where, str(p)) for p in e.problems]
+            problems += [_job_problem(display, where, job, p) for p in e.problems]
             continue
         # the scene's content and the timing settings are in the id too: `--resume` re-runs
         # a job whose scene was edited or whose warm-up / repeats changed
         job["id"] = _digest(os.path.relpath(job["scene"]), job["technique"], job["overrides"],
                             job["frames"], run.scene_hash, cfg.bench.repeats, cfg.bench.warmup)
-        job["repeats"] = run_repeats(cfg, len(run.frames(job["frames"])))
+        job["repeats"] = run_repeats(cfg, len(selected))
         job["scene_name"] = run.name
         job["parameters"] = run.params.model_dump(mode="json")
         ref_overrides = scene_overrides(job["overrides"]) + [
             f"technique.max_depth={cfg.bench.reference_depth}"]
-        ref = api.open_scene(job["scene"], overrides=ref_overrides, technique="raytrace")
+        key = (job["scene"], tuple(ref_overrides))
+        if key not in references:
+            try:
+                ref = api.open_scene(job["scene"], overrides=ref_overrides,
+                                     technique="raytrace")
+                references[key] = (ref.name, ref.scene_hash)
+            except Problems as e:
+                references[key] = e
+        if isinstance(references[key], Problems):
+            problems += [_job_problem(display, where, job, p, reference=True)
+                         for p in references[key].problems]
+            continue
+        ref_name, ref_hash = references[key]
         # the scene's content (files it reads included) is in the id: an edited scene gets a
         # new reference instead of being scored against the old one; so are its renders
         # (repeats, warm-up): a reference timed on too few renders is not reused once the
         # bench file asks for more (its `x raytrace` ratios stayed marked)
         job["reference"] = {
             "id": _digest(os.path.relpath(job["scene"]), ref_overrides, job["frames"],
-                          ref.scene_hash, job["repeats"], cfg.bench.warmup),
+                          ref_hash, job["repeats"], cfg.bench.warmup),
             "overrides": ref_overrides,
-            "scene_name": ref.name,
+            "scene_name": ref_name,
         }
         job["index"] = i
         plan.jobs.append(job)
+
+
+def _job_problem(display: str, where: str, job: dict, problem: Problem,
+                 reference: bool = False) -> Problem:
+    """A job's problem in the bench file's words: the frames and the reference depth are
+    the bench file's own fields (the api names them --frames and technique.max_depth)."""
+    if problem.file == "--frames":
+        scene = os.path.relpath(job["scene"])
+        return Problem(display, job["frames_field"], f"{problem.message} (in {scene})")
+    if reference and problem.field == "technique.max_depth":
+        return Problem(display, "bench.reference_depth", problem.message)
+    return Problem(display, where, str(problem))
 
 
 def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> str:
@@ -141,7 +190,7 @@ def run_repeats(cfg: BenchConfig, frame_count: int) -> int:
         return repeats
     needed = cfg.bench.warmup + MIN_TIMED
     if frame_count * repeats < needed:
-        repeats = min(100, math.ceil(needed / max(frame_count, 1)))
+        repeats = min(MAX_REPEATS, math.ceil(needed / max(frame_count, 1)))
     return repeats
 SCOPES = ("mirror", "image")
 MEAN_OF_FRAMES = ("rmse", "frac_off", "relmse", "p50", "p95", "p99", "flip", "flip_ldr", "ssim")
@@ -314,10 +363,15 @@ class BenchResult:
 def run_bench(path: str, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, threads: int | None = None,
               on_row: Callable[[dict], None] | None = None, out: str | None = None,
-              overrides: list[str] | tuple = ()) -> BenchResult:
+              overrides: list[str] | tuple = (), plan: BenchPlan | None = None
+              ) -> BenchResult:
+    """Run a bench file's matrix (`plan`: the file already loaded with these `out` and
+    `overrides`, not checked again)."""
     from .. import api
 
-    plan = load_bench(path, out, overrides)
+    check_workers(workers)
+    if plan is None:
+        plan = load_bench(path, out, overrides)
     api.check_threads(threads)  # bad arguments before the lock makes the folder
     if scheduler is not None:
         check_scheduler(scheduler)  # fail fast, before any reference is rendered
