@@ -30,7 +30,7 @@ from .config.scene import SceneConfig
 from .errors import Problem, Problems
 from .frame import Frame
 from .loading import load_config
-from .maps.cache import MapCache, default_cache_dir
+from .maps.cache import Cleared, MapCache, default_cache_dir
 from .output.finite import check_finite
 from .output.frame_writer import FrameFiles, FrameWriter, OnWritten
 from .output.identity import (
@@ -560,8 +560,8 @@ def precompute(
     return PrecomputeResult(scene.cache, scene.precompute(on_map, on_progress))
 
 
-def clear_cache(folder: str) -> int:
-    """Delete the maps in a cache folder; how many."""
+def clear_cache(folder: str) -> Cleared:
+    """Delete the maps (and killed captures' temporary files) in a cache folder; how many."""
     return MapCache(folder).clear()
 
 

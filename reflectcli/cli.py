@@ -225,7 +225,10 @@ def cache_clear(scene, folder) -> None:
         click.echo("cache clear: give a SCENE or --cache DIR", err=True)
         sys.exit(EXIT_BAD_INPUT)
     folder = folder if folder is not None else api.default_cache_dir(scene)
-    click.echo(f"removed {api.clear_cache(folder)} map(s) from {folder}")
+    cleared = api.clear_cache(folder)
+    temps = (f" and {cleared.temps} temporary file(s) of killed captures"
+             if cleared.temps else "")
+    click.echo(f"removed {cleared.maps} map(s){temps} from {folder}")
 
 
 @cli.command()

@@ -14,6 +14,7 @@ import logging
 import os
 import re
 from collections.abc import Callable
+from typing import NamedTuple
 
 from ..output.exr import read_exr_parts, write_exr_parts
 from ..output.failures import write_failure
@@ -23,6 +24,13 @@ log = logging.getLogger("reflect")
 
 KEY_ATTRIBUTE = "reflect:cache_key"
 MAP_NAME = re.compile(r"^[a-z]+-[0-9a-f]{32}\.exr$")  # what path() names
+# a map's temporary file while it is written (output/atomic.py): nothing else is cleared
+MAP_TEMP = re.compile(r"^\.[a-z]+-[0-9a-f]{32}\.tmp(?P<pid>[0-9]{1,10})-[0-9]{1,20}\.exr$")
+
+
+class Cleared(NamedTuple):
+    maps: int
+    temps: int  # temporary files of killed captures
 
 
 def cache_key(**parts) -> str:
@@ -73,7 +81,7 @@ class MapCache:
             return None
         try:
             os.makedirs(self.root, exist_ok=True)
-            remove_stale_temps(self.root)
+            remove_stale_temps(self.root, MAP_TEMP)
             write_exr_parts(path, parts, {**attributes, KEY_ATTRIBUTE: key}, part_attributes)
         except FileNotFoundError:  # the temp file vanished mid-write: captured, not stored
             log.warning("cache: %s could not be stored (its temporary file vanished)", path)
@@ -82,19 +90,19 @@ class MapCache:
             raise write_failure(e, path) from None
         return path
 
-    def clear(self) -> int:
+    def clear(self) -> Cleared:
         """Delete reflect's own map files in the folder (<kind>-<32 hex digits>.exr, and
-        temporary files of killed captures), nothing else; the number of maps deleted."""
+        temporary files of killed captures), nothing else; how many of each."""
         if self.root is None or not os.path.isdir(self.root):
-            return 0
-        remove_stale_temps(self.root)
+            return Cleared(0, 0)
+        temps = len(remove_stale_temps(self.root, MAP_TEMP))
         removed = 0
         for name in os.listdir(self.root):
             if MAP_NAME.match(name):
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(os.path.join(self.root, name))
                     removed += 1
-        return removed
+        return Cleared(removed, temps)
 
 
 def finite(parts) -> bool:

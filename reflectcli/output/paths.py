@@ -11,8 +11,10 @@ import tempfile
 from ..errors import Problem, Problems
 from .names import taken_by
 
-# atomic.py: .<stem>.tmp<pid>-<thread id><ext>; log appends: .<name>.append<pid>
-TEMP = re.compile(r"^\..+\.(tmp|append)(\d+)(-\d+)?(\.\w+)?$")
+# exactly what atomic.py names its temporary files, .<stem>.tmp<pid>-<thread id><ext>, with
+# the extensions reflect writes through it (a user's `.notes.tmp123` is not one of them);
+# log appends write in place (log.py) and leave no temporary file
+TEMP = re.compile(r"^\..+\.tmp(?P<pid>[0-9]{1,10})-[0-9]{1,20}\.(exr|png|json|csv|md)$")
 
 
 def inside(folder: str, name: str, source: str = "output", field: str = "") -> str:
@@ -89,16 +91,17 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def remove_stale_temps(folder: str) -> list[str]:
-    """Delete temporary files left in `folder` by processes that no longer run; their names."""
+def remove_stale_temps(folder: str, pattern: re.Pattern = TEMP) -> list[str]:
+    """Delete temporary files left in `folder` by processes that no longer run (names that
+    `pattern` matches, its `pid` group the writer's); their names."""
     removed = []
     try:
         names = os.listdir(folder)
     except OSError:
         return removed
     for name in names:
-        m = TEMP.match(name)
-        if m and not _alive(int(m.group(2))):
+        m = pattern.match(name)
+        if m and not _alive(int(m.group("pid"))):
             with contextlib.suppress(OSError):
                 os.unlink(os.path.join(folder, name))
                 removed.append(name)

@@ -114,7 +114,7 @@ def test_cache_clear_deletes_only_cache_files(tmp_path):
     others = ["frame_0000.exr", "notes.exr", "envmap-short.exr", "timings.jsonl"]
     for name in mine + others:
         (cache / name).write_bytes(b"x")
-    (cache / ".dprm-x.tmp999999999-1.exr").write_bytes(b"x")  # a killed capture's temp file
+    (cache / f".dprm-{'b' * 32}.tmp999999999-1.exr").write_bytes(b"x")  # a killed capture's
     result = invoke("cache", "clear", "--cache", cache)
     assert result.exit_code == 0 and "removed 2 map(s)" in result.output
     assert sorted(os.listdir(cache)) == sorted(others)
