@@ -15,7 +15,6 @@ import contextlib
 import json
 import logging
 import os
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -157,25 +156,21 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
     key = (technique_name, params_json)
     if key in _warmed:
         return 0.0
-    from .warmup import warm_params, warm_scene
+    from . import warmup
 
     start = time.perf_counter()
-    notice = threading.Timer(3.0, logging.getLogger("reflect").info, (
-        "compiling the numba kernels (the first run takes about 20 s; later runs load them "
-        "from the cache)",))
-    notice.daemon = True
-    notice.start()
-    scene, camera = warm_scene()
-    cls = technique_class(technique_name)
-    technique = cls(cls.Params.model_validate_json(warm_params(params_json)), threads)
-    logger = logging.getLogger("reflect")
-    level = logger.level
-    logger.setLevel(logging.ERROR)  # the warm-up scene's notices are nobody's business
-    try:
-        technique.render(technique.prepare(scene), 0, camera)
-    finally:
-        logger.setLevel(level)
-        notice.cancel()
+    with warmup.compile_notice(technique_name):
+        scene, camera = warmup.warm_scene()
+        cls = technique_class(technique_name)
+        technique = cls(cls.Params.model_validate_json(warmup.warm_params(params_json)),
+                        threads)
+        logger = logging.getLogger("reflect")
+        level = logger.level
+        logger.setLevel(logging.ERROR)  # the warm-up scene's notices are nobody's business
+        try:
+            technique.render(technique.prepare(scene), 0, camera)
+        finally:
+            logger.setLevel(level)
     _warmed[key] = time.perf_counter() - start
     return _warmed[key]
 

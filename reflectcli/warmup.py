@@ -1,6 +1,13 @@
-"""A tiny scene that touches every kernel once, so compile time is measured apart from frames."""
+"""A tiny scene that touches every kernel once, so compile time is measured apart from frames;
+and the notice that says so when that takes a while."""
 
 from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import threading
+from collections.abc import Iterator
 
 from .camera import Camera, camera_from_config
 from .config.scene import SceneConfig
@@ -54,3 +61,31 @@ def warm_params(params_json: str) -> str:
     if isinstance(data.get("capture"), dict):
         data["capture"] = {}
     return json.dumps(data)
+
+
+COMPILE_NOTICE_SECONDS = 3.0
+NO_NOTICE = "REFLECT_NO_COMPILE_NOTICE"  # set (tests/conftest.py): no notice at all
+# Its own logger with its own level: while the kernels compile, the warm-up (its scene's
+# notices) and the bench (per-job technique notices) set "reflect" to ERROR, and a child
+# logger left at NOTSET would inherit that. Records still reach "reflect"'s handler (main()).
+notice_log = logging.getLogger("reflect.compile")
+notice_log.setLevel(logging.INFO)
+
+
+@contextlib.contextmanager
+def compile_notice(technique: str) -> Iterator[None]:
+    """One line on stderr (through main()'s handler) if the body is still compiling after
+    COMPILE_NOTICE_SECONDS: a cold compile takes minutes (README), a cached one less than a
+    second, so no duration is promised."""
+    if os.environ.get(NO_NOTICE):
+        yield
+        return
+    timer = threading.Timer(COMPILE_NOTICE_SECONDS, notice_log.info, (
+        f"compiling the numba kernels of '{technique}' (once per install; this can take "
+        "minutes; later runs load them from numba's cache)",))
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()

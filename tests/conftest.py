@@ -9,12 +9,17 @@ import numba
 import numpy as np
 import pytest
 
-from reflectcli import api, openmp
+from reflectcli import api, openmp, warmup
 
 # pytest-xdist's workers share the cores: their idle OpenMP threads sleep at once (the suite
 # took 120 s with each worker's spinning 0.7 ms after every parallel loop, 93 s without)
 if os.environ.get("PYTEST_XDIST_WORKER") and openmp.defaulted:
     openmp.no_spin()
+
+# the compile notice (reflectcli/warmup.py) is for a person waiting: tests that hold a
+# command's stderr to one line (in-process or in subprocesses, which inherit this) would
+# read it whenever a kernel compiles cold
+os.environ[warmup.NO_NOTICE] = "1"
 
 # `make coverage` runs the kernels as Python (NUMBA_DISABLE_JIT=1). A few tests hold the
 # compiled kernel to a result only compiled code gives: interpreted NumPy 2 keeps some
