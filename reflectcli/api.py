@@ -108,6 +108,14 @@ def parse_frames(spec: str | None, count: int) -> range:
     return r
 
 
+def check_output_root(root: str, source: str, field: str) -> None:
+    """An empty output folder name (`--out ''`, `output.dir = ""`) is refused by name: it
+    would otherwise read as the working directory, or fail as a path written outside ''."""
+    if root == "":
+        raise Problems([Problem(source, field, "empty folder name ('.' is the working "
+                                "directory)")])
+
+
 def prepare_output(folder: str, source: str, field: str) -> None:
     """Create the frame folder and prove it writable before any rendering starts."""
     try:
@@ -322,6 +330,8 @@ class OpenedScene:
         is built first: it may still reject input before any folder is made)."""
         self.build()
         root = out if out is not None else self.config.output.dir
+        check_output_root(root, "--out" if out is not None else self.display,
+                          "" if out is not None else "output.dir")
         folder = inside(inside(root, self.name, self.display, "scene.name"),
                         self.technique_name, self.display)
         source, field = ("--out", "") if out is not None else (self.display, "output.dir")

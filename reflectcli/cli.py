@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import atexit
 import logging
+import math
 import os
 import signal
 import sys
@@ -49,7 +50,73 @@ def _fail(problems: Problems, stream=None) -> None:
     sys.exit(EXIT_BAD_INPUT)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _UsageError(click.ClickException):
+    """A click argument error as one line (`reflect render: --threads: 'abc' is not a valid
+    integer`), not click's usage text plus "Try --help" plus the error."""
+
+    exit_code = EXIT_BAD_INPUT
+
+    def show(self, file=None) -> None:
+        click.echo(self.message, err=True)
+
+
+def _one_line(e: click.UsageError, parent: click.Context | None = None,
+              name: str | None = None) -> _UsageError:
+    """`parent` and `name`: the command's, when the error has no context (the parser's)."""
+    path = (e.ctx.command_path if e.ctx is not None
+            else f"{parent.command_path} {name}" if parent is not None else "")
+    # "reflect", whatever name the program was started by (tests: CliRunner's "cli")
+    where = " ".join(["reflect", *path.split()[1:]])
+    param = getattr(e, "param", None)
+    if isinstance(e, click.BadParameter) and param is not None:
+        hint = ("/".join(param.opts) if isinstance(param, click.Option)
+                else param.human_readable_name)
+        message = "missing" if isinstance(e, click.MissingParameter) else e.message
+        return _UsageError(f"{where}: {hint}: {message}".rstrip("."))
+    return _UsageError(f"{where}: {e.format_message()}".rstrip("."))
+
+
+# click >= 8.2 asks for help with a UsageError subclass (a group run with no command)
+_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
+
+
+class _OneLineCommand(click.Command):
+    def make_context(self, info_name, args, parent=None, **extra) -> click.Context:
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except _HELP:
+            raise
+        except click.UsageError as e:
+            raise _one_line(e, parent, info_name) from None
+
+
+class _OneLineGroup(click.Group):
+    command_class = _OneLineCommand
+    group_class = type  # a group's subgroups are of this class too
+
+    def make_context(self, info_name, args, parent=None, **extra) -> click.Context:
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except _HELP:
+            raise
+        except click.UsageError as e:
+            raise _one_line(e, parent, info_name) from None
+
+    def resolve_command(self, ctx: click.Context, args: list[str]):
+        try:
+            return super().resolve_command(ctx, args)
+        except click.UsageError as e:
+            raise _one_line(e) from None
+
+
+def _folder(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """An empty folder name would quietly mean the working directory or no folder."""
+    if value == "":
+        raise click.BadParameter("empty folder name ('.' is the working directory)")
+    return value
+
+
+@click.group(cls=_OneLineGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="reflect")
 def cli() -> None:
     """Render mirror reflections with several techniques and compare them."""
@@ -58,7 +125,8 @@ def cli() -> None:
 @cli.command()
 @click.argument("scene", type=click.Path(dir_okay=False))
 @click.option(
-    "--out", "out", type=click.Path(file_okay=False), help="output root (default: output.dir)"
+    "--out", "out", type=click.Path(file_okay=False), callback=_folder,
+    help="output root (default: output.dir)",
 )
 @click.option("--frames", help="frame N, or frames A:B (B excluded)")
 @click.option("--technique", help="render with this technique instead of the scene's")
@@ -74,7 +142,7 @@ def cli() -> None:
 @click.option("--resume", is_flag=True, help="skip frames whose EXR already exists")
 @click.option(
     "--cache",
-    type=click.Path(file_okay=False),
+    type=click.Path(file_okay=False), callback=_folder,
     help="map cache folder (default: .reflect-cache/ beside the scene)",
 )
 def render(scene, out, frames, technique, overrides, preview, threads, resume, cache) -> None:
@@ -154,7 +222,7 @@ def _open_bar(length: int, label: str):
 )
 @click.option(
     "--cache",
-    type=click.Path(file_okay=False),
+    type=click.Path(file_okay=False), callback=_folder,
     help="map cache folder (default: .reflect-cache/ beside the scene)",
 )
 @click.option("--threads", type=int, help="worker threads (default: all cores)")
@@ -213,7 +281,7 @@ def cache() -> None:
 @click.option(
     "--cache",
     "folder",
-    type=click.Path(file_okay=False),
+    type=click.Path(file_okay=False), callback=_folder,
     help="the cache folder (default: .reflect-cache/ beside SCENE)",
 )
 def cache_clear(scene, folder) -> None:
@@ -238,7 +306,7 @@ def cache_clear(scene, folder) -> None:
               help="run jobs in this many local processes")
 @click.option("--scheduler", metavar="ADDRESS", help="run jobs on a Dask cluster")
 @click.option("--threads", type=int, help="numba threads per job")
-@click.option("--out", "out", type=click.Path(file_okay=False),
+@click.option("--out", "out", type=click.Path(file_okay=False), callback=_folder,
               help="output folder (default: the bench file's bench.out, or out/bench/<name>)")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="override a config field in every run (repeatable)")
@@ -293,6 +361,9 @@ def compare(first, second, mask_channel, threshold, metrics) -> None:
     from .metrics import parse_metrics
     from .metrics.compare import format_value
 
+    if not (math.isfinite(threshold) and threshold > 0):
+        _fail(Problems([Problem("--threshold", "", f"must be a finite number > 0, got "
+                                f"{threshold}")]))
     try:
         chosen = parse_metrics(metrics)
     except ValueError as e:

@@ -19,8 +19,10 @@ from .loading import load_config
 def _check_output_folder(cfg, display: str) -> None:
     """The checks render makes of its output folder, short of creating it (a folder is
     made and removed where it would go: paths.check_writable)."""
+    from .api import check_output_root
     from .output.paths import check_links, check_writable, inside
 
+    check_output_root(cfg.output.dir, display, "output.dir")
     folder = inside(inside(cfg.output.dir, cfg.scene.name, display, "scene.name"),
                     cfg.technique.name, display)
     inside(folder, cfg.output.log, display, "output.log")

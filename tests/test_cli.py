@@ -597,3 +597,69 @@ def test_a_bad_set_under_a_chosen_technique_blames_set():
         api.open_scene(str(TEAPOT_BOX), technique="dprm", overrides=["technique.maps.count=1"])
     (problem,) = e.value.problems
     assert str(problem).startswith("--set: technique.maps: per_frame = 4 exceeds count = 1")
+
+
+# ---------------------------------------------------------------- argument errors
+
+BAD_USAGE = {
+    "directory-for-scene": (("render", "."), "reflect render: SCENE: File '.' is a directory"),
+    "file-for-out": (("render", "scene.toml", "--out", "scene.toml"),
+                     "reflect render: --out: "),
+    "threads-not-a-number": (("render", "scene.toml", "--threads", "abc"),
+                             "reflect render: --threads: 'abc' is not a valid integer"),
+    "missing-scene": (("render",), "reflect render: SCENE: missing"),
+    "unknown-option": (("render", "scene.toml", "--nope"),
+                       "reflect render: No such option '--nope'"),
+    "unknown-command": (("rendre",), "reflect: No such command 'rendre'"),
+    "option-without-value": (("render", "scene.toml", "--threads"),
+                             "reflect render: Option '--threads' requires an argument"),
+    "empty-out": (("render", "scene.toml", "--out", ""),
+                  "reflect render: --out: empty folder name"),
+    "empty-cache": (("precompute-maps", "scene.toml", "--cache", ""),
+                    "reflect precompute-maps: --cache: empty folder name"),
+    "empty-cache-clear": (("cache", "clear", "--cache", ""),
+                          "reflect cache clear: --cache: empty folder name"),
+    "workers-not-a-number": (("bench", "scene.toml", "--workers", "x"),
+                             "reflect bench: --workers: 'x' is not a valid integer"),
+    "threshold-nan": (("compare", "scene.toml", "scene.toml", "--threshold", "nan"),
+                      "--threshold: must be a finite number > 0"),
+    "threshold-negative": (("compare", "scene.toml", "scene.toml", "--threshold", "-1"),
+                           "--threshold: must be a finite number > 0"),
+    "threshold-inf": (("compare", "scene.toml", "scene.toml", "--threshold", "inf"),
+                      "--threshold: must be a finite number > 0"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_USAGE))
+def test_argument_errors_are_one_line(here, case):
+    """click's own errors too: one line naming the option, exit code 2, no usage text."""
+    args, expected = BAD_USAGE[case]
+    write_scene(here)
+    result = invoke(*args)
+    assert_bad_input(result, "stderr", (expected,), here)
+    assert result.stdout == "" and "Usage:" not in result.stderr
+    assert sorted(os.listdir(here)) == ["scene.toml"]
+
+
+def test_subprocess_argument_error_is_one_line(here):
+    proc = subprocess.run([*reflect_command(), "render", "x.toml", "--threads", "abc"],
+                          capture_output=True, text=True, timeout=300, cwd=here)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.splitlines() == ["reflect render: --threads: 'abc' is not a valid "
+                                        "integer"]
+
+
+@pytest.mark.parametrize("args", [("--help",), ("render", "--help"), ("cache", "-h"), ()])
+def test_help_is_kept(args):
+    result = invoke(*args)
+    assert "Usage: " in result.output and "Options:" in result.output
+    assert result.exit_code == (0 if args else 2)
+
+
+def test_an_empty_output_dir_names_the_field(here):
+    scene = write_scene(here, TINY + '\n[output]\ndir = ""\n')
+    for command in ("validate", "render"):
+        result = invoke(command, scene)
+        stream = "stdout" if command == "validate" else "stderr"
+        assert_bad_input(result, stream, ("scene.toml: output.dir: empty folder name",), here)
+    assert sorted(os.listdir(here)) == ["scene.toml"]
