@@ -189,6 +189,7 @@ def warm_up(technique_name: str, params_json: str, threads: int) -> float:
 @dataclass
 class RenderResult:
     folder: str
+    log: str = ""  # the frames' log (the scene's output.log inside the folder)
     written: list[str] = field(default_factory=list)
     skipped: list[int] = field(default_factory=list)
     compile_seconds: float = 0.0
@@ -438,7 +439,8 @@ class OpenedScene:
         `writes_overlapped`."""
         check_threads(self.threads)  # before the build and the folder, as any bad argument
         result = RenderResult(self.output_folder(out))
-        stored = logged_rows(self.log_path(result.folder))
+        result.log = self.log_path(result.folder)
+        stored = logged_rows(result.log)
         check_same_overrides(stored, self.overrides, result.folder,
                              "--set" if self.overrides else self.display)
         rows: list[dict] = []  # this call's log rows: the timings summary

@@ -165,8 +165,9 @@ def _job_problem(display: str, where: str, job: dict, problem: Problem,
     return Problem(display, where, str(problem))
 
 
-def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> str:
-    """The reference frames of a job (rendered once, then found on disk)."""
+def render_reference(plan: BenchPlan, job: dict, threads: int | None = None
+                     ) -> tuple[str, str]:
+    """The reference frames of a job (rendered once, then found on disk): (folder, log)."""
     from .. import api
 
     folder = os.path.join(plan.out, "references", job["reference"]["id"])
@@ -174,7 +175,7 @@ def render_reference(plan: BenchPlan, job: dict, threads: int | None = None) -> 
                         technique="raytrace", overrides=job["reference"]["overrides"],
                         resume=True, threads=threads,
                         repeats=job.get("repeats", plan.config.bench.repeats))
-    return result.folder
+    return result.folder, result.log
 
 
 MIN_TIMED = 3  # frame times are medians of at least this many timed renders...
@@ -255,9 +256,9 @@ def execute_job(job: dict, settings: dict) -> dict:
                             cache=os.path.join(settings["out"], "cache"),
                             threads=settings.get("threads"), repeats=repeats)
     frames_dir = result.folder
-    log = read_jsonl(os.path.join(frames_dir, "timings.jsonl"))
-    ref_dir = settings["reference_dirs"][job["reference"]["id"]]
-    ref_log = {r["file"]: r for r in read_jsonl(os.path.join(ref_dir, "timings.jsonl"))}
+    log = read_jsonl(result.log)  # the scene's output.log, whatever it is named
+    ref_dir, ref_log_path = settings["reference_dirs"][job["reference"]["id"]]
+    ref_log = {r["file"]: r for r in read_jsonl(ref_log_path)}
     per_frame = []
     images: dict[str, list] = {"test": [], "ref": [], "mirror": []}
     for row in log:

@@ -347,3 +347,29 @@ def test_local_processes_sleep_when_idle(tmp_path, monkeypatch):
         monkeypatch.setattr(openmp, "defaulted", defaulted)
         run_bench(str(_bench_file(tmp_path, f"w{int(defaulted)}")), workers=2)
         assert seen.pop() is expected
+
+
+def test_a_scene_with_its_own_log_name_is_benched(tmp_path):
+    """The bench reads each run's and reference's log where the scene's output.log puts it
+    (it read timings.jsonl whatever the scene said, and failed)."""
+    scene = tmp_path / "s.toml"
+    text = (ROOT / "scenes" / "teapot-box.toml").read_text()
+    assert "log =" not in text
+    scene.write_text(text.replace("[output]\n", '[output]\nlog = "frames.jsonl"\n'))
+    bench = tmp_path / "b.toml"
+    bench.write_text(f"""
+[bench]
+name = "b"
+frames = "0:1"
+out = "out-b"
+
+[[runs]]
+scenes = ["{scene}"]
+techniques = ["rerender"]
+set = ["camera.width=32", "camera.height=24"]
+""")
+    result = CliRunner().invoke(cli, ["bench", str(bench)])
+    assert result.exit_code == 0, result.output
+    rows = read_jsonl(str(tmp_path / "out-b" / "results.jsonl"))
+    assert len(rows) == 1 and rows[0]["frame_ms_median"] > 0
+    assert rows[0]["reference_ms_median"] > 0
