@@ -19,7 +19,8 @@ render run for hours before its first frame or allocate more memory than a machi
 | virtual: tessellated reflected objects | 1,000,000 (splits scaled down, with a notice) |
 | coordinates (any position, size)       | magnitude <= 1e6      |
 | camera `near`                          | >= 1e-6, far / near <= 1e9 |
-| camera `fov_y`                         | >= 0.01 degrees       |
+| camera `fov_y`                         | >= 0.01, <= 170 degrees |
+| lights                                 | 256                   |
 | any other number (colors, intensities) | magnitude <= 1e9      |
 
 These are checked before anything is allocated (`check_config`); the memory a render will
@@ -48,6 +49,8 @@ MAX_COORDINATE = 1e6
 MIN_NEAR = 1e-6
 MAX_DEPTH_RATIO = 1e9
 MIN_FOV_Y = 0.01
+MAX_FOV_Y = 170.0  # wider, the image is a speck in the middle (179.99 showed background)
+MAX_LIGHTS = 256  # every lit pixel sums every light: 90,000 took 5 s for 160x120 pixels
 MIN_SCALE = 1e-6
 MAX_NUMBER = 1e9  # any number in a scene (colors, intensities, parameters)
 
@@ -66,6 +69,7 @@ def check_config(cfg, add) -> None:
                 add(("technique", "capture", name), "no mirror of that name")
             else:
                 _points(add, ("technique", "capture", name), [point])
+    _proxy_box(add, cfg.technique)
     cam = cfg.camera
     for key in ("width", "height"):
         if getattr(cam, key) > MAX_IMAGE_SIDE:
@@ -76,8 +80,7 @@ def check_config(cfg, add) -> None:
         add(("camera", "near"), f"must be >= {MIN_NEAR:g}")
     elif cam.far / cam.near > MAX_DEPTH_RATIO:
         add(("camera", "far"), f"far / near must be <= {MAX_DEPTH_RATIO:g}")
-    if cam.fov_y < MIN_FOV_Y:
-        add(("camera", "fov_y"), f"must be >= {MIN_FOV_Y}")
+    _fov(add, ("camera", "fov_y"), cam.fov_y)
     _points(add, ("camera", "eye"), [cam.eye])
     _points(add, ("camera", "target"), [cam.target])
     _direction(add, ("camera", "up"), cam.up)
@@ -89,9 +92,11 @@ def check_config(cfg, add) -> None:
             _points(add, ("camera", "path", "keys", k, "target"), [key.target])
             if key.up is not None:
                 _direction(add, ("camera", "path", "keys", k, "up"), key.up)
-            if key.fov_y is not None and key.fov_y < MIN_FOV_Y:
-                add(("camera", "path", "keys", k, "fov_y"), f"must be >= {MIN_FOV_Y}")
-    for i, light in enumerate(cfg.lights):
+            if key.fov_y is not None:
+                _fov(add, ("camera", "path", "keys", k, "fov_y"), key.fov_y)
+    if len(cfg.lights) > MAX_LIGHTS:
+        add(("lights",), f"{len(cfg.lights):,} lights; the limit is {MAX_LIGHTS}")
+    for i, light in enumerate(cfg.lights[:MAX_LIGHTS]):
         if light.kind == "directional":
             _direction(add, ("lights", i, "direction"), light.direction)
         else:
@@ -143,6 +148,24 @@ def output_names(cfg, add) -> None:
         add(("output", "log"), f"must not be named like {taken}")
     if "\0" in cfg.output.dir:
         add(("output", "dir"), "path contains a NUL byte")
+
+
+def _fov(add, loc, fov_y: float) -> None:
+    if fov_y < MIN_FOV_Y:
+        add(loc, f"must be >= {MIN_FOV_Y}")
+    elif fov_y > MAX_FOV_Y:
+        add(loc, f"must be <= {MAX_FOV_Y:g} degrees")
+
+
+def _proxy_box(add, technique) -> None:
+    """envmap's parallax box: both corners or neither (one alone was silently ignored),
+    and min below max on every axis (an inside-out box was accepted)."""
+    lo, hi = getattr(technique, "proxy_min", None), getattr(technique, "proxy_max", None)
+    if (lo is None) != (hi is None):
+        missing = "proxy_max" if hi is None else "proxy_min"
+        add(("technique", missing), "required with the other corner of the proxy box")
+    elif lo is not None and any(a > b for a, b in zip(lo, hi, strict=True)):
+        add(("technique", "proxy_min"), "must be <= proxy_max on every axis")
 
 
 def _finite_small(values) -> bool:
