@@ -129,3 +129,14 @@ def test_number_of_lights_is_limited(tmp_path):
     scene = write(tmp_path, "s.toml", LAMBERT + lights)
     with chdir(tmp_path):
         check_bad(scene, "s.toml: lights: 257 lights; the limit is 256")
+
+
+def test_distmap_layers_count_in_the_memory_estimate(tmp_path, monkeypatch):
+    """resolution 4096 with 8 layers (about 100 GB) validated on a 22 GiB machine."""
+    from reflectcli.config import memory
+
+    monkeypatch.setattr(memory, "available_bytes", lambda: 22 << 30)
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "distmap"\n'
+                  "resolution = 4096\nlayers = 8\n")
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: technique: this render needs about", "22.0 GiB is available")

@@ -1,0 +1,63 @@
+"""The memory estimate (config/memory.py) against what renders were measured to need."""
+
+from __future__ import annotations
+
+import pytest
+from test_cli import TINY as SCENE
+
+from reflectcli.config import memory
+from reflectcli.errors import Problems
+from reflectcli.loading import load_config
+from reflectcli.warmup import WARM_SCENE
+
+GiB = 1 << 30
+
+
+@pytest.fixture
+def here(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def distmap(here, resolution: int, layers: int, mirrors: int = 1):
+    extra = "".join(f'\n[[mirrors]]\nname = "m{k}"\nshape = "quad"\n'
+                    f"corners = [[-2, 0, -{k}], [2, 0, -{k}], [2, 1, -{k}], [-2, 1, -{k}]]\n"
+                    for k in range(1, mirrors))
+    path = here / "d.toml"
+    path.write_text(SCENE + extra + '\n[technique]\nname = "distmap"\n'
+                    f"resolution = {resolution}\nlayers = {layers}\n")
+    return str(path)
+
+
+def map_bytes(path: str) -> int:
+    cfg, _ = load_config(path)
+    return memory.estimate(cfg, path)[1][("technique",)]
+
+
+def test_distmap_maps_count_their_layers(here):
+    """resolution 1024 with 8 layers peaked at 6.1 GiB (the estimate said 480 MiB, as for 1
+    layer): the warm-up scene's mirrors each hold 8 layers of colour, depth, ids and 1/depth."""
+    one, eight = map_bytes(distmap(here, 1024, 1)), map_bytes(distmap(here, 1024, 8))
+    assert eight > 7 * one
+    assert eight >= 6.1 * GiB
+    assert eight < 12 * GiB  # generous, not absurd
+
+
+def test_distmap_maps_count_every_mirror_past_the_warm_up_scenes(here):
+    few = map_bytes(distmap(here, 256, 4, mirrors=2))
+    many = map_bytes(distmap(here, 256, 4, mirrors=4 * len(WARM_SCENE["mirrors"])))
+    assert many > 3 * few
+
+
+def test_warm_up_mirrors_match_the_warm_up_scene():
+    assert len(WARM_SCENE["mirrors"]) == memory.WARM_UP_MIRRORS
+
+
+def test_distmap_past_this_machines_memory_is_one_line(here, monkeypatch):
+    """resolution 4096 with 8 layers (about 100 GB) validated on a 22 GiB machine."""
+    monkeypatch.setattr(memory, "available_bytes", lambda: 22 * GiB)
+    with pytest.raises(Problems) as info:
+        load_config(distmap(here, 4096, 8))
+    assert [str(p) for p in info.value.problems] == [
+        "d.toml: technique: this render needs about 115.3 GiB of memory; 22.0 GiB is available"]
+    load_config(distmap(here, 1024, 4))  # 3.6 GiB: fine
