@@ -21,6 +21,8 @@ render run for hours before its first frame or allocate more memory than a machi
 | camera `near`                          | >= 1e-6, far / near <= 1e9 |
 | camera `fov_y`                         | >= 0.01, <= 170 degrees |
 | lights                                 | 256                   |
+| output names (`scene.name`, `output.log`, each folder of `output.dir`) | 255 bytes (UTF-8) |
+| output paths (`output.dir`/name/technique/file) | 4095 bytes    |
 | any other number (colors, intensities) | magnitude <= 1e9      |
 
 These are checked before anything is allocated (`check_config`); the memory a render will
@@ -30,6 +32,8 @@ need is estimated from them before it starts (`reflectcli/config/memory.py`).
 from __future__ import annotations
 
 import math
+
+from .names import output_path_lengths
 
 MAX_TOML_BYTES = 4 << 20
 MAX_MESH_BYTES = 512 << 20
@@ -59,6 +63,7 @@ def check_config(cfg, add) -> None:
     """Call add(loc, message) for every value past a documented limit or too degenerate to
     render (a zero scale, a zero light direction, a repeated quad corner)."""
     output_names(cfg, add)
+    output_path_lengths(cfg, add)
     if _huge_numbers(cfg.model_dump(mode="python"), (), add):
         return  # one line per huge number is enough; the checks below assume sane ones
     capture = getattr(cfg.technique, "capture", None)  # envmap: points by mirror name
