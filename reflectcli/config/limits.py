@@ -18,6 +18,7 @@ render run for hours before its first frame or allocate more memory than a machi
 | triangles in a scene (built)           | 20,000,000            |
 | virtual: tessellated reflected objects | 1,000,000 (splits scaled down, with a notice) |
 | coordinates (any position, size)       | magnitude <= 1e6      |
+| mesh file coordinates                  | magnitude <= 1e6 after `fit`, <= 1e9 in the file |
 | camera `near`                          | >= 1e-6, far / near <= 1e9 |
 | camera `fov_y`                         | >= 0.01, <= 170 degrees |
 | lights                                 | 256                   |

@@ -21,7 +21,7 @@ from ..geometry import trs_matrix
 from . import primitives
 from .mesh import Mesh, joined_pieces
 from .mesh_file import cached_mesh_file as _mesh_file
-from .mesh_file import resolve
+from .mesh_file import placed, resolve
 from .mirrors import extrusion_profile, mirror_corners, mirror_mesh, mirror_plane
 from .textures import load_texture
 from .types import (
@@ -76,7 +76,8 @@ def object_mesh(obj, source: str) -> Mesh:
     if s == "mesh":
         from .fit import fit_mesh
 
-        return fit_mesh(_mesh_file(resolve(source, obj.path)), obj.name, obj.path, obj.fit)
+        mesh = fit_mesh(_mesh_file(resolve(source, obj.path)), obj.name, obj.path, obj.fit)
+        return placed(mesh, obj.path)
     if s == "clutter":
         from .procedural import music_room_clutter
 

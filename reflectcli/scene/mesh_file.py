@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -27,14 +28,16 @@ def load_mesh_file(path: str | Path) -> Mesh:
     import trimesh  # slow to import; only mesh-file scenes pay for it
 
     from ..config.files import file_problem
-    from ..config.limits import MAX_MESH_BYTES, MAX_TRIANGLES
+    from ..config.limits import MAX_MESH_BYTES, MAX_NUMBER, MAX_TRIANGLES
 
     file = Path(path)
     reason = file_problem(str(file), MAX_MESH_BYTES, "mesh file")
     if reason is not None:
         raise FileNotFoundError(f"{reason}: {file}")
     try:
-        loaded = trimesh.load(file, force="mesh")
+        with warnings.catch_warnings():  # overflow in its vertex merge: our line says why
+            warnings.simplefilter("ignore")
+            loaded = trimesh.load(file, force="mesh")
     except Exception as exc:  # trimesh raises many types for bad or unknown files
         raise ValueError(f"cannot read mesh file {file}: {exc}") from exc
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
@@ -44,6 +47,8 @@ def load_mesh_file(path: str | Path) -> Mesh:
                          f"the limit is {MAX_TRIANGLES}")
     if not np.isfinite(loaded.vertices).all():
         raise ValueError(f"mesh file {file} has non-finite vertex coordinates")
+    if np.abs(loaded.vertices).max() > MAX_NUMBER:  # even `fit` cannot make those sane
+        raise ValueError(f"mesh file {file} has coordinates past +-{MAX_NUMBER:g}")
 
     faces = np.asarray(loaded.faces, dtype=np.int64)
     vertices = np.asarray(loaded.vertices, dtype=np.float64)
@@ -69,6 +74,18 @@ def load_mesh_file(path: str | Path) -> Mesh:
     agree = np.einsum("fck,fck->fc", vertex_normals, flat) >= _SMOOTH_LIMIT_COS
     normals = np.where(agree[..., None], vertex_normals, flat)
     return Mesh(corners, uvs, normals)
+
+
+def placed(mesh: Mesh, path: str) -> Mesh:
+    """`mesh` as it goes into the scene (after `fit`, before the transform), refused past
+    the coordinate limit like any position in a scene file. `path` as the scene writes it."""
+    from ..config.limits import MAX_COORDINATE
+
+    largest = float(np.abs(mesh.corners).max()) if mesh.corners.size else 0.0
+    if largest > MAX_COORDINATE:
+        raise ValueError(f"mesh file {path} has coordinates up to {largest:.3g}, past "
+                         f"+-{MAX_COORDINATE:g} (`fit` scales a mesh into the scene)")
+    return mesh
 
 
 def resolve(source: str, path: str) -> str:

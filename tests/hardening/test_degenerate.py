@@ -140,3 +140,35 @@ def test_distmap_layers_count_in_the_memory_estimate(tmp_path, monkeypatch):
                   "resolution = 4096\nlayers = 8\n")
     with chdir(tmp_path):
         check_bad(scene, "s.toml: technique: this render needs about", "22.0 GiB is available")
+
+
+MESH_OBJECT = '\n[[objects]]\nname = "m"\nshape = "mesh"\npath = "m.obj"\nmaterial = "red"\n'
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize(("x", "limit"), [("1e7", "1e+06"), ("1e30", "1e+09"),
+                                          ("1e300", "1e+09")])
+def test_mesh_coordinates_past_the_limit(tmp_path, x, limit):
+    """A mesh with `v 1e30 0 0` (or 1e7) and no `fit` validated and rendered; trimesh's
+    overflow warnings came on stderr besides (an error here). Past 1e9 even `fit` cannot
+    help (the normals overflow)."""
+    (tmp_path / "m.obj").write_text(f"v {x} 0 0\nv 0 1 0\nv 0 0 1\nv -{x} 0 0\nf 1 2 3\n"
+                                    "f 4 2 3\n")
+    scene = write(tmp_path, "s.toml", TINY + MESH_OBJECT)
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: objects.1.path:", "coordinates", limit)
+    scene = write(tmp_path, "m.toml", TINY + '\n[[mirrors]]\nname = "m"\nshape = "mesh"\n'
+                  'path = "m.obj"\n')
+    with chdir(tmp_path):
+        check_bad(scene, "m.toml: mirrors.1.path:", "coordinates", limit)
+
+
+def test_mesh_in_miles_fitted_into_the_scene_is_fine(tmp_path):
+    from .common import invoke
+
+    (tmp_path / "m.obj").write_text("v 1e7 0 0\nv 0 1e7 0\nv 0 0 1e7\nf 1 2 3\n")
+    scene = write(tmp_path, "s.toml", TINY + MESH_OBJECT + "fit = { center = [0, 0, 0], "
+                  "size = 1.0 }\n")
+    with chdir(tmp_path):
+        result = invoke("validate", scene)
+    assert result.exit_code == 0, result.output
