@@ -4,7 +4,7 @@ render run for hours before its first frame or allocate more memory than a machi
 | what                                   | limit                 |
 |---|---|
 | scene / section / include file (TOML)  | 4 MiB                 |
-| mesh file                              | 512 MiB               |
+| mesh file, with the glTF buffers, OBJ materials, textures it names | 512 MiB |
 | texture file                           | 256 MiB               |
 | texture dimensions                     | 16384 x 16384 texels, 64 Mtexels |
 | include chain                          | 16 files deep         |

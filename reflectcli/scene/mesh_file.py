@@ -29,17 +29,23 @@ def load_mesh_file(path: str | Path) -> Mesh:
 
     from ..config.files import file_problem
     from ..config.limits import MAX_MESH_BYTES, MAX_NUMBER, MAX_TRIANGLES
+    from .gltf import gltf_problem
 
     file = Path(path)
     reason = file_problem(str(file), MAX_MESH_BYTES, "mesh file")
     if reason is not None:
         raise FileNotFoundError(f"{reason}: {file}")
+    reason = gltf_problem(str(file), MAX_MESH_BYTES)
+    if reason is not None:
+        raise ValueError(f"mesh file {file}: {reason}")
     try:
         with warnings.catch_warnings():  # overflow in its vertex merge: our line says why
             warnings.simplefilter("ignore")
-            loaded = trimesh.load(file, force="mesh")
+            loaded = trimesh.load(file, force="mesh",
+                                  resolver=_limited_resolver(str(file), MAX_MESH_BYTES))
     except Exception as exc:  # trimesh raises many types for bad or unknown files
-        raise ValueError(f"cannot read mesh file {file}: {exc}") from exc
+        why = str(exc).splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ValueError(f"cannot read mesh file {file}: {why}") from exc
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise ValueError(f"mesh file {file} contains no triangles")
     if len(loaded.faces) > MAX_TRIANGLES:
@@ -52,6 +58,9 @@ def load_mesh_file(path: str | Path) -> Mesh:
 
     faces = np.asarray(loaded.faces, dtype=np.int64)
     vertices = np.asarray(loaded.vertices, dtype=np.float64)
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise ValueError(f"mesh file {file} has faces naming vertices it does not have "
+                         f"(index {faces.max()} of {len(vertices)} vertices)")
     corners = vertices[faces]
     n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     length = np.linalg.norm(n, axis=1, keepdims=True)
@@ -74,6 +83,30 @@ def load_mesh_file(path: str | Path) -> Mesh:
     agree = np.einsum("fck,fck->fc", vertex_normals, flat) >= _SMOOTH_LIMIT_COS
     normals = np.where(agree[..., None], vertex_normals, flat)
     return Mesh(corners, uvs, normals)
+
+
+def _limited_resolver(path: str, limit: int):
+    """trimesh's resolver for the files a mesh file names (OBJ materials and textures, glTF
+    buffers), reading only regular files within `limit` bytes in all: a file past it, a pipe
+    or a device is not there for trimesh (a missing texture is skipped; a missing buffer
+    fails the load)."""
+    from trimesh.resolvers import FilePathResolver
+
+    from ..config.files import file_problem
+
+    class Limited(FilePathResolver):
+        budget = limit - os.path.getsize(path)
+
+        def absolute(self, name: str):
+            found = super().absolute(name)
+            if found.exists():
+                reason = file_problem(str(found), max(self.budget, 0), "mesh file's asset")
+                if reason is not None:
+                    raise ValueError(f"{name}: {reason}")
+                Limited.budget -= found.stat().st_size
+            return found
+
+    return Limited(path)
 
 
 def placed(mesh: Mesh, path: str) -> Mesh:

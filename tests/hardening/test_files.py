@@ -76,3 +76,105 @@ def test_scene_file_itself_a_fifo(tmp_path):
     os.mkfifo(tmp_path / "s.toml")
     with chdir(tmp_path):
         check_bad(tmp_path / "s.toml", "not a regular file")
+
+
+def _gltf(folder, uri: str = "m.bin", byte_length: int = 48, count: int = 3,
+          indices: bool = False) -> None:
+    """A one-triangle .gltf whose buffer is the file `uri` names."""
+    import json
+    import struct
+
+    (folder / "m.bin").write_bytes(struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+                                   + struct.pack("<3I", 0, 1, 99))
+    primitive = {"attributes": {"POSITION": 0}, **({"indices": 1} if indices else {})}
+    doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+           "nodes": [{"mesh": 0}], "meshes": [{"primitives": [primitive]}],
+           "buffers": [{"uri": uri, "byteLength": byte_length}],
+           "bufferViews": [{"buffer": 0, "byteLength": 36},
+                           {"buffer": 0, "byteOffset": 36, "byteLength": 12}],
+           "accessors": [{"bufferView": 0, "componentType": 5126, "count": count,
+                          "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+                         {"bufferView": 1, "componentType": 5125, "count": 3,
+                          "type": "SCALAR"}]}
+    (folder / "m.gltf").write_text(json.dumps(doc))
+
+
+GLTF_OBJECT = '\n[[objects]]\nname = "m"\nshape = "mesh"\npath = "m.gltf"\nmaterial = "red"\n'
+
+
+def test_gltf_naming_a_buffer_past_the_mesh_limit(tmp_path):
+    """A 600-byte .gltf naming a 1.2 GB .bin passed the 512 MiB limit: validate read it all
+    (2 GB) before failing. Its size is checked first (a sparse file: nothing is read)."""
+    from reflectcli.config.limits import MAX_MESH_BYTES
+
+    _gltf(tmp_path, "big.bin")
+    with open(tmp_path / "big.bin", "wb") as f:
+        f.truncate(MAX_MESH_BYTES + 1)
+    scene = write(tmp_path, "s.toml", TINY + GLTF_OBJECT)
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: objects.1.path:", "buffers.0.uri:", "over the limit")
+
+
+@pytest.mark.parametrize(("uri", "needle"), [
+    ("gone.bin", "buffers.0.uri: file not found: gone.bin"),
+    ("/etc/hostname", "buffers.0.uri: must be a path relative to the glTF file"),
+    ("file:///etc/hostname", "buffers.0.uri: must be a path relative to the glTF file"),
+    ("../m.bin", "buffers.0.uri: must stay in the glTF file's folder"),
+    ("sub%2F..%2F..%2Fm.bin", "buffers.0.uri: must stay in the glTF file's folder"),
+    ("fifo", "buffers.0.uri: not a regular file"),
+])
+def test_gltf_buffer_uris_that_are_missing_absolute_or_escaping(tmp_path, uri, needle):
+    os.mkfifo(tmp_path / "fifo")
+    _gltf(tmp_path, uri)
+    scene = write(tmp_path, "s.toml", TINY + GLTF_OBJECT)
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: objects.1.path:", needle)
+
+
+@pytest.mark.parametrize(("shape", "needle"), [
+    ({"count": 30}, "accessors.0.count: 30 elements need 360 bytes"),
+    ({"byte_length": 4800}, "buffers.0.byteLength: 4800 bytes, but its file holds 48"),
+    ({"indices": True}, "faces naming vertices it does not have"),
+])
+def test_malformed_gltf_buffers_are_one_line(tmp_path, shape, needle):
+    """A view past its buffer was numpy's "cannot reshape"; an index past the vertices a
+    traceback."""
+    _gltf(tmp_path, **shape)
+    scene = write(tmp_path, "s.toml", TINY + GLTF_OBJECT)
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: objects.1.path:", needle)
+
+
+def test_sound_gltf_with_an_external_buffer_loads(tmp_path):
+    from .common import invoke
+
+    _gltf(tmp_path)
+    scene = write(tmp_path, "s.toml", TINY + GLTF_OBJECT)
+    with chdir(tmp_path):
+        result = invoke("validate", scene)
+    assert result.exit_code == 0, result.output
+
+
+def test_obj_material_file_that_is_a_pipe_is_not_read(tmp_path):
+    """trimesh's own resolver opened it and waited forever."""
+    from .common import invoke
+
+    os.mkfifo(tmp_path / "fifo.mtl")
+    (tmp_path / "m.obj").write_text("mtllib fifo.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    scene = write(tmp_path, "s.toml", TINY + GLTF_OBJECT.replace("m.gltf", "m.obj"))
+    with chdir(tmp_path):
+        result = invoke("validate", scene)
+    assert result.exit_code == 0, result.output
+
+
+def test_glb_naming_an_external_buffer_is_checked_too(tmp_path):
+    import struct
+
+    _gltf(tmp_path, "gone.bin")
+    text = (tmp_path / "m.gltf").read_bytes()
+    text += b" " * (-len(text) % 4)
+    (tmp_path / "m.glb").write_bytes(b"glTF" + struct.pack("<II", 2, 20 + len(text))
+                                     + struct.pack("<I", len(text)) + b"JSON" + text)
+    scene = write(tmp_path, "s.toml", TINY + GLTF_OBJECT.replace("m.gltf", "m.glb"))
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: objects.1.path:", "buffers.0.uri: file not found")
