@@ -2,7 +2,10 @@
 (camera, mirrors, technique, ...).
 
 A scene goes through every check `render` runs short of rendering (the scene build
-included), so the two always agree. A file that is not a scene says what it was checked as.
+included), so the two always agree. A file with `[scene]`, or `[camera]` and anything else,
+is a scene: missing its `[scene]` it fails as `render` fails. Other files are section files,
+presets or include files (no `[scene]`, at most a lone `[camera]`): their sections are
+checked, and stderr says they cannot be rendered by themselves.
 """
 
 from __future__ import annotations
@@ -46,7 +49,7 @@ def validate_file(path: str) -> str:
     from .techniques.registry import scene_model
 
     fields = scene_model().model_fields
-    if "scene" in raw or "camera" in raw and "objects" in raw or not set(raw) <= set(fields):
+    if "scene" in raw or "camera" in raw and len(raw) > 1 or not set(raw) <= set(fields):
         cfg, _ = load_config(path)
         from .scene.build import build_scene
 
@@ -62,4 +65,5 @@ def validate_file(path: str) -> str:
         section.model_validate(raw)
     except ValidationError as e:
         raise Problems(validation_problems(e, raw, prov, display, section)) from None
-    return f"section file ({', '.join(raw)}); `render` needs a whole scene"
+    return (f"section file ({', '.join(raw)}): it cannot be rendered by itself (a scene needs "
+            "[scene] and [camera])")

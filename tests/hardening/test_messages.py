@@ -72,3 +72,22 @@ def test_unknown_key_in_an_included_file_names_that_file(tmp_path):
     scene = write(tmp_path, "s.toml", 'include = ["parts/cam.toml"]\n' + TINY)
     with chdir(tmp_path):
         check_bad(scene, "parts/cam.toml: camera.fov: unknown key (did you mean fov_y?)")
+
+
+def test_a_scene_without_its_scene_table_fails_validate_like_render(tmp_path):
+    """A camera and mirrors but no [scene] (and no objects) validated as a section file, exit
+    0; render refused it with `scene: required`."""
+    text = TINY.split("[camera]")[1].split("[[objects]]")[0] + "[[mirrors]]" + \
+        TINY.split("[[mirrors]]")[1]
+    scene = write(tmp_path, "s.toml", "[camera]" + text)
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: scene: required")
+
+
+def test_a_section_file_says_it_cannot_be_rendered_by_itself(tmp_path):
+    section = write(tmp_path, "lights.toml", '[[lights]]\nkind = "point"\nposition = [0, 3, 2]\n'
+                    '[materials.red]\nkind = "solid"\n')
+    with chdir(tmp_path):
+        result = invoke("validate", section)
+    assert result.exit_code == 0 and result.stdout == "ok\n"
+    assert "cannot be rendered by itself" in result.stderr
