@@ -345,7 +345,10 @@ class OpenedScene:
     def check_cache(self) -> None:
         """A map technique's cache folder must be one it can make and write into: refused in
         one line before any folder is made, not a failed write after the output folder."""
-        if self.cache is not None and uses_maps(technique_class(self.technique_name)):
+        # an existing folder passes as it is: a complete cache may be read-only (maps are
+        # written only on a miss, and such a write failing ends the run in one line)
+        if (self.cache is not None and uses_maps(technique_class(self.technique_name))
+                and not os.path.isdir(self.cache)):
             check_writable(self.cache, "--cache" if self.cache_option else self.display, "")
 
     def log_path(self, folder: str) -> str:

@@ -1,11 +1,14 @@
-"""A rendered frame's files (EXR, optional PNG preview, log row), written all or nothing,
+"""A rendered frame's files (EXR, optional PNG preview, log row), each written whole,
 either at once or on one background thread while the next frame renders.
 
 A frame is kept with its log line or not at all: the EXR and the preview are written under
-temporary names, then the log row is appended, and only then are the two renamed into place.
-If any of them fails, only the temporary files are removed: a frame written by an earlier
-run stays whole with its own log row (a full disk on a re-render loses nothing), and the
-failure names the file and the OS reason.
+temporary names, renamed into place (the EXR first; a file an earlier run left there is kept
+under a second name meanwhile), then the log row is appended. If any step fails, the
+temporary files are removed and the earlier files put back, so a frame an earlier run
+finished stays whole with its own row (a full disk on a re-render loses nothing), and the
+failure names the file and the OS reason. A row never describes files that are not there:
+a run killed between the renames and the append leaves the new files with the earlier row
+(or none), and `--resume` renders that frame again unless that row matches.
 With `overlap`, at most one frame is in flight: submitting the next one first waits for it,
 so log rows stay in frame order and a write failure stops the run one frame later at most.
 The writer thread receives private copies of the pixels (the technique reuses its buffers).
@@ -14,6 +17,7 @@ The writer thread receives private copies of the pixels (the technique reuses it
 from __future__ import annotations
 
 import contextlib
+import os
 import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -22,10 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..interrupts import deferred
-from .atomic import atomic_path
+from .atomic import put_back, set_aside, temporary_path
 from .exr import pack_channels, write_exr_at
-from .failures import write_failure
-from .log import append_jsonl, cut_back
+from .failures import WriteFailed, write_failure
+from .log import append_jsonl
 from .png import write_png_at
 
 
@@ -59,28 +63,46 @@ def write_frame_files(files: FrameFiles) -> dict:
     run left under these names are as they were."""
     start = time.perf_counter()
     target = files.exr
+    placed: list[tuple[str, str | None]] = []  # (path, its earlier file's second name)
     try:
-        # temporary names until the row is logged; staged.close() renames them, preview first
-        with contextlib.ExitStack() as staged:
-            tmp = staged.enter_context(atomic_path(files.exr))
-            write_exr_at(tmp, files.exr, files.channel_names, files.channel_data,
+        with contextlib.ExitStack() as stack:
+            exr_tmp = stack.enter_context(temporary_path(files.exr))
+            write_exr_at(exr_tmp, files.exr, files.channel_names, files.channel_data,
                          files.attributes)
+            staged = [(exr_tmp, files.exr)]
             if files.preview_rgb is not None:
                 target = files.png
-                write_png_at(staged.enter_context(atomic_path(target)), target,
-                             files.preview_rgb)
-            target = files.log_path
-            row = {**files.row, "write_seconds": time.perf_counter() - start}
-            logged_at = append_jsonl(files.log_path, row)
-            target = files.exr
-            try:
-                staged.close()  # the renames
-            except OSError:
-                cut_back(files.log_path, logged_at)  # no row for files not in place
-                raise
-    except OSError as e:
+                png_tmp = stack.enter_context(temporary_path(files.png))
+                write_png_at(png_tmp, target, files.preview_rgb)
+                staged.append((png_tmp, files.png))
+            for tmp, path in staged:  # the EXR first
+                target = path
+                aside = set_aside(path)
+                try:
+                    os.replace(tmp, path)  # replaces a link at `path`; never writes through it
+                except OSError:
+                    _drop(aside)  # the earlier file is still in place
+                    raise
+                placed.append((path, aside))
+        target = files.log_path
+        row = {**files.row, "write_seconds": time.perf_counter() - start}
+        append_jsonl(files.log_path, row)
+    except (OSError, WriteFailed) as e:
+        for path, aside in reversed(placed):
+            put_back(path, aside)
+        if isinstance(e, WriteFailed):
+            raise
         raise write_failure(e, target) from None
+    for _, aside in placed:  # the frame is whole: the earlier files' second names go
+        _drop(aside)
     return row
+
+
+def _drop(aside: str | None) -> None:
+    """Remove a second name `set_aside` made; best effort."""
+    if aside is not None:
+        with contextlib.suppress(OSError):
+            os.unlink(aside)
 
 
 OnWritten = Callable[[str, dict], None]

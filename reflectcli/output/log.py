@@ -34,8 +34,8 @@ def _drop_torn_tail(fd: int, size: int) -> int:
     return new
 
 
-def append_jsonl(path: str, row: dict) -> int:
-    """Append `row` as one line; the offset the line starts at (for cut_back)."""
+def append_jsonl(path: str, row: dict) -> None:
+    """Append `row` as one line."""
     line = (json.dumps(row, sort_keys=True) + "\n").encode("utf-8")
     try:  # never through a link: it would append outside the folder (paths.check_links)
         fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666)
@@ -55,18 +55,6 @@ def append_jsonl(path: str, row: dict) -> int:
             raise WriteFailed(path, reason(e, path)) from None
     finally:
         os.close(fd)
-    return size
-
-
-def cut_back(path: str, size: int) -> None:
-    """Remove the lines appended from offset `size` on (a frame whose files could not be
-    renamed into place after its row was logged); best effort."""
-    with contextlib.suppress(OSError):
-        fd = os.open(path, os.O_WRONLY | os.O_NOFOLLOW)
-        try:
-            os.ftruncate(fd, size)
-        finally:
-            os.close(fd)
 
 
 def read_jsonl(path: str) -> list[dict]:

@@ -33,8 +33,10 @@ def check_links(root: str, folder: str, log: str, source: str, field: str,
     link in `folder` at a name reflect writes (the log, the summary, the lock, a frame): an
     append would follow it out of the folder, and a replace would drop the link. `log_source`
     names the file output.log came from."""
-    top = os.path.realpath(root)
+    # the root as the frames' paths reach it: normalised first, as `inside` joins them
+    # (`build/../out` with `build` a link is ./out, not the link's sibling)
     path = os.path.normpath(root)
+    top = os.path.realpath(path)
     for part in os.path.relpath(os.path.normpath(folder), path).split(os.sep):
         path = os.path.join(path, part)
         if not os.path.lexists(path):

@@ -169,3 +169,34 @@ def test_validate_refuses_an_output_folder_render_could_not_write(tmp_path):
         ok = write(tmp_path, "ok.toml", TINY + '\n[output]\ndir = "new/deeper/out"\n')
         assert invoke("validate", ok).exit_code == 0
     assert sorted(os.listdir(tmp_path)) == ["blocker", "ok.toml", "s.toml"]  # nothing made
+
+
+def test_an_existing_cache_folder_is_not_refused_as_unwritable(tmp_path, monkeypatch):
+    # a complete cache may be read-only: its maps are only read; the check that refuses a
+    # cache folder render could not make applies to one that does not exist yet
+    from reflectcli import api
+
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "dprm"\n')
+    (tmp_path / "kept").mkdir()
+
+    def unwritable(folder, source, field):
+        raise AssertionError(f"checked {folder} for writing")
+
+    monkeypatch.setattr(api, "check_writable", unwritable)
+    api.open_scene(str(scene), cache=str(tmp_path / "kept")).check_cache()
+    with pytest.raises(AssertionError):
+        api.open_scene(str(scene), cache=str(tmp_path / "new")).check_cache()
+
+
+def test_a_root_with_dotdot_after_a_link_is_not_refused(tmp_path):
+    # `--out build/../out` with build a link elsewhere writes to ./out (paths are joined
+    # and normalised); the check once resolved the root through the link and refused it
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "raster"\n')
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "w").mkdir()
+    os.symlink(tmp_path / "elsewhere", tmp_path / "w" / "build")
+    with chdir(tmp_path / "w"):
+        for _ in range(2):  # the second run finds ./out/tiny made
+            result = invoke("render", scene, "--out", "build/../out")
+            assert result.exit_code == 0, result.output
+    assert (tmp_path / "w" / "out" / "tiny" / "raster" / "frame_0000.exr").exists()

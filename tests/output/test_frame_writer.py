@@ -131,3 +131,26 @@ def test_a_failed_rewrite_keeps_the_finished_frame_and_its_row(tmp_path, monkeyp
     assert {n: (tmp_path / folder / n).read_bytes() for n in sorted(os.listdir(folder))} \
         == before  # no temporary file left, the frames and their rows as they were
     assert consistent(folder) == ["frame_0000.exr", "frame_0001.exr"]
+
+
+def test_a_row_is_logged_only_once_its_files_are_in_place(tmp_path, monkeypatch):
+    # logged first, a run killed before the renames left a row naming the earlier file,
+    # which --resume then took for the new frame
+    exr, log = str(tmp_path / "frame_0000.exr"), str(tmp_path / "log")
+    with open(exr, "wb") as f:
+        f.write(b"an earlier frame")
+    seen = []
+    real = frame_writer.append_jsonl
+
+    def spy(path, row):
+        with open(exr, "rb") as f:
+            seen.append(f.read() != b"an earlier frame")
+        seen.append(sorted(n for n in os.listdir(tmp_path) if n.startswith(".")))
+        real(path, row)
+
+    monkeypatch.setattr(frame_writer, "append_jsonl", spy)
+    frame_writer.write_frame_files(FrameFiles.of(exr, {"R": np.zeros((2, 2))}, {}, None, log,
+                                                 {"frame": 0}))
+    assert seen[0] is True  # the new EXR was in place when its row was appended
+    assert [n for n in seen[1] if "earlier" not in n] == []  # no temporary file left then
+    assert sorted(os.listdir(tmp_path)) == ["frame_0000.exr", "log"]  # nor afterwards
