@@ -80,7 +80,9 @@ def _one_line(e: click.UsageError, parent: click.Context | None = None,
 _HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 
 
-class _OneLineCommand(click.Command):
+class _OneLineArguments:
+    """A command's or group's argument errors in one line (`_one_line`)."""
+
     def make_context(self, info_name, args, parent=None, **extra) -> click.Context:
         try:
             return super().make_context(info_name, args, parent, **extra)
@@ -90,17 +92,13 @@ class _OneLineCommand(click.Command):
             raise _one_line(e, parent, info_name) from None
 
 
-class _OneLineGroup(click.Group):
+class _OneLineCommand(_OneLineArguments, click.Command):
+    pass
+
+
+class _OneLineGroup(_OneLineArguments, click.Group):
     command_class = _OneLineCommand
     group_class = type  # a group's subgroups are of this class too
-
-    def make_context(self, info_name, args, parent=None, **extra) -> click.Context:
-        try:
-            return super().make_context(info_name, args, parent, **extra)
-        except _HELP:
-            raise
-        except click.UsageError as e:
-            raise _one_line(e, parent, info_name) from None
 
     def resolve_command(self, ctx: click.Context, args: list[str]):
         try:

@@ -47,6 +47,15 @@ def write_exr_at(tmp: str, path: str, names: list[str], data: np.ndarray,
     for key, value in attributes.items():
         spec.attribute(key, str(value))
     spec.attribute("DateTime", FIXED_DATETIME)
+    write_image_at(tmp, path, spec, data)
+
+
+def write_image_at(tmp: str, path: str, spec, data: np.ndarray) -> None:
+    """`data` as the image `spec` describes into `tmp` (OpenImageIO picks the format by its
+    extension); a failure is a WriteFailed naming `path`, its reason found while `tmp` still
+    fills the disk."""
+    import OpenImageIO as oiio
+
     out = oiio.ImageOutput.create(tmp)
     if out is None or not out.open(tmp, spec):
         raise image_failure(path, oiio.geterror())

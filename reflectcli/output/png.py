@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .atomic import atomic_path
-from .failures import image_failure
+from .exr import write_image_at
 
 
 def linear_to_srgb(c: np.ndarray) -> np.ndarray:
@@ -25,11 +25,4 @@ def write_png_at(tmp: str, path: str, rgb: np.ndarray) -> None:
 
     data = np.ascontiguousarray((linear_to_srgb(rgb) * 255.0 + 0.5).astype(np.uint8))
     h, w = data.shape[:2]
-    spec = oiio.ImageSpec(w, h, 3, oiio.UINT8)
-    out = oiio.ImageOutput.create(tmp)
-    if out is None or not out.open(tmp, spec):
-        raise image_failure(path, oiio.geterror())
-    ok = out.write_image(data)
-    ok = out.close() and ok
-    if not ok:
-        raise image_failure(path, oiio.geterror())
+    write_image_at(tmp, path, oiio.ImageSpec(w, h, 3, oiio.UINT8), data)
