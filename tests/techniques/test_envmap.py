@@ -104,4 +104,4 @@ def test_maps_are_cached_and_damage_is_recaptured(tmp_path, caplog):
     assert [m.status for m in fourth.maps] == ["captured"]
     assert any("damaged" in r.getMessage() for r in caplog.records)
     np.testing.assert_array_equal(first.maps[0].images, fourth.maps[0].images)
-    assert api.clear_cache(str(cache)) == 2
+    assert api.clear_cache(str(cache)).maps == 2
