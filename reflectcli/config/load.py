@@ -250,18 +250,32 @@ def validation_problems(e: ValidationError, data: dict, prov: Provenance, defaul
 def _one_line_per_typo(problems: list[Problem]) -> list[Problem]:
     """A misspelled key is one mistake: its "unknown key (did you mean camera?)" line says
     it all, so the "required" lines of the key it meant (or of the keys inside it:
-    `camera.eye: required`) are dropped."""
-    meant = []
+    `camera.eye: required`) are dropped. A misspelled `kind` read the table as the default
+    kind (a material without one is solid), whose "unknown key" lines for the other kind's
+    keys are dropped too. And a value is one mistake: the lines inside a field already
+    refused (a union's other member: `reflectance = []` is neither a number nor three
+    numbers) are dropped."""
+    meant, kinds = [], []
     for p in problems:
         m = re.search(r"unknown key \(did you mean (.+)\?\)$", p.message)
         if m:
             parent = p.field.rpartition(".")[0]
             meant.append((p.file, f"{parent}.{m.group(1)}" if parent else m.group(1)))
+            if m.group(1) == "kind":
+                kinds.append((p.file, parent, p.field))
+    refused = {(p.file, p.field) for p in problems}
 
     def covered(p: Problem) -> bool:
-        return p.message == "required" and any(
-            p.file == file and (p.field == key or p.field.startswith(key + "."))
-            for file, key in meant)
+        if p.message == "required" and any(
+                p.file == file and (p.field == key or p.field.startswith(key + "."))
+                for file, key in meant):
+            return True
+        if p.message.startswith("unknown key") and any(
+                p.file == file and p.field != typo and p.field.startswith(parent + ".")
+                for file, parent, typo in kinds):
+            return True
+        parts = p.field.split(".")
+        return any((p.file, ".".join(parts[:n])) in refused for n in range(1, len(parts)))
 
     return [p for p in problems if not covered(p)]
 

@@ -91,3 +91,18 @@ def test_a_section_file_says_it_cannot_be_rendered_by_itself(tmp_path):
         result = invoke("validate", section)
     assert result.exit_code == 0 and result.stdout == "ok\n"
     assert "cannot be rendered by itself" in result.stderr
+
+
+@pytest.mark.parametrize(("edit", "expected"), [
+    # a misspelled kind read the checker as the default solid: its keys were unknown too
+    (('[materials.red]\nkind = "solid"\ncolor = [0.8, 0.1, 0.1]\n',
+      '[materials.red]\nkindd = "checker"\ncolor0 = [0, 0, 0]\nscale = [4, 4]\n'),
+     "s.toml: materials.red.kindd: unknown key (did you mean kind?)"),
+    # neither member of the union: not also three lines for the array's missing items
+    (("reflectance = 0.5", "reflectance = []"), "s.toml: mirrors.0.reflectance: must be"),
+])
+def test_one_mistake_is_one_line(tmp_path, edit, expected):
+    assert edit[0] in TINY
+    text = TINY.replace(*edit)
+    with chdir(tmp_path):
+        check_bad(write(tmp_path, "s.toml", text), expected)
