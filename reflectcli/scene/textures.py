@@ -2,12 +2,42 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
+import tempfile
+from collections.abc import Iterator
+
 import numpy as np
 
 
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
     c = np.asarray(c, dtype=np.float32)
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+@contextlib.contextmanager
+def _c_stderr(said: list[str]) -> Iterator[None]:
+    """What C libraries write to the process's stderr meanwhile (libpng prints its own
+    "libpng error: ..." line before OpenImageIO fails) goes into `said`, not the terminal:
+    the failure is reported in one line that quotes it. Textures load while the scene is
+    built, before any other thread writes."""
+    sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr to redirect
+        yield
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            said.extend(line.strip() for line in
+                        sink.read(4096).decode("utf-8", "replace").splitlines() if line.strip())
 
 
 def load_texture(path: str, srgb: bool) -> np.ndarray:
@@ -20,9 +50,11 @@ def load_texture(path: str, srgb: bool) -> np.ndarray:
     reason = file_problem(path, MAX_TEXTURE_BYTES, "texture file")
     if reason is not None:
         raise ValueError(reason)
-    inp = oiio.ImageInput.open(path)
+    said: list[str] = []
+    with _c_stderr(said):
+        inp = oiio.ImageInput.open(path)
     if inp is None:
-        raise ValueError(f"cannot read image: {oiio.geterror() or path}")
+        raise ValueError(f"cannot read image: {oiio.geterror() or '; '.join(said) or path}")
     try:
         spec = inp.spec()
         if (max(spec.width, spec.height) > MAX_TEXTURE_SIDE
@@ -31,11 +63,13 @@ def load_texture(path: str, srgb: bool) -> np.ndarray:
                              f"{MAX_TEXTURE_SIDE} texels a side, {MAX_TEXTURE_TEXELS} in all")
         if spec.width * spec.height == 0:
             raise ValueError("texture has no pixels")
-        pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
+        with _c_stderr(said):
+            pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
     finally:
         inp.close()
     if pixels is None:
-        raise ValueError(f"cannot read image pixels: {path}")
+        why = "; ".join(said) or oiio.geterror()
+        raise ValueError(f"cannot read image pixels: {path}" + (f" ({why})" if why else ""))
     pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
     if spec.nchannels == 1:
         rgb = np.repeat(pixels, 3, axis=2)

@@ -178,3 +178,23 @@ def test_glb_naming_an_external_buffer_is_checked_too(tmp_path):
     scene = write(tmp_path, "s.toml", TINY + GLTF_OBJECT.replace("m.gltf", "m.glb"))
     with chdir(tmp_path):
         check_bad(scene, "s.toml: objects.1.path:", "buffers.0.uri: file not found")
+
+
+def test_a_truncated_png_texture_is_one_line_quoting_libpng(tmp_path, capfd):
+    # libpng printed its own "libpng error: ..." line on the process's stderr as well
+    import numpy as np
+    import OpenImageIO as oiio
+
+    whole = str(tmp_path / "whole.png")
+    out = oiio.ImageOutput.create(whole)
+    out.open(whole, oiio.ImageSpec(64, 64, 3, oiio.UINT8))
+    out.write_image(np.random.default_rng(0).integers(0, 255, (64, 64, 3), dtype=np.uint8))
+    out.close()
+    data = (tmp_path / "whole.png").read_bytes()
+    (tmp_path / "cut.png").write_bytes(data[: len(data) // 2])
+    scene = write(tmp_path, "s.toml", TINY.replace(
+        'kind = "solid"\ncolor = [0.8, 0.1, 0.1]', 'kind = "texture"\npath = "cut.png"'))
+    capfd.readouterr()
+    with chdir(tmp_path):
+        check_bad(scene, "materials.red.path: cannot read image pixels", "libpng error")
+    assert "libpng" not in capfd.readouterr().err
