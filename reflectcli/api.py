@@ -34,6 +34,7 @@ from .output.finite import check_finite
 from .output.frame_writer import FrameFiles, FrameWriter, OnWritten
 from .output.identity import (
     check_same_overrides,
+    file_matches,
     logged_rows,
     matches,
     new_run_id,
@@ -458,8 +459,10 @@ class OpenedScene:
             for frame_index in frame_indices:
                 interrupts.check()  # between frames, even if the interrupt was swallowed
                 exr = os.path.join(result.folder, f"frame_{frame_index:04d}.exr")
-                if resume and os.path.exists(exr) and matches(
-                        stored.get(os.path.basename(exr)), self.scene_hash, params, defaults):
+                row = stored.get(os.path.basename(exr))
+                if (resume and os.path.exists(exr)
+                        and matches(row, self.scene_hash, params, defaults)
+                        and file_matches(exr, row, defaults)):
                     if wants_preview and not os.path.exists(exr[:-4] + ".png"):
                         write_missing_preview(exr)
                     result.skipped.append(frame_index)

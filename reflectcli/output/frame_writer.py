@@ -85,7 +85,9 @@ def write_frame_files(files: FrameFiles) -> dict:
                     raise
                 placed.append((path, aside))
         target = files.log_path
-        row = {**files.row, "write_seconds": time.perf_counter() - start}
+        # the EXR's size: --resume keeps a frame only if its file is still the one logged
+        row = {**files.row, "write_seconds": time.perf_counter() - start,
+               "exr_bytes": os.path.getsize(files.exr)}
         append_jsonl(files.log_path, row)
     except (OSError, WriteFailed) as e:
         for path, aside in reversed(placed):

@@ -79,3 +79,40 @@ def _with_defaults(stored: dict, defaults: dict) -> dict:
         elif isinstance(value, dict) and isinstance(out[key], dict):
             out[key] = _with_defaults(out[key], value)
     return out
+
+
+def file_matches(exr: str, row: dict, defaults: dict | None = None) -> bool:
+    """Whether the EXR at `exr` is the frame its log row describes: the size the row
+    logged, and the scene hash, frame and parameters in its header (a parameter one of them
+    does not name counts as its default, as in `matches`). A frame whose file was
+    replaced after its row was written (a run killed between the two, a copy, a truncated
+    file) is rendered again by --resume, not kept."""
+    import json
+
+    import OpenImageIO as oiio
+
+    try:
+        if "exr_bytes" in row and os.path.getsize(exr) != row["exr_bytes"]:
+            return False
+    except OSError:
+        return False
+    inp = oiio.ImageInput.open(exr)
+    if inp is None:
+        oiio.geterror()  # clear it
+        return False
+    try:
+        spec = inp.spec()
+        header = {k: spec.get_string_attribute(f"reflect:{k}")
+                  for k in ("scene_hash", "frame", "parameters")}
+    finally:
+        inp.close()
+    try:
+        parameters = json.loads(header["parameters"])
+    except ValueError:
+        return False
+    logged = row.get("parameters")
+    if defaults is not None and isinstance(parameters, dict) and isinstance(logged, dict):
+        parameters, logged = _with_defaults(parameters, defaults), _with_defaults(logged,
+                                                                                  defaults)
+    return (header["scene_hash"] == row.get("scene_hash")
+            and header["frame"] == str(row.get("frame")) and parameters == logged)

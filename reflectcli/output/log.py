@@ -19,6 +19,8 @@ from .failures import WriteFailed, reason
 
 log = logging.getLogger("reflect")
 LINK = "a symbolic link; reflect writes no file through a link"
+HARD_LINK = ("a file with other hard links; reflect appends to no file that has another "
+             "name")
 
 
 def _drop_torn_tail(fd: int, size: int) -> int:
@@ -42,7 +44,10 @@ def append_jsonl(path: str, row: dict) -> None:
     except OSError as e:
         raise WriteFailed(path, LINK if e.errno == errno.ELOOP else reason(e, path)) from None
     try:
-        size = os.fstat(fd).st_size
+        st = os.fstat(fd)
+        if st.st_nlink > 1:  # another name for the file, maybe outside the folder
+            raise WriteFailed(path, HARD_LINK)
+        size = st.st_size
         try:
             size = _drop_torn_tail(fd, size)
             written = os.write(fd, line)

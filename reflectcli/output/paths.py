@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import stat
 import tempfile
 
 from ..errors import Problem, Problems
@@ -55,6 +56,21 @@ def check_links(root: str, folder: str, log: str, source: str, field: str,
             where = (log_source, "output.log") if entry.name == log else (source, field)
             raise Problems([Problem(*where, f"'{entry.path}' is a symbolic link; reflect "
                                     "writes no file through a link (remove it)")])
+    _check_log_hard_links(os.path.join(folder, log), log_source)
+
+
+def _check_log_hard_links(log: str, log_source: str) -> None:
+    """The log is appended to in place: with another hard link (a name maybe outside the
+    output folder) the rows would land in that file too. Frames are replaced by a rename,
+    which drops a link instead of writing through it."""
+    try:
+        st = os.lstat(log)
+    except OSError:
+        return
+    if stat.S_ISREG(st.st_mode) and st.st_nlink > 1:
+        raise Problems([Problem(log_source, "output.log", f"'{log}' has other hard links; "
+                                "reflect appends to no file that has another name "
+                                "(copy it, or remove it)")])
 
 
 def check_writable(folder: str, source: str, field: str) -> None:

@@ -200,3 +200,47 @@ def test_a_root_with_dotdot_after_a_link_is_not_refused(tmp_path):
             result = invoke("render", scene, "--out", "build/../out")
             assert result.exit_code == 0, result.output
     assert (tmp_path / "w" / "out" / "tiny" / "raster" / "frame_0000.exr").exists()
+
+
+def test_resume_renders_again_a_frame_whose_file_is_not_the_one_logged(tmp_path):
+    # --resume compared a frame's row with the run and kept whatever file had its name: a
+    # run killed between a rename and its row, a copy of another frame, a truncated file
+    scene = write(tmp_path, "s.toml", TINY.replace("height = 12\n", (
+        "height = 12\n[camera.path]\nframes = 5\nkeys = [{ eye = [0.0, 1.0, 3.0], "
+        "target = [0.0, 0.5, 0.0] }, { eye = [1.0, 1.0, 3.0], target = [0.0, 0.5, 0.0] }]\n"))
+        + '\n[technique]\nname = "raytrace"\n')
+    folder = tmp_path / "o" / "tiny" / "raytrace"
+    other = tmp_path / "other" / "tiny" / "raytrace"
+    with chdir(tmp_path):
+        assert invoke("render", scene, "--out", "o").exit_code == 0
+        assert invoke("render", scene, "--out", "other", "--frames", "3",
+                      "--set", "technique.max_depth=3").exit_code == 0
+        before = {n: (folder / n).read_bytes() for n in os.listdir(folder)
+                  if n.endswith(".exr")}
+        (folder / "frame_0001.exr").write_bytes(before["frame_0004.exr"])  # another frame
+        data = before["frame_0002.exr"]
+        (folder / "frame_0002.exr").write_bytes(data[: len(data) // 2])  # truncated
+        (folder / "frame_0003.exr").write_bytes((other / "frame_0003.exr").read_bytes())
+        result = invoke("render", scene, "--out", "o", "--resume")
+        assert result.exit_code == 0, result.output
+        assert "wrote 3 frame(s)" in result.output and "2 skipped" in result.output
+    for name, data in before.items():  # each file is its frame again
+        assert (folder / name).read_bytes() == data, name
+
+
+def test_a_log_with_another_hard_link_is_refused(tmp_path):
+    # the rows were appended to the other name too, maybe outside the output folder
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "raster"\n')
+    folder = tmp_path / "o" / "tiny" / "raster"
+    folder.mkdir(parents=True)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("one line\n")
+    os.link(victim, folder / "timings.jsonl")
+    with chdir(tmp_path):
+        line = assert_one_line(invoke("render", scene, "--out", "o"), "output.log",
+                               "timings.jsonl", "other hard links")
+        assert assert_one_line(invoke("validate", write(
+            tmp_path, "v.toml", TINY + '\n[technique]\nname = "raster"\n'
+            '[output]\ndir = "o"\n'))).endswith(line.partition(": ")[2])
+    assert victim.read_text() == "one line\n"
+    assert sorted(os.listdir(folder)) == ["timings.jsonl"]
