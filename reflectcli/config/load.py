@@ -21,7 +21,7 @@ from ..errors import Problem, Problems
 from .files import file_problem, read_toml_file
 from .limits import MAX_INCLUDE_DEPTH, MAX_TOML_BYTES, limit_problems
 from .memory import memory_problem
-from .suggest import by_name, note_dropped_parameters, plain_message
+from .suggest import by_name, note_dropped_parameters, plain_message, tag_name
 
 SECTION_FILES = ("camera", "mirrors", "technique", "materials", "lights", "objects", "output")
 
@@ -164,12 +164,14 @@ _TAG_KEYS = ("shape", "kind", "name")
 _DEFAULT_TAGS = ("solid",)  # a material without `kind` is solid: pydantic names the tag
 
 
-def field_path(loc: tuple, data: Any) -> tuple:
-    """Drop the discriminator tags pydantic puts into locations of tagged-union errors."""
+def field_path(loc: tuple, data: Any, missing: bool = False) -> tuple:
+    """The user's field: drop the discriminator tags and union member labels pydantic puts
+    into error locations (`constrained-float`, `tuple[...]`, `literal[...]`, `solid`). A key
+    the user did not write is kept only as the last part of a `missing` error (`missing`)."""
     out: list = []
     node = data
     tag_dropped = False
-    for part in loc:
+    for i, part in enumerate(loc):
         if (
             isinstance(node, dict)
             and not tag_dropped
@@ -184,6 +186,9 @@ def field_path(loc: tuple, data: Any) -> tuple:
             continue
         if isinstance(part, str) and node is not None and not isinstance(node, dict):
             continue  # a union member label (`constrained-float`, `tuple[...]`) under a value
+        if (isinstance(part, str) and isinstance(node, dict) and part not in node
+                and not (missing and i == len(loc) - 1)):
+            continue  # a union member label under a table the user wrote (`{r = 1}`)
         tag_dropped = False
         out.append(part)
         if isinstance(node, dict):
@@ -232,19 +237,43 @@ def origin(prov: Provenance, loc: tuple, default: str) -> str:
 
 def validation_problems(e: ValidationError, data: dict, prov: Provenance, default: str,
                         root=None):
-    problems = []
-    seen = set()
+    problems: list[Problem] = []
+    wrong_type: dict[tuple, list[str]] = {}  # (file, field) -> "must be ..." of each member
     for err in e.errors():
-        loc = field_path(tuple(err["loc"]), data)
+        loc = field_path(tuple(err["loc"]), data, missing=err["type"] == "missing")
         if err["type"] in ("union_tag_invalid", "union_tag_not_found"):
-            loc = (*loc, str((err.get("ctx") or {}).get("discriminator", "")).strip("'"))
+            loc = (*loc, tag_name(err.get("ctx")))
         field = ".".join(str(p) for p in loc)
         file = origin(prov, loc, default)
-        if (file, field) in seen:
-            continue  # the other members of a union (`1.5` vs `[r, g, b]`): report the first
-        seen.add((file, field))
-        problems.append(Problem(file, field, _message(err, root, loc, data)))
+        message = _message(err, root, loc, data)
+        kinds = wrong_type.get((file, field))
+        if kinds is None:
+            if (file, field) in {(p.file, p.field) for p in problems}:
+                continue  # a union member refused what the value is: the first line says it
+            problems.append(Problem(file, field, message))
+            if err["type"] in _WRONG_TYPE:
+                wrong_type[(file, field)] = [message]
+        elif err["type"] in _WRONG_TYPE:
+            kinds.append(message)  # one union member after another: "a number or an array"
+        else:
+            # a member that takes this kind of value refused it: its line is the one
+            wrong_type.pop((file, field))
+            problems = [Problem(file, field, message) if (p.file, p.field) == (file, field)
+                        else p for p in problems]
+    for (file, field), kinds in wrong_type.items():
+        if len(kinds) > 1:
+            words = [k.removeprefix("must be ") for k in dict.fromkeys(kinds)]
+            problems = [Problem(file, field, "must be " + " or ".join(words))
+                        if (p.file, p.field) == (file, field) else p for p in problems]
     return _one_line_per_typo(problems)
+
+
+# errors that say the value is not of a union member's type (the member does not apply)
+_WRONG_TYPE = frozenset({
+    "model_type", "model_attributes_type", "dict_type", "list_type", "tuple_type",
+    "float_type", "float_parsing", "int_type", "int_parsing", "string_type", "bool_type",
+    "bool_parsing", "literal_error",
+})
 
 
 def _one_line_per_typo(problems: list[Problem]) -> list[Problem]:

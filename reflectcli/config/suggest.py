@@ -94,6 +94,15 @@ _PLAIN = {
 }
 
 
+def tag_name(ctx: dict | None) -> str:
+    """The key a tagged union is told apart by. A callable discriminator (materials' `_kind`,
+    defaulting to solid) is reported by pydantic as `_kind()`: the user wrote `kind`."""
+    name = str((ctx or {}).get("discriminator", "")).strip("'")
+    if name.endswith("()"):
+        name = name[:-2].lstrip("_")
+    return name
+
+
 def plain_message(err: dict, root: type[BaseModel] | None, loc: tuple, data: Any) -> str | None:
     """A plain-words message for a pydantic error, or None to keep the default one."""
     kind = err["type"]
@@ -104,10 +113,10 @@ def plain_message(err: dict, root: type[BaseModel] | None, loc: tuple, data: Any
     if kind == "union_tag_invalid":
         tags = re.findall(r"'([^']*)'", str(ctx.get("expected_tags", "")))
         tag = ctx.get("tag", "")
-        return (f"unknown {ctx.get('discriminator', 'tag').strip(chr(39))} '{tag}'"
+        return (f"unknown {tag_name(ctx) or 'tag'} '{tag}'"
                 f"{did_you_mean(tag, tags)} (known: {', '.join(tags)})")
     if kind == "union_tag_not_found":
-        return f"needs '{str(ctx.get('discriminator', 'name')).strip(chr(39))}'"
+        return f"needs '{tag_name(ctx) or 'name'}'"
     if kind in ("too_short", "too_long"):
         limit = ctx.get("min_length" if kind == "too_short" else "max_length")
         word = "at least" if kind == "too_short" else "at most"

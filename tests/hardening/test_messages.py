@@ -106,3 +106,39 @@ def test_one_mistake_is_one_line(tmp_path, edit, expected):
     text = TINY.replace(*edit)
     with chdir(tmp_path):
         check_bad(write(tmp_path, "s.toml", text), expected)
+
+
+# union member labels pydantic puts into error locations; none is a key the user wrote
+_LABELS = ("constrained-", "tuple[", "literal[", "function-", ".float", ".int", "_kind()")
+
+
+@pytest.mark.parametrize(("edit", "expected"), [
+    # a table where a number or an array goes: one line, no line per union member
+    (("reflectance = 0.5", "reflectance = {r = 1}"),
+     "s.toml: mirrors.0.reflectance: must be a number or an array"),
+    (("translate = [0.0, 0.5, 0.0] }", "translate = [0.0, 0.5, 0.0], scale = {x = 1} }"),
+     "s.toml: objects.0.transform.scale: must be a number or an array"),
+    (("[[mirrors]]", '[technique]\nname = "envmap"\nupdate = {a = 1}\n\n[[mirrors]]'),
+     's.toml: technique.update: must be "once" or "every" or an integer'),
+    # the material union's discriminator is a function: name the key the user wrote
+    (('kind = "solid"', 'kind = "soild"'),
+     "s.toml: materials.red.kind: unknown kind 'soild' (did you mean solid?) "
+     "(known: solid, checker, texture)"),
+    (('kind = "solid"', "kind = 5"),
+     "s.toml: materials.red.kind: unknown kind '5' (known: solid, checker, texture)"),
+])
+def test_union_errors_name_the_users_field(tmp_path, edit, expected):
+    assert edit[0] in TINY
+    with chdir(tmp_path):
+        line = check_bad(write(tmp_path, "s.toml", TINY.replace(*edit)), expected)
+    assert line == expected
+    assert not any(label in line for label in _LABELS), line
+
+
+def test_a_value_one_union_member_refuses_keeps_that_members_line(tmp_path):
+    """reflectance = 2 is a number out of range: not "must be <= 1.0 or an array"."""
+    with chdir(tmp_path):
+        line = check_bad(write(tmp_path, "s.toml",
+                               TINY.replace("reflectance = 0.5", "reflectance = 2")),
+                         "s.toml: mirrors.0.reflectance: must be <= 1.0")
+    assert line == "s.toml: mirrors.0.reflectance: must be <= 1.0"
