@@ -93,7 +93,48 @@ def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple =
         for p in problems:
             unique.setdefault(str(p), p)
         raise Problems(list(unique.values())[:20])
+    check_bench_folder(plan, *(("--out", "") if out is not None else (display, "bench.out")))
     return plan
+
+
+RESULT_FILES = ("results.jsonl", "results.csv", "report.md")
+
+
+def check_bench_folder(plan: BenchPlan, source: str, field: str) -> None:
+    """Refuse in one line, before anything is written (`validate` and `bench` alike): a
+    folder of the bench's own (references, runs, cache and each run's or reference's folder
+    under them) that is a link, or that is not a folder, or that resolves outside `out` (the
+    renders would land elsewhere); and a link or a non-file at a result file's name
+    (results.jsonl is appended to: it would be written through)."""
+    top = os.path.realpath(plan.out)
+    subs = ["references", "runs", "cache"]
+    for job in plan.jobs:
+        subs += [os.path.join("references", job["reference"]["id"]),
+                 os.path.join("runs", job["id"])]
+    for sub in dict.fromkeys(subs):
+        path = os.path.join(plan.out, sub)
+        if not os.path.lexists(path):
+            continue
+        real = os.path.realpath(path)
+        if os.path.islink(path):
+            why = "is a symbolic link; reflect writes nothing through a link (remove it)"
+        elif os.path.commonpath([top, real]) != top:
+            why = (f"leads to '{real}', outside {plan.out}; reflect writes nothing outside "
+                   "its output folder")
+        elif not os.path.isdir(path):
+            why = "is not a folder (remove it)"
+        else:
+            continue
+        raise Problems([Problem(source, field, f"'{path}' {why}")])
+    for name in RESULT_FILES:
+        path = os.path.join(plan.out, name)
+        if os.path.islink(path):
+            why = "is a symbolic link; reflect writes no file through a link (remove it)"
+        elif os.path.lexists(path) and not os.path.isfile(path):
+            why = "is not a regular file (remove it)"
+        else:
+            continue
+        raise Problems([Problem(source, field, f"'{path}' {why}")])
 
 
 def check_workers(workers: int) -> None:
