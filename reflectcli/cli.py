@@ -290,8 +290,19 @@ def cache_clear(scene, folder) -> None:
     if folder is None and scene is None:
         click.echo("cache clear: give a SCENE or --cache DIR", err=True)
         sys.exit(EXIT_BAD_INPUT)
-    folder = folder if folder is not None else api.default_cache_dir(scene)
-    cleared = api.clear_cache(folder)
+    if folder is None:
+        from .config.files import display_path, file_problem
+        from .config.limits import MAX_TOML_BYTES
+        from .errors import Problem
+
+        problem = file_problem(scene, MAX_TOML_BYTES, "scene file")
+        if problem is not None:  # a mistyped scene is not an empty cache beside it
+            _fail(Problems([Problem(display_path(scene), "", problem)]))
+        folder = api.default_cache_dir(scene)
+    try:
+        cleared = api.clear_cache(folder)
+    except OSError as e:
+        _write_failed(e)
     temps = (f" and {cleared.temps} temporary file(s) of killed captures"
              if cleared.temps else "")
     click.echo(f"removed {cleared.maps} map(s){temps} from {folder}")

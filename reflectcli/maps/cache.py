@@ -17,7 +17,7 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 from ..output.exr import read_exr_parts, write_exr_parts
-from ..output.failures import write_failure
+from ..output.failures import reason, write_failure
 from ..output.paths import remove_stale_temps
 
 log = logging.getLogger("reflect")
@@ -26,6 +26,14 @@ KEY_ATTRIBUTE = "reflect:cache_key"
 MAP_NAME = re.compile(r"^[a-z]+-[0-9a-f]{32}\.exr$")  # what path() names
 # a map's temporary file while it is written (output/atomic.py): nothing else is cleared
 MAP_TEMP = re.compile(r"^\.[a-z]+-[0-9a-f]{32}\.tmp(?P<pid>[0-9]{1,10})-[0-9]{1,20}\.exr$")
+
+
+class RemoveFailed(OSError):
+    """`<file>: cannot remove (<reason>)`: `cache clear` stops at it, in one line."""
+
+    def __init__(self, path: str, reason: str) -> None:
+        super().__init__(f"{path}: cannot remove ({reason})")
+        self.path, self.reason = path, reason
 
 
 class Cleared(NamedTuple):
@@ -97,11 +105,21 @@ class MapCache:
             return Cleared(0, 0)
         temps = len(remove_stale_temps(self.root, MAP_TEMP))
         removed = 0
-        for name in os.listdir(self.root):
-            if MAP_NAME.match(name):
-                with contextlib.suppress(FileNotFoundError):
-                    os.unlink(os.path.join(self.root, name))
-                    removed += 1
+        try:
+            entries = list(os.scandir(self.root))
+        except OSError as e:
+            raise RemoveFailed(self.root, reason(e, self.root)) from None
+        for entry in entries:
+            # only regular files are maps: a folder or a link named like one is not ours
+            if not MAP_NAME.match(entry.name) or not entry.is_file(follow_symlinks=False):
+                continue
+            try:
+                os.unlink(entry.path)
+            except FileNotFoundError:
+                continue
+            except OSError as e:  # a read-only folder: one line naming the map, exit 1
+                raise RemoveFailed(entry.path, reason(e, entry.path)) from None
+            removed += 1
         return Cleared(removed, temps)
 
 
