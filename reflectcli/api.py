@@ -15,6 +15,7 @@ import contextlib
 import json
 import logging
 import os
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -30,6 +31,7 @@ from .errors import Problem, Problems
 from .frame import Frame
 from .loading import load_config
 from .maps.cache import Cleared, MapCache, default_cache_dir
+from .output.failures import write_failure
 from .output.finite import check_finite
 from .output.frame_writer import FrameFiles, FrameWriter, OnWritten
 from .output.identity import (
@@ -327,9 +329,11 @@ class OpenedScene:
         # (linear rgb, eye-space depth, surface ids, mirror mask)
         return self.technique.render(state, frame_index, camera)
 
-    def output_folder(self, out: str | None = None) -> str:
+    def output_folder(self, out: str | None = None, frames: range | list[int] | None = None
+                      ) -> str:
         """<out or output.dir>/<scene>/<technique>/, created and proven writable (the scene
-        is built first: it may still reject input before any folder is made)."""
+        is built first: it may still reject input before any folder is made); `frames`: the
+        frames to be written (their names must be free for files: paths.check_links)."""
         self.build()
         root = out if out is not None else self.config.output.dir
         check_output_root(root, "--out" if out is not None else self.display,
@@ -338,7 +342,8 @@ class OpenedScene:
                         self.technique_name, self.display)
         source, field = ("--out", "") if out is not None else (self.display, "output.dir")
         self.check_cache()
-        check_links(root, folder, self.config.output.log, source, field, self.display)
+        check_links(root, folder, self.config.output.log, source, field, self.display,
+                    frames)
         prepare_output(folder, source, field)
         remove_stale_temps(folder)
         return folder
@@ -442,7 +447,7 @@ class OpenedScene:
         that their times are the render's alone). Rows rendered so are marked
         `writes_overlapped`."""
         check_threads(self.threads)  # before the build and the folder, as any bad argument
-        result = RenderResult(self.output_folder(out))
+        result = RenderResult(self.output_folder(out, frame_indices))
         result.log = self.log_path(result.folder)
         stored = logged_rows(result.log)
         check_same_overrides(stored, self.overrides, result.folder,
@@ -486,9 +491,7 @@ class OpenedScene:
             raise
         finally:
             if rows:
-                with interrupts.deferred(), contextlib.suppress(OSError):
-                    summary = write_summary(os.path.join(result.folder, SUMMARY_NAME), rows)
-                    result.timing_warning = summary["warning"] if summary else ""
+                _write_run_summary(result, rows, stopping=sys.exc_info()[0] is not None)
         return result
 
     def precompute(self, on_map: Callable[[dict], None] | None = None,
@@ -504,6 +507,21 @@ class OpenedScene:
             prepare_output(self.cache, "--cache" if self.cache_option else self.path, "")
         scene = self.build()
         return self.technique.precompute(scene, on_map, on_progress)
+
+
+def _write_run_summary(result: RenderResult, rows: list[dict], stopping: bool) -> None:
+    """The run's timings summary beside its frames. A failure to write it is one line
+    naming the file (WriteFailed, exit 1), never silent; unless the run is already stopping
+    for another error or an interrupt, which is not hidden behind it."""
+    path = os.path.join(result.folder, SUMMARY_NAME)
+    with interrupts.deferred():
+        try:
+            summary = write_summary(path, rows)
+        except OSError as e:
+            if stopping:
+                return
+            raise write_failure(e, path) from None
+    result.timing_warning = summary["warning"] if summary else ""
 
 
 def open_scene(path: str, *, overrides: tuple[str, ...] | list[str] = (),

@@ -19,7 +19,7 @@ from .errors import Problem, Problems
 from .loading import load_config
 
 
-def _check_output_folder(cfg, display: str) -> None:
+def _check_output_folder(cfg, display: str, frames=None) -> None:
     """The checks render makes of its output folder, short of creating it (a folder is
     made and removed where it would go: paths.check_writable)."""
     from .api import check_output_root
@@ -29,7 +29,8 @@ def _check_output_folder(cfg, display: str) -> None:
     folder = inside(inside(cfg.output.dir, cfg.scene.name, display, "scene.name"),
                     cfg.technique.name, display)
     inside(folder, cfg.output.log, display, "output.log")
-    check_links(cfg.output.dir, folder, cfg.output.log, display, "output.dir", display)
+    check_links(cfg.output.dir, folder, cfg.output.log, display, "output.dir", display,
+                frames)
     check_writable(folder, display, "output.dir")
 
 
@@ -54,10 +55,11 @@ def validate_file(path: str) -> str:
         from .scene.build import build_scene
 
         build_scene(cfg, path)
-        _check_output_folder(cfg, display)
         from .api import OpenedScene
 
-        OpenedScene(cfg, path).check_cache()  # the default cache, beside the scene
+        opened = OpenedScene(cfg, path)
+        _check_output_folder(cfg, display, opened.frames())  # render's frames, all of them
+        opened.check_cache()  # the default cache, beside the scene
         return "scene"
     section = create_model("Section", __base__=Strict,
                            **{key: (fields[key].annotation, fields[key]) for key in raw})

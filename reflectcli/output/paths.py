@@ -8,9 +8,10 @@ import os
 import re
 import stat
 import tempfile
+from collections.abc import Iterable
 
 from ..errors import Problem, Problems
-from .names import taken_by
+from .names import FRAME, SUMMARY_NAME, taken_by
 
 # exactly what atomic.py names its temporary files, .<stem>.tmp<pid>-<thread id><ext>, with
 # the extensions reflect writes through it (a user's `.notes.tmp123` is not one of them);
@@ -28,12 +29,14 @@ def inside(folder: str, name: str, source: str = "output", field: str = "") -> s
 
 
 def check_links(root: str, folder: str, log: str, source: str, field: str,
-                log_source: str) -> None:
+                log_source: str, frames: Iterable[int] | None = None) -> None:
     """Refuse in one line, before anything is written: a folder between `root` and the frame
-    `folder` that resolves outside `root` (a link: the frames would land elsewhere), and a
+    `folder` that resolves outside `root` (a link: the frames would land elsewhere), a
     link in `folder` at a name reflect writes (the log, the summary, the lock, a frame): an
-    append would follow it out of the folder, and a replace would drop the link. `log_source`
-    names the file output.log came from."""
+    append would follow it out of the folder, and a replace would drop the link; and a
+    directory (or pipe, socket, ...) at the log's, the summary's or the name of a frame in
+    `frames` (None: any frame), which no write could replace. `log_source` names the file
+    output.log came from."""
     # the root as the frames' paths reach it: normalised first, as `inside` joins them
     # (`build/../out` with `build` a link is ./out, not the link's sibling)
     path = os.path.normpath(root)
@@ -51,12 +54,30 @@ def check_links(root: str, folder: str, log: str, source: str, field: str,
         entries = list(os.scandir(folder))
     except OSError:
         return  # not made yet: no link in it
+    wanted = None if frames is None else {f"frame_{i:04d}{ext}" for i in frames
+                                          for ext in (".exr", ".png")}
     for entry in entries:
+        where = (log_source, "output.log") if entry.name == log else (source, field)
         if entry.is_symlink() and (entry.name == log or taken_by(entry.name)):
-            where = (log_source, "output.log") if entry.name == log else (source, field)
             raise Problems([Problem(*where, f"'{entry.path}' is a symbolic link; reflect "
                                     "writes no file through a link (remove it)")])
+        if not entry.is_symlink() and not entry.is_file() and _written(entry.name, log,
+                                                                         wanted):
+            kind = "a directory" if entry.is_dir() else "not a regular file"
+            raise Problems([Problem(*where, f"'{entry.path}' is {kind}; reflect writes "
+                                    f"{taken_by(entry.name) or 'the log'} there "
+                                    "(remove it)")])
     _check_log_hard_links(os.path.join(folder, log), log_source)
+
+
+def _written(name: str, log: str, frames: set[str] | None) -> bool:
+    """Whether a render writes a file at `name` in its frame folder (frames: the frame
+    files of the range rendered; None: any)."""
+    if name == log or name.casefold() == SUMMARY_NAME:
+        return True
+    if FRAME.match(name.casefold()):
+        return frames is None or name in frames
+    return False
 
 
 def _check_log_hard_links(log: str, log_source: str) -> None:
