@@ -10,6 +10,8 @@ checked, and stderr says they cannot be rendered by themselves.
 
 from __future__ import annotations
 
+import os
+
 from pydantic import ValidationError, create_model
 
 from .config.base import Strict
@@ -32,6 +34,11 @@ def _check_output_folder(cfg, display: str, frames=None) -> None:
     check_links(cfg.output.dir, folder, cfg.output.log, display, "output.dir", display,
                 frames)
     check_writable(folder, display, "output.dir")
+    # render (no --set: validate takes none) refuses a folder of other overrides' frames
+    from .output.identity import check_same_overrides, logged_rows
+
+    check_same_overrides(logged_rows(os.path.join(folder, cfg.output.log)), [], folder,
+                         display)
 
 
 def validate_file(path: str) -> str:

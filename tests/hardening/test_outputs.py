@@ -244,3 +244,12 @@ def test_a_log_with_another_hard_link_is_refused(tmp_path):
             '[output]\ndir = "o"\n'))).endswith(line.partition(": ")[2])
     assert victim.read_text() == "one line\n"
     assert sorted(os.listdir(folder)) == ["timings.jsonl"]
+
+
+def test_validate_refuses_a_folder_of_other_overrides_frames_as_render_does(tmp_path):
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "raster"\n')
+    with chdir(tmp_path):
+        assert invoke("render", scene, "--set", "camera.width=8").exit_code == 0
+        line = assert_one_line(invoke("render", scene), "holds frames rendered with other "
+                               "overrides (camera.width=8)")
+        assert assert_one_line(invoke("validate", scene)) == line
