@@ -25,6 +25,7 @@ def _check_output_folder(cfg, display: str, frames=None) -> None:
     """The checks render makes of its output folder, short of creating it (a folder is
     made and removed where it would go: paths.check_writable)."""
     from .api import check_output_root
+    from .output.identity import check_same_overrides, logged_rows
     from .output.paths import check_links, check_writable, inside
 
     check_output_root(cfg.output.dir, display, "output.dir")
@@ -35,8 +36,6 @@ def _check_output_folder(cfg, display: str, frames=None) -> None:
                 frames)
     check_writable(folder, display, "output.dir")
     # render (no --set: validate takes none) refuses a folder of other overrides' frames
-    from .output.identity import check_same_overrides, logged_rows
-
     check_same_overrides(logged_rows(os.path.join(folder, cfg.output.log)), [], folder,
                          display)
 

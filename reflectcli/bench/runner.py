@@ -73,9 +73,8 @@ def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple =
     run's own."""
     from .. import api
 
-    if out == "":
-        raise Problems([Problem("--out", "", "empty folder name ('.' is the working "
-                                "directory)")])
+    if out is not None:
+        api.check_output_root(out, "--out", "")
     display = os.path.relpath(path)
     cfg = api.load_settings(path, BenchConfig)
     problems = matrix_problems(cfg, display)  # from the list lengths: nothing expanded yet

@@ -48,6 +48,13 @@ def set_aside(path: str) -> str | None:
     return aside
 
 
+def drop_aside(aside: str | None) -> None:
+    """Remove a second name `set_aside` made (the replacement stands); best effort."""
+    if aside is not None:
+        with contextlib.suppress(OSError):
+            os.unlink(aside)
+
+
 def put_back(path: str, aside: str | None) -> None:
     """Undo a replacement of `path`: its earlier file back from `aside`, or the new file
     removed when there was none; best effort."""
@@ -63,16 +70,6 @@ def atomic_path(path: str) -> Iterator[str]:
     """Yield a temporary path with the same extension; on success it replaces `path`.
 
     An interrupted or failed write leaves `path` as it was (absent or the previous file)."""
-    folder, name = os.path.split(os.path.abspath(path))
-    stem, ext = os.path.splitext(name)
-    # unique per process and thread: bench jobs on a Dask worker share a process
-    tmp = os.path.join(folder, f".{stem}.tmp{os.getpid()}-{threading.get_ident()}{ext}")
-    try:
-        # a link left at the name (it is predictable) would be written through
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
+    with temporary_path(path) as tmp:
         yield tmp
         os.replace(tmp, path)  # replaces a link at `path`; never writes through it
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)

@@ -65,6 +65,24 @@ def write_image_at(tmp: str, path: str, spec, data: np.ndarray) -> None:
         raise image_failure(path, oiio.geterror())
 
 
+def read_exr_attributes(path: str) -> dict[str, str] | None:
+    """The string attributes of an EXR's header, its pixels not read (None: unreadable)."""
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        oiio.geterror()  # read, so that it does not linger into a later error
+        return None
+    try:
+        return _attributes(inp.spec())
+    finally:
+        inp.close()
+
+
+def _attributes(spec) -> dict[str, str]:
+    return {a.name: a.value for a in spec.extra_attribs}
+
+
 def read_exr(path: str) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     """(channels by name as (H, W) float32, string attributes). OIIO may reorder channels."""
     import OpenImageIO as oiio
@@ -79,8 +97,7 @@ def read_exr(path: str) -> tuple[dict[str, np.ndarray], dict[str, str]]:
         inp.close()
     data = np.asarray(data, np.float32).reshape(spec.height, spec.width, spec.nchannels)
     channels = {name: data[:, :, spec.channelindex(name)] for name in spec.channelnames}
-    attrs = {a.name: a.value for a in spec.extra_attribs}
-    return channels, attrs
+    return channels, _attributes(spec)
 
 
 def write_exr_parts(

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..interrupts import deferred
-from .atomic import put_back, set_aside, temporary_path
+from .atomic import drop_aside, put_back, set_aside, temporary_path
 from .exr import pack_channels, write_exr_at
 from .failures import WriteFailed, write_failure
 from .log import append_jsonl
@@ -81,7 +81,7 @@ def write_frame_files(files: FrameFiles) -> dict:
                 try:
                     os.replace(tmp, path)  # replaces a link at `path`; never writes through it
                 except OSError:
-                    _drop(aside)  # the earlier file is still in place
+                    drop_aside(aside)  # the earlier file is still in place
                     raise
                 placed.append((path, aside))
         target = files.log_path
@@ -89,22 +89,15 @@ def write_frame_files(files: FrameFiles) -> dict:
         row = {**files.row, "write_seconds": time.perf_counter() - start,
                "exr_bytes": os.path.getsize(files.exr)}
         append_jsonl(files.log_path, row)
-    except (OSError, WriteFailed) as e:
+    except OSError as e:  # a WriteFailed too
         for path, aside in reversed(placed):
             put_back(path, aside)
         if isinstance(e, WriteFailed):
             raise
         raise write_failure(e, target) from None
     for _, aside in placed:  # the frame is whole: the earlier files' second names go
-        _drop(aside)
+        drop_aside(aside)
     return row
-
-
-def _drop(aside: str | None) -> None:
-    """Remove a second name `set_aside` made; best effort."""
-    if aside is not None:
-        with contextlib.suppress(OSError):
-            os.unlink(aside)
 
 
 OnWritten = Callable[[str, dict], None]

@@ -15,6 +15,7 @@ import os
 import uuid
 
 from ..errors import Problem, Problems
+from .exr import read_exr_attributes
 from .log import read_jsonl
 
 
@@ -87,32 +88,21 @@ def file_matches(exr: str, row: dict, defaults: dict | None = None) -> bool:
     does not name counts as its default, as in `matches`). A frame whose file was
     replaced after its row was written (a run killed between the two, a copy, a truncated
     file) is rendered again by --resume, not kept."""
-    import json
-
-    import OpenImageIO as oiio
-
     try:
         if "exr_bytes" in row and os.path.getsize(exr) != row["exr_bytes"]:
             return False
     except OSError:
         return False
-    inp = oiio.ImageInput.open(exr)
-    if inp is None:
-        oiio.geterror()  # clear it
+    header = read_exr_attributes(exr)
+    if header is None:
         return False
     try:
-        spec = inp.spec()
-        header = {k: spec.get_string_attribute(f"reflect:{k}")
-                  for k in ("scene_hash", "frame", "parameters")}
-    finally:
-        inp.close()
-    try:
-        parameters = json.loads(header["parameters"])
+        parameters = json.loads(header.get("reflect:parameters", ""))
     except ValueError:
         return False
     logged = row.get("parameters")
     if defaults is not None and isinstance(parameters, dict) and isinstance(logged, dict):
         parameters, logged = _with_defaults(parameters, defaults), _with_defaults(logged,
                                                                                   defaults)
-    return (header["scene_hash"] == row.get("scene_hash")
-            and header["frame"] == str(row.get("frame")) and parameters == logged)
+    return (header.get("reflect:scene_hash") == row.get("scene_hash")
+            and header.get("reflect:frame") == str(row.get("frame")) and parameters == logged)

@@ -1,6 +1,6 @@
 """The names reflect writes in a frame folder, in one place: output.log is checked against
 them (config/limits.py), so that no output can replace another, and the folder is checked
-for links at them before a render (paths.check_no_links)."""
+for links at them before a render (paths.check_links)."""
 
 from __future__ import annotations
 
