@@ -237,7 +237,7 @@ def origin(prov: Provenance, loc: tuple, default: str) -> str:
 
 def validation_problems(e: ValidationError, data: dict, prov: Provenance, default: str,
                         root=None):
-    problems: list[Problem] = []
+    found: dict[tuple, Problem] = {}  # (file, field) -> its one line, in order
     wrong_type: dict[tuple, list[str]] = {}  # (file, field) -> "must be ..." of each member
     for err in e.errors():
         loc = field_path(tuple(err["loc"]), data, missing=err["type"] == "missing")
@@ -245,27 +245,25 @@ def validation_problems(e: ValidationError, data: dict, prov: Provenance, defaul
             loc = (*loc, tag_name(err.get("ctx")))
         field = ".".join(str(p) for p in loc)
         file = origin(prov, loc, default)
-        message = _message(err, root, loc, data)
-        kinds = wrong_type.get((file, field))
+        key, message = (file, field), _message(err, root, loc, data)
+        kinds = wrong_type.get(key)
         if kinds is None:
-            if (file, field) in {(p.file, p.field) for p in problems}:
+            if key in found:
                 continue  # a union member refused what the value is: the first line says it
-            problems.append(Problem(file, field, message))
+            found[key] = Problem(file, field, message)
             if err["type"] in _WRONG_TYPE:
-                wrong_type[(file, field)] = [message]
+                wrong_type[key] = [message]
         elif err["type"] in _WRONG_TYPE:
             kinds.append(message)  # one union member after another: "a number or an array"
         else:
             # a member that takes this kind of value refused it: its line is the one
-            wrong_type.pop((file, field))
-            problems = [Problem(file, field, message) if (p.file, p.field) == (file, field)
-                        else p for p in problems]
+            del wrong_type[key]
+            found[key] = Problem(file, field, message)
     for (file, field), kinds in wrong_type.items():
         if len(kinds) > 1:
             words = [k.removeprefix("must be ") for k in dict.fromkeys(kinds)]
-            problems = [Problem(file, field, "must be " + " or ".join(words))
-                        if (p.file, p.field) == (file, field) else p for p in problems]
-    return _one_line_per_typo(problems)
+            found[(file, field)] = Problem(file, field, "must be " + " or ".join(words))
+    return _one_line_per_typo(list(found.values()))
 
 
 # errors that say the value is not of a union member's type (the member does not apply)
