@@ -4,15 +4,19 @@ and the notice that says so when that takes a while."""
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 import os
 import threading
 from collections.abc import Iterator
+from pathlib import Path
 
 from .camera import Camera, camera_from_config
 from .config.scene import SceneConfig
 from .scene.build import build_scene
 from .scene.types import Scene
+
+WAVE_PATH = Path(__file__).resolve().parent / "data" / "warm-up-wave.ply"
 
 WARM_SCENE = {
     "scene": {"name": "warm-up", "shading": "lambert", "ambient": 0.1},
@@ -43,6 +47,11 @@ WARM_SCENE = {
         {"name": "screen", "shape": "extrusion", "height": 0.4,
          "profile": [[0.3, 0.0], [0.0, 0.05], [-0.3, 0.0]],
          "transform": {"translate": [-0.7, 1.6, -1.0]}},
+        # a reflector of a concave and a convex part (scripts/make_warm_wave.py): the
+        # kernels that draw several parts' passes together compile here too
+        {"name": "wave", "shape": "mesh", "path": str(WAVE_PATH),
+         "transform": {"scale": 0.45, "rotate": [0.0, 20.0, 0.0],
+                       "translate": [-1.3, 1.95, 0.6]}},
     ],
 }
 
@@ -52,14 +61,28 @@ def warm_scene() -> tuple[Scene, Camera]:
     return build_scene(cfg, "<warm-up>"), camera_from_config(cfg.camera, 0)
 
 
+# Map sides on the warm-up scene: the kernels compile for the maps' types, never their
+# sizes, so a few texels compile the same code as the scene's resolution (at 1024 texels and
+# 8 layers, a distmap warm-up held 6 GiB of maps for its five mirrors: config/memory.py)
+WARM_MAP_SIDE = 16
+WARM_MAPS = 4  # dprm maps a mirror (a square, for the grid layout)
+
+
 def warm_params(params_json: str) -> str:
     """The technique's parameters for the warm-up scene: entries that name the real scene's
-    mirrors (envmap `capture`) cannot apply to the warm-up scene's and are left out."""
-    import json
-
+    mirrors (envmap `capture`) cannot apply to the warm-up scene's and are left out, and maps
+    are made small (`WARM_MAP_SIDE`, at most `WARM_MAPS` dprm maps a mirror)."""
     data = json.loads(params_json)
     if isinstance(data.get("capture"), dict):
         data["capture"] = {}
+    for holder in (data, data.get("maps"), data.get("explosion")):
+        if isinstance(holder, dict) and isinstance(holder.get("resolution"), int):
+            holder["resolution"] = min(holder["resolution"], WARM_MAP_SIDE)
+    maps = data.get("maps")
+    if isinstance(maps, dict) and isinstance(maps.get("count"), int):
+        maps["count"] = min(maps["count"], WARM_MAPS)  # a square stays a square
+        if isinstance(maps.get("per_frame"), int):
+            maps["per_frame"] = min(maps["per_frame"], maps["count"])
     return json.dumps(data)
 
 

@@ -82,3 +82,50 @@ def test_the_suite_turns_it_off(monkeypatch, stderr):
     monkeypatch.setenv(warmup.NO_NOTICE, "1")
     warm_up(monkeypatch, "envmap")
     assert stderr.getvalue() == ""
+
+
+@pytest.mark.parametrize("name", ["envmap", "distmap", "dprm", "virtual"])
+def test_the_warm_up_makes_its_maps_small(name):
+    """The kernels compile for the maps' types, not their sizes: the warm-up scene's maps
+    are a few texels whatever the scene asks (a distmap at 1024 texels and 8 layers held 6
+    GiB of warm-up maps before), and its parameters stay valid."""
+    cls = api.technique_class(name)
+    asked = {"envmap": {"resolution": 4096}, "distmap": {"resolution": 4096, "layers": 8},
+             "dprm": {"maps": {"resolution": 8192, "count": 4096, "per_frame": 64}},
+             "virtual": {"explosion": {"resolution": 4096}}}[name]
+    params = cls.Params.model_validate({"name": name, **asked})
+    warm = cls.Params.model_validate_json(warmup.warm_params(params.model_dump_json()))
+    holder = warm.maps if name == "dprm" else warm.explosion if name == "virtual" else warm
+    assert holder.resolution == max(warmup.WARM_MAP_SIDE, 16 if name == "virtual" else 0)
+    if name == "dprm":
+        assert (warm.maps.count, warm.maps.per_frame) == (warmup.WARM_MAPS, warmup.WARM_MAPS)
+    if name == "distmap":
+        assert warm.layers == 8  # layers are a loop bound in the kernels: kept
+
+
+def test_a_dprm_warm_up_keeps_a_grid_square_and_fewer_maps():
+    cls = api.technique_class("dprm")
+    for maps, expected in (({"count": 1, "per_frame": 1}, 1),
+                           ({"count": 3, "layout": "fibonacci", "per_frame": 2}, 3),
+                           ({"count": 7, "layout": "fibonacci", "per_frame": 5}, 4)):
+        params = cls.Params.model_validate({"name": "dprm", "maps": maps})
+        warm = cls.Params.model_validate_json(warmup.warm_params(params.model_dump_json()))
+        assert warm.maps.count == expected and warm.maps.per_frame <= expected
+
+
+def test_the_shipped_wave_is_the_scripts():
+    """reflectcli/data/warm-up-wave.ply is what scripts/make_warm_wave.py makes."""
+    import sys
+    from pathlib import Path
+
+    import trimesh
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    try:
+        import make_warm_wave
+    finally:
+        sys.path.pop(0)
+    made = make_warm_wave.make_wave()
+    shipped = trimesh.load(warmup.WAVE_PATH, process=False)
+    assert (shipped.faces == made.faces).all()
+    assert abs(shipped.vertices - made.vertices).max() < 1e-6

@@ -21,10 +21,6 @@ MESH_FILE_BYTES_PER_TRIANGLE = 12  # a binary STL triangle is 50 bytes; be gener
 # EXR parts stacked and its ids as floats besides (measured 31 at 512 texels, 8 layers)
 DISTMAP_BYTES_KEPT = 24
 DISTMAP_BYTES_STORING = 32
-# the warm-up (warmup.py) renders its own scene with the technique's parameters before the
-# first frame: its maps, one per mirror, are held at once (resolution 1024 with 8 layers
-# peaked at 6.1 GiB on a scene of one mirror)
-WARM_UP_MIRRORS = 5
 
 
 def triangles(item, source: str) -> int:
@@ -63,8 +59,7 @@ def _map_bytes(technique, mirrors: int) -> int:
     layers = getattr(technique, "layers", None)
     if isinstance(layers, int):  # distmap: layered cube maps, each face captured in turn
         texels = layers * 6 * technique.resolution**2
-        return (texels * (DISTMAP_BYTES_KEPT * max(mirrors, WARM_UP_MIRRORS)
-                          + DISTMAP_BYTES_STORING)
+        return (texels * (DISTMAP_BYTES_KEPT * mirrors + DISTMAP_BYTES_STORING)
                 + BYTES_PER_TEXEL * technique.resolution**2)
     maps = getattr(technique, "maps", None)
     if maps is not None and hasattr(maps, "resolution"):  # dprm: count maps per mirror

@@ -8,7 +8,6 @@ from test_cli import TINY as SCENE
 from reflectcli.config import memory
 from reflectcli.errors import Problems
 from reflectcli.loading import load_config
-from reflectcli.warmup import WARM_SCENE
 
 GiB = 1 << 30
 
@@ -35,29 +34,28 @@ def map_bytes(path: str) -> int:
 
 
 def test_distmap_maps_count_their_layers(here):
-    """resolution 1024 with 8 layers peaked at 6.1 GiB (the estimate said 480 MiB, as for 1
-    layer): the warm-up scene's mirrors each hold 8 layers of colour, depth, ids and 1/depth."""
+    """resolution 1024 with 8 layers on a scene of one mirror peaked at 2.44 GiB (maxrss of
+    `reflect render`, the warm-up's maps made small; 6.06 GiB when it captured five mirrors'
+    full-size maps; the estimate once said 480 MiB, as for 1 layer)."""
     one, eight = map_bytes(distmap(here, 1024, 1)), map_bytes(distmap(here, 1024, 8))
-    assert eight > 7 * one
-    assert eight >= 6.1 * GiB
-    assert eight < 12 * GiB  # generous, not absurd
+    assert eight - one == 7 * 6 * 1024**2 * (memory.DISTMAP_BYTES_KEPT
+                                            + memory.DISTMAP_BYTES_STORING)
+    assert eight >= 2.44 * GiB
+    assert eight < 5 * GiB  # generous, not absurd
 
 
-def test_distmap_maps_count_every_mirror_past_the_warm_up_scenes(here):
-    few = map_bytes(distmap(here, 256, 4, mirrors=2))
-    many = map_bytes(distmap(here, 256, 4, mirrors=4 * len(WARM_SCENE["mirrors"])))
-    assert many > 3 * few
-
-
-def test_warm_up_mirrors_match_the_warm_up_scene():
-    assert len(WARM_SCENE["mirrors"]) == memory.WARM_UP_MIRRORS
+def test_distmap_maps_count_every_mirror(here):
+    """Each mirror keeps its own layered cube map."""
+    texels = 4 * 6 * 256**2
+    two, three = (map_bytes(distmap(here, 256, 4, mirrors=m)) for m in (2, 3))
+    assert three - two == texels * memory.DISTMAP_BYTES_KEPT
 
 
 def test_distmap_past_this_machines_memory_is_one_line(here, monkeypatch):
-    """resolution 4096 with 8 layers (about 100 GB) validated on a 22 GiB machine."""
+    """resolution 4096 with 8 layers (about 43 GiB) validated on a 22 GiB machine."""
     monkeypatch.setattr(memory, "available_bytes", lambda: 22 * GiB)
     with pytest.raises(Problems) as info:
         load_config(distmap(here, 4096, 8))
     assert [str(p) for p in info.value.problems] == [
-        "d.toml: technique: this render needs about 115.3 GiB of memory; 22.0 GiB is available"]
-    load_config(distmap(here, 1024, 4))  # 3.6 GiB: fine
+        "d.toml: technique: this render needs about 43.3 GiB of memory; 22.0 GiB is available"]
+    load_config(distmap(here, 1024, 4))  # 1.4 GiB: fine
