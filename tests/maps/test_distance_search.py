@@ -10,7 +10,7 @@ import numpy as np
 
 from reflectcli.maps.cube import face_bases
 from reflectcli.maps.distance import capture_distance_faces, inverse_depth
-from reflectcli.maps.distance_search import search_ray
+from reflectcli.maps.distance_search import _search_work, search_ray, search_texels
 from reflectcli.maps.update import face_capture_frames, faces_updated, map_capture_frame
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -44,6 +44,7 @@ def test_search_matches_naive_twin():
     rng = np.random.default_rng(1)
     for layers in (1, 2):
         q, surface, color, bases = _box_map(layers=layers, seed=layers)
+        texels = search_texels(q, surface)
         out = np.zeros(3, np.float32)
         agree = 0
         for trial in range(300):
@@ -55,8 +56,8 @@ def test_search_matches_naive_twin():
             a = max(np.linalg.norm(x), 0.05)
             t_end = 40.0 / (40.0 + a)
             steps, refine = int(rng.integers(1, 24)), int(rng.integers(0, 6))
-            hit, _ = search_ray(x[0], x[1], x[2], r[0], r[1], r[2], a, t_end, q, surface,
-                                color, bases, steps, refine, True, out)
+            hit, _ = search_ray(x[0], x[1], x[2], r[0], r[1], r[2], a, t_end, *texels,
+                                color, bases, steps, refine, True, out, _search_work(layers))
             n_hit, n_color = naive_search(x, r, a, t_end, q, surface, color, steps, refine)
             assert bool(hit) == n_hit, (trial, layers)
             if hit:
@@ -74,7 +75,8 @@ def test_box_room_hit_is_exact_on_planes():
     r = np.array([0.6, 0.3, -0.74])
     r /= np.linalg.norm(r)
     a = np.linalg.norm(x)
-    hit, _ = search_ray(*x, *r, a, 40.0 / (40.0 + a), q, surface, color, bases, 8, 3, True, out)
+    hit, _ = search_ray(*x, *r, a, 40.0 / (40.0 + a), *search_texels(q, surface), color, bases,
+                        8, 3, True, out, _search_work(1))
     d = min((4.0 - np.sign(r[i]) * x[i]) / abs(r[i]) for i in range(3))
     face, s, t = face_uv(x + d * r)
     from naive import bilinear

@@ -13,7 +13,7 @@ from ...frame import Frame
 from ...maps.cache import MapCache, cache_key
 from ...maps.cube import FACE_NAMES, face_bases
 from ...maps.distance import capture_distance_faces, inverse_depth
-from ...maps.distance_search import search_reflections
+from ...maps.distance_search import search_reflections, search_texels
 from ...maps.update import face_capture_frames
 from ...raster.primary import render_primary
 from ...raster.rasterize import FLAG_MIRROR
@@ -34,7 +34,8 @@ class DistmapRecord(MapRecord):
     color: np.ndarray  # (layers, 6, S, S, 3) float32, linear RGB
     depth: np.ndarray  # (layers, 6, S, S) float32, eye depth along the face's axis
     surface: np.ndarray  # (layers, 6, S, S) int32 surface ids (-1: none)
-    q: np.ndarray  # inverse depth of `depth`, what the search interpolates
+    q: np.ndarray  # (6, S, S, layers) inverse depth of `depth`, what the search interpolates
+    ids: np.ndarray  # (6, S, S, layers) `surface` as the search reads it (search_texels)
     faces_frame: list[int]  # per cube face, the frame_index its capture comes from
 
 
@@ -131,7 +132,8 @@ class Distmap(MapTechnique):
             record = DistmapRecord(
                 name, status, time.perf_counter() - start,
                 cache.path("distmap", self._key(scene, name, point, near, far, at)),
-                k, point, color, depth, surface, inverse_depth(depth), faces_frame)
+                k, point, color, depth, surface, *search_texels(inverse_depth(depth), surface),
+                faces_frame)
             records.append(record)
             if on_map is not None:
                 on_map(record)
@@ -166,7 +168,7 @@ class Distmap(MapTechnique):
                     faces = [f for f in stale if wanted[f] == at]
                     out = self._capture(scene, k, record.point, at, faces, out)
                 record.color, record.depth, record.surface = out
-            record.q = inverse_depth(record.depth)
+            record.q, record.ids = search_texels(inverse_depth(record.depth), record.surface)
             record.faces_frame = list(wanted)
             captured += len(stale)
         return captured
@@ -191,7 +193,7 @@ class Distmap(MapTechnique):
                 result.rgb, holes, taken, primary.buffers, result.surface, scene.n_objects + k,
                 primary.triangles, int(scene.mirrors.kind[k]), scene.mirrors.params[k],
                 scene.mirrors.reflectance[k], camera.eye, record.point, a_min, state.far,
-                record.q, record.surface, record.color, bases, p.steps, p.refine_steps,
+                record.q, record.ids, record.color, bases, p.steps, p.refine_steps,
                 p.filter == "bilinear", scene.background)
         t3 = time.perf_counter()
         mirror = result.surface >= scene.n_objects
