@@ -17,9 +17,10 @@ BYTES_PER_TRIANGLE = 600
 BYTES_PER_TEXEL = 48 + 16 + 8 * max(os.cpu_count() or 1, 2)
 MESH_FILE_BYTES_PER_TRIANGLE = 12  # a binary STL triangle is 50 bytes; be generous
 # distmap, per texel of each layer of each face: kept per mirror, its colour (12), depth (4),
-# surface id (4) and 1 / depth (4); while one map is stored in or read from the cache, its
-# EXR parts stacked and its ids as floats besides (measured 31 at 512 texels, 8 layers)
-DISTMAP_BYTES_KEPT = 24
+# surface id (4), and 1 / depth and the ids again as the search reads them (8:
+# maps/distance_search.search_texels); while one map is stored in or read from the cache,
+# its EXR parts stacked and its ids as floats besides (measured 31 at 512 texels, 8 layers)
+DISTMAP_BYTES_KEPT = 28
 DISTMAP_BYTES_STORING = 32
 
 

@@ -34,13 +34,13 @@ def map_bytes(path: str) -> int:
 
 
 def test_distmap_maps_count_their_layers(here):
-    """resolution 1024 with 8 layers on a scene of one mirror peaked at 2.44 GiB (maxrss of
+    """resolution 1024 with 8 layers on a scene of one mirror peaked at 2.48 GiB (maxrss of
     `reflect render`, the warm-up's maps made small; 6.06 GiB when it captured five mirrors'
     full-size maps; the estimate once said 480 MiB, as for 1 layer)."""
     one, eight = map_bytes(distmap(here, 1024, 1)), map_bytes(distmap(here, 1024, 8))
     assert eight - one == 7 * 6 * 1024**2 * (memory.DISTMAP_BYTES_KEPT
                                             + memory.DISTMAP_BYTES_STORING)
-    assert eight >= 2.44 * GiB
+    assert eight >= 2.48 * GiB
     assert eight < 5 * GiB  # generous, not absurd
 
 
@@ -52,10 +52,10 @@ def test_distmap_maps_count_every_mirror(here):
 
 
 def test_distmap_past_this_machines_memory_is_one_line(here, monkeypatch):
-    """resolution 4096 with 8 layers (about 43 GiB) validated on a 22 GiB machine."""
+    """resolution 4096 with 8 layers (about 46 GiB) validated on a 22 GiB machine."""
     monkeypatch.setattr(memory, "available_bytes", lambda: 22 * GiB)
     with pytest.raises(Problems) as info:
         load_config(distmap(here, 4096, 8))
     assert [str(p) for p in info.value.problems] == [
-        "d.toml: technique: this render needs about 43.3 GiB of memory; 22.0 GiB is available"]
-    load_config(distmap(here, 1024, 4))  # 1.4 GiB: fine
+        "d.toml: technique: this render needs about 46.3 GiB of memory; 22.0 GiB is available"]
+    load_config(distmap(here, 1024, 4))  # 1.5 GiB: fine
