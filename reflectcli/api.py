@@ -211,8 +211,10 @@ class OpenedScene:
     def __init__(self, config: SceneConfig, path: str, *, threads: int | None = None,
                  cache: str | None | Literal[False] = None,
                  technique_option: str | None = None,
-                 overrides: tuple[str, ...] | list[str] = ()) -> None:
+                 overrides: tuple[str, ...] | list[str] = (),
+                 provenance: dict | None = None) -> None:
         self.config = config
+        self.provenance = provenance  # the file each field came from (load_config's)
         self.overrides = list(overrides)  # --set, recorded in the log rows
         self.path = path
         self.threads = threads  # asked for; None: numba's own count
@@ -270,7 +272,7 @@ class OpenedScene:
         """The flattened world-space arrays of every object and mirror, built once; raises
         Problems for what cannot be built (mesh files, degenerate mirrors)."""
         if self._scene is None:
-            self._scene = build_scene(self.config, self.path)
+            self._scene = build_scene(self.config, self.path, self.provenance)
         return self._scene
 
     @property
@@ -534,9 +536,9 @@ def open_scene(path: str, *, overrides: tuple[str, ...] | list[str] = (),
     in memory only). Raises Problems for bad input; nothing is built or written yet.
     """
     interrupts.requested.clear()  # a new run: earlier interrupts were answered
-    config, _ = load_config(path, overrides, technique)
+    config, provenance = load_config(path, overrides, technique)
     return OpenedScene(config, path, threads=threads, cache=cache, technique_option=technique,
-                       overrides=overrides)
+                       overrides=overrides, provenance=provenance)
 
 
 # --- what the CLI and the bench call --------------------------------------------------------

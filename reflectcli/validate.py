@@ -57,10 +57,10 @@ def validate_file(path: str) -> str:
 
     fields = scene_model().model_fields
     if "scene" in raw or "camera" in raw and len(raw) > 1 or not set(raw) <= set(fields):
-        cfg, _ = load_config(path)
+        cfg, prov = load_config(path)
         from .scene.build import build_scene
 
-        build_scene(cfg, path)
+        build_scene(cfg, path, prov)
         from .api import OpenedScene
 
         opened = OpenedScene(cfg, path)

@@ -17,8 +17,8 @@ render run for hours before its first frame or allocate more memory than a machi
 | extrusion `subdivisions`               | 4096                  |
 | triangles in a scene (built)           | 20,000,000            |
 | virtual: tessellated reflected objects | 1,000,000 (splits scaled down, with a notice) |
-| coordinates (any position, size)       | magnitude <= 1e6      |
-| mesh file coordinates                  | magnitude <= 1e6 after `fit`, <= 1e9 in the file |
+| coordinates (any position, size)       | magnitude <= 1e6, also in world space |
+| mesh file coordinates                  | finite, magnitude <= 1e9 in the file |
 | camera `near`                          | >= 1e-6, far / near <= 1e9 |
 | camera `fov_y`                         | >= 0.01, <= 170 degrees |
 | lights                                 | 256                   |
@@ -27,7 +27,11 @@ render run for hours before its first frame or allocate more memory than a machi
 | any other number (colors, intensities) | magnitude <= 1e9      |
 
 These are checked before anything is allocated (`check_config`); the memory a render will
-need is estimated from them before it starts (`reflectcli/config/memory.py`).
+need is estimated from them before it starts (`reflectcli/config/memory.py`). The coordinate
+limit also holds for the geometry as built, in world space (after a mesh's `fit` and the
+transform, at every keyframe: scene/extent.py), before anything is written. A mesh file's own
+coordinates past 1e9 would overflow trimesh's vertex merge (int64 at its 1e-8 tolerance),
+which then joins vertices that are apart.
 """
 
 from __future__ import annotations

@@ -19,9 +19,10 @@ from ..config.scene import SceneConfig
 from ..errors import Problem, Problems
 from ..geometry import trs_matrix
 from . import primitives
+from .extent import motion_reach, reach, too_far
 from .mesh import Mesh, joined_pieces
 from .mesh_file import cached_mesh_file as _mesh_file
-from .mesh_file import placed, resolve
+from .mesh_file import resolve
 from .mirrors import extrusion_profile, mirror_corners, mirror_mesh, mirror_plane
 from .textures import load_texture
 from .types import (
@@ -76,8 +77,7 @@ def object_mesh(obj, source: str) -> Mesh:
     if s == "mesh":
         from .fit import fit_mesh
 
-        mesh = fit_mesh(_mesh_file(resolve(source, obj.path)), obj.name, obj.path, obj.fit)
-        return placed(mesh, obj.path)
+        return fit_mesh(_mesh_file(resolve(source, obj.path)), obj.name, obj.path, obj.fit)
     if s == "clutter":
         from .procedural import music_room_clutter
 
@@ -281,8 +281,15 @@ def _room_bounds(cfg: SceneConfig, meshes) -> np.ndarray | None:
     return np.array([points.min(axis=0), points.max(axis=0)])
 
 
-def build_scene(cfg: SceneConfig, source: str) -> Scene:
-    """Build the scene; raises Problems naming the file and field for what cannot be built."""
+def build_scene(cfg: SceneConfig, source: str, prov: dict | None = None) -> Scene:
+    """Build the scene; raises Problems naming the file and field for what cannot be built.
+    `prov`: load_config's provenance, naming the file a field came from in the world-space
+    coordinate check (else `source`)."""
+    from ..config.load import origin
+
+    def where(loc: tuple) -> str:
+        return origin(prov, loc, source) if prov else source
+
     problems: list[Problem] = []
     material_index = {name: k for k, name in enumerate(cfg.materials)}
     meshes: list[Mesh | None] = []
@@ -303,6 +310,9 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
         except (OSError, ValueError) as e:
             field = "profile" if m.shape == "extrusion" else "path"
             problems.append(Problem(source, f"mirrors.{j}.{field}", str(e).splitlines()[0]))
+            continue
+        if (far := too_far("mirrors", j, m, reach(mesh.corners), where)) is not None:
+            problems.append(far)
             continue
         kept = mesh.without_degenerate()
         mirror_parts.append(_triangles(kept, -1, n_obj + j))
@@ -332,6 +342,12 @@ def build_scene(cfg: SceneConfig, source: str) -> Scene:
     for i, obj in enumerate(cfg.objects):
         if not obj.motion:
             static_parts[i] = placed(i, 0)
+        found = (motion_reach(meshes[i], obj.motion) if obj.motion
+                 else reach(static_parts[i][0].corners))
+        if (far := too_far("objects", i, obj, found, where)) is not None:
+            problems.append(far)
+    if problems:
+        raise Problems(problems)
     last: dict = {}
 
     def geometry_at(frame_index: int) -> Geometry:

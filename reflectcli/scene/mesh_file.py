@@ -53,7 +53,10 @@ def load_mesh_file(path: str | Path) -> Mesh:
                          f"the limit is {MAX_TRIANGLES}")
     if not np.isfinite(loaded.vertices).all():
         raise ValueError(f"mesh file {file} has non-finite vertex coordinates")
-    if np.abs(loaded.vertices).max() > MAX_NUMBER:  # even `fit` cannot make those sane
+    # past 1e9 trimesh's vertex merge (coordinates over its 1e-8 tolerance, as int64)
+    # overflows and joins vertices that are apart: no `fit` or transform can undo that. The
+    # coordinate limit itself holds in world space (scene/extent.py), after both.
+    if np.abs(loaded.vertices).max() > MAX_NUMBER:
         raise ValueError(f"mesh file {file} has coordinates past +-{MAX_NUMBER:g}")
 
     faces = np.asarray(loaded.faces, dtype=np.int64)
@@ -107,18 +110,6 @@ def _limited_resolver(path: str, limit: int):
             return found
 
     return Limited(path)
-
-
-def placed(mesh: Mesh, path: str) -> Mesh:
-    """`mesh` as it goes into the scene (after `fit`, before the transform), refused past
-    the coordinate limit like any position in a scene file. `path` as the scene writes it."""
-    from ..config.limits import MAX_COORDINATE
-
-    largest = float(np.abs(mesh.corners).max()) if mesh.corners.size else 0.0
-    if largest > MAX_COORDINATE:
-        raise ValueError(f"mesh file {path} has coordinates up to {largest:.3g}, past "
-                         f"+-{MAX_COORDINATE:g} (`fit` scales a mesh into the scene)")
-    return mesh
 
 
 def resolve(source: str, path: str) -> str:

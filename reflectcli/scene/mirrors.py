@@ -36,7 +36,7 @@ from ..config.mirrors import (
 from ..geometry import trs_matrix
 from . import primitives
 from .mesh import Mesh
-from .mesh_file import cached_mesh_file, placed, resolve
+from .mesh_file import cached_mesh_file, resolve
 from .primitives import _longitude_dirs, grid_mesh
 
 
@@ -170,7 +170,7 @@ def mirror_mesh(m, source: str) -> tuple[Mesh, bool]:
     if isinstance(m, CapMirror):
         return cap_mesh(m), True
     assert isinstance(m, MeshMirror)
-    mesh = placed(cached_mesh_file(resolve(source, m.path)), m.path)
+    mesh = cached_mesh_file(resolve(source, m.path))
     t = m.transform
     mesh = mesh.transformed(trs_matrix(t.translate, t.rotate, t.scale))
     if not m.smooth:

@@ -9,7 +9,7 @@ import pytest
 from reflectcli.errors import Problems
 from reflectcli.output.finite import check_finite
 
-from .common import TINY, chdir, check_bad, write
+from .common import TINY, assert_one_line, chdir, check_bad, invoke, write
 
 LAMBERT = TINY.replace('name = "tiny"', 'name = "tiny"\nshading = "lambert"')
 
@@ -161,6 +161,63 @@ def test_mesh_coordinates_past_the_limit(tmp_path, x, limit):
                   'path = "m.obj"\n')
     with chdir(tmp_path):
         check_bad(scene, "m.toml: mirrors.1.path:", "coordinates", limit)
+
+
+WORLD_CASES = [  # (appended TOML, expected field): each field within 1e6, the world not
+    ('\n[[objects]]\nname = "big"\nshape = "sphere"\nradius = 1e6\nsegments = 8\n'
+     'material = "red"\ntransform = { scale = 1e6 }\n', "objects.1.transform"),
+    ('\n[[objects]]\nname = "t"\nshape = "teapot"\nmaterial = "red"\n'
+     'transform = { translate = [9e5, 0, 0], scale = 1e5 }\n', "objects.1.transform"),
+    ('\n[[objects]]\nname = "b"\nshape = "sphere"\nradius = 3.0\nsegments = 8\n'
+     'material = "red"\nmotion = [{ frame = 0 }, { frame = 1, rotate = [0, 90, 0], '
+     'scale = 5e5 }]\n', "objects.1.motion"),
+    ('\n[[objects]]\nname = "r"\nshape = "torus"\nmajor_radius = 1e6\nminor_radius = 1e6\n'
+     'material = "red"\n', "objects.1.major_radius"),
+    ('\n[[mirrors]]\nname = "s"\nshape = "sphere"\ncenter = [1e6, 0, 0]\nradius = 1e6\n',
+     "mirrors.1.radius"),
+]
+
+
+@pytest.mark.parametrize(("toml", "field"), WORLD_CASES)
+def test_coordinate_limit_holds_in_world_space(tmp_path, toml, field):
+    """A sphere of radius 1e6 scaled by 1e6 rendered: the limit was checked per field,
+    not on the geometry after its transform."""
+    scene = write(tmp_path, "s.toml", TINY + toml)
+    with chdir(tmp_path):
+        check_bad(scene, f"s.toml: {field}: world-space coordinates reach", "past +-1e+06")
+
+
+def test_world_coordinate_limit_names_the_file_the_transform_came_from(tmp_path):
+    teapot = '\n[[objects]]\nname = "t"\nshape = "teapot"\nmaterial = "red"\n'
+    write(tmp_path, "part.toml", TINY + teapot + "transform = { scale = 1e6 }\n")
+    scene = write(tmp_path, "s.toml", 'include = ["part.toml"]\n')
+    with chdir(tmp_path):
+        check_bad(scene, "part.toml: objects.1.transform: world-space coordinates reach")
+        write(tmp_path, "part.toml", TINY + teapot)
+        result = invoke("render", scene, "--out", tmp_path / "o", "--frames", "0",
+                        "--set", "objects.t.transform.scale=1e6")
+    assert_one_line(result, "--set: objects.1.transform: world-space coordinates reach")
+    assert not (tmp_path / "o").exists()
+
+
+def test_mesh_in_millimetres_scaled_by_its_transform_renders(tmp_path):
+    """A mesh with coordinates past 1e6 in its file, brought into the scene by its
+    object's transform (no `fit`), was refused though its world-space geometry is small."""
+    from .common import files_under
+
+    (tmp_path / "m.obj").write_text("v 2e6 0 0\nv 0 2e6 0\nv 0 0 2e6\nf 1 2 3\n")
+    scene = write(tmp_path, "s.toml", TINY + MESH_OBJECT
+                  + "transform = { scale = 1e-6 }\n")
+    mirror = write(tmp_path, "m.toml", TINY + '\n[[mirrors]]\nname = "m"\nshape = "mesh"\n'
+                   'path = "m.obj"\ntransform = { scale = 1e-6 }\n')
+    with chdir(tmp_path):
+        for path in (scene, mirror):
+            result = invoke("validate", path)
+            assert result.exit_code == 0, result.output
+            out = tmp_path / f"out-{path.stem}"
+            result = invoke("render", path, "--out", out, "--frames", "0")
+            assert result.exit_code == 0, result.output
+            assert any(f.endswith("frame_0000.exr") for f in files_under(out))
 
 
 def test_mesh_in_miles_fitted_into_the_scene_is_fine(tmp_path):
