@@ -20,10 +20,13 @@ TEMP = re.compile(r"^\..+\.tmp(?P<pid>[0-9]{1,10})-[0-9]{1,20}\.(exr|png|json|cs
 
 
 def inside(folder: str, name: str, source: str = "output", field: str = "") -> str:
-    """`folder/name`, refused in one line unless it stays inside `folder`."""
+    """`folder/name`, refused in one line unless it stays inside `folder`. A folder that
+    normalises to the working directory (`.`, `lk/..`: paths are joined and normalised, see
+    check_links) holds `name` too: its joined path has no directory part."""
     path = os.path.normpath(os.path.join(folder, name))
     root = os.path.normpath(folder)
-    if os.path.dirname(path) != root or os.path.basename(path) in ("", ".", ".."):
+    if (os.path.dirname(path) or os.curdir) != root or os.path.basename(path) in (
+            "", ".", ".."):
         raise Problems([Problem(source, field, f"'{name}' would be written outside {folder}")])
     return path
 

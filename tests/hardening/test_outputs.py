@@ -202,6 +202,24 @@ def test_a_root_with_dotdot_after_a_link_is_not_refused(tmp_path):
     assert (tmp_path / "w" / "out" / "tiny" / "raster" / "frame_0000.exr").exists()
 
 
+@pytest.mark.parametrize("root", [".", "lk/..", "./"])
+def test_a_root_that_normalises_to_the_working_directory_holds_the_frames(tmp_path, root):
+    # `--out lk/..` (lk a link elsewhere) and `--out .` were refused as "scene.name: 'tiny'
+    # would be written outside ." (a joined path in `.` has no directory part); as with
+    # `build/../out`, the root is normalised: the frames go to ./tiny/raster
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "raster"\n')
+    (tmp_path / "elsewhere" / "sub").mkdir(parents=True)
+    (tmp_path / "w").mkdir()
+    os.symlink(tmp_path / "elsewhere" / "sub", tmp_path / "w" / "lk")
+    with chdir(tmp_path / "w"):
+        result = invoke("render", scene, "--out", root)
+        assert result.exit_code == 0, result.output
+        dotted = write(tmp_path, "d.toml", TINY + f'\n[output]\ndir = "{root}"\n')
+        assert invoke("validate", dotted).output == "ok\n"
+    assert (tmp_path / "w" / "tiny" / "raster" / "frame_0000.exr").exists()
+    assert files_under(tmp_path / "elsewhere") == [str(tmp_path / "elsewhere" / "sub")]
+
+
 def test_resume_renders_again_a_frame_whose_file_is_not_the_one_logged(tmp_path):
     # --resume compared a frame's row with the run and kept whatever file had its name: a
     # run killed between a rename and its row, a copy of another frame, a truncated file
