@@ -26,6 +26,7 @@ from pydantic import BaseModel
 from . import heap, interrupts
 from .camera import Camera, camera_from_config
 from .config.memory import BYTES_PER_PIXEL
+from .config.names import root_length_problem
 from .config.scene import SceneConfig
 from .errors import Problem, Problems
 from .frame import Frame
@@ -111,12 +112,20 @@ def parse_frames(spec: str | None, count: int) -> range:
     return r
 
 
-def check_output_root(root: str, source: str, field: str) -> None:
+def check_output_root(root: str, source: str, field: str,
+                      config: SceneConfig | None = None, technique: str | None = None) -> None:
     """An empty output folder name (`--out ''`, `output.dir = ""`) is refused by name: it
-    would otherwise read as the working directory, or fail as a path written outside ''."""
+    would otherwise read as the working directory, or fail as a path written outside ''.
+    With the scene's `config` (and the `technique` used), a root whose output paths the file
+    system could not hold is refused too (config/names.py)."""
     if root == "":
         raise Problems([Problem(source, field, "empty folder name ('.' is the working "
                                 "directory)")])
+    if config is not None:
+        why = root_length_problem(root, config.scene.name, technique or config.technique.name,
+                                  config.output.log)
+        if why is not None:
+            raise Problems([Problem(source, field, why)])
 
 
 def prepare_output(folder: str, source: str, field: str) -> None:
@@ -259,6 +268,13 @@ class OpenedScene:
         return self.path if rel.startswith("..") else rel
 
     @property
+    def dir_source(self) -> str:
+        """The file `output.dir` came from (an include, `--set`), as messages name it."""
+        from .config.load import origin
+
+        return origin(self.provenance or {}, ("output", "dir"), self.display)
+
+    @property
     def scene_hash(self) -> str:
         """sha256 of the scene alone (its content, the files it reads, its name and camera;
         not the technique or the output section), so an image pairs with its reference."""
@@ -338,8 +354,9 @@ class OpenedScene:
         frames to be written (their names must be free for files: paths.check_links)."""
         self.build()
         root = out if out is not None else self.config.output.dir
-        check_output_root(root, "--out" if out is not None else self.display,
-                          "" if out is not None else "output.dir")
+        check_output_root(root, "--out" if out is not None else self.dir_source,
+                          "" if out is not None else "output.dir", self.config,
+                          self.technique_name)
         folder = inside(inside(root, self.name, self.display, "scene.name"),
                         self.technique_name, self.display)
         source, field = ("--out", "") if out is not None else (self.display, "output.dir")

@@ -21,14 +21,15 @@ from .errors import Problem, Problems
 from .loading import load_config
 
 
-def _check_output_folder(cfg, display: str, frames=None) -> None:
+def _check_output_folder(cfg, display: str, frames=None, dir_source: str | None = None
+                         ) -> None:
     """The checks render makes of its output folder, short of creating it (a folder is
     made and removed where it would go: paths.check_writable)."""
     from .api import check_output_root
     from .output.identity import check_same_overrides, logged_rows
     from .output.paths import check_links, check_writable, inside
 
-    check_output_root(cfg.output.dir, display, "output.dir")
+    check_output_root(cfg.output.dir, dir_source or display, "output.dir", cfg)
     folder = inside(inside(cfg.output.dir, cfg.scene.name, display, "scene.name"),
                     cfg.technique.name, display)
     inside(folder, cfg.output.log, display, "output.log")
@@ -63,8 +64,9 @@ def validate_file(path: str) -> str:
         build_scene(cfg, path, prov)
         from .api import OpenedScene
 
-        opened = OpenedScene(cfg, path)
-        _check_output_folder(cfg, display, opened.frames())  # render's frames, all of them
+        opened = OpenedScene(cfg, path, provenance=prov)
+        # render's frames, all of them
+        _check_output_folder(cfg, display, opened.frames(), opened.dir_source)
         opened.check_cache()  # the default cache, beside the scene
         return "scene"
     section = create_model("Section", __base__=Strict,

@@ -22,8 +22,8 @@ render run for hours before its first frame or allocate more memory than a machi
 | camera `near`                          | >= 1e-6, far / near <= 1e9 |
 | camera `fov_y`                         | >= 0.01, <= 170 degrees |
 | lights                                 | 256                   |
-| output names (`scene.name`, `output.log`, each folder of `output.dir`) | 255 bytes (UTF-8) |
-| output paths (`output.dir`/name/technique/file) | 4095 bytes    |
+| output names (`scene.name`, `output.log`, each folder of the output root) | 255 bytes |
+| output paths (root/name/technique/file; root: `--out` or `output.dir`) | 4095 bytes |
 | any other number (colors, intensities) | magnitude <= 1e9      |
 
 These are checked before anything is allocated (`check_config`); the memory a render will

@@ -18,22 +18,27 @@ def _bytes(text: str) -> int:
 
 
 def output_path_lengths(cfg, add) -> None:
-    """Call add(loc, message) for an output name over NAME_MAX bytes (UTF-8) or output paths
-    over PATH_MAX: out/<scene.name>/<technique>/<output.log or a frame>."""
+    """Call add(loc, message) for a scene name or log name over NAME_MAX bytes (UTF-8): they
+    are in every output path. The output folder's own names and the whole path's length are
+    the root's (`root_length_problem`), checked where the root is known: `--out` replaces
+    `output.dir`."""
     too_long = f"a name must be at most {NAME_MAX} bytes (UTF-8)"
-    found = False
-    for loc, names in ((("output", "dir"), cfg.output.dir.split(os.sep)),
-                       (("scene", "name"), [cfg.scene.name]),
-                       (("output", "log"), [cfg.output.log])):
-        if any(_bytes(n) > NAME_MAX for n in names):
+    for loc, name in ((("scene", "name"), cfg.scene.name), (("output", "log"), cfg.output.log)):
+        if _bytes(name) > NAME_MAX:
             add(loc, too_long)
-            found = True
-    if found:
-        return
-    technique = getattr(cfg.technique, "name", None) or "raytrace"
-    longest = max(_bytes(cfg.output.log), FILE_NAME_ROOM)
-    folder = os.path.join(os.path.abspath(cfg.output.dir), cfg.scene.name, technique)
+
+
+def root_length_problem(root: str, scene: str, technique: str, log: str) -> str | None:
+    """Why output paths under `root` (the output folder a render uses: `--out` or
+    `output.dir`) would be too long for the file system: a folder name over NAME_MAX bytes,
+    or root/<scene>/<technique>/<log or a frame's temporary file> over PATH_MAX; else None.
+    `scene` and `log` are checked by output_path_lengths."""
+    if any(_bytes(n) > NAME_MAX for n in root.split(os.sep)):
+        return f"a name must be at most {NAME_MAX} bytes (UTF-8)"
+    longest = max(_bytes(log), FILE_NAME_ROOM)
+    folder = os.path.join(os.path.abspath(root), scene, technique)
     length = _bytes(folder) + 1 + longest
     if length > PATH_MAX:
-        add(("output", "dir"), f"output paths would be {length} bytes long; a path must be at "
-                               f"most {PATH_MAX} bytes")
+        return (f"output paths would be {length} bytes long; a path must be at most "
+                f"{PATH_MAX} bytes")
+    return None
