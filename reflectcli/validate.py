@@ -2,10 +2,12 @@
 (camera, mirrors, technique, ...).
 
 A scene goes through every check `render` runs short of rendering (the scene build
-included), so the two always agree. A file with `[scene]`, or `[camera]` and anything else,
-is a scene: missing its `[scene]` it fails as `render` fails. Other files are section files,
-presets or include files (no `[scene]`, at most a lone `[camera]`): their sections are
-checked, and stderr says they cannot be rendered by themselves.
+included), so the two always agree. A file with `[scene]` is a scene. A file without one is
+an include fragment, section file or preset, whatever sections it holds (`[camera]` and
+`[materials]` are a common fragment): each section is checked as a scene would check it, and
+stderr says that `render` refuses the file by itself (`scene: required`), so that it is
+the scene including it that renders (and validates) as a whole. Checked as a scene, a fragment
+failed on `scene: required` and on references to what the including scene defines.
 """
 
 from __future__ import annotations
@@ -57,7 +59,7 @@ def validate_file(path: str) -> str:
     from .techniques.registry import scene_model
 
     fields = scene_model().model_fields
-    if "scene" in raw or "camera" in raw and len(raw) > 1 or not set(raw) <= set(fields):
+    if "scene" in raw or not set(raw) <= set(fields):  # unknown keys: the scene's lines
         cfg, prov = load_config(path)
         from .scene.build import build_scene
 
@@ -75,5 +77,6 @@ def validate_file(path: str) -> str:
         section.model_validate(raw)
     except ValidationError as e:
         raise Problems(validation_problems(e, raw, prov, display, section)) from None
-    return (f"section file ({', '.join(raw)}): it cannot be rendered by itself (a scene needs "
-            "[scene] and [camera])")
+    return (f"section or include file ({', '.join(raw)}): it has no [scene], so it cannot be "
+            "rendered by itself (render refuses it: scene: required); validate the scene that "
+            "includes it")

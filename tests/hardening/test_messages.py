@@ -74,14 +74,45 @@ def test_unknown_key_in_an_included_file_names_that_file(tmp_path):
         check_bad(scene, "parts/cam.toml: camera.fov: unknown key (did you mean fov_y?)")
 
 
-def test_a_scene_without_its_scene_table_fails_validate_like_render(tmp_path):
-    """A camera and mirrors but no [scene] (and no objects) validated as a section file, exit
-    0; render refused it with `scene: required`."""
+def test_a_file_without_its_scene_table_is_checked_as_a_fragment(tmp_path):
+    """A camera and mirrors but no [scene] is a file render refuses by itself (`scene:
+    required`); validate checked it as a scene and failed with the same line, so an include
+    fragment holding [camera] and another section failed validate. Now its sections are
+    checked, and stderr says render refuses the file by itself, in render's words."""
     text = TINY.split("[camera]")[1].split("[[objects]]")[0] + "[[mirrors]]" + \
         TINY.split("[[mirrors]]")[1]
     scene = write(tmp_path, "s.toml", "[camera]" + text)
     with chdir(tmp_path):
-        check_bad(scene, "s.toml: scene: required")
+        render = invoke("render", scene, "--out", tmp_path / "o", "--frames", "0")
+        result = invoke("validate", scene)
+    assert_one_line(render, "s.toml: scene: required")
+    assert not (tmp_path / "o").exists()
+    assert result.exit_code == 0 and result.stdout == "ok\n"
+    assert "(camera, materials, mirrors)" in result.stderr
+    assert "cannot be rendered by itself (render refuses it: scene: required)" in result.stderr
+    with chdir(tmp_path):  # a fragment's sections are still checked
+        write(tmp_path, "s.toml", "[camera]" + text.replace("width = 16", "width = 0"))
+        assert_one_line(invoke("validate", scene), "s.toml: camera.width: must be > 0")
+
+
+def test_a_scene_including_a_camera_and_materials_fragment_validates_as_it_renders(tmp_path):
+    """The fragment holds [camera] and [materials]; its object's material is the scene's,
+    so checked as a scene by itself it would be wrong on two counts."""
+    camera = TINY.split("[camera]")[1].split("[materials.red]")[0]
+    write(tmp_path, "frag.toml", "[camera]" + camera + '[[objects]]\nname = "ball"\n'
+          'shape = "sphere"\nradius = 0.5\nsegments = 8\nmaterial = "red"\n')
+    scene = write(tmp_path, "s.toml", 'include = ["frag.toml"]\n[scene]\nname = "tiny"\n'
+                  '[materials.red]\nkind = "solid"\n[[mirrors]]' + TINY.split("[[mirrors]]")[1])
+    with chdir(tmp_path):
+        assert invoke("validate", scene).output == "ok\n"
+        render = invoke("render", scene, "--out", "o", "--frames", "0")
+        assert render.exit_code == 0, render.output
+        fragment = invoke("validate", tmp_path / "frag.toml")
+    assert fragment.exit_code == 0 and fragment.stdout == "ok\n", fragment.output
+    assert "section or include file (camera, objects)" in fragment.stderr
+    with chdir(tmp_path):  # an error in the fragment names it, in validate as in render
+        write(tmp_path, "frag.toml", "[camera]" + camera.replace("width = 16", "width = 0"))
+        check_bad(scene, "frag.toml: camera.width: must be > 0")
 
 
 def test_a_section_file_says_it_cannot_be_rendered_by_itself(tmp_path):
