@@ -34,6 +34,7 @@ from .config import (
     matrix_problems,
     run_count,
 )
+from .folders import check_bench_folder
 
 
 def _digest(*parts) -> str:
@@ -96,46 +97,6 @@ def load_bench(path: str, out: str | None = None, overrides: list[str] | tuple =
     return plan
 
 
-RESULT_FILES = ("results.jsonl", "results.csv", "report.md")
-
-
-def check_bench_folder(plan: BenchPlan, source: str, field: str) -> None:
-    """Refuse in one line, before anything is written (`validate` and `bench` alike): a
-    folder of the bench's own (references, runs, cache and each run's or reference's folder
-    under them) that is a link, or that is not a folder, or that resolves outside `out` (the
-    renders would land elsewhere); and a link or a non-file at a result file's name
-    (results.jsonl is appended to: it would be written through)."""
-    top = os.path.realpath(plan.out)
-    subs = ["references", "runs", "cache"]
-    for job in plan.jobs:
-        subs += [os.path.join("references", job["reference"]["id"]),
-                 os.path.join("runs", job["id"])]
-    for sub in dict.fromkeys(subs):
-        path = os.path.join(plan.out, sub)
-        if not os.path.lexists(path):
-            continue
-        real = os.path.realpath(path)
-        if os.path.islink(path):
-            why = "is a symbolic link; reflect writes nothing through a link (remove it)"
-        elif os.path.commonpath([top, real]) != top:
-            why = (f"leads to '{real}', outside {plan.out}; reflect writes nothing outside "
-                   "its output folder")
-        elif not os.path.isdir(path):
-            why = "is not a folder (remove it)"
-        else:
-            continue
-        raise Problems([Problem(source, field, f"'{path}' {why}")])
-    for name in RESULT_FILES:
-        path = os.path.join(plan.out, name)
-        if os.path.islink(path):
-            why = "is a symbolic link; reflect writes no file through a link (remove it)"
-        elif os.path.lexists(path) and not os.path.isfile(path):
-            why = "is not a regular file (remove it)"
-        else:
-            continue
-        raise Problems([Problem(source, field, f"'{path}' {why}")])
-
-
 def check_workers(workers: int) -> None:
     """`--workers` must be 1..MAX_WORKERS (one line, before anything is read)."""
     if not 1 <= workers <= MAX_WORKERS:
@@ -146,7 +107,7 @@ def _plan_jobs(plan: BenchPlan, cfg: BenchConfig, path: str, display: str,
                overrides: list[str] | tuple, problems: list[Problem]) -> None:
     from .. import api
 
-    references: dict[tuple, tuple] = {}  # (scene, overrides) -> (name, hash) or Problems
+    references: dict[tuple, tuple] = {}  # (scene, overrides) -> (name, hash, log) or Problems
     for i, job in enumerate(expand(cfg, path)):
         job["overrides"] = job["overrides"] + list(overrides)  # `bench --set`: on top
         where = f"runs ({job['technique']} on {os.path.relpath(job['scene'])})"
@@ -171,14 +132,14 @@ def _plan_jobs(plan: BenchPlan, cfg: BenchConfig, path: str, display: str,
             try:
                 ref = api.open_scene(job["scene"], overrides=ref_overrides,
                                      technique="raytrace")
-                references[key] = (ref.name, ref.scene_hash)
+                references[key] = (ref.name, ref.scene_hash, ref.config.output.log)
             except Problems as e:
                 references[key] = e
         if isinstance(references[key], Problems):
             problems += [_job_problem(display, where, job, p, reference=True)
                          for p in references[key].problems]
             continue
-        ref_name, ref_hash = references[key]
+        ref_name, ref_hash, ref_log = references[key]
         # the scene's content (files it reads included) is in the id: an edited scene gets a
         # new reference instead of being scored against the old one; so are its renders
         # (repeats, warm-up): a reference timed on too few renders is not reused once the
@@ -188,6 +149,7 @@ def _plan_jobs(plan: BenchPlan, cfg: BenchConfig, path: str, display: str,
                           ref_hash, job["repeats"], cfg.bench.warmup),
             "overrides": ref_overrides,
             "scene_name": ref_name,
+            "log": ref_log,  # the reference folder's output.log (bench/folders.py)
         }
         job["index"] = i
         plan.jobs.append(job)

@@ -75,6 +75,60 @@ def test_bench_refuses_linked_result_files(benched, tmp_path, name):
     assert path.is_symlink()
 
 
+def test_bench_refuses_a_hard_linked_results_file(benched, tmp_path):
+    """results.jsonl with another name: `bench --resume` rendered the pending run, then
+    failed to append its row (exit 1); refused up front now, exit 2, nothing written."""
+    work = _copy(benched, tmp_path)
+    rows = work / "bout" / "results.jsonl"
+    rows.write_text("")  # the run is pending again
+    os.link(rows, work / "elsewhere" / "other-name")
+    before = files_under(work / "bout")
+    with chdir(work):
+        line = assert_one_line(invoke("validate", "b0.toml"), "b0.toml: bench.out:",
+                               "results.jsonl' has other hard links")
+        assert assert_one_line(invoke("bench", "b0.toml", "--resume")) == line
+        assert assert_one_line(invoke("bench", "b0.toml")) == line
+    assert files_under(work / "bout") == before
+    assert rows.read_text() == "" and (work / "elsewhere" / "other-name").read_text() == ""
+
+
+@pytest.mark.parametrize("where", ["tiny", "tiny/raytrace", "tiny/raytrace/timings.jsonl",
+                                   "tiny/raytrace/frame_0000.exr"])
+def test_bench_refuses_links_in_a_reference_folder(benched, tmp_path, where):
+    """A reference is rendered again in place: a link in its folder was refused by that
+    render, naming `--out` (which the bench was not given), after results.jsonl had been
+    deleted; validate passed it."""
+    work = _copy(benched, tmp_path)
+    ref = work / "bout" / "references" / _only_sub(work / "bout", "references")
+    victim = work / "elsewhere" / "victim"
+    victim.write_text("keep\n")
+    target = ref / where
+    if target.is_dir():
+        shutil.rmtree(target)
+    else:
+        target.unlink()
+    target.symlink_to(victim if target.suffix else work / "elsewhere")
+    before = files_under(work / "bout")
+    with chdir(work):
+        line = assert_one_line(invoke("validate", "b0.toml"), "b0.toml: bench.out:", where)
+        assert assert_one_line(invoke("bench", "b0.toml")) == line
+    assert "--out" not in line
+    assert files_under(work / "bout") == before
+    assert os.listdir(work / "elsewhere") == ["victim"] and victim.read_text() == "keep\n"
+
+
+def test_validate_refuses_a_linked_lock_as_bench_does(benched, tmp_path):
+    work = _copy(benched, tmp_path)
+    lock = work / "bout" / ".reflect.lock"
+    lock.unlink()
+    lock.symlink_to(work / "elsewhere" / "made")
+    with chdir(work):
+        line = assert_one_line(invoke("validate", "b0.toml"), "b0.toml: bench.out:",
+                               ".reflect.lock' is a symbolic link")
+        assert assert_one_line(invoke("bench", "b0.toml")) == line
+    assert os.listdir(work / "elsewhere") == []
+
+
 MAP = "dprm-0123456789abcdef0123456789abcdef.exr"
 
 
