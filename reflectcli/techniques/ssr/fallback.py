@@ -58,16 +58,17 @@ class Fallback:
             from ...maps.cube import face_bases
             from ...maps.lookup import CUBE, add_reflections
 
-            base = rgb.copy()  # missed pixels hold (1 - r) * base; lookups add r * map
+            # missed pixels hold (1 - r) * base and lookups add r * map, in place; the
+            # lookups run on the missed pixels only (their surface ids, -1 elsewhere)
+            missed_ids = np.where(miss, surface, -1).astype(surface.dtype)
             dummy = np.zeros((1, 1, 3), np.float32)
             box = self.state.box
             for k, record in enumerate(self.state.maps):
-                add_reflections(base, primary.buffers, surface, scene.n_objects + k,
+                add_reflections(rgb, primary.buffers, missed_ids, scene.n_objects + k,
                                 primary.triangles, int(scene.mirrors.kind[k]),
                                 scene.mirrors.params[k], scene.mirrors.reflectance[k],
                                 camera.eye, record.point, box[0], box[1], True, CUBE,
                                 record.images, dummy, face_bases(), True)
-            rgb[miss] = base[miss]
             source[miss] = ENVMAP
         timings["fallback"] = time.perf_counter() - start
         return source
