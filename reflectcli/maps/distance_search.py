@@ -41,7 +41,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import claim, counter
+from ..parallel import ROWS_PER_CLAIM, claim, counter
 from ..reflection import reflected_ray
 from .cube import cube_face_coords, image_sample
 
@@ -247,9 +247,6 @@ def search_reflections(rgb, holes, steps_taken, buffers, surface_ids, surface, t
                    np.asarray(eye, np.float64), np.asarray(capture, np.float64), float(a_min),
                    float(far), q, surf, color, bases, steps, refine, bilinear,
                    np.asarray(background, np.float32), numba.get_num_threads())
-
-
-ROWS_PER_CLAIM = 4  # a worker's piece: a mirror's pixels bunch in some rows (parallel.py)
 
 
 @njit(cache=True, parallel=True)

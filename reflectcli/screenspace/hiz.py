@@ -13,9 +13,11 @@ level 0. The loop counts one lookup per cell visited.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numba import njit, prange
 
+from ..parallel import ROWS_PER_CLAIM, claim, counter
 from .rays import distance_at
 
 MAX_LEVELS = 16
@@ -153,16 +155,24 @@ def march_hiz(r, flat, table, surface_ids, own, thickness, max_steps):
 @njit(cache=True, parallel=True)
 def march_hiz_all(rays, valid, flat, table, surface_ids, thickness, max_steps,
                   hit, hx, hy, dist, gap, lookups):
+    """Every valid pixel's ray; bands of rows claimed by whichever thread is free (a
+    mirror's pixels bunch in some rows; a pixel's result is its own whoever marches it)."""
     h, w = valid.shape
-    for y in prange(h):
-        for x in range(w):
-            if not valid[y, x]:
-                continue
-            res = march_hiz(rays[y, x], flat, table, surface_ids, surface_ids[y, x],
-                            thickness, max_steps)
-            hit[y, x] = res[0]
-            hx[y, x] = res[1]
-            hy[y, x] = res[2]
-            dist[y, x] = res[3]
-            gap[y, x] = res[4]
-            lookups[y, x] = res[5]
+    claimed = counter()
+    for _worker in prange(numba.get_num_threads()):
+        while True:
+            y0 = claim(claimed) * ROWS_PER_CLAIM
+            if y0 >= h:
+                break
+            for y in range(y0, min(y0 + ROWS_PER_CLAIM, h)):
+                for x in range(w):
+                    if not valid[y, x]:
+                        continue
+                    res = march_hiz(rays[y, x], flat, table, surface_ids, surface_ids[y, x],
+                                    thickness, max_steps)
+                    hit[y, x] = res[0]
+                    hx[y, x] = res[1]
+                    hy[y, x] = res[2]
+                    dist[y, x] = res[3]
+                    gap[y, x] = res[4]
+                    lookups[y, x] = res[5]

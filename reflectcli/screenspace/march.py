@@ -14,9 +14,11 @@ Every kernel writes per pixel: hit (uint8), hit pixel x, y (int32), distance alo
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numba import njit, prange
 
+from ..parallel import ROWS_PER_CLAIM, claim, counter
 from .rays import distance_at, to_screen
 
 LINEAR, DDA, HIZ = 0, 1, 2
@@ -174,23 +176,30 @@ def march_dda(r, depth, surface_ids, own, thickness, stride, jitter, max_steps):
 @njit(cache=True, parallel=True)
 def march_all(kind, rays, valid, depth, surface_ids, thickness, stride, jitter, max_steps,
               p00, p11, hit, hx, hy, dist, gap, lookups):
-    """Run the `kind` march (LINEAR or DDA) for every valid pixel; rows in parallel."""
+    """Run the `kind` march (LINEAR or DDA) for every valid pixel; bands of rows claimed by
+    whichever thread is free (parallel.py; a pixel's result is its own)."""
     h, w = valid.shape
-    for y in prange(h):
-        for x in range(w):
-            if not valid[y, x]:
-                continue
-            own = surface_ids[y, x]
-            if kind == LINEAR:
-                res = march_linear(rays[y, x], depth, surface_ids, own, thickness, max_steps,
-                                   p00, p11)
-            else:
-                res = march_dda(rays[y, x], depth, surface_ids, own, thickness, stride, jitter,
-                                max_steps)
-            hit[y, x] = res[0]
-            hx[y, x] = res[1]
-            hy[y, x] = res[2]
-            dist[y, x] = res[3]
-            gap[y, x] = res[4]
-            lookups[y, x] = res[5]
+    claimed = counter()
+    for _worker in prange(numba.get_num_threads()):
+        while True:
+            y0 = claim(claimed) * ROWS_PER_CLAIM
+            if y0 >= h:
+                break
+            for y in range(y0, min(y0 + ROWS_PER_CLAIM, h)):
+                for x in range(w):
+                    if not valid[y, x]:
+                        continue
+                    own = surface_ids[y, x]
+                    if kind == LINEAR:
+                        res = march_linear(rays[y, x], depth, surface_ids, own, thickness,
+                                           max_steps, p00, p11)
+                    else:
+                        res = march_dda(rays[y, x], depth, surface_ids, own, thickness, stride,
+                                        jitter, max_steps)
+                    hit[y, x] = res[0]
+                    hx[y, x] = res[1]
+                    hy[y, x] = res[2]
+                    dist[y, x] = res[3]
+                    gap[y, x] = res[4]
+                    lookups[y, x] = res[5]
 
