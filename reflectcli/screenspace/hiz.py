@@ -152,14 +152,21 @@ def march_hiz(r, flat, table, surface_ids, own, thickness, max_steps):
     return 0, -1, -1, 0.0, 0.0, lookups
 
 
-@njit(cache=True, parallel=True)
 def march_hiz_all(rays, valid, flat, table, surface_ids, thickness, max_steps,
-                  hit, hx, hy, dist, gap, lookups):
+                  hit, hx, hy, dist, gap, lookups) -> None:
+    """march_hiz for every valid pixel, into the output arrays (in place)."""
+    _march_hiz_all(rays, valid, flat, table, surface_ids, thickness, max_steps,
+                   hit, hx, hy, dist, gap, lookups, numba.get_num_threads())
+
+
+@njit(cache=True, parallel=True)
+def _march_hiz_all(rays, valid, flat, table, surface_ids, thickness, max_steps,
+                   hit, hx, hy, dist, gap, lookups, threads):
     """Every valid pixel's ray; bands of rows claimed by whichever thread is free (a
     mirror's pixels bunch in some rows; a pixel's result is its own whoever marches it)."""
     h, w = valid.shape
     claimed = counter()
-    for _worker in prange(numba.get_num_threads()):
+    for _worker in prange(threads):
         while True:
             y0 = claim(claimed) * ROWS_PER_CLAIM
             if y0 >= h:

@@ -173,14 +173,21 @@ def march_dda(r, depth, surface_ids, own, thickness, stride, jitter, max_steps):
     return 0, -1, -1, 0.0, 0.0, lookups
 
 
-@njit(cache=True, parallel=True)
 def march_all(kind, rays, valid, depth, surface_ids, thickness, stride, jitter, max_steps,
-              p00, p11, hit, hx, hy, dist, gap, lookups):
-    """Run the `kind` march (LINEAR or DDA) for every valid pixel; bands of rows claimed by
-    whichever thread is free (parallel.py; a pixel's result is its own)."""
+              p00, p11, hit, hx, hy, dist, gap, lookups) -> None:
+    """Run the `kind` march (LINEAR or DDA) for every valid pixel, into the output arrays."""
+    _march_all(kind, rays, valid, depth, surface_ids, thickness, stride, jitter, max_steps,
+               p00, p11, hit, hx, hy, dist, gap, lookups, numba.get_num_threads())
+
+
+@njit(cache=True, parallel=True)
+def _march_all(kind, rays, valid, depth, surface_ids, thickness, stride, jitter, max_steps,
+               p00, p11, hit, hx, hy, dist, gap, lookups, threads):
+    """march_all's kernel: bands of rows claimed by whichever thread is free (parallel.py; a
+    pixel's result is its own)."""
     h, w = valid.shape
     claimed = counter()
-    for _worker in prange(numba.get_num_threads()):
+    for _worker in prange(threads):
         while True:
             y0 = claim(claimed) * ROWS_PER_CLAIM
             if y0 >= h:
