@@ -40,7 +40,7 @@ EXACT = 40.0  # rerender and virtual on planar mirrors
 BOUNDS: dict[tuple[str, str, str], float] = {
     ("raster", "concave-mirror", "unlit"): 3.0,  # 3.58
     ("raster", "concave-mirror", "lit"): 5.8,  # 6.37
-    ("virtual", "concave-mirror", "unlit"): 14.6,  # 15.19
+    ("virtual", "concave-mirror", "unlit"): 14.6,  # 15.45
     ("virtual", "concave-mirror", "lit"): 15.7,  # 16.20
     ("envmap", "concave-mirror", "unlit"): 14.1,  # 14.68
     ("envmap", "concave-mirror", "lit"): 15.0,  # 15.52
@@ -81,22 +81,24 @@ BOUNDS: dict[tuple[str, str, str], float] = {
     # 1e-7, between surfaces that touch (the rasterizer's rule for a center exactly on a
     # shared edge changed, and either surface is right there)
     ("distmap", "l-room", "unlit"): 22.5,
-    ("distmap", "l-room", "lit"): 25.1,  # 25.60
+    ("distmap", "l-room", "lit"): 25.1,  # 25.45
     ("raster", "mask", "unlit"): 3.1,  # 3.69
     ("raster", "mask", "lit"): 8.1,  # 8.63
-    ("virtual", "mask", "unlit"): 9.5,  # 10.08
-    ("virtual", "mask", "lit"): 13.4,  # 13.93
+    ("virtual", "mask", "unlit"): 9.5,  # 10.16
+    ("virtual", "mask", "lit"): 13.4,  # 13.85
     ("envmap", "mask", "unlit"): 17.7,  # 18.28
     ("envmap", "mask", "lit"): 20.9,  # 21.43
     ("distmap", "mask", "unlit"): 20.4,  # 20.93
     ("distmap", "mask", "lit"): 25.0,  # 25.55
-    ("raster", "moving-probe", "unlit"): 4.4,  # 4.95
-    ("raster", "moving-probe", "lit"): 9.9,  # 10.47
-    ("virtual", "moving-probe", "unlit"): 14.7,  # 15.25
-    ("virtual", "moving-probe", "lit"): 23.7,  # 24.20
-    ("envmap", "moving-probe", "unlit"): 12.5,  # 13.08
-    ("envmap", "moving-probe", "lit"): 16.6,  # 17.10
-    ("distmap", "moving-probe", "unlit"): 23.9,  # 24.45
+    # moving-probe was redesigned (for staleness); its bounds but distmap lit's were the old
+    # scene's, 2-7 dB below what frame 0 now measures: set again from the values measured
+    ("raster", "moving-probe", "unlit"): 10.0,  # 10.58 (was 4.4)
+    ("raster", "moving-probe", "lit"): 15.7,  # 16.27 (was 9.9)
+    ("virtual", "moving-probe", "unlit"): 20.4,  # 20.99 (was 14.7)
+    ("virtual", "moving-probe", "lit"): 29.7,  # 30.29 (was 23.7)
+    ("envmap", "moving-probe", "unlit"): 17.6,  # 18.14 (was 12.5)
+    ("envmap", "moving-probe", "lit"): 23.3,  # 23.84 (was 16.6)
+    ("distmap", "moving-probe", "unlit"): 25.5,  # 26.03 (was 23.9)
     ("distmap", "moving-probe", "lit"): 29.1,  # 29.66 (the scene was redesigned for staleness)
     ("raster", "music-room", "unlit"): 7.3,  # 7.85
     ("raster", "music-room", "lit"): 11.6,  # 12.10
@@ -104,16 +106,16 @@ BOUNDS: dict[tuple[str, str, str], float] = {
     ("envmap", "music-room", "lit"): 21.4,  # 21.95
     ("dprm", "music-room", "unlit"): 21.2,  # 21.70
     ("dprm", "music-room", "lit"): 20.2,  # 20.77
-    ("distmap", "music-room", "unlit"): 18.8,  # 19.37
-    ("distmap", "music-room", "lit"): 20.7,  # 21.23
+    ("distmap", "music-room", "unlit"): 18.8,  # 19.28
+    ("distmap", "music-room", "lit"): 20.7,  # 21.18
     ("raster", "teapot-box", "unlit"): 3.9,  # 4.47
     ("raster", "teapot-box", "lit"): 10.1,  # 10.63
     ("envmap", "teapot-box", "unlit"): 15.3,  # 15.89
-    ("envmap", "teapot-box", "lit"): 18.9,  # 19.49
+    ("envmap", "teapot-box", "lit"): 18.9,  # 19.55
     ("dprm", "teapot-box", "unlit"): 21.7,  # 22.29
     ("dprm", "teapot-box", "lit"): 24.5,  # 25.03
     ("distmap", "teapot-box", "unlit"): 17.2,  # 17.73
-    ("distmap", "teapot-box", "lit"): 21.8,  # 22.39
+    ("distmap", "teapot-box", "lit"): 21.8,  # 22.50
     ("raster", "teapot-floor", "unlit"): 12.4,  # 12.98
     ("raster", "teapot-floor", "lit"): 17.1,  # 17.68
     ("envmap", "teapot-floor", "unlit"): 9.8,  # 10.37
@@ -169,8 +171,8 @@ BOUNDS: dict[tuple[str, str, str], float] = {
     ("ppr", "straddle", "lit"): 14.6,  # 15.05
     ("ssr", "teapot-box", "unlit"): 16.4,  # 16.92
     ("ppr", "teapot-box", "unlit"): 16.3,  # 16.77
-    ("ssr", "teapot-box", "lit"): 19.5,  # 19.97
-    ("ppr", "teapot-box", "lit"): 19.3,  # 19.82
+    ("ssr", "teapot-box", "lit"): 19.5,  # 20.03
+    ("ppr", "teapot-box", "lit"): 19.3,  # 19.88
     ("ssr", "teapot-floor", "unlit"): 9.9,  # 10.37
     ("ppr", "teapot-floor", "unlit"): 9.9,  # 10.37
     ("ssr", "teapot-floor", "lit"): 21.0,  # 21.50
