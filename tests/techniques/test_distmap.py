@@ -72,8 +72,8 @@ def test_box_room_equals_box_projection_and_raytrace(tmp_path):
     dist, _ = render_frame(scene, "distmap", 0, OLD_DEFAULTS)
     assert dist.mirror_mask.sum() > 5000
     assert mirror_psnr(dist, boxed) >= 40.0
-    assert mirror_psnr(dist, ref) >= 35.0
-    assert mirror_psnr(boxed, ref) >= 35.0
+    assert mirror_psnr(dist, ref) >= 38.0  # measured 38.97 (the bound was 35)
+    assert mirror_psnr(boxed, ref) >= 37.8  # measured 38.80 (the bound was 35)
     assert dist.stats["unreached_fraction"] < 1e-3
 
 

@@ -59,14 +59,16 @@ parallax = "none"
     return tmp_path / "sky.toml"
 
 
-@pytest.mark.parametrize("kind", ["cube", "sphere"])
-def test_distant_environment_matches_raytrace(tmp_path, kind):
+# measured 60.65 (cube) and 59.16 dB (sphere) at 160x160: bounded 1 dB below (it was 35 dB,
+# 24 dB under what the lookup does, so a lookup off by a texel would have passed)
+@pytest.mark.parametrize(("kind", "bound"), [("cube", 59.6), ("sphere", 58.1)])
+def test_distant_environment_matches_raytrace(tmp_path, kind, bound):
     scene = _sky_scene(tmp_path, kind)
     env, _ = render_frame(scene)
     ref, _ = render_frame(scene, "raytrace")
     both = env.mirror_mask & ref.mirror_mask
     assert both.sum() > 5000
-    assert psnr(env.rgb[both], ref.rgb[both]) >= 35.0
+    assert psnr(env.rgb[both], ref.rgb[both]) >= bound
 
 
 def _mirror_psnr(out, ref):

@@ -26,7 +26,9 @@ def test_matches_raytrace(scene):
     assert same[other].mean() >= 0.999
 
 
-@pytest.mark.parametrize(("depth", "threshold"), [(1, 40.0), (2, 35.0), (3, 35.0)])
+# rerender is exact at every depth (measured: identical to the ray tracer at depths 1-3),
+# so deeper passes are held to the exact methods' 40 dB too (they were held to 35)
+@pytest.mark.parametrize(("depth", "threshold"), [(1, 40.0), (2, 40.0), (3, 40.0)])
 def test_hall_of_mirrors_recursion(depth, threshold):
     ref, out, _ = _compare("hall-of-mirrors", depth)
     mirror = ref.mirror_mask & out.mirror_mask

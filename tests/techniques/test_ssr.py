@@ -124,7 +124,7 @@ def test_matches_rerender_where_reflection_is_visible(tmp_path, march):
                                              'technique.resolve="pixel"'))
     hit = out.extra["ssr_hit"] > 0
     assert hit.sum() > 3000
-    assert psnr(ref.rgb[hit], out.rgb[hit]) >= 35.0  # measured 38.3 at 160x120
+    assert psnr(ref.rgb[hit], out.rgb[hit]) >= 37.3  # measured 38.28 at 160x120 (dda, hiz)
     # the engines' resolve (the hit pixel's colour) pays for resampling: 29 dB measured
     assert psnr(ref.rgb[hit], pixel.rgb[hit]) < psnr(ref.rgb[hit], out.rgb[hit]) - 5.0
     primary, built, camera = primary_of(path)
