@@ -36,6 +36,24 @@ def test_hall_of_mirrors_recursion(depth, threshold):
     assert out.stats["passes"] > depth  # mirror-in-mirror passes were rendered
 
 
+@pytest.mark.parametrize("depth", [2, 3])
+def test_hall_of_mirrors_recursion_lit(depth):
+    """The recursion under lambert shading (the matrix is lit at depth 1 only): each bounce's
+    shading is the ray tracer's. Measured 148.9 dB at depths 2 and 3 at 96x72 (one bounce
+    fewer than the reference: 22.6 and 27.6 dB, so a lost bounce fails)."""
+    from test_matrix import lit_variant
+
+    path, _ = lit_variant("hall-of-mirrors")
+    small = ("camera.width=96", "camera.height=72", f"technique.max_depth={depth}")
+    ref, _ = render_frame(path, "raytrace", 0, small)
+    out, _ = render_frame(path, "rerender", 0, small)
+    mirror = ref.mirror_mask & out.mirror_mask
+    assert mirror.sum() > 1000
+    assert ref.rgb[mirror].std() > 0.01
+    assert psnr(ref.rgb[mirror], out.rgb[mirror]) >= 40.0
+    assert out.stats["passes"] > depth
+
+
 def test_deeper_recursion_changes_the_image():
     one, _ = render_frame("hall-of-mirrors", "rerender", 0, ("technique.max_depth=1",))
     two, _ = render_frame("hall-of-mirrors", "rerender", 0, ("technique.max_depth=2",))
