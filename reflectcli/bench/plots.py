@@ -56,6 +56,18 @@ def _file_part(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", name)
 
 
+def _timed_text(rows: list[dict]) -> str:
+    """How many timed renders each point's median is of, and a mark when any is warned."""
+    counts = sorted({r.get("timed_frames") for r in rows if r.get("timed_frames")})
+    if not counts:
+        text = "the timed renders"
+    else:
+        span = str(counts[0]) if len(counts) == 1 else f"{counts[0]}-{counts[-1]}"
+        text = f"n={span} timed renders"
+    warned = sum(1 for r in rows if r.get("timing_warning"))
+    return text + (f"; {warned} run(s) warned: too few renders" if warned else "")
+
+
 def write_plots(out: str, rows: list[dict]) -> list[str]:
     written = []
     # frame time against polygon count: scene overrides that change the triangle count vary
@@ -77,7 +89,8 @@ def write_plots(out: str, rows: list[dict]) -> list[str]:
             if len(refs) > 1:
                 ax.plot(*zip(*refs, strict=True), marker="s", linestyle="--",
                         label=f"raytrace (ref) / {scene}")
-        ax.set(xscale="log", yscale="log", xlabel="triangles", ylabel="frame time (ms)")
+        ax.set(xscale="log", yscale="log", xlabel="triangles",
+               ylabel=f"frame time (ms, median of {_timed_text(rows)})")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
         ax.grid(True, which="both", alpha=0.3)
@@ -127,7 +140,7 @@ def _pareto_plot(rows: list[dict], path: str) -> None:
             ax.annotate(parameters_text(r) if r["overrides"] else r["technique"],
                         (r["frame_ms_median"], r[column]), fontsize=6,
                         xytext=(3, 3), textcoords="offset points")
-    ax.set(xscale="log", xlabel="frame time (ms, median)",
+    ax.set(xscale="log", xlabel=f"frame time (ms, median of {_timed_text(rows)})",
            ylabel="HDR-FLIP over mirror (lower is better)" if column == "flip_mirror"
            else "PSNR over mirror (dB)", title=f"{rows[0]['scene']}: quality at equal time")
     ax.legend(fontsize=7)

@@ -101,41 +101,91 @@ def scene_label(key: tuple) -> str:
     return key[0] + (f" ({', '.join(key[1])})" if key[1] else "")
 
 
-def report_markdown(name: str, rows: list[dict]) -> str:
+def _frames_of(row: dict) -> tuple | None:
+    """The frames a row was scored and timed on (None: not recorded)."""
+    return tuple(f.get("frame") for f in row.get("per_frame", [])) or None
+
+
+def _same_frames(a: dict, b: dict) -> bool:
+    fa, fb = _frames_of(a), _frames_of(b)
+    return fa is None or fb is None or fa == fb
+
+
+def rerender_for(row: dict, rows: list[dict]) -> tuple[float, bool] | None:
+    """The `x rerender` ratio's other side: (frame ms, marked) of the rerender run timed on
+    the same scene, scene overrides and frames as `row`; of several (a rerender sweep), the
+    one at rerender's defaults; None when there is none or no way to choose. Marked when
+    that run is warned or was timed at another thread count or on another CPU."""
+    if row["technique"] == "rerender":
+        same = [row]
+    else:
+        same = [r for r in rows if r["technique"] == "rerender"
+                and _scene_key(r) == _scene_key(row) and _same_frames(r, row)]
+        if len(same) > 1:
+            same = [r for r in same if not any(o.startswith("technique")
+                                               for o in r["overrides"])]
+    if len(same) != 1:
+        return None
+    (rr,) = same
+    marked = bool(rr.get("timing_warning")) or any(
+        rr.get(key) != row.get(key) for key in ("threads", "cpu"))
+    return rr["frame_ms_median"], marked
+
+
+def machines_text(rows: list[dict]) -> str:
+    """Every CPU and thread count the rows were timed on (resumed rows may differ)."""
+    seen: dict[tuple, int] = {}
+    for r in rows:
+        key = (r["cpu"], r["threads"])
+        seen[key] = seen.get(key, 0) + 1
+    parts = [f"{cpu}, {threads} threads" + (f" ({n} of {len(rows)} runs)" if len(seen) > 1
+                                            else "")
+             for (cpu, threads), n in seen.items()]
+    return "; ".join(parts)
+
+
+def report_markdown(name: str, rows: list[dict], total: int | None = None) -> str:
     lines = [f"# Bench `{name}`", "",
              "Against the ray tracer: PSNR (dB, peak 1; inf = identical), HDR-FLIP of the linear "
              "images (0 = identical, 1 = most different), SSIM of the sRGB-encoded images "
              "(1 = identical), relative MSE, p99 of the per-pixel error and the temporal error "
              "(RMSE of the frame-to-frame change against the reference's; '-' for one frame), "
              "over mirror pixels and over the whole image, averaged over frames. Frame time is "
-             "the median (p25-p75) of the timed renders after the warm-up ones; one-time work "
+             "the median (p25-p75) of the n timed renders after the warm-up ones (every "
+             "frame's renders together; percentiles by linear interpolation between the "
+             "sorted renders, numpy's default: with n = 1 the three are one render, with "
+             "n = 2 p25 and p75 lie a quarter of the way in from either render, so a spread "
+             "of fewer than 3 renders is not a spread); one-time work "
              "(prepare: map capture, decomposition, ...) is its own column and never in frame "
              "time; 'first' is the first render (warm-up: first-frame caches, JIT). Ratios are "
-             "frame-time ratios measured in this run; a ratio marked * has a side timed on "
-             "too few renders or with no warm-up (its frame time says which): it is not a "
+             "ratios of the two runs' median frame times on the same scene, scene overrides "
+             "and frames ('x rerender': the rerender run at its defaults when there are "
+             "several; '-' when there is none); a ratio marked * has a side timed on "
+             "too few renders or with no warm-up (its frame time says which), or its sides "
+             "were timed at different thread counts or on different CPUs: it is not a "
              "figure to quote. 'holes': of the mirror pixels whose "
              "reflected ray meets geometry in the reference, those the technique left empty; "
              "'unreached': every mirror pixel it did not reach, background reflections "
              "included.", ""]
-    # per scene key, the rerender row's frame time and whether it is warned (one row: the
-    # ratio and its mark come from the same run)
-    rerender = {_scene_key(r): (r["frame_ms_median"], bool(r.get("timing_warning")))
-                for r in rows if r["technique"] == "rerender"}
+    if total is not None and len(rows) < total:
+        lines += [f"**Incomplete: {len(rows)} of {total} runs finished** (the bench was "
+                  "interrupted or a run failed; `--resume` continues). Ratios and rankings "
+                  "cover the finished runs only.", ""]
     if rows:
         first = rows[0]
-        lines += [f"Machine: {first['cpu']}, {first['threads']} threads; versions: "
+        lines += [f"Machine: {machines_text(rows)}; versions: "
                   + ", ".join(f"{k} {v}" for k, v in sorted(first["versions"].items())), ""]
     for scene in sorted({r["scene"] for r in rows}):
         lines += [f"## {scene}", "",
                   "| technique | parameters | PSNR mirror | FLIP mirror | SSIM mirror "
                   "| relMSE mirror | p99 mirror | temporal mirror | PSNR image | FLIP image "
-                  "| holes | unreached | frame ms (p25-p75) | one-time s | first ms | x rerender "
-                  "| x raytrace | triangles |",
+                  "| holes | unreached | frame ms median (p25-p75, n) | one-time s | first ms "
+                  "| x rerender | x raytrace | triangles |",
                   "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in (r for r in rows if r["scene"] == scene):
-            rr, rr_warned = rerender.get(_scene_key(r), (None, False))
+            rr, rr_warned = rerender_for(r, rows) or (None, False)
             timing = (f"{_fmt(r['frame_ms_median'])} ({_fmt(r['frame_ms_p25'])}-"
-                      f"{_fmt(r['frame_ms_p75'])})")
+                      f"{_fmt(r['frame_ms_p75'])}, n={r.get('timed_frames', '?')})")
             if r.get("timing_warning"):
                 timing += f" **warning: {r['timing_warning']}**"
             # a ratio is only as sound as its worse side: marked when either side is warned

@@ -73,12 +73,59 @@ def test_ratios_from_a_warned_side_are_marked():
     lines = {line.split(" | ")[0]: line.split(" | ") for line in
              report_markdown("b", rows).splitlines() if line.startswith("| ")}
     assert lines["| envmap"][15:17] == ["0.50*", "0.20*"]
-    # two rerender rows on one scene (a sweep): the ratio and its mark are the same row's
+    # two rerender rows on one scene (a sweep): the ratio and its mark are the one at
+    # rerender's defaults, whichever comes last; two at the same settings: no ratio
     other = _row("rerender", 8.0, 0.0)
-    (envmap,) = [line.split(" | ") for line in
-                 report_markdown("b", [rows[0], rows[2], other]).splitlines()
-                 if line.startswith("| envmap | ")]
-    assert envmap[15] == "0.25"  # the last rerender row (8 ms, not warned): no mark
+    swept = _row("rerender", 16.0, 0.0, ['technique.clip="none"'])
+
+    def envmap_ratio(rows):
+        (line,) = [line.split(" | ") for line in report_markdown("b", rows).splitlines()
+                   if line.startswith("| envmap | ")]
+        return line[15]
+
+    assert envmap_ratio([rows[2], other, swept]) == "0.25"
+    assert envmap_ratio([rows[2], swept, other]) == "0.25"
+    assert envmap_ratio([rows[0], rows[2], other]) == "-"
+
+
+def _per_frame(row, frames):
+    row["per_frame"] = [{"frame": f} for f in frames]
+    return row
+
+
+def test_ratio_to_rerender_needs_the_same_frames_threads_and_cpu():
+    """`x rerender` sets two runs' medians against each other only when they timed the
+    same frames (two [[runs]] groups may time other frames of one scene) at the same thread
+    count on the same CPU (a resumed row may come from another bench run)."""
+    rerender = _per_frame(_row("rerender", 4.0, 0.0), [0, 1, 2])
+    envmap = _per_frame(_row("envmap", 2.0, 0.5), [0, 1, 2])
+
+    def ratio(rows):
+        (line,) = [line.split(" | ") for line in report_markdown("b", rows).splitlines()
+                   if line.startswith("| envmap | ")]
+        return line[15]
+
+    assert ratio([rerender, envmap]) == "0.50"
+    assert ratio([rerender, _per_frame(dict(envmap), [3, 4, 5])]) == "-"
+    assert ratio([rerender, {**envmap, "threads": 1}]) == "0.50*"
+    assert ratio([rerender, {**envmap, "cpu": "other"}]) == "0.50*"
+    # the machine line names both thread counts, not the first row's alone
+    text = report_markdown("b", [rerender, {**envmap, "threads": 1}])
+    assert "cpu, 2 threads (1 of 2 runs); cpu, 1 threads (1 of 2 runs)" in text
+
+
+def test_report_states_the_sample_count_and_the_percentile_method():
+    """A p25-p75 of one or two renders is no spread: each frame time says how many renders
+    it is of, and the header how the percentiles are taken."""
+    row = _row("envmap", 2.0, 0.5)
+    row.update(timed_frames=2, frame_ms_p25=1.75, frame_ms_p75=2.25,
+               timing_warning="2 timed (want >= 1 warm-up, >= 3 timed)")
+    text = report_markdown("b", [row])
+    assert "| 2.0 (1.8-2.2, n=2) **warning: 2 timed" in text
+    assert "frame ms median (p25-p75, n)" in text
+    assert "linear interpolation" in text and "n = 2" in text
+    assert "Incomplete" not in text
+    assert "**Incomplete: 1 of 3 runs finished**" in report_markdown("b", [row], total=3)
 
 
 def test_plot_lines_never_join_scenes_or_other_values():
