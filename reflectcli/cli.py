@@ -349,7 +349,8 @@ def bench(file, resume, workers, scheduler, threads, out, overrides) -> None:
         first = warned[0]
         why = first.get("timing_warning") or first.get("reference_timing_warning")
         click.echo(f"warning: {len(warned)} run(s) timed on too few renders or with no warm-up "
-                   f"(e.g. {first.get('run')}: {why}); their frame times and ratios are "
+                   "or set against a reference timed at another thread count or on another "
+                   f"CPU (e.g. {first.get('run')}: {why}); their frame times and ratios are "
                    "marked in report.md, not figures to quote", err=True)
 
 

@@ -8,6 +8,7 @@ so local processes and a Dask cluster give the same rows as a serial run (timing
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import logging
@@ -173,11 +174,34 @@ def render_reference(plan: BenchPlan, job: dict, threads: int | None = None
     from .. import api
 
     folder = os.path.join(plan.out, "references", job["reference"]["id"])
-    result = api.render(job["scene"], out=folder, frames=job["frames"],
-                        technique="raytrace", overrides=job["reference"]["overrides"],
-                        resume=True, threads=threads,
-                        repeats=job.get("repeats", plan.config.bench.repeats))
+    opened = api.open_scene(job["scene"], technique="raytrace",
+                            overrides=job["reference"]["overrides"], threads=threads)
+    # the images are reused, but their times are the `x raytrace` ratio's other side: a
+    # reference timed at another thread count or on another CPU (an earlier bench run with
+    # another --threads) is rendered again, not set against this run's times
+    resume = _timed_alike(opened, folder, threads)
+    result = opened.write_frames(opened.frames(job["frames"]), out=folder, resume=resume,
+                                 repeats=job.get("repeats", plan.config.bench.repeats))
     return result.folder, result.log
+
+
+def resolved_threads(threads: int | None) -> int:
+    """The thread count a render asked for `threads` runs at (None: numba's own)."""
+    import numba
+
+    return threads if threads is not None else numba.config.NUMBA_NUM_THREADS
+
+
+def _timed_alike(opened, folder: str, threads: int | None) -> bool:
+    """Whether the reference frames already in `folder` (if any) were timed at this thread
+    count on this CPU, so that their times may be set against this run's."""
+    from ..output.identity import logged_rows
+    from ..provenance import cpu_name
+
+    frames = os.path.join(folder, opened.name, opened.technique_name)
+    rows = logged_rows(os.path.join(frames, opened.config.output.log))
+    return all(r.get("threads") == resolved_threads(threads) and r.get("cpu") == cpu_name()
+               for r in rows.values())
 
 
 MIN_TIMED = 3  # frame times are medians of at least this many timed renders...
@@ -226,11 +250,18 @@ def timing_stats(samples: list[float], warmup: int) -> dict:
     }
 
 
-def _reference_timing(stats: dict) -> dict:
+def _reference_timing(stats: dict, ref_rows: list[dict], run_row: dict) -> dict:
     """The reference's frame time for the `x raytrace` ratio, with its own timing warning
-    (a ratio is only as good as its worse side)."""
+    (a ratio is only as good as its worse side): too few renders, or renders timed at
+    another thread count or on another CPU than the run's (a Dask worker elsewhere)."""
+    warning = [stats["timing_warning"]] if stats["timing_warning"] else []
+    for key, what in (("threads", "threads"), ("cpu", "CPU")):
+        theirs = sorted({str(r.get(key)) for r in ref_rows})
+        if theirs != [str(run_row.get(key))]:
+            warning.append(f"reference timed at {what} {', '.join(theirs)}, "
+                           f"this run at {run_row.get(key)}")
     return {"reference_ms_median": stats["frame_ms_median"],
-            "reference_timing_warning": stats["timing_warning"]}
+            "reference_timing_warning": "; ".join(warning)}
 
 
 def timing_warned(rows: list[dict]) -> list[dict]:
@@ -293,7 +324,8 @@ def execute_job(job: dict, settings: dict) -> dict:
         "frames": len(per_frame), "repeats": repeats,
         **timing_stats(timing_samples(log), settings["warmup"]),
         **_reference_timing(timing_stats(timing_samples([ref_log[r["file"]] for r in log]),
-                                         settings["warmup"])),
+                                         settings["warmup"]),
+                            [ref_log[r["file"]] for r in log], first),
         # one-time work, never in frame time: everything the technique does before its first
         # frame (map capture, decomposition, ...); first_frame_ms shows first-frame caches
         "prepare_seconds": float(first.get("prepare_seconds", 0.0)),
@@ -392,6 +424,10 @@ def _run_plan(plan: BenchPlan, resume: bool, workers: int, scheduler: str | None
             done = {r["run"]: r for r in read_jsonl(rows_path)}
         else:
             os.unlink(rows_path)
+    if not resume:
+        # the last bench's report, table and plots go with its rows: none of them may be
+        # left beside this run's rows if it stops before its own are written
+        remove_outputs(plan.out)
     pending = [j for j in plan.jobs if j["id"] not in done]
     reference_dirs = {}
     for job in plan.jobs:
@@ -409,8 +445,16 @@ def _run_plan(plan: BenchPlan, resume: bool, workers: int, scheduler: str | None
         if on_row is not None:
             on_row(row)
 
-    for row in _execute(pending, settings, workers, scheduler):
-        keep(row)
+    try:
+        for row in _execute(pending, settings, workers, scheduler):
+            keep(row)
+    except BaseException:
+        # interrupted or failed: report.md and results.csv of the runs finished so far,
+        # marked incomplete (never the previous bench's beside this one's rows); no plots
+        finished = [done[j["id"]] for j in plan.jobs if j["id"] in done]
+        with contextlib.suppress(OSError):
+            write_outputs(plan, finished, total=len(plan.jobs), plots=False)
+        raise
     rows = [done[j["id"]] for j in plan.jobs]
     write_outputs(plan, rows)
     return BenchResult(plan.out, rows, len(pending), len(plan.jobs) - len(pending))
@@ -467,17 +511,40 @@ def _execute(jobs, settings, workers, scheduler):
         yield execute_job(job, settings)
 
 
-def write_outputs(plan, rows: list[dict]) -> None:
-    """results.csv, report.md and (with the plots extra) the plots of a bench's rows. Here,
-    not in report.py: plots.py builds on report.py, so report.py must not import it."""
+PLOT_PATTERNS = ("time-vs-triangles.png", "error-vs-*.png", "pareto-*.png", "contact-*.png")
+
+
+def remove_outputs(out: str, keep: tuple[str, ...] | list[str] = (), *,
+                   results: bool = True) -> None:
+    """Remove the bench's report, table (with `results`) and plot files in `out` but those
+    in `keep`: a plot of a scene or sweep no longer in the bench would otherwise sit beside
+    the new ones as if it were this run's."""
+    import glob
+
+    names = [os.path.join(out, n) for n in ("results.csv", "report.md")] if results else []
+    for pattern in PLOT_PATTERNS:
+        names += glob.glob(os.path.join(glob.escape(out), pattern))
+    kept = {os.path.abspath(k) for k in keep}
+    for name in names:
+        if os.path.abspath(name) not in kept and os.path.isfile(name) \
+                and not os.path.islink(name):
+            os.unlink(name)
+
+
+def write_outputs(plan, rows: list[dict], total: int | None = None, plots: bool = True
+                  ) -> None:
+    """results.csv, report.md and (with the plots extra) the plots of a bench's rows; `total`
+    runs planned (fewer rows: the report says it is incomplete). Here, not in report.py:
+    plots.py builds on report.py, so report.py must not import it."""
     from .report import report_markdown, write_csv, write_text
 
     out = plan.out
     write_csv(os.path.join(out, "results.csv"), rows)
-    write_text(os.path.join(out, "report.md"), report_markdown(plan.config.bench.name, rows))
-    if plan.config.bench.plots:
+    write_text(os.path.join(out, "report.md"),
+               report_markdown(plan.config.bench.name, rows, total))
+    if plots and plan.config.bench.plots:
         try:
             from .plots import write_plots
         except ImportError:
             return  # matplotlib is an optional extra
-        write_plots(out, rows)
+        remove_outputs(out, write_plots(out, rows), results=False)

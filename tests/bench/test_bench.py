@@ -373,3 +373,75 @@ set = ["camera.width=32", "camera.height=24"]
     rows = read_jsonl(str(tmp_path / "out-b" / "results.jsonl"))
     assert len(rows) == 1 and rows[0]["frame_ms_median"] > 0
     assert rows[0]["reference_ms_median"] > 0
+
+
+def test_a_stopped_bench_leaves_no_earlier_report_beside_its_rows(tmp_path):
+    """Stopped after its first run, a bench's report.md and results.csv are of that run,
+    marked incomplete: never the previous bench's (its other settings, its numbers) beside
+    the new results.jsonl; the previous bench's plots are gone too."""
+    path = _bench_file(tmp_path)
+    run_bench(str(path))
+    out = tmp_path / "out-t"
+    assert (out / "contact-teapot-box.png").exists()
+
+    def stop(row):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_bench(str(path), on_row=stop)
+    rows = read_jsonl(str(out / "results.jsonl"))
+    assert len(rows) == 1
+    report = (out / "report.md").read_text()
+    assert "**Incomplete: 1 of 4 runs finished**" in report
+    assert report.count("| rerender |") == 1 and "| dprm |" not in report
+    with open(out / "results.csv") as f:
+        assert len(list(csv.reader(f))) == 2
+    assert not list(out.glob("*.png"))
+    resumed = run_bench(str(path), resume=True)
+    assert resumed.ran == 3 and "Incomplete" not in (out / "report.md").read_text()
+    assert (out / "contact-teapot-box.png").exists()
+
+
+def test_plots_of_runs_no_longer_in_the_bench_are_removed(tmp_path):
+    path = _bench_file(tmp_path)
+    run_bench(str(path))
+    out = tmp_path / "out-t"
+    assert (out / "error-vs-maps.resolution.png").exists()
+    stale = out / "contact-old-scene.png"
+    stale.write_bytes(b"an earlier bench's plot")
+    mine = out / "notes.png"
+    mine.write_bytes(b"not a name the bench writes")
+    text = path.read_text()
+    path.write_text(text[:text.index("[[runs]]", text.index("[[runs]]") + 1)])  # no dprm
+    run_bench(str(path), resume=True)
+    assert not stale.exists() and not (out / "error-vs-maps.resolution.png").exists()
+    assert mine.exists() and (out / "contact-teapot-box.png").exists()
+
+
+def test_a_reference_timed_at_another_thread_count_is_timed_again(tmp_path):
+    """The reference's images are reused, its times are the `x raytrace` ratio's other
+    side: a bench at 1 thread after one at 2 renders the reference again rather than
+    setting 1-thread times against 2-thread ones."""
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("needs 2 cores")
+    path = tmp_path / "th.toml"
+    path.write_text(f"""
+[bench]
+name = "th"
+frames = "0"
+out = "out-th"
+plots = false
+
+[[runs]]
+scenes = ["{ROOT / 'scenes' / 'teapot-box.toml'}"]
+techniques = ["rerender"]
+set = ["camera.width=32", "camera.height=24"]
+""")
+    for threads in (2, 1):
+        (row,) = run_bench(str(path), threads=threads).rows
+        assert row["threads"] == threads
+        assert row["reference_timing_warning"] == ""
+    (ref_log,) = (tmp_path / "out-th" / "references").rglob("timings.jsonl")
+    assert read_jsonl(str(ref_log))[-1]["threads"] == 1

@@ -128,6 +128,20 @@ def test_report_states_the_sample_count_and_the_percentile_method():
     assert "**Incomplete: 1 of 3 runs finished**" in report_markdown("b", [row], total=3)
 
 
+def test_reference_timed_elsewhere_warns():
+    """The `x raytrace` ratio's other side: a reference timed at another thread count or on
+    another CPU (a Dask worker elsewhere) is warned, so the ratio is marked."""
+    from reflectcli.bench.runner import _reference_timing
+
+    stats = timing_stats([9.0, 1.0, 1.0, 1.0], warmup=1)
+    same = _reference_timing(stats, [{"threads": 2, "cpu": "c"}], {"threads": 2, "cpu": "c"})
+    assert same["reference_timing_warning"] == ""
+    other = _reference_timing(stats, [{"threads": 2, "cpu": "c"}], {"threads": 1, "cpu": "c"})
+    assert "reference timed at threads 2, this run at 1" in other["reference_timing_warning"]
+    cpu = _reference_timing(stats, [{"threads": 2, "cpu": "d"}], {"threads": 2, "cpu": "c"})
+    assert "CPU d" in cpu["reference_timing_warning"]
+
+
 def test_plot_lines_never_join_scenes_or_other_values():
     pytest.importorskip("matplotlib")
     from reflectcli.bench.plots import _lines
