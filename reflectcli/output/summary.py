@@ -20,9 +20,12 @@ MIN_TIMED = 3  # renders after the warm-up for a spread worth quoting
 
 
 def spread_ms(seconds: list[float]) -> dict:
-    """median, p25 and p75 in milliseconds."""
+    """median, p25 and p75 in milliseconds (numpy's linear interpolation between the sorted
+    samples: with n = 1 all three are the one sample, with n = 2 p25 and p75 lie a quarter
+    of the way in from either one), and n, the samples they are of: a stage missing from
+    some renders has fewer than the frame."""
     p25, median, p75 = (1e3 * float(v) for v in np.percentile(seconds, [25, 50, 75]))
-    return {"median_ms": median, "p25_ms": p25, "p75_ms": p75}
+    return {"median_ms": median, "p25_ms": p25, "p75_ms": p75, "n": len(seconds)}
 
 
 def timings_summary(rows: list[dict], warmup: int = WARMUP_FRAMES) -> dict:

@@ -60,6 +60,7 @@ def test_a_still_frames_stages_come_from_its_timed_repeats():
     summary = timings_summary([row])
     assert summary["timed_renders"] == 3 and summary["warning"] == ""
     assert summary["stages"]["a"]["median_ms"] == pytest.approx(100.0)
+    assert summary["stages"]["a"]["n"] == summary["timed_renders"]  # every spread says its n
     assert summary["stages"]["b"]["median_ms"] == pytest.approx(200.0)
     assert summary["stages"]["a"]["p75_ms"] < 4000.0
 
