@@ -352,6 +352,13 @@ def bench(file, resume, workers, scheduler, threads, out, overrides) -> None:
                    "or set against a reference timed at another thread count or on another "
                    f"CPU (e.g. {first.get('run')}: {why}); their frame times and ratios are "
                    "marked in report.md, not figures to quote", err=True)
+    from .bench.report import busy_rows
+
+    busy = busy_rows(result.rows)
+    if busy:
+        click.echo(f"warning: {len(busy)} run(s) timed while the load average exceeded the "
+                   f"{busy[0]['cores']} cores (report.md): their frame times include waiting "
+                   "for the cores", err=True)
 
 
 @cli.command()

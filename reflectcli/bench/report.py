@@ -144,6 +144,30 @@ def machines_text(rows: list[dict]) -> str:
     return "; ".join(parts)
 
 
+def busy_rows(rows: list[dict]) -> list[dict]:
+    """The rows timed while the machine's 1-minute load average exceeded its cores."""
+    return [r for r in rows
+            if r.get("cores") and max((v for v in r.get("load_1min") or [] if v is not None),
+                                      default=0.0) > r["cores"]]
+
+
+def load_text(rows: list[dict]) -> list[str]:
+    """The machine's 1-minute load average around the runs, and a warning when it exceeded
+    the cores: frame times (and their ratios) then include waiting for the cores."""
+    loads = [v for r in rows for v in r.get("load_1min") or [] if v is not None]
+    if not loads:
+        return []
+    cores = max((r.get("cores") or 0) for r in rows)
+    text = f"Load average (1 min) around the runs: {min(loads):.1f}-{max(loads):.1f}"
+    text += f" on {cores} cores." if cores else "."
+    busy = busy_rows(rows)
+    if busy:
+        text += (f" **{len(busy)} of {len(rows)} runs were timed on a busy machine (load "
+                 "above the cores): their frame times include waiting for the cores, and "
+                 "ratios between runs timed at different loads are not figures to quote.**")
+    return [text, ""]
+
+
 def report_markdown(name: str, rows: list[dict], total: int | None = None) -> str:
     lines = [f"# Bench `{name}`", "",
              "Against the ray tracer: PSNR (dB, peak 1; inf = identical), HDR-FLIP of the linear "
@@ -175,6 +199,7 @@ def report_markdown(name: str, rows: list[dict], total: int | None = None) -> st
         first = rows[0]
         lines += [f"Machine: {machines_text(rows)}; versions: "
                   + ", ".join(f"{k} {v}" for k, v in sorted(first["versions"].items())), ""]
+        lines += load_text(rows)
     for scene in sorted({r["scene"] for r in rows}):
         lines += [f"## {scene}", "",
                   "| technique | parameters | PSNR mirror | FLIP mirror | SSIM mirror "

@@ -282,12 +282,14 @@ def execute_job(job: dict, settings: dict) -> dict:
     folder = os.path.join(settings["out"], "runs", job["id"])
     repeats = job.get("repeats", settings.get("repeats", 1))
     shutil.rmtree(folder, ignore_errors=True)  # a run without a result row starts over
+    load_before = _load()
     with technique_notices_quiet():
         result = api.render(job["scene"], out=folder,
                             frames=job.get("frames", settings["frames"]),
                             technique=job["technique"], overrides=job["overrides"],
                             cache=os.path.join(settings["out"], "cache"),
                             threads=settings.get("threads"), repeats=repeats)
+    load = [load_before, _load()]  # the machine's 1-minute load around the renders
     frames_dir = result.folder
     log = read_jsonl(result.log)  # the scene's output.log, whatever it is named
     ref_dir, ref_log_path = settings["reference_dirs"][job["reference"]["id"]]
@@ -337,6 +339,7 @@ def execute_job(job: dict, settings: dict) -> dict:
         "numba_compile_seconds": float(first["numba_compile_seconds"]),
         "triangles": int(first.get("triangles", 0)),
         "threads": first["threads"], "cpu": first["cpu"], "versions": first["versions"],
+        "load_1min": load, "cores": os.cpu_count(),
         "images": [os.path.join(frames_dir, r["file"]) for r in log],
         "reference_images": [os.path.join(ref_dir, r["file"]) for r in log],
     }
@@ -355,6 +358,15 @@ def execute_job(job: dict, settings: dict) -> dict:
         out[key] = float(np.mean([f[key] for f in per_frame]))
     out["per_frame"] = per_frame
     return out
+
+
+def _load() -> float | None:
+    """The 1-minute load average (None where the system has none): a run timed while
+    other work wanted the cores has frame times that include waiting for them."""
+    try:
+        return round(os.getloadavg()[0], 2)
+    except OSError:
+        return None
 
 
 def _nan_reduce(fn, values: list[float]) -> float:

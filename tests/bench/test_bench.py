@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[2]
 TIMING = {"frame_ms_median", "frame_ms_p25", "frame_ms_p75", "reference_ms_median",
           "precompute_seconds", "prepare_seconds", "first_frame_ms", "numba_compile_seconds",
           "images", "reference_images",
-          "capture_ms_per_frame"}
+          "capture_ms_per_frame", "load_1min"}
 
 
 def _bench_file(tmp_path, name="t"):

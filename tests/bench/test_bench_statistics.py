@@ -202,3 +202,19 @@ def test_repeats_write_the_first_render_not_a_later_one(tmp_path):
     assert renders == [1, 2, 3]
     channels, _ = read_exr(result.written[0])
     assert (channels["R"] == 1).all()
+
+
+def test_report_says_when_the_machine_was_busy():
+    """Runs timed while other work wanted the cores (a 2-core machine at load 4) have frame
+    times that include waiting for them: a smoke bench here read raster at 21.9 ms and
+    x rerender 61 under load, 0.5 ms and 1.7 on an idle machine."""
+    from reflectcli.bench.report import busy_rows
+
+    quiet = {**_row("envmap", 2.0, 0.5), "load_1min": [0.4, 1.1], "cores": 2}
+    busy = {**_row("raster", 20.0, 0.9), "load_1min": [1.5, 3.7], "cores": 2}
+    assert busy_rows([quiet, busy]) == [busy]
+    text = report_markdown("b", [quiet])
+    assert "Load average (1 min) around the runs: 0.4-1.1 on 2 cores." in text
+    assert "busy machine" not in text
+    assert "**1 of 2 runs were timed on a busy machine" in report_markdown("b", [quiet, busy])
+    assert "Load average" not in report_markdown("b", [_row("envmap", 2.0, 0.5)])
