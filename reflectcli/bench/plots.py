@@ -56,6 +56,13 @@ def _file_part(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", name)
 
 
+def _number(value, digits: int) -> str:
+    """A figure for a title: '-' for a missing or NaN one (not a misleading 0)."""
+    if not isinstance(value, int | float) or value != value:
+        return "-"
+    return f"{value:.{digits}f}"
+
+
 def _timed_text(rows: list[dict]) -> str:
     """How many timed renders each point's median is of, and a mark when any is warned."""
     counts = sorted({r.get("timed_frames") for r in rows if r.get("timed_frames")})
@@ -162,14 +169,19 @@ def _contact_sheet(rows: list[dict], path: str) -> None:
         b = np.stack([ref[c] for c in "RGB"], axis=-1)
         line[0].imshow(linear_to_srgb(b))
         line[1].imshow(linear_to_srgb(a))
+        # the map and its mean are this frame's; the mirror figure is the run's (every
+        # frame), and HDR-FLIP, as in report.md: the title says which is which
+        frame = (r.get("per_frame") or [{}])[0].get("frame", "")
         if flip_metric.available():
             err = flip_metric.flip_map(preview(b), preview(a), "ldr")
-            title = f"LDR-FLIP {float(err.mean()):.3f}, mirror {r.get('flip_mirror', 0):.3f}"
+            title = (f"frame {frame} LDR-FLIP {float(err.mean()):.3f} (image); run "
+                     f"HDR-FLIP mirror {_number(r.get('flip_mirror'), 3)}")
         else:
             err = np.abs(a - b).max(axis=-1)
-            title = f"|error| (no flip-evaluator), PSNR mirror {r['psnr_mirror']:.1f} dB"
+            title = (f"frame {frame} |error| (no flip-evaluator); run PSNR mirror "
+                     f"{_number(r.get('psnr_mirror'), 1)} dB")
         im = line[2].imshow(err, cmap="magma", vmin=0, vmax=1)
-        line[0].set_title("raytrace (reference)", fontsize=8)
+        line[0].set_title(f"raytrace (reference), frame {frame}", fontsize=8)
         line[1].set_title(f"{r['technique']} {parameters_text(r)}", fontsize=7)
         line[2].set_title(title, fontsize=8)
         for ax in line:

@@ -445,3 +445,37 @@ set = ["camera.width=32", "camera.height=24"]
         assert row["reference_timing_warning"] == ""
     (ref_log,) = (tmp_path / "out-th" / "references").rglob("timings.jsonl")
     assert read_jsonl(str(ref_log))[-1]["threads"] == 1
+
+
+def test_contact_sheet_titles_say_whose_figures_they_are(tmp_path, monkeypatch):
+    """The error map is one frame's; the mirror figure beside it is the run's HDR-FLIP over
+    every frame. The title read 'LDR-FLIP 0.020, mirror 0.156' as if both were this frame's
+    LDR-FLIP."""
+    pytest.importorskip("matplotlib")
+    from matplotlib.axes import Axes
+
+    from reflectcli.bench import plots
+
+    path = tmp_path / "c.toml"
+    path.write_text(f"""
+[bench]
+name = "c"
+frames = "1:3"
+out = "out-c"
+plots = false
+
+[[runs]]
+scenes = ["{ROOT / 'scenes' / 'teapot-box.toml'}"]
+techniques = ["envmap"]
+set = ["camera.width=32", "camera.height=24"]
+""")
+    rows = run_bench(str(path)).rows
+    titles = []
+    original = Axes.set_title
+    monkeypatch.setattr(Axes, "set_title", lambda self, text, *a, **k: (
+        titles.append(text), original(self, text, *a, **k))[1])
+    plots._contact_sheet(rows, str(tmp_path / "sheet.png"))
+    assert "raytrace (reference), frame 1" in titles
+    (error,) = [t for t in titles if "mirror" in t]
+    assert error.startswith("frame 1 ")
+    assert "run HDR-FLIP mirror" in error or "run PSNR mirror" in error
