@@ -357,8 +357,8 @@ def bench(file, resume, workers, scheduler, threads, out, overrides) -> None:
     busy = busy_rows(result.rows)
     if busy:
         click.echo(f"warning: {len(busy)} run(s) timed while the load average exceeded the "
-                   f"{busy[0]['cores']} cores (report.md): their frame times include waiting "
-                   "for the cores", err=True)
+                   f"{busy[0]['cores']} cores + 1 (report.md): their frame times include "
+                   "waiting for the cores", err=True)
 
 
 @cli.command()

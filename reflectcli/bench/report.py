@@ -144,11 +144,16 @@ def machines_text(rows: list[dict]) -> str:
     return "; ".join(parts)
 
 
+BUSY_EXTRA = 1.0  # runnable threads beyond the cores, on average, that make a machine busy
+
+
 def busy_rows(rows: list[dict]) -> list[dict]:
-    """The rows timed while the machine's 1-minute load average exceeded its cores."""
+    """The rows timed while the machine's 1-minute load average (the bench's own threads
+    included) exceeded its cores by more than BUSY_EXTRA: at least one thread waiting for a
+    core all along, on average."""
     return [r for r in rows
             if r.get("cores") and max((v for v in r.get("load_1min") or [] if v is not None),
-                                      default=0.0) > r["cores"]]
+                                      default=0.0) > r["cores"] + BUSY_EXTRA]
 
 
 def load_text(rows: list[dict]) -> list[str]:
@@ -163,7 +168,8 @@ def load_text(rows: list[dict]) -> list[str]:
     busy = busy_rows(rows)
     if busy:
         text += (f" **{len(busy)} of {len(rows)} runs were timed on a busy machine (load "
-                 "above the cores): their frame times include waiting for the cores, and "
+                 f"above the cores + {BUSY_EXTRA:g}, this bench's threads included): their "
+                 "frame times include waiting for the cores, and "
                  "ratios between runs timed at different loads are not figures to quote.**")
     return [text, ""]
 
