@@ -174,11 +174,11 @@ def _contact_sheet(rows: list[dict], path: str) -> None:
         frame = (r.get("per_frame") or [{}])[0].get("frame", "")
         if flip_metric.available():
             err = flip_metric.flip_map(preview(b), preview(a), "ldr")
-            title = (f"frame {frame} LDR-FLIP {float(err.mean()):.3f} (image); run "
+            title = (f"frame {frame} LDR-FLIP {float(err.mean()):.3f} (image)\nrun "
                      f"HDR-FLIP mirror {_number(r.get('flip_mirror'), 3)}")
         else:
             err = np.abs(a - b).max(axis=-1)
-            title = (f"frame {frame} |error| (no flip-evaluator); run PSNR mirror "
+            title = (f"frame {frame} |error| (no flip-evaluator)\nrun PSNR mirror "
                      f"{_number(r.get('psnr_mirror'), 1)} dB")
         im = line[2].imshow(err, cmap="magma", vmin=0, vmax=1)
         line[0].set_title(f"raytrace (reference), frame {frame}", fontsize=8)
