@@ -90,25 +90,28 @@ def cube_sample(faces, bases, rx, ry, rz, bilinear):
 
 @njit(cache=True)
 def image_sample(image, u, v, bilinear):
-    """Color at (u, v) in [0, 1]^2 of an (R, R, 3) image (row 0 at the top, v down), nearest
-    or bilinear with the edges clamped."""
+    """Color (r, g, b) as float32 at (u, v) in [0, 1]^2 of an (R, R, 3) image (row 0 at the
+    top, v down), nearest or bilinear with the edges clamped. A tuple, not an array: a lookup
+    a pixel allocated one (an envmap frame's lookups spent a third of their time so)."""
     res = image.shape[0]
     fx = u * res
     fy = v * res
-    out = np.empty(3, np.float32)
     if not bilinear or res == 1:
         x = min(max(int(fx), 0), res - 1)
         y = min(max(int(fy), 0), res - 1)
-        for c in range(3):
-            out[c] = image[y, x, c]
-        return out
+        return (np.float32(image[y, x, 0]), np.float32(image[y, x, 1]),
+                np.float32(image[y, x, 2]))
     fx = min(max(fx - 0.5, 0.0), res - 1.0)
     fy = min(max(fy - 0.5, 0.0), res - 1.0)
     x0 = min(int(fx), res - 2)
     y0 = min(int(fy), res - 2)
     ax = fx - x0
     ay = fy - y0
-    for c in range(3):
-        out[c] = ((1 - ax) * (1 - ay) * image[y0, x0, c] + ax * (1 - ay) * image[y0, x0 + 1, c]
-                  + (1 - ax) * ay * image[y0 + 1, x0, c] + ax * ay * image[y0 + 1, x0 + 1, c])
-    return out
+    return (_bilinear(image, x0, y0, ax, ay, 0), _bilinear(image, x0, y0, ax, ay, 1),
+            _bilinear(image, x0, y0, ax, ay, 2))
+
+
+@njit(cache=True)
+def _bilinear(image, x0, y0, ax, ay, c):
+    return np.float32((1 - ax) * (1 - ay) * image[y0, x0, c] + ax * (1 - ay) * image[y0, x0 + 1, c]
+                      + (1 - ax) * ay * image[y0 + 1, x0, c] + ax * ay * image[y0 + 1, x0 + 1, c])

@@ -9,9 +9,11 @@ and the map's color in that direction, added with the mirror's reflectance.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numba import njit, prange
 
+from ..parallel import ROWS_PER_CLAIM, claim, counter
 from ..reflection import reflected_ray
 from .cube import cube_sample
 from .sphere import sphere_sample
@@ -25,7 +27,8 @@ def add_reflections(rgb, buffers, surface_ids, surface, tris, kind, params, refl
     _add(rgb, buffers.triangle, buffers.b1, buffers.b2, surface_ids, surface, tris.corners,
          tris.normals, kind, params, reflectance, np.asarray(eye, np.float64),
          np.asarray(capture, np.float64), np.asarray(box_lo, np.float64),
-         np.asarray(box_hi, np.float64), parallax, map_kind, faces, sphere, bases, bilinear)
+         np.asarray(box_hi, np.float64), parallax, map_kind, faces, sphere, bases, bilinear,
+         numba.get_num_threads())
 
 
 @njit(cache=True)
@@ -51,23 +54,40 @@ def box_exit(px, py, pz, rx, ry, rz, lo, hi):
 
 @njit(cache=True, parallel=True)
 def _add(rgb, tri, b1, b2, surface_ids, surface, corners, normals, kind, p, refl, eye, capture,
-         lo, hi, parallax, map_kind, faces, sphere, bases, bilinear):
+         lo, hi, parallax, map_kind, faces, sphere, bases, bilinear, threads):
+    """Bands of rows claimed by whichever thread is free (parallel.py): a mirror's pixels
+    bunch in some rows, and a pixel's result is its own whoever looks it up."""
     h, w = tri.shape
-    for y in prange(h):
-        for x in range(w):
-            if surface_ids[y, x] != surface:
-                continue
-            px, py, pz, rx, ry, rz, _ = reflected_ray(tri[y, x], b1[y, x], b2[y, x], corners,
-                                                      normals, kind, p, eye)
-            if parallax:
-                te = box_exit(px, py, pz, rx, ry, rz, lo, hi)
-                if te > 0.0:
-                    rx = px + te * rx - capture[0]
-                    ry = py + te * ry - capture[1]
-                    rz = pz + te * rz - capture[2]
-            if map_kind == CUBE:
-                c = cube_sample(faces, bases, rx, ry, rz, bilinear)
-            else:
-                c = sphere_sample(sphere, rx, ry, rz, bilinear)
-            for k in range(3):
-                rgb[y, x, k] += refl[k] * c[k]
+    claimed = counter()
+    for _worker in prange(threads):
+        while True:
+            y0 = claim(claimed) * ROWS_PER_CLAIM
+            if y0 >= h:
+                break
+            for y in range(y0, min(y0 + ROWS_PER_CLAIM, h)):
+                _add_row(y, w, rgb, tri, b1, b2, surface_ids, surface, corners, normals, kind,
+                         p, refl, eye, capture, lo, hi, parallax, map_kind, faces, sphere,
+                         bases, bilinear)
+
+
+@njit(cache=True)
+def _add_row(y, w, rgb, tri, b1, b2, surface_ids, surface, corners, normals, kind, p, refl,
+             eye, capture, lo, hi, parallax, map_kind, faces, sphere, bases, bilinear):
+    """_add's pixels of `surface` in row y."""
+    for x in range(w):
+        if surface_ids[y, x] != surface:
+            continue
+        px, py, pz, rx, ry, rz, _ = reflected_ray(tri[y, x], b1[y, x], b2[y, x], corners,
+                                                  normals, kind, p, eye)
+        if parallax:
+            te = box_exit(px, py, pz, rx, ry, rz, lo, hi)
+            if te > 0.0:
+                rx = px + te * rx - capture[0]
+                ry = py + te * ry - capture[1]
+                rz = pz + te * rz - capture[2]
+        if map_kind == CUBE:
+            c = cube_sample(faces, bases, rx, ry, rz, bilinear)
+        else:
+            c = sphere_sample(sphere, rx, ry, rz, bilinear)
+        for k in range(3):
+            rgb[y, x, k] += refl[k] * c[k]
