@@ -148,7 +148,7 @@ def test_envmap_lookup_matches_twin(kind, map_kind):
             got = rgb.copy()
             lookup._add(got, tri, b[..., 1].copy(), b[..., 2].copy(), surface_ids, 4, corners,
                         normals, kind, params, refl, eye, capture, lo, hi, parallax, map_kind,
-                        faces, sph, cube.face_bases(), bilinear)
+                        faces, sph, cube.face_bases(), bilinear, 2)
             want = add_reflections(rgb, tri, b[..., 1], b[..., 2], surface_ids, 4, corners,
                                    normals, kind, params, refl, eye, capture, lo, hi, parallax,
                                    map_kind, faces, sph, bilinear)
