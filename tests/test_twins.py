@@ -455,6 +455,7 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "maps/distance_search.py:_angle": (SEARCH, "search_ray"),
     "screenspace/rays.py:to_screen": ([S + "test_mirror_rays_match_twin"], None),
     "screenspace/rays.py:_rays": ([S + "test_mirror_rays_match_twin"], "mirror_rays"),
+    "screenspace/rays.py:_rays_row": ([S + "test_mirror_rays_match_twin"], "mirror_rays"),
     "screenspace/rays.py:distance_at": ([S + "test_distance_at_matches_twin"], None),
     "screenspace/march.py:jitter_offset": ([S + "test_jitter_offset_matches_twin"], None),
     "screenspace/march.py:march_linear": ([S + "test_linear_equals_twin"], None),

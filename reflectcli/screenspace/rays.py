@@ -11,9 +11,11 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba import njit, prange
 
+from ..parallel import ROWS_PER_CLAIM, claim, counter
 from ..reflection import reflected_ray
 
 # columns of the per-pixel ray table
@@ -38,7 +40,7 @@ def mirror_rays(buffers, surface_ids, n_objects, tris, mirrors, camera, max_dist
     _rays(buffers.triangle, buffers.b1, buffers.b2, surface_ids, n_objects, tris.corners,
           tris.normals, mirrors.kind, mirrors.params, camera.view_matrix(),
           np.asarray(camera.eye, np.float64), float(p[0, 0]), float(p[1, 1]), w, h,
-          float(camera.near), float(max_distance), rays, valid)
+          float(camera.near), float(max_distance), rays, valid, numba.get_num_threads())
     return rays, valid
 
 
@@ -54,40 +56,56 @@ def to_screen(xe, ye, ze, p00, p11, w, h):
 
 @njit(cache=True, parallel=True)
 def _rays(tri, b1, b2, surface_ids, n_objects, corners, normals, kind, params, view, eye,
-          p00, p11, w, h, near, max_distance, rays, valid):
-    for y in prange(h):
-        for x in range(w):
-            s = surface_ids[y, x]
-            if s < n_objects:
-                continue
-            k = s - n_objects
-            px, py, pz, rx, ry, rz, nv = reflected_ray(tri[y, x], b1[y, x], b2[y, x], corners,
-                                                       normals, kind[k], params[k], eye)
-            inv = 1.0 / math.sqrt(rx * rx + ry * ry + rz * rz)
-            rx, ry, rz = rx * inv, ry * inv, rz * inv
-            # eye space
-            ox = view[0, 0] * px + view[0, 1] * py + view[0, 2] * pz + view[0, 3]
-            oy = view[1, 0] * px + view[1, 1] * py + view[1, 2] * pz + view[1, 3]
-            oz = view[2, 0] * px + view[2, 1] * py + view[2, 2] * pz + view[2, 3]
-            dx = view[0, 0] * rx + view[0, 1] * ry + view[0, 2] * rz
-            dy = view[1, 0] * rx + view[1, 1] * ry + view[1, 2] * rz
-            dz = view[2, 0] * rx + view[2, 1] * ry + view[2, 2] * rz
-            length = max_distance
-            if oz + dz * length > -near:  # would cross the near plane (depth = -z < near)
-                length = (-near - oz) / dz if dz > 0.0 else length
-            if length <= 0.0 or -oz < near:
-                continue
-            r = rays[y, x]
-            r[0], r[1], r[2] = px, py, pz
-            r[3], r[4], r[5] = rx, ry, rz
-            r[6], r[7], r[8] = ox, oy, oz
-            r[9], r[10], r[11] = dx, dy, dz
-            r[12] = nv
-            r[13] = length
-            r[14], r[15], r[16] = to_screen(ox, oy, oz, p00, p11, w, h)
-            r[17], r[18], r[19] = to_screen(ox + dx * length, oy + dy * length,
-                                            oz + dz * length, p00, p11, w, h)
-            valid[y, x] = True
+          p00, p11, w, h, near, max_distance, rays, valid, threads):
+    """Bands of rows claimed by whichever thread is free (parallel.py): the mirror pixels
+    bunch in some rows, and a pixel's ray is its own whoever makes it."""
+    claimed = counter()
+    for _worker in prange(threads):
+        while True:
+            y0 = claim(claimed) * ROWS_PER_CLAIM
+            if y0 >= h:
+                break
+            for y in range(y0, min(y0 + ROWS_PER_CLAIM, h)):
+                _rays_row(y, tri, b1, b2, surface_ids, n_objects, corners, normals, kind,
+                          params, view, eye, p00, p11, w, h, near, max_distance, rays, valid)
+
+
+@njit(cache=True)
+def _rays_row(y, tri, b1, b2, surface_ids, n_objects, corners, normals, kind, params, view,
+              eye, p00, p11, w, h, near, max_distance, rays, valid):
+    """_rays' mirror pixels of row y."""
+    for x in range(w):
+        s = surface_ids[y, x]
+        if s < n_objects:
+            continue
+        k = s - n_objects
+        px, py, pz, rx, ry, rz, nv = reflected_ray(tri[y, x], b1[y, x], b2[y, x], corners,
+                                                   normals, kind[k], params[k], eye)
+        inv = 1.0 / math.sqrt(rx * rx + ry * ry + rz * rz)
+        rx, ry, rz = rx * inv, ry * inv, rz * inv
+        # eye space
+        ox = view[0, 0] * px + view[0, 1] * py + view[0, 2] * pz + view[0, 3]
+        oy = view[1, 0] * px + view[1, 1] * py + view[1, 2] * pz + view[1, 3]
+        oz = view[2, 0] * px + view[2, 1] * py + view[2, 2] * pz + view[2, 3]
+        dx = view[0, 0] * rx + view[0, 1] * ry + view[0, 2] * rz
+        dy = view[1, 0] * rx + view[1, 1] * ry + view[1, 2] * rz
+        dz = view[2, 0] * rx + view[2, 1] * ry + view[2, 2] * rz
+        length = max_distance
+        if oz + dz * length > -near:  # would cross the near plane (depth = -z < near)
+            length = (-near - oz) / dz if dz > 0.0 else length
+        if length <= 0.0 or -oz < near:
+            continue
+        r = rays[y, x]
+        r[0], r[1], r[2] = px, py, pz
+        r[3], r[4], r[5] = rx, ry, rz
+        r[6], r[7], r[8] = ox, oy, oz
+        r[9], r[10], r[11] = dx, dy, dz
+        r[12] = nv
+        r[13] = length
+        r[14], r[15], r[16] = to_screen(ox, oy, oz, p00, p11, w, h)
+        r[17], r[18], r[19] = to_screen(ox + dx * length, oy + dy * length,
+                                        oz + dz * length, p00, p11, w, h)
+        valid[y, x] = True
 
 
 @njit(cache=True)
