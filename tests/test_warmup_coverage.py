@@ -35,7 +35,9 @@ print(json.dumps(sorted(k for k in after if after[k] - before.get(k, set()))))
 
 
 @compiled_only
-@pytest.mark.parametrize(("scene", "technique"), [("mask", "virtual"), ("music-room", "dprm")])
+@pytest.mark.parametrize(("scene", "technique"), [
+    ("mask", "virtual"), ("music-room", "dprm"), ("teapot-box", "distmap"),
+    ("four-spheres-lit", "ssr"), ("teapot-box", "ppr"), ("four-spheres-lit", "envmap")])
 def test_a_first_frame_compiles_nothing_after_the_warm_up(scene, technique):
     small = ["camera.width=96", "camera.height=72"]
     done = subprocess.run([sys.executable, "-c", PROBE, str(SCENES / f"{scene}.toml"),
