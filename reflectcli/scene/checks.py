@@ -5,13 +5,14 @@ They live above config/ because the geometric ones need the mirror geometry and 
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
 
-from ..camera import camera_from_config
+from ..camera import Camera, camera_from_config
 from ..config.files import file_problem
-from ..config.limits import MAX_MESH_BYTES, MAX_TEXTURE_BYTES
+from ..config.limits import MAX_FOV_Y, MAX_MESH_BYTES, MAX_TEXTURE_BYTES, MIN_FOV_Y
 from ..config.scene import SceneConfig
 from ..errors import Problem
 from .mirrors import mirror_corners, profile_normals, profile_points
@@ -100,13 +101,46 @@ def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -
         add(("camera", "target"), "must differ from camera.eye")
     elif np.linalg.norm(np.cross(target - eye, up)) == 0:
         add(("camera", "up"), "must not be parallel to the viewing direction")
-    elif planes:
-        field = ("camera", "path") if cfg.camera.path else ("camera", "eye")
-        for frame_index in range(cfg.camera.frame_count):
-            cam = camera_from_config(cfg.camera, frame_index)
-            hit = [p for p in planes if abs(p[2] @ cam.eye + p[3]) <= 1e-6 * max(1.0, p[4])]
-            if hit:
-                where = f" at frame {frame_index}" if cfg.camera.path else ""
-                add(field, f"eye lies on the plane of mirror '{hit[0][1]}'{where}")
-                break
+    else:
+        _camera_frame_problems(cfg, planes, add)
     return problems
+
+
+def degenerate_view(camera: Camera) -> str | None:
+    """Why no image can be made from `camera` (its eye on its target, its up along the view
+    or zero, its field of view outside the documented range), or None. A path's frames are
+    interpolated between keys, so each frame can fail where no key does: keys that swap eye
+    and target meet halfway, opposite ups cancel, Catmull-Rom overshoots a fov."""
+    # plain floats: this runs for each of up to 100,000 frames, and numpy's small-array
+    # calls cost more than the arithmetic
+    vx, vy, vz = (float(t) - float(e) for t, e in zip(camera.target, camera.eye, strict=True))
+    ux, uy, uz = (float(u) for u in camera.up)
+    length = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if length == 0:
+        return "eye and target coincide"
+    cx, cy, cz = vy * uz - vz * uy, vz * ux - vx * uz, vx * uy - vy * ux
+    if math.sqrt(cx * cx + cy * cy + cz * cz) <= 1e-9 * length * math.sqrt(
+            ux * ux + uy * uy + uz * uz):
+        return "up is zero or parallel to the viewing direction"
+    if not MIN_FOV_Y <= camera.fov_y <= MAX_FOV_Y:
+        return f"fov_y is {camera.fov_y:.3g} degrees (must be {MIN_FOV_Y}..{MAX_FOV_Y:g})"
+    return None
+
+
+def _camera_frame_problems(cfg: SceneConfig, planes: list, add) -> None:
+    """Every frame's camera: a degenerate view (a path's frames; the still camera was
+    checked by its fields) and an eye on a mirror's plane; the first frame that fails."""
+    path = cfg.camera.path
+    if path is None and not planes:
+        return
+    field = ("camera", "path") if path else ("camera", "eye")
+    for frame_index in range(cfg.camera.frame_count):
+        cam = camera_from_config(cfg.camera, frame_index)
+        where = f" at frame {frame_index}" if path else ""
+        if path is not None and (why := degenerate_view(cam)) is not None:
+            add(field, why + where)
+            return
+        hit = [p for p in planes if abs(p[2] @ cam.eye + p[3]) <= 1e-6 * max(1.0, p[4])]
+        if hit:
+            add(field, f"eye lies on the plane of mirror '{hit[0][1]}'{where}")
+            return
