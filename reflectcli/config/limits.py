@@ -19,6 +19,7 @@ render run for hours before its first frame or allocate more memory than a machi
 | virtual: tessellated reflected objects | 1,000,000 (splits scaled down, with a notice) |
 | coordinates (any position, size)       | magnitude <= 1e6, also in world space |
 | mesh file coordinates                  | finite, magnitude <= 1e9 in the file |
+| mesh texture coordinates, texels (linear) | finite, magnitude <= 1e9 |
 | camera `near`                          | >= 1e-6, far / near <= 1e9 |
 | camera `fov_y`                         | >= 0.01, <= 170 degrees |
 | lights                                 | 256                   |

@@ -76,6 +76,10 @@ def load_mesh_file(path: str | Path) -> Mesh:
     uv = getattr(loaded.visual, "uv", None)
     if uv is not None and len(uv) == len(vertices):
         uvs = np.asarray(uv, dtype=np.float64)[faces, :2]
+        if not np.isfinite(uvs).all() or np.abs(uvs).max() > MAX_NUMBER:
+            # a texture lookup would make NaN pixels (refused only when the frame is written)
+            raise ValueError(f"mesh file {file} has texture coordinates that are not finite "
+                             f"or past +-{MAX_NUMBER:g}")
     else:
         uvs = np.zeros(faces.shape + (2,))
 

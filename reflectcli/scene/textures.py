@@ -45,7 +45,7 @@ def load_texture(path: str, srgb: bool) -> np.ndarray:
     import OpenImageIO as oiio
 
     from ..config.files import file_problem
-    from ..config.limits import MAX_TEXTURE_BYTES, MAX_TEXTURE_SIDE, MAX_TEXTURE_TEXELS
+    from ..config.limits import MAX_NUMBER, MAX_TEXTURE_BYTES, MAX_TEXTURE_SIDE, MAX_TEXTURE_TEXELS
 
     reason = file_problem(path, MAX_TEXTURE_BYTES, "texture file")
     if reason is not None:
@@ -79,4 +79,7 @@ def load_texture(path: str, srgb: bool) -> np.ndarray:
         rgb = pixels[:, :, :3]
     if not np.isfinite(rgb).all():
         raise ValueError("texture has non-finite texels (NaN or infinity)")
-    return srgb_to_linear(rgb) if srgb else np.ascontiguousarray(rgb)
+    linear = srgb_to_linear(rgb) if srgb else np.ascontiguousarray(rgb)
+    if np.abs(linear).max() > MAX_NUMBER:  # as a color's limit: lit, it overflowed to NaN
+        raise ValueError(f"texture has texels past +-{MAX_NUMBER:g} (linear)")
+    return linear
