@@ -43,6 +43,7 @@ from .output.identity import (
     new_run_id,
     scene_identity,
 )
+from .output.lock import frame_folder_lock
 from .output.names import SUMMARY_NAME
 from .output.paths import check_links, check_writable, inside, remove_stale_temps
 from .output.png import write_png
@@ -467,6 +468,17 @@ class OpenedScene:
         `writes_overlapped`."""
         check_threads(self.threads)  # before the build and the folder, as any bad argument
         result = RenderResult(self.output_folder(out, frame_indices))
+        source, field_ = ("--out", "") if out is not None else (self.display, "output.dir")
+        with frame_folder_lock(result.folder, source, field_):
+            return self._write_frames_locked(result, frame_indices, preview=preview,
+                                             resume=resume, on_frame=on_frame,
+                                             repeats=repeats, overlap_writes=overlap_writes)
+
+    def _write_frames_locked(self, result: RenderResult, frame_indices: range | list[int], *,
+                             preview: bool | None, resume: bool,
+                             on_frame: Callable[[int, str], None] | None, repeats: int,
+                             overlap_writes: bool) -> RenderResult:
+        """write_frames' work, with the frame folder held by this process alone."""
         result.log = self.log_path(result.folder)
         stored = logged_rows(result.log)
         check_same_overrides(stored, self.overrides, result.folder,

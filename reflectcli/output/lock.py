@@ -1,4 +1,5 @@
-"""One writer per output folder: a second bench on the same folder stops in one line."""
+"""One writer per output folder: a second bench on the same bench folder, or a second render
+on the same frame folder, stops in one line."""
 
 from __future__ import annotations
 
@@ -30,6 +31,25 @@ def folder_lock(folder: str, source: str, field: str = "") -> Iterator[None]:
         except BlockingIOError:
             raise Problems([Problem(source, field, f"{folder} is being written by another "
                                                    "bench; wait for it or use another --out")]
+                           ) from None
+        yield
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def frame_folder_lock(folder: str, source: str, field: str = "") -> Iterator[None]:
+    """One render per frame folder at a time: a second one stops in one line instead of
+    appending its rows among the first's and replacing the frames the first is writing.
+    The lock is on the folder itself (flock on its descriptor), so no lock file is left
+    among the frames; released when the process ends, however."""
+    fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise Problems([Problem(source, field, f"{folder} is being written by another "
+                                                   "render; wait for it or use another --out")]
                            ) from None
         yield
     finally:
