@@ -7,12 +7,14 @@ refuse), and warm-up, repeats and worker processes are bounded.
 
 from __future__ import annotations
 
+import datetime
 import itertools
+import json
 import math
 import os
 from typing import Any
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from ..config.base import Strict
 from ..errors import Problem
@@ -36,6 +38,15 @@ class RunGroup(Strict):
 
 class BenchSection(Strict):
     name: str = Field(pattern=r"^[A-Za-z0-9._-]+$")
+
+    @field_validator("name")
+    @classmethod
+    def _a_folder_name(cls, name: str) -> str:
+        """The default output folder is out/bench/<name>: '..' would put the bench's files in
+        out/ itself (as scene.name, '.' and '..' are no names)."""
+        if name in (".", ".."):
+            raise ValueError("must name a folder ('.' and '..' are not names)")
+        return name
     frames: str = Field(default="0:3", description="frames of each run: N or A:B")
     warmup: int = Field(default=1, ge=0, le=MAX_WARMUP,
                         description="leading renders left out of timings")
@@ -104,8 +115,19 @@ def expand(cfg: BenchConfig, source: str) -> list[dict]:
 
 
 def _toml(value: Any) -> str:
+    """A sweep value written back as the TOML a `--set` parses into the same value: strings
+    escaped (JSON's escapes are TOML's), arrays and tables inline, dates as ISO text (Python's
+    repr wrote a table as `{'frames': 2}`, refused as "must be a table", and a backslash in a
+    string unescaped)."""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
-        return '"' + value.replace('"', '\\"') + '"'
-    return repr(value)
+        return json.dumps(value, ensure_ascii=False)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{json.dumps(str(k), ensure_ascii=False)} = {_toml(v)}"
+                               for k, v in value.items()) + "}"
+    if isinstance(value, (datetime.date, datetime.time)):
+        return value.isoformat()
+    return repr(value)  # int, float (nan and inf are TOML words too)
