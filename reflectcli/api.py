@@ -15,6 +15,7 @@ import contextlib
 import json
 import logging
 import os
+import re
 import sys
 import time
 from collections.abc import Callable
@@ -89,6 +90,17 @@ def check_threads(threads: int | None) -> None:
 # --- frames, folders, channels --------------------------------------------------------------
 
 
+_FRAME_NUMBER = re.compile(r"-?[0-9]+")
+
+
+def _frame_number(text: str) -> int:
+    """A frame number as written in --frames: ASCII digits only (int() also took '1_0',
+    ' 3 ' and other scripts' digits, '٣', and rendered frames nobody typed)."""
+    if not _FRAME_NUMBER.fullmatch(text):
+        raise ValueError(text)
+    return int(text)
+
+
 def parse_frames(spec: str | None, count: int) -> range:
     """`None` -> all frames; `N` -> frame N; `A:B[:S]` -> frames A..B-1 every S (either end
     may be empty; B is clamped to the frame count)."""
@@ -99,12 +111,13 @@ def parse_frames(spec: str | None, count: int) -> range:
             a, b, *step = spec.split(":")
             if len(step) > 1:
                 raise ValueError(spec)
-            stride = int(step[0]) if step and step[0] else 1
+            stride = _frame_number(step[0]) if step and step[0] else 1
             if stride < 1:
                 raise ValueError(spec)
-            r = range(int(a) if a else 0, min(int(b), count) if b else count, stride)
+            r = range(_frame_number(a) if a else 0,
+                      min(_frame_number(b), count) if b else count, stride)
         else:
-            r = range(int(spec), int(spec) + 1)
+            r = range(_frame_number(spec), _frame_number(spec) + 1)
     except ValueError:
         message = f"expected N, A:B or A:B:S, got '{spec}'"
         raise Problems([Problem("--frames", "", message)]) from None
