@@ -449,6 +449,13 @@ def techniques() -> None:
 def main() -> None:
     # keep numba's threads to the cores we have unless the user says otherwise
     os.environ.setdefault("NUMBA_THREADING_LAYER", "omp")
+    from .environment import environment_problems
+
+    found = environment_problems()  # before numba loads: its failure is a traceback
+    if found:
+        for problem in found:
+            click.echo(str(problem), err=True)
+        sys.exit(EXIT_BAD_INPUT)
     # notices (cache recaptures, what was captured) as single lines on stderr
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("%(message)s"))
