@@ -132,7 +132,7 @@ class ClutterObject(_Object):
     triangles: int = Field(default=190_000, ge=500, le=20_000_000)
     min: Vec3
     max: Vec3
-    seed: int = 7
+    seed: int = Field(default=7, ge=0, description="placement jitter (numpy generator seed)")
 
 
 ObjectConfig = Annotated[

@@ -52,3 +52,12 @@ def test_texture_texels_within_the_limit_load(tmp_path):
 
     _texture(tmp_path / "t.exr", -5.0)  # a negative texel, as a negative color, is allowed
     assert load_texture(str(tmp_path / "t.exr"), srgb=False).min() == -5.0
+
+
+def test_a_negative_clutter_seed_names_the_seed(tmp_path):
+    # numpy's "expected non-negative integer" was blamed on objects.1.shape
+    scene = write(tmp_path, "s.toml", TINY + '\n[[objects]]\nname = "c"\nshape = "clutter"\n'
+                  'min = [-1, 0, -1]\nmax = [1, 1, 1]\ntriangles = 500\nseed = -1\n'
+                  'material = "red"\n')
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: objects.1.seed: must be >= 0")
