@@ -7,6 +7,7 @@ render run for hours before its first frame or allocate more memory than a machi
 | mesh file, with the glTF buffers, OBJ materials, textures it names | 512 MiB |
 | texture file                           | 256 MiB               |
 | texture dimensions                     | 16384 x 16384 texels, 64 Mtexels |
+| image file `compare` reads             | 4 GiB; the image size limits, 64 channels |
 | include chain                          | 16 files deep         |
 | nesting of tables / arrays in a file   | 24 levels             |
 | image width, height                    | 16384 pixels each, 64 Mpixels |
@@ -50,6 +51,8 @@ MAX_INCLUDE_DEPTH = 16
 MAX_NESTING = 24
 MAX_IMAGE_SIDE = 16384
 MAX_IMAGE_PIXELS = 64 << 20
+MAX_IMAGE_FILE_BYTES = 4 << 30  # `compare`'s inputs: a frame at the image limits fits
+MAX_IMAGE_CHANNELS = 64  # `compare`'s inputs (a frame has at most a dozen)
 MAX_FRAMES = 100_000
 MAX_SEGMENTS = 4096
 MAX_TEAPOT_SUBDIVISIONS = 64

@@ -26,9 +26,45 @@ class Comparison:
     warnings: list[str] = field(default_factory=list)
 
 
+def input_problem(path: str) -> str | None:
+    """Why `path` is no image `compare` may read, or None: only a regular file within the
+    size limit (a named pipe blocked OpenImageIO's open for good, deaf to SIGTERM), and a
+    header within the render's image limits (a 7 MB tiled EXR claiming 60000 x 60000 pixels
+    was a MemoryError traceback)."""
+    import OpenImageIO as oiio
+
+    from ..config.files import file_problem
+    from ..config.limits import (
+        MAX_IMAGE_CHANNELS,
+        MAX_IMAGE_FILE_BYTES,
+        MAX_IMAGE_PIXELS,
+        MAX_IMAGE_SIDE,
+    )
+
+    reason = file_problem(path, MAX_IMAGE_FILE_BYTES, "image file")
+    if reason is not None:
+        return reason
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        return f"cannot read {path}: {oiio.geterror()}"
+    try:
+        spec = inp.spec()
+    finally:
+        inp.close()
+    if (max(spec.width, spec.height) > MAX_IMAGE_SIDE
+            or spec.width * spec.height > MAX_IMAGE_PIXELS or spec.nchannels > MAX_IMAGE_CHANNELS):
+        return (f"{spec.width}x{spec.height} pixels of {spec.nchannels} channels; the limit is "
+                f"{MAX_IMAGE_SIDE} a side, {MAX_IMAGE_PIXELS} pixels, {MAX_IMAGE_CHANNELS} "
+                "channels")
+    return None
+
+
 def _read(path: str, mask_channel: str | None) -> tuple[dict, dict]:
     from ..output.exr import read_exr
 
+    reason = input_problem(path)
+    if reason is not None:
+        raise Problems([Problem(path, "", reason.splitlines()[0])])
     try:
         channels, attrs = read_exr(path)
     except OSError as e:

@@ -1,0 +1,51 @@
+"""`reflect compare`'s inputs: only regular files within the limits, each problem one line
+naming the file (a named pipe hung the command for good, deaf to SIGTERM; a small EXR whose
+header claims 60000 x 60000 pixels was a MemoryError traceback)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from .common import assert_one_line, invoke
+
+
+def _exr(path, width: int, height: int, tiled: bool = False) -> None:
+    import OpenImageIO as oiio
+
+    spec = oiio.ImageSpec(width, height, 3, oiio.HALF)
+    out = oiio.ImageOutput.create(str(path))
+    if tiled:  # no pixels written: the header alone claims the size
+        spec.tile_width = spec.tile_height = 64
+        out.open(str(path), spec)
+    else:
+        out.open(str(path), spec)
+        out.write_image(np.zeros((height, width, 3), np.float32))
+    out.close()
+
+
+def test_a_named_pipe_is_refused_not_waited_on(tmp_path):
+    _exr(tmp_path / "a.exr", 4, 4)
+    os.mkfifo(tmp_path / "pipe")
+    done = subprocess.run([sys.executable, "-m", "reflectcli.cli", "compare", "a.exr", "pipe"],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip() == "pipe: not a regular file (a pipe, device or socket)"
+
+
+def test_an_image_past_the_size_limit_is_one_line(tmp_path):
+    _exr(tmp_path / "big.exr", 60000, 60000, tiled=True)
+    assert os.path.getsize(tmp_path / "big.exr") < 64 << 20
+    line = assert_one_line(invoke("compare", tmp_path / "big.exr", tmp_path / "big.exr"),
+                           "big.exr: 60000x60000 pixels of 3 channels; the limit is 16384 a side")
+    assert "Traceback" not in line
+
+
+def test_images_within_the_limits_compare(tmp_path):
+    _exr(tmp_path / "a.exr", 8, 6)
+    result = invoke("compare", tmp_path / "a.exr", tmp_path / "a.exr", "--metrics", "psnr")
+    assert result.exit_code == 0, result.output
+    assert "psnr" in result.output
