@@ -13,6 +13,7 @@ import json
 import logging
 import os
 import re
+import stat
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -64,9 +65,12 @@ class MapCache:
     def load(self, kind: str, key: str, valid: Callable[[list], bool]):
         """The stored parts for (kind, key), or None if absent or damaged (then deleted)."""
         path = self.path(kind, key)
-        if path is None or not os.path.exists(path):
+        if path is None or not os.path.lexists(path):
             return None
         try:
+            if not stat.S_ISREG(os.stat(path).st_mode):
+                # a named pipe blocked OpenImageIO's open for good (deaf to SIGTERM)
+                raise OSError("not a regular file")
             parts = read_exr_parts(path)
         except OSError as e:
             reason = str(e).splitlines()[0]

@@ -39,3 +39,21 @@ def test_clear_of_a_folder_without_maps(tmp_path):
     assert MapCache(str(tmp_path)).clear() == (0, 0)
     assert MapCache(str(tmp_path / "absent")).clear() == (0, 0)
     assert os.listdir(tmp_path) == [".notes.tmp99999"]
+
+
+def test_a_named_pipe_at_a_maps_name_is_recaptured_not_waited_on(tmp_path):
+    # OpenImageIO's open of a pipe blocked the render for good, deaf to SIGTERM: the load runs
+    # in a child process, killed if it waits, so that a regression fails rather than hangs
+    import subprocess
+    import sys
+
+    path = MapCache(str(tmp_path)).path("envmap", KEY)
+    os.mkfifo(path)
+    code = ("import logging, sys\nfrom reflectcli.maps.cache import MapCache\n"
+            "logging.basicConfig(stream=sys.stderr, format='%(message)s')\n"
+            f"print(MapCache({str(tmp_path)!r}).load('envmap', {KEY!r}, lambda p: True))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=60)
+    assert done.stdout.strip() == "None", done.stderr
+    assert "is damaged (not a regular file); recapturing" in done.stderr
+    assert not os.path.lexists(path)  # removed: the capture's store takes the name
