@@ -90,6 +90,9 @@ def parse_toml(text: bytes, display: str) -> dict:
         raise Problems([Problem(display, "", f"not UTF-8 text: {e.reason}")]) from None
     except tomli.TOMLDecodeError as e:
         raise Problems([Problem(display, "", f"TOML syntax error: {e}")]) from None
+    except ValueError as e:  # an integer of over 4300 digits: Python's int() refuses it
+        raise Problems([Problem(display, "", f"a number too long to read ({_first(e)})")]
+                       ) from None
     except RecursionError:
         raise Problems([Problem(display, "", f"nested more than {MAX_NESTING} levels deep")]
                        ) from None
@@ -97,6 +100,11 @@ def parse_toml(text: bytes, display: str) -> dict:
     if deep is not None:
         raise Problems([Problem(display, deep[0], f"nested more than {MAX_NESTING} levels deep")])
     return data
+
+
+def _first(error: Exception) -> str:
+    """The part of a library's message that says what is wrong (before its advice)."""
+    return str(error).split(";")[0].strip()
 
 
 def read_toml_file(path: str, field: str = "", referrer: str | None = None) -> dict:

@@ -117,7 +117,7 @@ def parse_value(text: str) -> Any:
     """A --set value as TOML (numbers, booleans, arrays, quoted strings), else a bare string."""
     try:
         return tomli.loads(f"v = {text}")["v"]
-    except tomli.TOMLDecodeError:
+    except (tomli.TOMLDecodeError, ValueError):  # ValueError: an integer of > 4300 digits
         return text
 
 

@@ -198,3 +198,16 @@ def test_a_truncated_png_texture_is_one_line_quoting_libpng(tmp_path, capfd):
     with chdir(tmp_path):
         check_bad(scene, "materials.red.path: cannot read image pixels", "libpng error")
     assert "libpng" not in capfd.readouterr().err
+
+
+def test_an_integer_of_thousands_of_digits_is_one_line(tmp_path):
+    # tomli's int() raised ValueError past Python's 4300-digit limit: a traceback
+    from .common import assert_one_line, invoke
+
+    huge = "9" * 5000
+    scene = write(tmp_path, "s.toml", TINY.replace("width = 16", f"width = {huge}"))
+    with chdir(tmp_path):
+        check_bad(scene, "s.toml: a number too long to read", "4300 digits")
+        ok = write(tmp_path, "ok.toml", TINY)
+        result = invoke("render", ok, "--out", tmp_path / "o", "--set", f"camera.width={huge}")
+    assert_one_line(result, "--set: camera.width: must be an integer")
