@@ -10,7 +10,7 @@ import os
 
 from ..errors import Problem, Problems
 from ..output.names import LOCK_NAME
-from ..output.paths import check_links
+from ..output.paths import check_links, check_writable
 
 RESULT_FILES = ("results.jsonl", "results.csv", "report.md")
 APPENDED = "results.jsonl"  # appended to in place (`--resume`); the others are replaced
@@ -23,7 +23,9 @@ def check_bench_folder(plan, source: str, field: str) -> None:
     reference's frame folder at a name its render writes; a link or a non-file at a result
     file's or the lock's name; and a results.jsonl with other hard links (its rows would land
     in that file too). A run's own frame folder is removed before the run renders, so a link
-    in it is dropped, never written through."""
+    in it is dropped, never written through. The folder itself must be one `bench` can
+    make or write into (a file at its name was "[Errno 17] File exists")."""
+    check_writable(plan.out, source, field)
     top = os.path.realpath(plan.out)
     subs = ["references", "runs", "cache"]
     for job in plan.jobs:

@@ -45,3 +45,18 @@ def test_a_table_swept_is_a_table(tmp_path):
 ])
 def test_sweep_values_are_written_back_as_toml(value):
     assert tomli.loads(f"x = {_toml(value)}")["x"] == value
+
+
+def test_a_bench_folder_that_is_a_file_is_refused_by_validate_too(tmp_path):
+    # validate said ok; bench failed with "[Errno 17] File exists: ..." and exit code 1
+    write(tmp_path, "s.toml", TINY)
+    write(tmp_path, "taken", "a file")
+    bench = write(tmp_path, "b.toml", BENCH.replace("{name}", "b").replace(
+        "plots = false\n", 'plots = false\nout = "taken"\n'))
+    with chdir(tmp_path):
+        for command in ("validate", "bench"):
+            assert_one_line(invoke(command, bench),
+                            "b.toml: bench.out: cannot write to", "Not a directory")
+        assert_one_line(invoke("bench", bench, "--out", tmp_path / "s.toml" / "x"),
+                        "--out: cannot write to", "Not a directory")
+    assert (tmp_path / "taken").read_text() == "a file"
