@@ -50,6 +50,14 @@ def claim(counter):
     return _fetch_add_one(counter)
 
 
+@njit(cache=True, inline="always")
+def claim_rows(counter, h):
+    """The next band of rows [y0, y1) of an image h rows high (ROWS_PER_CLAIM of them),
+    claimed as `claim` does; an empty band (y0 == y1) when none is left."""
+    y0 = min(claim(counter) * ROWS_PER_CLAIM, h)
+    return y0, min(y0 + ROWS_PER_CLAIM, h)
+
+
 @njit(cache=True)
 def counter():
     """A `claim` counter at zero. Made here, in a plain function: written as np.zeros(1) in

@@ -109,6 +109,13 @@ def claim(counter):
     return k
 
 
+def claim_rows(counter, h, rows_per_claim):
+    """Twin of parallel.claim_rows on one thread: the band [k * rows, (k + 1) * rows) of the
+    k-th claim, cut at h; empty once past it."""
+    k = claim(counter)
+    return min(k * rows_per_claim, h), min((k + 1) * rows_per_claim, h)
+
+
 def prefetch(ary, index):
     """Twin of prefetch.prefetch: nothing, a hint to the memory system changes no value (the
     fast one is held to that by a gather with and without it, and by the shading passes)."""

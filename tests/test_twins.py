@@ -187,6 +187,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "parallel.py:claim": (WAVE + FRAMES + [R + "test_deterministic_across_thread_counts",
                                            R + "test_claim_hands_out_each_piece_once"],
                           "trace_segments"),
+    "parallel.py:claim_rows": ([R + "test_claim_rows_hands_out_each_row_once"] + SEARCH,
+                               "_search_pixels"),
     # the counter every claim loop starts from: held by the same tests
     "parallel.py:counter": (WAVE + FRAMES + [R + "test_deterministic_across_thread_counts",
                                              R + "test_claim_hands_out_each_piece_once"],
@@ -460,6 +462,8 @@ KERNELS: dict[str, tuple[list[str], str | None]] = {
     "screenspace/march.py:jitter_offset": ([S + "test_jitter_offset_matches_twin"], None),
     "screenspace/march.py:march_linear": ([S + "test_linear_equals_twin"], None),
     "screenspace/march.py:march_dda": (DDA, None),
+    "screenspace/march.py:_store_march": (DDA + [S + "test_hiz_equals_pixel_walk_on_frames"],
+                                         "march_all"),
     "screenspace/march.py:_march_all": (DDA + [S + "test_linear_equals_twin"], "march_all"),
     "screenspace/hiz.py:_build": ([S + "test_pyramid_matches_twin"], "build_pyramid"),
     "screenspace/hiz.py:_exit_u": (HIZ, "march_hiz"),

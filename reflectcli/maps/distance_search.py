@@ -41,7 +41,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import ROWS_PER_CLAIM, claim, counter
+from ..parallel import claim_rows, counter
 from ..reflection import reflected_ray
 from .cube import cube_face_coords, image_sample
 
@@ -261,14 +261,13 @@ def _search_pixels(rgb, holes, steps_taken, tri, b1, b2, surface_ids, surface, c
     for _worker in prange(threads):
         out = np.empty(3, np.float32)
         work = _search_work(q.shape[3])
-        while True:
-            y0 = claim(claimed) * ROWS_PER_CLAIM
-            if y0 >= h:
-                break
-            for y in range(y0, min(y0 + ROWS_PER_CLAIM, h)):
+        y0, y1 = claim_rows(claimed, h)
+        while y0 < y1:
+            for y in range(y0, y1):
                 _search_row(y, w, rgb, holes, steps_taken, tri, b1, b2, surface_ids, surface,
                             corners, normals, kind, p, refl, eye, capture, a_min, far, q, surf,
                             color, bases, steps, refine, bilinear, background, out, work)
+            y0, y1 = claim_rows(claimed, h)
 
 
 @njit(cache=True)

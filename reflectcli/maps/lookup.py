@@ -13,7 +13,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import ROWS_PER_CLAIM, claim, counter
+from ..parallel import claim_rows, counter
 from ..reflection import reflected_ray
 from .cube import cube_sample
 from .sphere import sphere_sample
@@ -60,14 +60,13 @@ def _add(rgb, tri, b1, b2, surface_ids, surface, corners, normals, kind, p, refl
     h, w = tri.shape
     claimed = counter()
     for _worker in prange(threads):
-        while True:
-            y0 = claim(claimed) * ROWS_PER_CLAIM
-            if y0 >= h:
-                break
-            for y in range(y0, min(y0 + ROWS_PER_CLAIM, h)):
+        y0, y1 = claim_rows(claimed, h)
+        while y0 < y1:
+            for y in range(y0, y1):
                 _add_row(y, w, rgb, tri, b1, b2, surface_ids, surface, corners, normals, kind,
                          p, refl, eye, capture, lo, hi, parallax, map_kind, faces, sphere,
                          bases, bilinear)
+            y0, y1 = claim_rows(claimed, h)
 
 
 @njit(cache=True)

@@ -17,7 +17,8 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import ROWS_PER_CLAIM, claim, counter
+from ..parallel import claim_rows, counter
+from .march import _store_march
 from .rays import distance_at
 
 MAX_LEVELS = 16
@@ -167,19 +168,12 @@ def _march_hiz_all(rays, valid, flat, table, surface_ids, thickness, max_steps,
     h, w = valid.shape
     claimed = counter()
     for _worker in prange(threads):
-        while True:
-            y0 = claim(claimed) * ROWS_PER_CLAIM
-            if y0 >= h:
-                break
-            for y in range(y0, min(y0 + ROWS_PER_CLAIM, h)):
+        y0, y1 = claim_rows(claimed, h)
+        while y0 < y1:
+            for y in range(y0, y1):
                 for x in range(w):
-                    if not valid[y, x]:
-                        continue
-                    res = march_hiz(rays[y, x], flat, table, surface_ids, surface_ids[y, x],
-                                    thickness, max_steps)
-                    hit[y, x] = res[0]
-                    hx[y, x] = res[1]
-                    hy[y, x] = res[2]
-                    dist[y, x] = res[3]
-                    gap[y, x] = res[4]
-                    lookups[y, x] = res[5]
+                    if valid[y, x]:
+                        _store_march(march_hiz(rays[y, x], flat, table, surface_ids,
+                                              surface_ids[y, x], thickness, max_steps),
+                                    y, x, hit, hx, hy, dist, gap, lookups)
+            y0, y1 = claim_rows(claimed, h)

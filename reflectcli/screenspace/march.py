@@ -18,7 +18,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import ROWS_PER_CLAIM, claim, counter
+from ..parallel import claim_rows, counter
 from .rays import distance_at, to_screen
 
 LINEAR, DDA, HIZ = 0, 1, 2
@@ -188,11 +188,9 @@ def _march_all(kind, rays, valid, depth, surface_ids, thickness, stride, jitter,
     h, w = valid.shape
     claimed = counter()
     for _worker in prange(threads):
-        while True:
-            y0 = claim(claimed) * ROWS_PER_CLAIM
-            if y0 >= h:
-                break
-            for y in range(y0, min(y0 + ROWS_PER_CLAIM, h)):
+        y0, y1 = claim_rows(claimed, h)
+        while y0 < y1:
+            for y in range(y0, y1):
                 for x in range(w):
                     if not valid[y, x]:
                         continue
@@ -203,10 +201,16 @@ def _march_all(kind, rays, valid, depth, surface_ids, thickness, stride, jitter,
                     else:
                         res = march_dda(rays[y, x], depth, surface_ids, own, thickness, stride,
                                         jitter, max_steps)
-                    hit[y, x] = res[0]
-                    hx[y, x] = res[1]
-                    hy[y, x] = res[2]
-                    dist[y, x] = res[3]
-                    gap[y, x] = res[4]
-                    lookups[y, x] = res[5]
+                    _store_march(res, y, x, hit, hx, hy, dist, gap, lookups)
+            y0, y1 = claim_rows(claimed, h)
 
+
+@njit(cache=True, inline="always")
+def _store_march(res, y, x, hit, hx, hy, dist, gap, lookups):
+    """A march's (hit, hx, hy, distance, gap, lookups) into the output arrays at (y, x)."""
+    hit[y, x] = res[0]
+    hx[y, x] = res[1]
+    hy[y, x] = res[2]
+    dist[y, x] = res[3]
+    gap[y, x] = res[4]
+    lookups[y, x] = res[5]

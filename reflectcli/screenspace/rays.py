@@ -15,7 +15,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..parallel import ROWS_PER_CLAIM, claim, counter
+from ..parallel import claim_rows, counter
 from ..reflection import reflected_ray
 
 # columns of the per-pixel ray table
@@ -61,13 +61,12 @@ def _rays(tri, b1, b2, surface_ids, n_objects, corners, normals, kind, params, v
     bunch in some rows, and a pixel's ray is its own whoever makes it."""
     claimed = counter()
     for _worker in prange(threads):
-        while True:
-            y0 = claim(claimed) * ROWS_PER_CLAIM
-            if y0 >= h:
-                break
-            for y in range(y0, min(y0 + ROWS_PER_CLAIM, h)):
+        y0, y1 = claim_rows(claimed, h)
+        while y0 < y1:
+            for y in range(y0, y1):
                 _rays_row(y, tri, b1, b2, surface_ids, n_objects, corners, normals, kind,
                           params, view, eye, p00, p11, w, h, near, max_distance, rays, valid)
+            y0, y1 = claim_rows(claimed, h)
 
 
 @njit(cache=True)

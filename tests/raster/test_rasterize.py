@@ -457,6 +457,44 @@ def test_claim_hands_out_each_piece_once():
     assert three(fast) == tuple(naive_claim(slow) for _ in range(3))
 
 
+@pytest.mark.parametrize("h", [1, 3, 4, 5, 480])
+def test_claim_rows_hands_out_each_row_once(h):
+    """parallel.claim_rows: bands of ROWS_PER_CLAIM rows, the last one cut at h, then empty
+    bands; over two threads every row is handed out exactly once."""
+    from numba import njit, prange
+
+    from reflectcli.parallel import ROWS_PER_CLAIM, claim_rows
+
+    @njit(parallel=True)
+    def rows(h, workers, out, counter):
+        for w in prange(workers):
+            y0, y1 = claim_rows(counter, h)
+            while y0 < y1:
+                for y in range(y0, y1):
+                    out[y] += w + 1
+                y0, y1 = claim_rows(counter, h)
+
+    out, counter = np.zeros(h, np.int64), np.zeros(1, np.int64)
+    rows(h, 2, out, counter)
+    assert np.isin(out, (1, 2)).all()
+
+    @njit
+    def bands(h, counter):
+        found = []
+        y0, y1 = claim_rows(counter, h)
+        while y0 < y1:
+            found.append((y0, y1))
+            y0, y1 = claim_rows(counter, h)
+        return found
+
+    from naive import claim_rows as naive_claim_rows
+
+    slow = np.zeros(1, np.int64)
+    want = [naive_claim_rows(slow, h, ROWS_PER_CLAIM) for _ in range(-(-h // ROWS_PER_CLAIM))]
+    assert bands(h, np.zeros(1, np.int64)) == want
+    assert naive_claim_rows(slow, h, ROWS_PER_CLAIM)[0] == h  # then empty
+
+
 def test_stencil_box_matches_twin():
     """The masked pass's box against numpy's any along each axis: empty, one pixel at each
     corner, full, thin lines, random sparse stencils and widths not a multiple of 8."""
