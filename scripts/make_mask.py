@@ -67,18 +67,22 @@ def make_mask():
     return mesh
 
 
+def write_ply(mesh, out: Path) -> None:
+    """The mesh as binary PLY at `out`, through a temporary name (the same bytes each run)."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.name + ".tmp")
+    tmp.write_bytes(mesh.export(file_type="ply", encoding="binary"))
+    tmp.replace(out)
+    print(f"{out}: {len(mesh.vertices)} vertices, {len(mesh.faces)} triangles")
+
+
 def main(argv: list[str]) -> int:
     out = (
         Path(argv[1])
         if len(argv) > 1
         else (Path(__file__).resolve().parents[1] / "scenes" / "assets" / "mask.ply")
     )
-    mesh = make_mask()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".tmp")
-    tmp.write_bytes(mesh.export(file_type="ply", encoding="binary"))
-    tmp.replace(out)
-    print(f"{out}: {len(mesh.vertices)} vertices, {len(mesh.faces)} triangles")
+    write_ply(make_mask(), out)
     return 0
 
 

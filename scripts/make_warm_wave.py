@@ -34,13 +34,11 @@ def make_wave():
 
 
 def main(argv: list[str]) -> int:
+    from make_mask import write_ply  # this folder's: run as a script, it is on the path
+
     root = Path(__file__).resolve().parents[1]
     out = Path(argv[1]) if len(argv) > 1 else root / "reflectcli" / "data" / "warm-up-wave.ply"
-    mesh = make_wave()
-    tmp = out.with_name(out.name + ".tmp")
-    tmp.write_bytes(mesh.export(file_type="ply", encoding="binary"))
-    tmp.replace(out)
-    print(f"{out}: {len(mesh.vertices)} vertices, {len(mesh.faces)} triangles")
+    write_ply(make_wave(), out)
     return 0
 
 

@@ -25,16 +25,8 @@ def folder_lock(folder: str, source: str, field: str = "") -> Iterator[None]:
             raise
         raise Problems([Problem(source, field, f"'{path}' is a symbolic link; reflect "
                                 "writes no file through a link (remove it)")]) from None
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise Problems([Problem(source, field, f"{folder} is being written by another "
-                                                   "bench; wait for it or use another --out")]
-                           ) from None
+    with _held(fd, folder, source, field, "bench"):
         yield
-    finally:
-        os.close(fd)
 
 
 @contextlib.contextmanager
@@ -44,13 +36,20 @@ def frame_folder_lock(folder: str, source: str, field: str = "") -> Iterator[Non
     The lock is on the folder itself (flock on its descriptor), so no lock file is left
     among the frames; released when the process ends, however."""
     fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+    with _held(fd, folder, source, field, "render"):
+        yield
+
+
+@contextlib.contextmanager
+def _held(fd: int, folder: str, source: str, field: str, writer: str) -> Iterator[None]:
+    """An exclusive flock on `fd` for the body, else one line: another `writer` holds it.
+    Closes `fd` either way."""
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             raise Problems([Problem(source, field, f"{folder} is being written by another "
-                                                   "render; wait for it or use another --out")]
-                           ) from None
+                                    f"{writer}; wait for it or use another --out")]) from None
         yield
     finally:
         os.close(fd)
