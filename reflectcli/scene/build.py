@@ -283,8 +283,8 @@ def _room_bounds(cfg: SceneConfig, meshes) -> np.ndarray | None:
 
 def build_scene(cfg: SceneConfig, source: str, prov: dict | None = None) -> Scene:
     """Build the scene; raises Problems naming the file and field for what cannot be built.
-    `prov`: load_config's provenance, naming the file a field came from in the world-space
-    coordinate check (else `source`)."""
+    `prov`: load_config's provenance, naming the file a field came from (an include,
+    `--set`) in every message (else `source`)."""
     from ..config.load import origin
 
     def where(loc: tuple) -> str:
@@ -298,7 +298,8 @@ def build_scene(cfg: SceneConfig, source: str, prov: dict | None = None) -> Scen
             meshes.append(object_mesh(obj, source))
         except (OSError, ValueError) as e:
             field = "path" if obj.shape == "mesh" else "shape"
-            problems.append(Problem(source, f"objects.{i}.{field}", str(e).splitlines()[0]))
+            problems.append(Problem(where(("objects", i, field)), f"objects.{i}.{field}",
+                                    str(e).splitlines()[0]))
             meshes.append(None)
     mirror_parts: list[Triangles] = []
     mirror_pieces: list[Pieces] = []
@@ -309,7 +310,8 @@ def build_scene(cfg: SceneConfig, source: str, prov: dict | None = None) -> Scen
             mesh, is_exact = mirror_mesh(m, source)
         except (OSError, ValueError) as e:
             field = "profile" if m.shape == "extrusion" else "path"
-            problems.append(Problem(source, f"mirrors.{j}.{field}", str(e).splitlines()[0]))
+            problems.append(Problem(where(("mirrors", j, field)), f"mirrors.{j}.{field}",
+                                    str(e).splitlines()[0]))
             continue
         if (far := too_far("mirrors", j, m, reach(mesh.corners), where)) is not None:
             problems.append(far)

@@ -200,6 +200,20 @@ def test_world_coordinate_limit_names_the_file_the_transform_came_from(tmp_path)
     assert not (tmp_path / "o").exists()
 
 
+def test_a_mesh_file_refused_at_build_names_the_include_it_came_from(tmp_path):
+    """A mesh file refused when the scene is built (here: coordinates past 1e9) is named
+    with the file its object or mirror came from, as the world-space limit is; the line
+    named the including scene."""
+    (tmp_path / "m.obj").write_text("v 1e30 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n")
+    scene = write(tmp_path, "s.toml", 'include = ["part.toml"]\n')
+    for section in ("objects", "mirrors"):
+        extra = MESH_OBJECT if section == "objects" else (
+            '\n[[mirrors]]\nname = "m"\nshape = "mesh"\npath = "m.obj"\n')
+        write(tmp_path, "part.toml", TINY + extra)
+        with chdir(tmp_path):
+            check_bad(scene, f"part.toml: {section}.1.path:", "coordinates", "1e+09")
+
+
 def test_mesh_in_millimetres_scaled_by_its_transform_renders(tmp_path):
     """A mesh with coordinates past 1e6 in its file, brought into the scene by its
     object's transform (no `fit`), was refused though its world-space geometry is small."""
