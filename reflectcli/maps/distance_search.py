@@ -230,7 +230,7 @@ def search_texels(q: np.ndarray, surface: np.ndarray) -> tuple[np.ndarray, np.nd
 @njit(cache=True)
 def _search_work(layers):
     """A ray's per-layer test values at two samples (g, distance, id at t_prev; the same at
-    t), allocated once per row rather than per ray."""
+    t), allocated once per worker of _search_pixels and reused ray to ray, not per ray."""
     return (np.empty(layers), np.empty(layers), np.empty(layers, np.int64),
             np.empty(layers), np.empty(layers), np.empty(layers, np.int64))
 
