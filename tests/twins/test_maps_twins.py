@@ -49,6 +49,38 @@ def test_image_sample_matches_twin(res, bilinear):
                                    image_sample(image, u, v, bilinear), rtol=1e-6, atol=1e-7)
 
 
+def _filled_array(image, u, v, bilinear):
+    """image_sample as it was before it returned a tuple: the float64 sums of the kernel,
+    in its order, stored into a float32 array of 3."""
+    res = image.shape[0]
+    img = image.astype(np.float64)
+    fx, fy = u * res, v * res
+    if not bilinear or res == 1:
+        x, y = min(max(int(fx), 0), res - 1), min(max(int(fy), 0), res - 1)
+        return img[y, x].astype(np.float32)
+    fx, fy = min(max(fx - 0.5, 0.0), res - 1.0), min(max(fy - 0.5, 0.0), res - 1.0)
+    x0, y0 = min(int(fx), res - 2), min(int(fy), res - 2)
+    ax, ay = fx - x0, fy - y0
+    return np.array([(1 - ax) * (1 - ay) * img[y0, x0, c] + ax * (1 - ay) * img[y0, x0 + 1, c]
+                     + (1 - ax) * ay * img[y0 + 1, x0, c] + ax * ay * img[y0 + 1, x0 + 1, c]
+                     for c in range(3)], np.float32)
+
+
+@pytest.mark.parametrize("bilinear", [False, True])
+@pytest.mark.parametrize("res", [1, 2, 5])
+def test_image_sample_tuple_has_the_arrays_bits(res, bilinear):
+    """The (r, g, b) tuple holds the bits the float32 array it replaced held (rounded once
+    from the float64 sum): the speed change kept every map lookup's bytes. The twin test
+    above allows 1e-6, which a float64 result or a second rounding would pass."""
+    rng = np.random.default_rng(10 + res)
+    image = rng.random((res, res, 3)).astype(np.float32)
+    for u, v in list(rng.uniform(-0.1, 1.1, (200, 2))) + [(0.0, 0.0), (1.0, 1.0)]:
+        got = cube.image_sample(image, u, v, bilinear)
+        assert all(float(np.float32(c)) == c for c in got)  # float32 values
+        np.testing.assert_array_equal(np.array(got, np.float32),
+                                      _filled_array(image, u, v, bilinear))
+
+
 @pytest.mark.parametrize("bilinear", [False, True])
 def test_cube_lookup_matches_twin(bilinear):
     rng = np.random.default_rng(1)
