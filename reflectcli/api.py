@@ -284,9 +284,13 @@ class OpenedScene:
     @property
     def dir_source(self) -> str:
         """The file `output.dir` came from (an include, `--set`), as messages name it."""
+        return self.source_of("output", "dir")
+
+    def source_of(self, *loc) -> str:
+        """The file the field at `loc` came from (an include, `--set`; else the scene)."""
         from .config.load import origin
 
-        return origin(self.provenance or {}, ("output", "dir"), self.display)
+        return origin(self.provenance or {}, loc, self.display)
 
     @property
     def scene_hash(self) -> str:
@@ -373,10 +377,10 @@ class OpenedScene:
                           self.technique_name)
         folder = inside(inside(root, self.name, self.display, "scene.name"),
                         self.technique_name, self.display)
-        source, field = ("--out", "") if out is not None else (self.display, "output.dir")
+        source, field = ("--out", "") if out is not None else (self.dir_source, "output.dir")
         self.check_cache()
-        check_links(root, folder, self.config.output.log, source, field, self.display,
-                    frames)
+        check_links(root, folder, self.config.output.log, source, field,
+                    self.source_of("output", "log"), frames)
         prepare_output(folder, source, field)
         remove_stale_temps(folder)
         return folder
@@ -392,7 +396,8 @@ class OpenedScene:
 
     def log_path(self, folder: str) -> str:
         """The folder's log (output.log), refused if it would leave the folder."""
-        return inside(folder, self.config.output.log, self.display, "output.log")
+        return inside(folder, self.config.output.log, self.source_of("output", "log"),
+                      "output.log")
 
     def write_frame(self, frame_index: int, folder: str, *, preview: bool | None = None,
                     repeats: int = 1, on_written: OnWritten | None = None,

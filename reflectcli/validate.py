@@ -23,21 +23,24 @@ from .errors import Problem, Problems
 from .loading import load_config
 
 
-def _check_output_folder(cfg, display: str, frames=None, dir_source: str | None = None
-                         ) -> None:
+def _check_output_folder(cfg, display: str, frames=None, prov: dict | None = None) -> None:
     """The checks render makes of its output folder, short of creating it (a folder is
-    made and removed where it would go: paths.check_writable)."""
+    made and removed where it would go: paths.check_writable). `prov`: load_config's, so
+    that a line names the file `output.dir` or `output.log` came from, as render's does."""
     from .api import check_output_root
+    from .config.load import origin
     from .output.identity import check_same_overrides, logged_rows
     from .output.paths import check_links, check_writable, inside
 
-    check_output_root(cfg.output.dir, dir_source or display, "output.dir", cfg)
+    dir_source = origin(prov or {}, ("output", "dir"), display)
+    log_source = origin(prov or {}, ("output", "log"), display)
+    check_output_root(cfg.output.dir, dir_source, "output.dir", cfg)
     folder = inside(inside(cfg.output.dir, cfg.scene.name, display, "scene.name"),
                     cfg.technique.name, display)
-    inside(folder, cfg.output.log, display, "output.log")
-    check_links(cfg.output.dir, folder, cfg.output.log, display, "output.dir", display,
+    inside(folder, cfg.output.log, log_source, "output.log")
+    check_links(cfg.output.dir, folder, cfg.output.log, dir_source, "output.dir", log_source,
                 frames)
-    check_writable(folder, display, "output.dir")
+    check_writable(folder, dir_source, "output.dir")
     # render (no --set: validate takes none) refuses a folder of other overrides' frames
     check_same_overrides(logged_rows(os.path.join(folder, cfg.output.log)), [], folder,
                          display)
@@ -68,7 +71,7 @@ def validate_file(path: str) -> str:
 
         opened = OpenedScene(cfg, path, provenance=prov)
         # render's frames, all of them
-        _check_output_folder(cfg, display, opened.frames(), opened.dir_source)
+        _check_output_folder(cfg, display, opened.frames(), prov)
         opened.check_cache()  # the default cache, beside the scene
         return "scene"
     section = create_model("Section", __base__=Strict,

@@ -220,6 +220,25 @@ def test_a_root_that_normalises_to_the_working_directory_holds_the_frames(tmp_pa
     assert files_under(tmp_path / "elsewhere") == [str(tmp_path / "elsewhere" / "sub")]
 
 
+@pytest.mark.parametrize(("section", "link", "field"), [
+    ('[output]\ndir = "o"\n', "o/tiny", "output.dir"),
+    ('[output]\nlog = "runs.jsonl"\n', "out/tiny/raytrace/runs.jsonl", "output.log"),
+])
+def test_an_output_folder_problem_names_the_include_its_field_came_from(tmp_path, section,
+                                                                          link, field):
+    """output.dir (or output.log) from an include: a link in the output folder was refused
+    naming the including scene, while a too-long output.dir named the include."""
+    write(tmp_path, "out.toml", section)
+    scene = write(tmp_path, "s.toml", 'include = ["out.toml"]\n' + TINY)
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / link).parent.mkdir(parents=True)
+    os.symlink(tmp_path / "elsewhere", tmp_path / link)
+    with chdir(tmp_path):
+        line = assert_one_line(invoke("validate", scene), f"out.toml: {field}: ")
+        assert assert_one_line(invoke("render", scene, "--frames", "0")) == line
+    assert os.listdir(tmp_path / "elsewhere") == []
+
+
 def test_resume_renders_again_a_frame_whose_file_is_not_the_one_logged(tmp_path):
     # --resume compared a frame's row with the run and kept whatever file had its name: a
     # run killed between a rename and its row, a copy of another frame, a truncated file
