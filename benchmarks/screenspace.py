@@ -89,11 +89,12 @@ def main() -> None:
             cols = ["", "", ""]
             if hit_key in f.extra and ref is not None:
                 hit = f.extra[hit_key] > 0
-                surf, _, _ = run(path, technique, size + extra + ['technique.resolve="surface"'],
-                              1)
+                # each resolve asked for by name: the row's own frame is the default's
+                pix, surf = (run(path, technique, size + extra + [f'technique.resolve="{r}"'],
+                                 1)[0][0][1] for r in ("pixel", "surface"))
                 tp = float((hit & visible).sum())
-                cols = [f"{psnr(ref.rgb[hit], f.rgb[hit]):.1f} / "
-                        f"{psnr(ref.rgb[hit], surf[0][1].rgb[hit]):.1f}",
+                cols = [f"{psnr(ref.rgb[hit], pix.rgb[hit]):.1f} / "
+                        f"{psnr(ref.rgb[hit], surf.rgb[hit]):.1f}",
                         f"{tp / max(hit.sum(), 1):.4f}", f"{tp / max(visible.sum(), 1):.4f}"]
             extra_ms = total - prim
             cell = "" if cells is None else f"{cells:.1f}"
