@@ -194,13 +194,15 @@ def resolved_threads(threads: int | None) -> int:
 
 def _timed_alike(opened, folder: str, threads: int | None) -> bool:
     """Whether the reference frames already in `folder` (if any) were timed at this thread
-    count on this CPU, so that their times may be set against this run's."""
+    count on this CPU by this code (provenance.source_digest), so that their times may be
+    set against this run's and their images stand for what this ray tracer renders."""
     from ..output.identity import logged_rows
-    from ..provenance import cpu_name
+    from ..provenance import cpu_name, source_digest
 
     frames = os.path.join(folder, opened.name, opened.technique_name)
     rows = logged_rows(os.path.join(frames, opened.config.output.log))
     return all(r.get("threads") == resolved_threads(threads) and r.get("cpu") == cpu_name()
+               and r.get("versions", {}).get("source") == source_digest()
                for r in rows.values())
 
 

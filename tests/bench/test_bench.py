@@ -447,6 +447,41 @@ set = ["camera.width=32", "camera.height=24"]
     assert read_jsonl(str(ref_log))[-1]["threads"] == 1
 
 
+def test_a_reference_rendered_by_other_code_is_rendered_again(tmp_path, monkeypatch):
+    """The version number is not raised per change: a reference's frames and times are
+    reused only under the same digest of reflect's files (provenance.source_digest), or
+    `x raytrace` and the PSNR columns would set this run against an older ray tracer."""
+    from reflectcli import provenance
+
+    path = tmp_path / "src.toml"
+    path.write_text(f"""
+[bench]
+name = "src"
+frames = "0"
+out = "out-src"
+plots = false
+
+[[runs]]
+scenes = ["{ROOT / 'scenes' / 'teapot-box.toml'}"]
+techniques = ["rerender"]
+set = ["camera.width=32", "camera.height=24"]
+""")
+
+    def reference_renders() -> int:
+        (log,) = (tmp_path / "out-src" / "references").rglob("timings.jsonl")
+        return len(read_jsonl(str(log)))
+
+    run_bench(str(path))
+    first = reference_renders()
+    run_bench(str(path))
+    assert reference_renders() == first  # the same code: reused
+    monkeypatch.setattr(provenance, "source_digest", lambda: "another")
+    run_bench(str(path))
+    assert reference_renders() > first  # other code: rendered again
+    (row,) = read_jsonl(str(tmp_path / "out-src" / "results.jsonl"))[-1:]
+    assert row["versions"]["source"] == provenance.versions()["source"]
+
+
 def test_contact_sheet_titles_say_whose_figures_they_are(tmp_path, monkeypatch):
     """The error map is one frame's; the mirror figure beside it is the run's HDR-FLIP over
     every frame. The title read 'LDR-FLIP 0.020, mirror 0.156' as if both were this frame's
