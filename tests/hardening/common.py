@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import multiprocessing
 import os
 from pathlib import Path
 
@@ -61,3 +63,25 @@ def chdir(path: Path):
             os.chdir(self.old)
 
     return _Cd()
+
+
+def _hold(lock, folder: str, ready, release) -> None:
+    with lock(folder, "x"):
+        ready.set()
+        release.wait(30)
+
+
+@contextlib.contextmanager
+def held_elsewhere(lock, folder: Path):
+    """`lock(folder, ...)` (output/lock.py) held by another process for the body, as a
+    render or bench running beside this one holds it."""
+    ready, release = multiprocessing.Event(), multiprocessing.Event()
+    holder = multiprocessing.get_context("fork").Process(
+        target=_hold, args=(lock, str(folder), ready, release))
+    holder.start()
+    try:
+        assert ready.wait(30)
+        yield
+    finally:
+        release.set()
+        holder.join(30)

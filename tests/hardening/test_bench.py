@@ -10,7 +10,7 @@ from reflectcli.bench import runner
 from reflectcli.errors import Problems
 from reflectcli.output.lock import folder_lock
 
-from .common import TINY, assert_one_line, chdir, invoke, write
+from .common import TINY, assert_one_line, chdir, held_elsewhere, invoke, write
 
 BENCH = ('[bench]\nname = "b"\nframes = "0"\nplots = false\n'
          '[[runs]]\nscenes = ["s.toml"]\ntechniques = ["raster"]\n')
@@ -59,23 +59,7 @@ def test_scheduler_connection_has_a_timeout():
 def test_second_bench_on_one_folder_stops(tmp_path):
     write(tmp_path, "s.toml", TINY)
     bench = write(tmp_path, "b.toml", BENCH)
-    import multiprocessing
+    with held_elsewhere(folder_lock, tmp_path / "o"), chdir(tmp_path):
+        result = invoke("bench", bench, "--out", tmp_path / "o")
+    assert_one_line(result, "--out:", "is being written by another bench")
 
-    ready, release = multiprocessing.Event(), multiprocessing.Event()
-    holder = multiprocessing.get_context("fork").Process(
-        target=_hold, args=(str(tmp_path / "o"), ready, release))
-    holder.start()
-    try:
-        assert ready.wait(30)
-        with chdir(tmp_path):
-            result = invoke("bench", bench, "--out", tmp_path / "o")
-        assert_one_line(result, "--out:", "is being written by another bench")
-    finally:
-        release.set()
-        holder.join(30)
-
-
-def _hold(folder, ready, release):
-    with folder_lock(folder, "x"):
-        ready.set()
-        release.wait(30)
