@@ -96,7 +96,7 @@ def test_the_warm_up_makes_its_maps_small(name):
     params = cls.Params.model_validate({"name": name, **asked})
     warm = cls.Params.model_validate_json(warmup.warm_params(params.model_dump_json()))
     holder = warm.maps if name == "dprm" else warm.explosion if name == "virtual" else warm
-    assert holder.resolution == max(warmup.WARM_MAP_SIDE, 16 if name == "virtual" else 0)
+    assert holder.resolution == warmup.WARM_MAP_SIDE
     if name == "dprm":
         assert (warm.maps.count, warm.maps.per_frame) == (warmup.WARM_MAPS, warmup.WARM_MAPS)
     if name == "distmap":

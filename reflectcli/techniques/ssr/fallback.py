@@ -60,7 +60,7 @@ class Fallback:
 
             # missed pixels hold (1 - r) * base and lookups add r * map, in place; the
             # lookups run on the missed pixels only (their surface ids, -1 elsewhere)
-            missed_ids = np.where(miss, surface, -1).astype(surface.dtype)
+            missed_ids = np.where(miss, surface, -1).astype(surface.dtype, copy=False)
             dummy = np.zeros((1, 1, 3), np.float32)
             box = self.state.box
             for k, record in enumerate(self.state.maps):
