@@ -365,25 +365,52 @@ class OpenedScene:
         # (linear rgb, eye-space depth, surface ids, mirror mask)
         return self.technique.render(state, frame_index, camera)
 
-    def output_folder(self, out: str | None = None, frames: range | list[int] | None = None
-                      ) -> str:
-        """<out or output.dir>/<scene>/<technique>/, created and proven writable (the scene
-        is built first: it may still reject input before any folder is made); `frames`: the
-        frames to be written (their names must be free for files: paths.check_links)."""
-        self.build()
+    def check_output(self, out: str | None = None,
+                     frames: range | list[int] | None = None) -> str:
+        """Every check render makes before it writes anything, after the scene file and
+        --frames are read (open_render), in render's order and writing nothing: --threads,
+        the scene build, the output root (--out or output.dir: empty, too long for the file
+        system), the frame folder's path, the map cache folder, links and non-files at the
+        names a render writes (`frames`: the frames to be written; paths.check_links),
+        whether the frame folder can be made and written into (a folder is made and removed
+        where it would go: paths.check_writable), and frames of other --set overrides in it.
+        `reflect validate` runs this; render runs it, then makes the folder. The folder:
+        <out or output.dir>/<scene>/<technique>/."""
+        check_threads(self.threads)  # before the build and the folder, as any bad argument
+        self.build()  # the scene may still reject input before any folder is looked at
         root = out if out is not None else self.config.output.dir
-        check_output_root(root, "--out" if out is not None else self.dir_source,
-                          "" if out is not None else "output.dir", self.config,
-                          self.technique_name)
+        source, field = self.folder_source(out)
+        check_output_root(root, source, field, self.config, self.technique_name)
         folder = inside(inside(root, self.name, self.display, "scene.name"),
                         self.technique_name, self.display)
-        source, field = ("--out", "") if out is not None else (self.dir_source, "output.dir")
         self.check_cache()
         check_links(root, folder, self.config.output.log, source, field,
                     self.source_of("output", "log"), frames)
-        prepare_output(folder, source, field)
+        check_writable(folder, source, field)
+        self.check_overrides(folder)
+        return folder
+
+    def folder_source(self, out: str | None) -> tuple[str, str]:
+        """Where the output folder came from, as messages name it: `--out`, or the file
+        `output.dir` came from and the field."""
+        return ("--out", "") if out is not None else (self.dir_source, "output.dir")
+
+    def output_folder(self, out: str | None = None, frames: range | list[int] | None = None
+                      ) -> str:
+        """<out or output.dir>/<scene>/<technique>/, checked (check_output), then created and
+        proven writable; `frames`: the frames to be written."""
+        folder = self.check_output(out, frames)
+        prepare_output(folder, *self.folder_source(out))
         remove_stale_temps(folder)
         return folder
+
+    def check_overrides(self, folder: str) -> dict[str, dict]:
+        """The last log row of each frame in `folder`'s log, refused in one line if frames
+        still there were rendered with other --set overrides than this run's."""
+        stored = logged_rows(self.log_path(folder))
+        check_same_overrides(stored, self.overrides, folder,
+                             "--set" if self.overrides else self.display)
+        return stored
 
     def check_cache(self) -> None:
         """A map technique's cache folder must be one it can make and write into: refused in
@@ -484,10 +511,8 @@ class OpenedScene:
         frame renders (`reflect render` does; the bench does not, and repeats never do, so
         that their times are the render's alone). Rows rendered so are marked
         `writes_overlapped`."""
-        check_threads(self.threads)  # before the build and the folder, as any bad argument
         result = RenderResult(self.output_folder(out, frame_indices))
-        source, field_ = ("--out", "") if out is not None else (self.display, "output.dir")
-        with frame_folder_lock(result.folder, source, field_):
+        with frame_folder_lock(result.folder, *self.folder_source(out)):
             return self._write_frames_locked(result, frame_indices, preview=preview,
                                              resume=resume, on_frame=on_frame,
                                              repeats=repeats, overlap_writes=overlap_writes)
@@ -498,9 +523,9 @@ class OpenedScene:
                              overlap_writes: bool) -> RenderResult:
         """write_frames' work, with the frame folder held by this process alone."""
         result.log = self.log_path(result.folder)
-        stored = logged_rows(result.log)
-        check_same_overrides(stored, self.overrides, result.folder,
-                             "--set" if self.overrides else self.display)
+        # checked before the folder was made (check_output), and again now that it is held:
+        # a render that ended in between may have left frames of other overrides
+        stored = self.check_overrides(result.folder)
         rows: list[dict] = []  # this call's log rows: the timings summary
         writer = FrameWriter(overlap=overlap_writes and repeats == 1)
         try:
@@ -586,6 +611,30 @@ def open_scene(path: str, *, overrides: tuple[str, ...] | list[str] = (),
     config, provenance = load_config(path, overrides, technique)
     return OpenedScene(config, path, threads=threads, cache=cache, technique_option=technique,
                        overrides=overrides, provenance=provenance)
+
+
+def open_render(path: str, *, frames: str | None = None, technique: str | None = None,
+                overrides: tuple[str, ...] | list[str] = (), threads: int | None = None,
+                cache: str | None = None) -> tuple[OpenedScene, range]:
+    """`reflect render`'s arguments and scene file, checked in render's order before any
+    folder is looked at: the --technique name (before the file is read), the scene with its
+    overrides and technique, the --frames selection. The opened scene and its frames; the
+    checks that follow are OpenedScene.check_output (validate) or write_frames (render)."""
+    check_technique(technique)
+    scene = open_scene(path, overrides=overrides, technique=technique, threads=threads,
+                       cache=cache)
+    return scene, scene.frames(frames)
+
+
+def frames_past_end(spec: str | None, count: int) -> str | None:
+    """`--frames A:B` with B past the path's end renders up to its end: the warning that
+    says so (None when B is within the path)."""
+    if spec and ":" in spec:
+        end = spec.split(":")[1]
+        if end.lstrip("-").isdigit() and int(end) > count:
+            return (f"--frames: the camera path has {count} frame(s) (0..{count - 1}); "
+                    f"rendering up to frame {count - 1}")
+    return None
 
 
 # --- what the CLI and the bench call --------------------------------------------------------

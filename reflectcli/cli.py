@@ -120,29 +120,41 @@ def cli() -> None:
     """Render mirror reflections with several techniques and compare them."""
 
 
+def _render_options(validating: bool = False):
+    """`reflect render`'s options, which `reflect validate` takes too (`validating`): a
+    render command line validates as it is, with the word changed."""
+    options = [
+        click.option("--out", "out", type=click.Path(file_okay=False), callback=_folder,
+                     help="output root (default: output.dir)"),
+        click.option("--frames", help="frame N, or frames A:B (B excluded)"),
+        click.option("--technique", help="render with this technique instead of the scene's"),
+        click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+                     help="override any config field, e.g. technique.max_depth=2 "
+                          "(repeatable)"),
+        click.option("--preview/--no-preview", default=None,
+                     help="accepted, so a render command line validates unchanged; adds "
+                          "no check (the PNG names are checked either way)" if validating else
+                          "also write an sRGB PNG per frame"),
+        click.option("--threads", type=int, help="worker threads (default: all cores)"),
+        click.option("--resume", is_flag=True,
+                     help="accepted, so a render command line validates unchanged; adds "
+                          "no check" if validating else
+                          "skip frames whose EXR already exists"),
+        click.option("--cache", type=click.Path(file_okay=False), callback=_folder,
+                     help="map cache folder (default: .reflect-cache/ beside the scene)"),
+    ]
+
+    def decorate(command):
+        for option in reversed(options):
+            command = option(command)
+        return command
+
+    return decorate
+
+
 @cli.command()
 @click.argument("scene", type=click.Path(dir_okay=False))
-@click.option(
-    "--out", "out", type=click.Path(file_okay=False), callback=_folder,
-    help="output root (default: output.dir)",
-)
-@click.option("--frames", help="frame N, or frames A:B (B excluded)")
-@click.option("--technique", help="render with this technique instead of the scene's")
-@click.option(
-    "--set",
-    "overrides",
-    multiple=True,
-    metavar="KEY=VALUE",
-    help="override any config field, e.g. technique.max_depth=2 (repeatable)",
-)
-@click.option("--preview/--no-preview", default=None, help="also write an sRGB PNG per frame")
-@click.option("--threads", type=int, help="worker threads (default: all cores)")
-@click.option("--resume", is_flag=True, help="skip frames whose EXR already exists")
-@click.option(
-    "--cache",
-    type=click.Path(file_okay=False), callback=_folder,
-    help="map cache folder (default: .reflect-cache/ beside the scene)",
-)
+@_render_options()
 def render(scene, out, frames, technique, overrides, preview, threads, resume, cache) -> None:
     """Render SCENE (a TOML file) to out/<scene>/<technique>/frame_NNNN.exr."""
     from . import api
@@ -150,11 +162,13 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
     progress = None
     done: list[str] = []
     try:
-        api.check_technique(technique)
-        opened = api.open_scene(scene, overrides=overrides, technique=technique,
-                                threads=threads, cache=cache)
-        selected = opened.frames(frames)
-        _warn_frames_past_end(frames, opened.frame_count)
+        # render's checks before it writes anything: these, then write_frames' (folders);
+        # `reflect validate` runs the same (validate.py)
+        opened, selected = api.open_render(scene, frames=frames, technique=technique,
+                                           overrides=overrides, threads=threads, cache=cache)
+        warning = api.frames_past_end(frames, opened.frame_count)
+        if warning:
+            click.echo(warning, err=True)
         if len(selected) > 1:
             progress = _open_bar(len(selected), "frames")
 
@@ -180,15 +194,6 @@ def render(scene, out, frames, technique, overrides, preview, threads, resume, c
     click.echo(f"wrote {len(result.written)} frame(s) to {result.folder}{skipped}")
     if result.timing_warning:
         click.echo(f"warning: {result.timing_warning} (timings-summary.json)", err=True)
-
-
-def _warn_frames_past_end(spec: str | None, count: int) -> None:
-    """`--frames A:B` with B past the path's end renders up to its end: say so."""
-    if spec and ":" in spec:
-        end = spec.split(":")[1]
-        if end.lstrip("-").isdigit() and int(end) > count:
-            click.echo(f"--frames: the camera path has {count} frame(s) (0..{count - 1}); "
-                       f"rendering up to frame {count - 1}", err=True)
 
 
 def _write_failed(e: OSError) -> None:
@@ -400,17 +405,27 @@ def compare(first, second, mask_channel, threshold, metrics) -> None:
 
 @cli.command()
 @click.argument("file", type=click.Path(dir_okay=False))
-def validate(file) -> None:
-    """Check a scene or config FILE; print `ok` or one line per problem."""
-    from .validate import validate_file
+@_render_options(validating=True)
+def validate(file, out, frames, technique, overrides, preview, threads, resume, cache) -> None:
+    """Check a scene or config FILE; print `ok` or one line per problem (exit code 2).
 
+    A scene gets every check `reflect render FILE` with the same options makes before it
+    writes anything: the options, the scene, its frames, output folder and map cache. A
+    bench file is checked as `reflect bench` would check it (with --out, --set, --threads),
+    a file without [scene] as an include or section file. Nothing is left on disk: no
+    output or cache folder, no lock, no log (a probe folder is made and removed at once
+    where a missing folder would be made, as render would make it)."""
+    from .validate import RenderOptions, validate_file
+
+    options = RenderOptions(out=out, frames=frames, technique=technique,
+                            overrides=tuple(overrides), threads=threads, cache=cache)
     try:
-        kind = validate_file(file)
+        checked = validate_file(file, options)
     except Problems as e:
         _fail(e, stream=sys.stdout)
     click.echo("ok")
-    if kind != "scene":
-        click.echo(f"checked as a {kind}", err=True)
+    for note in checked.notes:
+        click.echo(note, err=True)
 
 
 @cli.command()

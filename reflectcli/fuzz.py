@@ -258,7 +258,7 @@ def check(scene_path: str, out: str, cache: str, render: bool = True) -> dict:
 
     result: dict = {"failure": None}
     try:
-        kind = validate_file(scene_path)
+        kind = validate_file(scene_path).kind
         result["validate"] = "ok"
     except Problems as e:
         kind = None
