@@ -7,7 +7,7 @@ render run for hours before its first frame or allocate more memory than a machi
 | mesh file, with the glTF buffers, OBJ materials, textures it names | 512 MiB |
 | texture file                           | 256 MiB               |
 | texture dimensions                     | 16384 x 16384 texels, 64 Mtexels |
-| image file `compare` reads             | 4 GiB; the image size limits, 64 channels |
+| image file `compare` reads             | 4 GiB; the image size limits (tiles too), 64 channels |
 | include chain                          | 16 files deep         |
 | nesting of tables / arrays in a file   | 24 levels             |
 | image width, height                    | 16384 pixels each, 64 Mpixels |

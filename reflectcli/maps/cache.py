@@ -2,7 +2,9 @@
 
 One EXR per map, named <kind>-<key>.exr, written atomically. A file that cannot be read, or
 whose parts or recorded key do not match, is reported in one line, deleted and recaptured:
-a damaged cache never stops a render.
+a damaged cache never stops a render. Its headers are checked against the map looked up
+(MapShape) before any pixel is read: a file at a map's name whose header claims more parts,
+texels or channels than that map has would otherwise allocate what it claims.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import stat
 from collections.abc import Callable
 from typing import NamedTuple
 
-from ..output.exr import read_exr_parts, write_exr_parts
+from ..output.exr import read_exr_parts, size_problem, write_exr_parts
 from ..output.failures import reason, write_failure
 from ..output.paths import remove_stale_temps
 
@@ -35,6 +37,23 @@ class RemoveFailed(OSError):
     def __init__(self, path: str, reason: str) -> None:
         super().__init__(f"{path}: cannot remove ({reason})")
         self.path, self.reason = path, reason
+
+
+class MapShape(NamedTuple):
+    """What a stored map is: `parts` parts of `side` x `side` texels of `channels` channels."""
+
+    parts: int
+    side: int
+    channels: int
+
+    def problem(self, index: int, spec) -> str | None:
+        """Why part `index`'s header claims more than this map holds, or None (read_exr_parts'
+        `fits`): a part within the bounds is read, and `valid` checks its exact shape."""
+        if index >= self.parts:
+            return f"more than the map's {self.parts} part(s)"
+        if spec.deep:
+            return "deep (per-pixel samples), which no map is"
+        return size_problem(spec, self.side, self.side * self.side, self.channels)
 
 
 class Cleared(NamedTuple):
@@ -62,8 +81,9 @@ class MapCache:
     def path(self, kind: str, key: str) -> str | None:
         return None if self.root is None else os.path.join(self.root, f"{kind}-{key[:32]}.exr")
 
-    def load(self, kind: str, key: str, valid: Callable[[list], bool]):
-        """The stored parts for (kind, key), or None if absent or damaged (then deleted)."""
+    def load(self, kind: str, key: str, shape: MapShape, valid: Callable[[list], bool]):
+        """The stored parts for (kind, key), or None if absent or damaged (then deleted).
+        `shape` bounds the headers before any pixel is read; `valid` checks the parts read."""
         path = self.path(kind, key)
         if path is None or not os.path.lexists(path):
             return None
@@ -71,7 +91,7 @@ class MapCache:
             if not stat.S_ISREG(os.stat(path).st_mode):
                 # a named pipe blocked OpenImageIO's open for good (deaf to SIGTERM)
                 raise OSError("not a regular file")
-            parts = read_exr_parts(path)
+            parts = read_exr_parts(path, shape.problem)
         except OSError as e:
             reason = str(e).splitlines()[0]
             parts = None

@@ -29,8 +29,8 @@ class Comparison:
 def input_problem(path: str) -> str | None:
     """Why `path` is no image `compare` may read, or None: only a regular file within the
     size limit (a named pipe blocked OpenImageIO's open for good, deaf to SIGTERM), and a
-    header within the render's image limits (a 7 MB tiled EXR claiming 60000 x 60000 pixels
-    was a MemoryError traceback)."""
+    header within the render's image limits, its tiles too (a 7 MB tiled EXR claiming
+    60000 x 60000 pixels was a MemoryError traceback: output/exr.size_problem)."""
     import OpenImageIO as oiio
 
     from ..config.files import file_problem
@@ -40,6 +40,7 @@ def input_problem(path: str) -> str | None:
         MAX_IMAGE_PIXELS,
         MAX_IMAGE_SIDE,
     )
+    from ..output.exr import size_problem
 
     reason = file_problem(path, MAX_IMAGE_FILE_BYTES, "image file")
     if reason is not None:
@@ -51,12 +52,7 @@ def input_problem(path: str) -> str | None:
         spec = inp.spec()
     finally:
         inp.close()
-    if (max(spec.width, spec.height) > MAX_IMAGE_SIDE
-            or spec.width * spec.height > MAX_IMAGE_PIXELS or spec.nchannels > MAX_IMAGE_CHANNELS):
-        return (f"{spec.width}x{spec.height} pixels of {spec.nchannels} channels; the limit is "
-                f"{MAX_IMAGE_SIDE} a side, {MAX_IMAGE_PIXELS} pixels, {MAX_IMAGE_CHANNELS} "
-                "channels")
-    return None
+    return size_problem(spec, MAX_IMAGE_SIDE, MAX_IMAGE_PIXELS, MAX_IMAGE_CHANNELS)
 
 
 def _read(path: str, mask_channel: str | None) -> tuple[dict, dict]:

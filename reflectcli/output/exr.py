@@ -6,6 +6,8 @@ give byte-identical files (timings live in the log, never in the image).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from .atomic import atomic_path
@@ -137,11 +139,32 @@ def write_exr_parts(
             raise image_failure(path, oiio.geterror())
 
 
-def read_exr_parts(path: str) -> list[tuple[str, dict[str, np.ndarray], dict[str, str]]]:
+def size_problem(spec, side: int, pixels: int, channels: int) -> str | None:
+    """Why an image header claims more than `side` pixels a side, `pixels` pixels or
+    `channels` channels, in the image or in one tile, or None. The header alone: checked
+    before any pixel is read, a file's claims bound what reading it allocates (a 7 MB tiled
+    EXR claiming 60000 x 60000 pixels was a MemoryError in `compare`; a 385-byte one claiming
+    64 x 64 pixels in tiles of 20000 x 20000 another)."""
+    if (max(spec.width, spec.height) > side or spec.width * spec.height > pixels
+            or spec.nchannels > channels):
+        return (f"{spec.width}x{spec.height} pixels of {spec.nchannels} channels; the limit is "
+                f"{side} a side, {pixels} pixels, {channels} channels")
+    if max(spec.tile_width, spec.tile_height) > side or spec.tile_width * spec.tile_height > pixels:
+        return (f"tiles of {spec.tile_width}x{spec.tile_height} pixels; the limit is {side} a "
+                f"side, {pixels} pixels")
+    return None
+
+
+def read_exr_parts(
+    path: str, fits: Callable[[int, object], str | None] | None = None,
+) -> list[tuple[str, dict[str, np.ndarray], dict[str, str]]]:
     """Every part of an EXR: (name, channels by name, attributes). Raises OSError if unreadable.
 
-    Reads each part with the explicit subimage argument (after seek_subimage, the short
-    read_image forms silently return part 0)."""
+    `fits(index, spec)` sees each part's header before any pixel of any part is read and says
+    why the file is refused (raised as an OSError `part <index>: <why>`), or None: what a
+    caller expects bounds what the read allocates. Reads each part with the explicit
+    subimage argument (after seek_subimage, the short read_image forms silently return
+    part 0)."""
     import OpenImageIO as oiio
 
     inp = oiio.ImageInput.open(path)
@@ -149,6 +172,12 @@ def read_exr_parts(path: str) -> list[tuple[str, dict[str, np.ndarray], dict[str
         raise OSError(f"cannot read {path}: {oiio.geterror()}")
     parts = []
     try:
+        index = 0
+        while fits is not None and inp.seek_subimage(index, 0):
+            problem = fits(index, inp.spec())
+            if problem is not None:
+                raise OSError(f"part {index}: {problem}")
+            index += 1
         index = 0
         while inp.seek_subimage(index, 0):
             spec = inp.spec()

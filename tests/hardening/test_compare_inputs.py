@@ -1,6 +1,7 @@
 """`reflect compare`'s inputs: only regular files within the limits, each problem one line
 naming the file (a named pipe hung the command for good, deaf to SIGTERM; a small EXR whose
-header claims 60000 x 60000 pixels was a MemoryError traceback)."""
+header claims 60000 x 60000 pixels, or 64 x 64 in tiles of 20000 x 20000, was a MemoryError
+traceback)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import subprocess
 import sys
 
 import numpy as np
+from exr_headers import crafted_exr
 
 from .common import assert_one_line, invoke
 
@@ -41,6 +43,14 @@ def test_an_image_past_the_size_limit_is_one_line(tmp_path):
     assert os.path.getsize(tmp_path / "big.exr") < 64 << 20
     line = assert_one_line(invoke("compare", tmp_path / "big.exr", tmp_path / "big.exr"),
                            "big.exr: 60000x60000 pixels of 3 channels; the limit is 16384 a side")
+    assert "Traceback" not in line
+
+
+def test_an_image_in_tiles_past_the_size_limit_is_one_line(tmp_path):
+    # 64 x 64 pixels in one tile of 20000 x 20000: 385 bytes, a MemoryError traceback
+    crafted_exr(tmp_path / "tiles.exr", 64, 64, tile=(20000, 20000))
+    line = assert_one_line(invoke("compare", tmp_path / "tiles.exr", tmp_path / "tiles.exr"),
+                           "tiles.exr: tiles of 20000x20000 pixels; the limit is 16384 a side")
     assert "Traceback" not in line
 
 

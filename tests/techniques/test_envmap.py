@@ -7,6 +7,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 from conftest import psnr, render_frame
+from exr_headers import header_only_exr
 
 from reflectcli import api
 
@@ -86,8 +87,9 @@ def test_teapot_box_parallax_error_and_box_projection():
     assert p_box > p_plain + 3.0  # box projection fixes the walls (not the teapot)
 
 
-def test_maps_are_cached_and_damage_is_recaptured(tmp_path, caplog):
-    scene = _sky_scene(tmp_path)
+@pytest.mark.parametrize("kind", ["cube", "sphere"])
+def test_maps_are_cached_and_damage_is_recaptured(tmp_path, caplog, kind):
+    scene = _sky_scene(tmp_path, kind)
     cache = tmp_path / "cache"
     first = api.precompute(str(scene), cache=str(cache))
     assert [m.status for m in first.maps] == ["captured"]
@@ -106,4 +108,15 @@ def test_maps_are_cached_and_damage_is_recaptured(tmp_path, caplog):
     assert [m.status for m in fourth.maps] == ["captured"]
     assert any("damaged" in r.getMessage() for r in caplog.records)
     np.testing.assert_array_equal(first.maps[0].images, fourth.maps[0].images)
+    # so is a file at the map's name whose header claims 60000 x 60000 texels: its pixels
+    # never read (tests/maps/test_cache.py holds the memory to that)
+    header_only_exr(path, 60000, 60000)
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="reflect"):
+        fifth = api.precompute(str(scene), cache=str(cache))
+    assert [m.status for m in fifth.maps] == ["captured"]
+    (line,) = [r.getMessage() for r in caplog.records if "damaged" in r.getMessage()]
+    assert "part 0: 60000x60000 pixels of 3 channels; the limit is 256 a side" in line, line
+    np.testing.assert_array_equal(first.maps[0].images, fifth.maps[0].images)
+    assert [m.status for m in api.precompute(str(scene), cache=str(cache)).maps] == ["cached"]
     assert api.clear_cache(str(cache)).maps == 2

@@ -10,7 +10,7 @@ import numpy as np
 from ...camera import Camera
 from ...errors import Problem, Problems
 from ...frame import Frame
-from ...maps.cache import MapCache, cache_key
+from ...maps.cache import MapCache, MapShape, cache_key
 from ...maps.cube import FACE_NAMES, face_bases
 from ...maps.distance import capture_distance_faces, inverse_depth
 from ...maps.distance_search import search_reflections, search_texels
@@ -68,7 +68,8 @@ class Distmap(MapTechnique):
         name = scene.mirrors.names[k]
         near, far = scene_extent(scene)
         key = self._key(scene, name, point, near, far, frame_index)
-        parts = cache.load("distmap", key, lambda parts: _valid(parts, p))
+        parts = cache.load("distmap", key, MapShape(6 * p.layers, p.resolution, 5),
+                           lambda parts: _valid(parts, p))
         if parts is not None:
             shape = (p.layers, 6, p.resolution, p.resolution)
             color = np.empty(shape + (3,), np.float32)

@@ -13,7 +13,7 @@ import numpy as np
 from ...camera import Camera
 from ...frame import Frame
 from ...geometry import reflection_matrix
-from ...maps.cache import MapCache, cache_key
+from ...maps.cache import MapCache, MapShape, cache_key
 from ...maps.surface import surface_colors
 from ...maps.update import map_capture_frame
 from ...maps.warp import WarpBuffers, fill_blend, stencil_box, warp_maps
@@ -107,7 +107,8 @@ class Dprm(MapTechnique):
                             layout=p.layout, radius=radius, spread=p.spread, near=near, far=far,
                             capture_frame=at)
             start = time.perf_counter()
-            parts = cache.load("dprm", key, lambda parts: _valid(parts, p, n_triangles))
+            parts = cache.load("dprm", key, MapShape(p.count, p.resolution, 5),
+                               lambda parts: _valid(parts, p, n_triangles))
             status = "cached"
             if parts is None:
                 status = "captured"

@@ -10,7 +10,7 @@ import numpy as np
 from ...camera import Camera
 from ...errors import Problem, Problems
 from ...frame import Frame
-from ...maps.cache import MapCache, cache_key
+from ...maps.cache import MapCache, MapShape, cache_key
 from ...maps.cube import FACE_NAMES, capture_cube, face_bases
 from ...maps.lookup import CUBE, SPHERE_MAP, add_reflections
 from ...maps.sphere import sphere_from_cube
@@ -93,7 +93,8 @@ class Envmap(MapTechnique):
         name = scene.mirrors.names[k]
         key = self._key(scene, name, point, frame_index)
         expected = 6 if params.map == "cube" else 1
-        parts = cache.load("envmap", key, lambda p, n=expected: _valid(p, n, params))
+        parts = cache.load("envmap", key, MapShape(expected, params.resolution, 3),
+                           lambda p, n=expected: _valid(p, n, params))
         status = "cached"
         if parts is None:
             status = "captured"
