@@ -23,19 +23,38 @@ from ..reflection import reflected_ray
 # 12 n.v (cosine between normal and view vector), 13 ray length L (clipped at the near plane),
 # 14-16 screen start (x, y, q), 17-19 screen end (x, y, q)
 RAY_COLS = 20
+# mirror_rays' arrays in a workspace kept across frames
+TABLE = "mirror_rays"
+VALID = "mirror_rays_valid"
 
 
-def mirror_rays(buffers, surface_ids, n_objects, tris, mirrors, camera, max_distance):
+def mirror_rays(buffers, surface_ids, n_objects, tris, mirrors, camera, max_distance,
+                workspace=None):
     """(rays (H, W, RAY_COLS) float32, valid (H, W) bool): one reflected ray per mirror pixel.
 
     The ray starts at the mirror pixel's point (barycentric on the rasterized triangle) with
     the mirror's normal there (exact for planes, spheres and cylinders, interpolated for
     meshes), turned toward the viewer: r = 2 n (n.v) - v. It is `max_distance` long, clipped
     where it would cross the near plane.
+
+    `workspace` (a RasterWorkspace): both arrays are its own, kept from frame to frame (the
+    table is 24.6 MB at 640 x 480, faulted in again each frame when fresh), valid until the
+    next call. Each call writes `valid` whole and every mirror pixel's row (its ray, or
+    zeros where no ray starts: what a fresh table held); the rows of other pixels keep what
+    an earlier frame (or the allocator) left, and nothing reads them: ssr's marches,
+    `confidence` and `resolve_hits` read the rows of `valid` pixels only (a hit is a valid
+    pixel's: the hit array is fresh each frame and only marches write it), ppr's `decode`
+    and `resolve_hits` the rows of pixels holding a source (mirror pixels: scatter_min
+    targets only pixels of the mirror, fill_holes fills only mirror pixels). Without a
+    workspace the arrays are fresh (zeros where not written).
     """
     h, w = surface_ids.shape
-    rays = np.zeros((h, w, RAY_COLS), np.float32)
-    valid = np.zeros((h, w), np.bool_)
+    if workspace is None:
+        rays = np.zeros((h, w, RAY_COLS), np.float32)
+        valid = np.zeros((h, w), np.bool_)
+    else:
+        rays = workspace.get(TABLE, (h, w, RAY_COLS), np.float32)
+        valid = workspace.get(VALID, (h, w), np.bool_)
     p = camera.projection_matrix()
     _rays(buffers.triangle, buffers.b1, buffers.b2, surface_ids, n_objects, tris.corners,
           tris.normals, mirrors.kind, mirrors.params, camera.view_matrix(),
@@ -72,8 +91,10 @@ def _rays(tri, b1, b2, surface_ids, n_objects, corners, normals, kind, params, v
 @njit(cache=True)
 def _rays_row(y, tri, b1, b2, surface_ids, n_objects, corners, normals, kind, params, view,
               eye, p00, p11, w, h, near, max_distance, rays, valid):
-    """_rays' mirror pixels of row y."""
+    """_rays' row y: `valid` for every pixel, the table's row for every mirror pixel (its
+    ray, or zeros); other pixels' rows are not written (mirror_rays says who reads what)."""
     for x in range(w):
+        valid[y, x] = False
         s = surface_ids[y, x]
         if s < n_objects:
             continue
@@ -92,9 +113,10 @@ def _rays_row(y, tri, b1, b2, surface_ids, n_objects, corners, normals, kind, pa
         length = max_distance
         if oz + dz * length > -near:  # would cross the near plane (depth = -z < near)
             length = (-near - oz) / dz if dz > 0.0 else length
-        if length <= 0.0 or -oz < near:
-            continue
         r = rays[y, x]
+        if length <= 0.0 or -oz < near:
+            r[:] = 0.0  # no ray; ppr's decode still reads a reached pixel's origin
+            continue
         r[0], r[1], r[2] = px, py, pz
         r[3], r[4], r[5] = rx, ry, rz
         r[6], r[7], r[8] = ox, oy, oz

@@ -10,6 +10,7 @@ import numpy as np
 from ...camera import Camera
 from ...frame import Frame
 from ...raster.primary import render_primary
+from ...raster.rasterize import RasterWorkspace
 from ...scene.types import PLANAR, Scene
 from ...screenspace.march import new_outputs
 from ...screenspace.project import EMPTY, decode, fill_holes, project_sources, scatter_min
@@ -20,8 +21,11 @@ from ..ssr.fallback import BASE, Fallback
 from . import PprParams
 
 
-def project_frame(primary, scene: Scene, camera: Camera, fill: bool) -> dict:
-    """The projection and reflection passes over the primary frame: per-pixel arrays."""
+def project_frame(primary, scene: Scene, camera: Camera, fill: bool,
+                  workspace: RasterWorkspace | None = None) -> dict:
+    """The projection and reflection passes over the primary frame: per-pixel arrays.
+    `workspace`: where the ray table is kept across frames (mirror_rays; "rays" is then
+    valid until the next call)."""
     frame = primary.frame
     h, w = frame.depth.shape
     t0 = time.perf_counter()
@@ -52,8 +56,8 @@ def project_frame(primary, scene: Scene, camera: Camera, fill: bool) -> dict:
         out = np.empty_like(buffer)
         fill_holes(buffer, frame.surface, scene.n_objects, w, out, filled)
         buffer = out
-    rays, valid = mirror_rays(buf, frame.surface, scene.n_objects, tris, mirrors, camera,
-                              camera.far)
+    rays, _ = mirror_rays(buf, frame.surface, scene.n_objects, tris, mirrors, camera,
+                          camera.far, workspace)
     hit, hx, hy, dist, _, _ = new_outputs(h, w)
     decode(buffer, w, rays, buf.triangle, buf.b1, buf.b2, tris.corners, hit, hx, hy, dist)
     t2 = time.perf_counter()
@@ -70,14 +74,15 @@ class Ppr(Technique):
         warn_non_planar(scene, "ppr")
         fallback = Fallback(self.params.fallback, self.threads, self.cache_dir)
         fallback.prepare(scene)
-        return {"scene": scene, "fallback": fallback}
+        # the ray table, kept across frames (mirror_rays)
+        return {"scene": scene, "fallback": fallback, "rays": RasterWorkspace()}
 
     def render(self, state: dict, frame_index: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]
         params = self.params
         primary = render_primary(scene, frame_index, camera)
         result = primary.frame
-        p = project_frame(primary, scene, camera, params.fill)
+        p = project_frame(primary, scene, camera, params.fill, state["rays"])
         t0 = time.perf_counter()
         colors = result.rgb.copy()
         tris = primary.triangles

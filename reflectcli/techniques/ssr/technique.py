@@ -10,6 +10,7 @@ import numpy as np
 from ...camera import Camera
 from ...frame import Frame
 from ...raster.primary import render_primary
+from ...raster.rasterize import RasterWorkspace
 from ...scene.types import Scene
 from ...screenspace.hiz import build_pyramid, march_hiz_all
 from ...screenspace.march import DDA, LINEAR, march_all, new_outputs
@@ -20,14 +21,18 @@ from . import SsrParams
 from .fallback import BASE, Fallback
 
 
-def march_frame(primary, scene: Scene, camera: Camera, params) -> dict:
+def march_frame(primary, scene: Scene, camera: Camera, params,
+                workspace: RasterWorkspace | None = None) -> dict:
     """Rays of every mirror pixel marched over the primary frame: per-pixel arrays and the
-    cells (depth lookups) per ray. Used by the technique and by tests."""
+    cells (depth lookups) per ray. Used by the technique and by tests. `workspace`: where
+    the ray table is kept across frames (mirror_rays; "rays" and "valid" are then valid
+    until the next call)."""
     frame = primary.frame
     h, w = frame.depth.shape
     t0 = time.perf_counter()
     rays, valid = mirror_rays(primary.buffers, frame.surface, scene.n_objects,
-                              primary.triangles, scene.mirrors, camera, params.max_distance)
+                              primary.triangles, scene.mirrors, camera, params.max_distance,
+                              workspace)
     hit, hx, hy, dist, gap, lookups = new_outputs(h, w)
     depth = np.ascontiguousarray(frame.depth, np.float32)
     t1 = time.perf_counter()
@@ -58,14 +63,15 @@ class Ssr(Technique):
     def prepare(self, scene: Scene) -> dict:
         fallback = Fallback(self.params.fallback, self.threads, self.cache_dir)
         fallback.prepare(scene)
-        return {"scene": scene, "fallback": fallback}
+        # the ray table, kept across frames (mirror_rays)
+        return {"scene": scene, "fallback": fallback, "rays": RasterWorkspace()}
 
     def render(self, state: dict, frame_index: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]
         params = self.params
         primary = render_primary(scene, frame_index, camera)
         result = primary.frame
-        marched = march_frame(primary, scene, camera, params)
+        marched = march_frame(primary, scene, camera, params, state["rays"])
         t0 = time.perf_counter()
         colors = result.rgb.copy()  # the colour buffer rays sample (mirrors: (1 - r) * base)
         tris = primary.triangles
