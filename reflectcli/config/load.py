@@ -152,8 +152,9 @@ def apply_override(data: dict, assignment: str, prov: Provenance) -> None:
 
 def _list_index(items: list, part: str) -> int | None:
     if part.lstrip("-").isdigit():
-        i = int(part)
-        return i if -len(items) <= i < len(items) else None
+        i = int(part)  # from the end when negative; kept as its index from the start, the
+        # index pydantic's errors and the provenance use
+        return i % len(items) if -len(items) <= i < len(items) else None
     for i, item in enumerate(items):
         if isinstance(item, dict) and item.get("name") == part:
             return i

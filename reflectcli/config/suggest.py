@@ -144,6 +144,9 @@ def by_name(problems: list, overrides, data: dict) -> list:
             if isinstance(node, list):
                 if part.lstrip("-").isdigit():
                     idx = int(part)
+                    if -len(node) <= idx < 0:  # errors give its index from the start
+                        aliases[".".join([*parts[:i], str(idx % len(node))])] = \
+                            ".".join(parts[: i + 1])
                 else:
                     idx = next((k for k, it in enumerate(node)
                                 if isinstance(it, dict) and it.get("name") == part), None)

@@ -50,6 +50,9 @@ def test_bench_file_with_a_bad_run_is_one_line(tmp_path):
     ("camera.fov=30", "--set: camera.fov: unknown key (did you mean fov_y?)"),
     ("objects.ball.radiu=1", "--set: objects.ball.radiu: unknown key (did you mean radius?)"),
     ("objects.ball.radius=-1", "--set: objects.ball.radius: must be > 0.0"),
+    # an index from the end was blamed on the scene file under its index from the start
+    ("objects.-1.radiu=1", "--set: objects.-1.radiu: unknown key (did you mean radius?)"),
+    ("objects.-1.radius=-1", "--set: objects.-1.radius: must be > 0.0"),
     ('objects.ball.shape="sphre"', "--set: objects.ball.shape: unknown shape 'sphre' "
                                    "(did you mean sphere?)"),
     ("camera.eye=[1, 2]", "--set: camera.eye"),
