@@ -171,6 +171,26 @@ def test_validate_refuses_an_output_folder_render_could_not_write(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["blocker", "ok.toml", "s.toml"]  # nothing made
 
 
+def test_an_unwritable_folder_is_refused_with_the_reason_the_os_gives(tmp_path, monkeypatch):
+    # a folder on a read-only mount was refused as "Permission denied" (os.access is False
+    # there too), which sends a user to chmod; the line now gives the OS's own reason
+    import errno
+    import tempfile
+
+    def read_only(*args, **kwargs):
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS))
+
+    access = os.access
+    monkeypatch.setattr(os, "access", lambda path, mode, **kwargs: os.fspath(path) != str(
+        tmp_path) and access(path, mode, **kwargs))  # as on a read-only mount
+    monkeypatch.setattr(tempfile, "mkdtemp", read_only)
+    scene = write(tmp_path, "s.toml", TINY)
+    with chdir(tmp_path):
+        assert_one_line(invoke("validate", scene), "s.toml: output.dir: cannot write to "
+                        "'out/tiny/raytrace': Read-only file system")
+    assert sorted(os.listdir(tmp_path)) == ["s.toml"]
+
+
 def test_an_existing_cache_folder_is_not_refused_as_unwritable(tmp_path, monkeypatch):
     # a complete cache may be read-only: its maps are only read; the check that refuses a
     # cache folder render could not make applies to one that does not exist yet
