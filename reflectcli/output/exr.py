@@ -95,6 +95,8 @@ def read_exr(path: str) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     try:
         spec = inp.spec()
         data = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
+        if data is None:  # a truncated or damaged file: a header, but not its pixels
+            raise OSError(f"cannot read {path}: {inp.geterror() or oiio.geterror()}")
     finally:
         inp.close()
     data = np.asarray(data, np.float32).reshape(spec.height, spec.width, spec.nchannels)

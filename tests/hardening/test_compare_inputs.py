@@ -59,3 +59,16 @@ def test_images_within_the_limits_compare(tmp_path):
     result = invoke("compare", tmp_path / "a.exr", tmp_path / "a.exr", "--metrics", "psnr")
     assert result.exit_code == 0, result.output
     assert "psnr" in result.output
+
+
+def test_a_truncated_exr_is_one_line(tmp_path):
+    # its header reads, its pixels do not: OpenImageIO's read_image gave None, and reshaping
+    # it was a ValueError traceback
+    from reflectcli.output.exr import write_exr
+
+    noise = np.random.default_rng(0).random((48, 64), np.float32)
+    write_exr(str(tmp_path / "a.exr"), {c: noise for c in "RGB"}, {})
+    data = (tmp_path / "a.exr").read_bytes()
+    (tmp_path / "cut.exr").write_bytes(data[: len(data) * 3 // 4])
+    assert_one_line(invoke("compare", tmp_path / "a.exr", tmp_path / "cut.exr"),
+                    "cut.exr: cannot read", "missing or corrupted")
