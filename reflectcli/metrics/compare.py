@@ -57,12 +57,16 @@ def input_problem(path: str) -> str | None:
 
 def _read(path: str, mask_channel: str | None) -> tuple[dict, dict]:
     from ..output.exr import read_exr
+    from ..scene.textures import c_stderr
 
-    reason = input_problem(path)
+    said: list[str] = []  # libpng's own "libpng error: ..." line: OpenImageIO's error says it
+    with c_stderr(said):
+        reason = input_problem(path)
     if reason is not None:
         raise Problems([Problem(path, "", reason.splitlines()[0])])
     try:
-        channels, attrs = read_exr(path)
+        with c_stderr(said):
+            channels, attrs = read_exr(path)
     except OSError as e:
         raise Problems([Problem(path, "", str(e).splitlines()[0])]) from None
     missing = [c for c in ("R", "G", "B") if c not in channels]

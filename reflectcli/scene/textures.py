@@ -17,11 +17,11 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
 
 
 @contextlib.contextmanager
-def _c_stderr(said: list[str]) -> Iterator[None]:
+def c_stderr(said: list[str]) -> Iterator[None]:
     """What C libraries write to the process's stderr meanwhile (libpng prints its own
     "libpng error: ..." line before OpenImageIO fails) goes into `said`, not the terminal:
     the failure is reported in one line that quotes it. Textures load while the scene is
-    built, before any other thread writes."""
+    built, before any other thread writes (and `compare` reads its two images alone)."""
     sys.stderr.flush()
     try:
         saved = os.dup(2)
@@ -51,7 +51,7 @@ def load_texture(path: str, srgb: bool) -> np.ndarray:
     if reason is not None:
         raise ValueError(reason)
     said: list[str] = []
-    with _c_stderr(said):
+    with c_stderr(said):
         inp = oiio.ImageInput.open(path)
     if inp is None:
         raise ValueError(f"cannot read image: {oiio.geterror() or '; '.join(said) or path}")
@@ -63,7 +63,7 @@ def load_texture(path: str, srgb: bool) -> np.ndarray:
                              f"{MAX_TEXTURE_SIDE} texels a side, {MAX_TEXTURE_TEXELS} in all")
         if spec.width * spec.height == 0:
             raise ValueError("texture has no pixels")
-        with _c_stderr(said):
+        with c_stderr(said):
             pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
     finally:
         inp.close()

@@ -72,3 +72,19 @@ def test_a_truncated_exr_is_one_line(tmp_path):
     (tmp_path / "cut.exr").write_bytes(data[: len(data) * 3 // 4])
     assert_one_line(invoke("compare", tmp_path / "a.exr", tmp_path / "cut.exr"),
                     "cut.exr: cannot read", "missing or corrupted")
+
+
+def test_a_truncated_png_is_one_line_without_libpngs_own(tmp_path):
+    # libpng writes "libpng error: ..." to the process's stderr itself before OpenImageIO
+    # fails: a second line above reflect's (a subprocess, to see what reaches fd 2)
+    from reflectcli.output.png import write_png
+
+    write_png(str(tmp_path / "a.png"), np.random.default_rng(0).random((48, 64, 3), np.float32))
+    data = (tmp_path / "a.png").read_bytes()
+    (tmp_path / "cut.png").write_bytes(data[: len(data) * 3 // 4])
+    done = subprocess.run([sys.executable, "-m", "reflectcli.cli", "compare", "a.png", "cut.png"],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert done.stdout == ""
+    assert done.stderr.splitlines() == [
+        "cut.png: cannot read cut.png: Read error: hit end of file in png reader"]
