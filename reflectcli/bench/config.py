@@ -106,8 +106,14 @@ def expand(cfg: BenchConfig, source: str) -> list[dict]:
                 for values in itertools.product(*(group.sweep[k] for k in keys)):
                     sweep = dict(zip(keys, values, strict=True))
                     overrides = list(group.set) + [f"{k}={_toml(v)}" for k, v in sweep.items()]
+                    # the bench file's field each override comes from, for its problems
+                    fields = ([(o.split("=", 1)[0].strip(), f"runs.{index}.set")
+                               for o in group.set]
+                              + [(k, f"runs.{index}.sweep.{k}") for k in sweep])
                     jobs.append({"scene": path, "technique": technique,
                                  "overrides": overrides, "sweep": sweep,
+                                 "override_fields": fields,
+                                 "techniques_field": f"runs.{index}.techniques",
                                  "frames": group.frames or cfg.bench.frames,
                                  "frames_field": (f"runs.{index}.frames" if group.frames
                                                   else "bench.frames")})

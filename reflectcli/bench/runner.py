@@ -111,6 +111,8 @@ def _plan_jobs(plan: BenchPlan, cfg: BenchConfig, path: str, display: str,
     references: dict[tuple, tuple] = {}  # (scene, overrides) -> (name, hash, log) or Problems
     for i, job in enumerate(expand(cfg, path)):
         job["overrides"] = job["overrides"] + list(overrides)  # `bench --set`: on top
+        job["override_fields"] = job["override_fields"] + [
+            (o.split("=", 1)[0].strip(), None) for o in overrides]
         where = f"runs ({job['technique']} on {os.path.relpath(job['scene'])})"
         try:
             run = api.open_scene(job["scene"], overrides=job["overrides"],
@@ -165,6 +167,17 @@ def _job_problem(display: str, where: str, job: dict, problem: Problem,
         return Problem(display, job["frames_field"], f"{problem.message} (in {scene})")
     if reference and problem.field == "technique.max_depth":
         return Problem(display, "bench.reference_depth", problem.message)
+    if problem.file == "--technique" and not reference and problem.field == "technique.name":
+        return Problem(display, job["techniques_field"], problem.message)
+    if problem.file == "--set":  # a run's `set` or sweep value: named as the bench file has it
+        run = f"{job['technique']} on {os.path.relpath(job['scene'])}"
+        for key, field in reversed(job.get("override_fields", ())):  # the last one wins
+            if key == problem.field or problem.field.startswith(key + ".") or \
+                    key.startswith(problem.field + "."):
+                if field is None:  # `bench --set`
+                    break
+                inner = "" if field.endswith("." + problem.field) else f"{problem.field}: "
+                return Problem(display, field, f"{inner}{problem.message} ({run})")
     return Problem(display, where, str(problem))
 
 

@@ -131,6 +131,34 @@ def test_frames_name_the_bench_file_and_field(tmp_path, bench, runs, field):
     assert "--frames" not in line
 
 
+@pytest.mark.parametrize(("edit", "expected"), [
+    # these read "runs (raytrace on ...): --set: camera.width: ..." and "--technique:
+    # technique.name: ...", naming options the user never gave and no field of the file
+    ({"sweep": '"camera.width" = [16, 0]'}, "b.toml: runs.0.sweep.camera.width: must be > 0 "
+     "(raytrace on "),
+    ({"sweep": '"camera.widht" = [16]'}, "b.toml: runs.0.sweep.camera.widht: unknown key "
+     "(did you mean width?) (raytrace on "),
+    ({"sweep": '"technique" = [{name = "raytrace", max_depth = -1}]'}, "b.toml: "
+     "runs.0.sweep.technique: technique.max_depth: must be >= 0 (raytrace on "),
+    ({"runs": 'set = ["camera.height=8", "camera.width=-1"]'}, "b.toml: runs.0.set: "
+     "camera.width: must be > 0 (raytrace on "),
+    ({"techniques": '["raytrce"]'}, "b.toml: runs.0.techniques: unknown name 'raytrce' "
+     "(did you mean raytrace?)"),
+])
+def test_a_runs_problem_names_the_field_of_the_bench_file(tmp_path, edit, expected):
+    line = refused(tmp_path, bench_file(tmp_path, **edit))
+    assert line.startswith(expected), line
+    assert "--set" not in line and "--technique" not in line
+
+
+def test_a_problem_of_bench_set_is_still_blamed_on_set(tmp_path):
+    # (it comes last, so it is what the sweep's value of the same field gave way to)
+    line = one_line(invoke("bench", bench_file(tmp_path, sweep='"camera.width" = [16]'),
+                           "--out", tmp_path / "o", "--set", "camera.width=0"))
+    assert "--set: camera.width: must be > 0" in line, line
+    assert not (tmp_path / "o").exists()
+
+
 def test_reference_depth_names_the_bench_file_and_field(tmp_path):
     line = refused(tmp_path, bench_file(tmp_path, bench="reference_depth = 100000"))
     assert line.startswith("b.toml: bench.reference_depth: must be <= "), line
