@@ -59,3 +59,23 @@ def test_distmap_past_this_machines_memory_is_one_line(here, monkeypatch):
     assert [str(p) for p in info.value.problems] == [
         "d.toml: technique: this render needs about 46.3 GiB of memory; 22.0 GiB is available"]
     load_config(distmap(here, 1024, 4))  # 1.5 GiB: fine
+
+
+def test_clutter_counts_the_triangles_it_asks_for(here, monkeypatch):
+    """The estimate took twice `triangles`: a clutter of 15M (its field allows 20M) was
+    refused as "about 30,000,050 triangles; the limit is 20,000,000". Measured: 1,600 at 500,
+    189,990 at 190,000, 14,999,996 at 15M, 19,999,812 at 20M."""
+    from reflectcli.scene.procedural import music_room_clutter
+
+    monkeypatch.setattr(memory, "available_bytes", lambda: 1 << 50)
+    path = here / "c.toml"
+    for asked in (500, 20_000, 15_000_000):
+        path.write_text(SCENE + '\n[[objects]]\nname = "c"\nshape = "clutter"\n'
+                        f'triangles = {asked}\nmin = [-2, 0, -2]\nmax = [2, 2, 2]\n'
+                        'material = "red"\n')
+        cfg, _ = load_config(str(path))  # within the limit
+        estimate = memory.triangles(cfg.objects[-1], str(path))
+        assert asked <= estimate <= max(asked, 2_000) * 1.01
+        if asked < 1_000_000:
+            built = music_room_clutter(asked, (-2, 0, -2), (2, 2, 2)).triangle_count
+            assert built <= estimate
