@@ -13,6 +13,7 @@ import numpy as np
 from ..camera import Camera, camera_from_config
 from ..config.files import file_problem
 from ..config.limits import MAX_FOV_Y, MAX_MESH_BYTES, MAX_TEXTURE_BYTES, MIN_FOV_Y
+from ..config.load import origin
 from ..config.scene import SceneConfig
 from ..errors import Problem
 from .mirrors import mirror_corners, profile_normals, profile_points
@@ -30,12 +31,12 @@ def _unreadable(source: str, path: str, limit: int) -> str | None:
 def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -> list[Problem]:
     problems: list[Problem] = []
 
-    def add(loc: tuple, message: str) -> None:
-        file = display
-        for n in range(len(loc), -1, -1):
-            if loc[:n] in prov:
-                file = prov[loc[:n]]
-                break
+    def add(loc: tuple, message: str, related: tuple = ()) -> None:
+        """`related`: the other fields the check reads; one that `--set` gave blames it (the
+        file's value at `loc` is not what made the pair wrong)."""
+        file = origin(prov, loc, display)
+        if any(origin(prov, other, display) == "--set" for other in related):
+            file = "--set"
         problems.append(Problem(file, ".".join(str(p) for p in loc), message))
 
     names: dict[str, str] = {}
@@ -53,7 +54,7 @@ def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -
         if obj.shape in ("box", "room", "clutter") and not all(
             a < b for a, b in zip(obj.min, obj.max, strict=True)
         ):
-            add(("objects", i, "max"), "must exceed min on every axis")
+            add(("objects", i, "max"), "must exceed min on every axis", (("objects", i, "min"),))
     for name, mat in cfg.materials.items():
         if mat.kind == "texture" and (why := _unreadable(source, mat.path, MAX_TEXTURE_BYTES)):
             add(("materials", name, "path"), why)
@@ -98,9 +99,10 @@ def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -
         planes.append((j, m.name, unit, float(-unit @ c[0]), scale))
     eye, target, up = map(np.array, (cfg.camera.eye, cfg.camera.target, cfg.camera.up))
     if np.linalg.norm(eye - target) == 0:
-        add(("camera", "target"), "must differ from camera.eye")
+        add(("camera", "target"), "must differ from camera.eye", (("camera", "eye"),))
     elif np.linalg.norm(np.cross(target - eye, up)) == 0:
-        add(("camera", "up"), "must not be parallel to the viewing direction")
+        add(("camera", "up"), "must not be parallel to the viewing direction",
+            (("camera", "eye"), ("camera", "target")))
     else:
         _camera_frame_problems(cfg, planes, add)
     return problems
@@ -134,11 +136,12 @@ def _camera_frame_problems(cfg: SceneConfig, planes: list, add) -> None:
     if path is None and not planes:
         return
     field = ("camera", "path") if path else ("camera", "eye")
+    related = (("camera", "up"), ("camera", "fov_y")) if path else ()  # a key may lack them
     for frame_index in range(cfg.camera.frame_count):
         cam = camera_from_config(cfg.camera, frame_index)
         where = f" at frame {frame_index}" if path else ""
         if path is not None and (why := degenerate_view(cam)) is not None:
-            add(field, why + where)
+            add(field, why + where, related)
             return
         hit = [p for p in planes if abs(p[2] @ cam.eye + p[3]) <= 1e-6 * max(1.0, p[4])]
         if hit:

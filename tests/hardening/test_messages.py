@@ -53,6 +53,9 @@ def test_bench_file_with_a_bad_run_is_one_line(tmp_path):
     # an index from the end was blamed on the scene file under its index from the start
     ("objects.-1.radiu=1", "--set: objects.-1.radiu: unknown key (did you mean radius?)"),
     ("objects.-1.radius=-1", "--set: objects.-1.radius: must be > 0.0"),
+    # a check across fields was blamed on the file when the field it names was the file's
+    ("camera.eye=[0.0, 0.5, 0.0]", "--set: camera.target: must differ from camera.eye"),
+    ("camera.eye=[0.0, 5.0, 0.0]", "--set: camera.up: must not be parallel"),
     ('objects.ball.shape="sphre"', "--set: objects.ball.shape: unknown shape 'sphre' "
                                    "(did you mean sphere?)"),
     ("camera.eye=[1, 2]", "--set: camera.eye"),
@@ -176,3 +179,24 @@ def test_a_value_one_union_member_refuses_keeps_that_members_line(tmp_path):
                                TINY.replace("reflectance = 0.5", "reflectance = 2")),
                          "s.toml: mirrors.0.reflectance: must be <= 1.0")
     assert line == "s.toml: mirrors.0.reflectance: must be <= 1.0"
+
+
+@pytest.mark.parametrize(("override", "expected"), [
+    # the path's keys take the camera's up: a --set up made frame 0 degenerate
+    ("camera.up=[0.0, -0.5, -3.0]", "--set: camera.path: up is zero or parallel to the "
+                                    "viewing direction at frame 0"),
+    ("objects.box.min=[2, 0, 0]", "--set: objects.box.max: must exceed min on every axis"),
+])
+def test_a_check_across_fields_blames_the_set_that_broke_it(tmp_path, override, expected):
+    text = TINY.replace("eye = [0.0, 1.0, 3.0]", "eye = [0.0, 1.0, 4.0]")  # the still camera
+    text = text.replace("[materials.red]", "[camera.path]\nframes = 2\nkeys = [{ eye = [0.0, 1.0, "
+                        "3.0], target = [0.0, 0.5, 0.0] }, { eye = [0.5, 1.0, 3.0], target = "
+                        "[0.0, 0.5, 0.0] }]\n\n[materials.red]")
+    text += '\n[[objects]]\nname = "box"\nshape = "box"\nmin = [-1, 0, -1]\nmax = [1, 1, 1]\n' \
+            'material = "red"\n'
+    scene = write(tmp_path, "s.toml", text)
+    with chdir(tmp_path):
+        assert invoke("validate", scene).output == "ok\n"
+        assert_one_line(invoke("render", scene, "--out", tmp_path / "o", "--set", override),
+                        expected)
+    assert not (tmp_path / "o").exists()
