@@ -85,10 +85,10 @@ def check_config(cfg, add) -> None:
                 _points(add, ("technique", "capture", name), [point])
     _proxy_box(add, cfg.technique)
     cam = cfg.camera
-    for key in ("width", "height"):
-        if getattr(cam, key) > MAX_IMAGE_SIDE:
-            add(("camera", key), f"must be <= {MAX_IMAGE_SIDE}")
-    if cam.width * cam.height > MAX_IMAGE_PIXELS:
+    too_wide = [key for key in ("width", "height") if getattr(cam, key) > MAX_IMAGE_SIDE]
+    for key in too_wide:
+        add(("camera", key), f"must be <= {MAX_IMAGE_SIDE}")
+    if not too_wide and cam.width * cam.height > MAX_IMAGE_PIXELS:  # one line per mistake
         add(("camera", "width"), f"width x height must be <= {MAX_IMAGE_PIXELS} pixels")
     if cam.near < MIN_NEAR:
         add(("camera", "near"), f"must be >= {MIN_NEAR:g}")

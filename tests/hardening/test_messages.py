@@ -137,6 +137,9 @@ def test_a_section_file_says_it_cannot_be_rendered_by_itself(tmp_path):
      "s.toml: materials.red.kindd: unknown key (did you mean kind?)"),
     # neither member of the union: not also three lines for the array's missing items
     (("reflectance = 0.5", "reflectance = []"), "s.toml: mirrors.0.reflectance: must be"),
+    # a side past 16384 was also a second line, "width x height must be <= 67108864 pixels"
+    (("width = 16\nheight = 12", "width = 100000\nheight = 1000"),
+     "s.toml: camera.width: must be <= 16384"),
 ])
 def test_one_mistake_is_one_line(tmp_path, edit, expected):
     assert edit[0] in TINY
