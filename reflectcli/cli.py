@@ -126,7 +126,8 @@ def _render_options(validating: bool = False):
     options = [
         click.option("--out", "out", type=click.Path(file_okay=False), callback=_folder,
                      help="output root (default: output.dir)"),
-        click.option("--frames", help="frame N, or frames A:B (B excluded)"),
+        click.option("--frames", help="frame N, frames A:B (B excluded), or every S-th: "
+                                       "A:B:S"),
         click.option("--technique", help="render with this technique instead of the scene's"),
         click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
                      help="override any config field, e.g. technique.max_depth=2 "
@@ -139,7 +140,8 @@ def _render_options(validating: bool = False):
         click.option("--resume", is_flag=True,
                      help="accepted, so a render command line validates unchanged; adds "
                           "no check" if validating else
-                          "skip frames whose EXR already exists"),
+                          "skip frames already rendered with the same scene and "
+                          "parameters (their EXR as logged)"),
         click.option("--cache", type=click.Path(file_okay=False), callback=_folder,
                      help="map cache folder (default: .reflect-cache/ beside the scene)"),
     ]

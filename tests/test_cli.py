@@ -656,6 +656,13 @@ def test_help_is_kept(args):
     assert result.exit_code == (0 if args else 2)
 
 
+def test_render_help_names_every_frames_form_the_readme_does():
+    # it read "frame N, or frames A:B (B excluded)": the README's and the parser's A:B:S
+    # was missing
+    text = " ".join(invoke("render", "--help").output.split())
+    assert "frame N, frames A:B (B excluded), or every S-th: A:B:S" in text, text
+
+
 def test_an_empty_output_dir_names_the_field(here):
     scene = write_scene(here, TINY + '\n[output]\ndir = ""\n')
     for command in ("validate", "render"):
