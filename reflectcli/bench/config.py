@@ -17,6 +17,7 @@ from typing import Any
 from pydantic import Field, field_validator
 
 from ..config.base import Strict
+from ..config.names import NAME_PATTERN
 from ..errors import Problem
 
 MAX_RUNS = 2000  # jobs in one bench file (validate opens each one's scene: ~10 ms a job)
@@ -37,7 +38,7 @@ class RunGroup(Strict):
 
 
 class BenchSection(Strict):
-    name: str = Field(pattern=r"^[A-Za-z0-9._-]+$")
+    name: str = Field(pattern=NAME_PATTERN)
 
     @field_validator("name")
     @classmethod

@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 
 NAME_MAX = 255  # bytes in one path component (Linux, macOS)
+NAME_PATTERN = r"^[A-Za-z0-9._-]+$"  # a scene's or bench's name: its output folder's name
 PATH_MAX = 4095  # bytes in a whole path (4096 with the terminating NUL)
 # the longest name a render writes besides the log: a frame's temporary file while it is
 # written (output/atomic.py), `.frame_99999.tmp<pid>-<thread id>.exr`

@@ -17,12 +17,13 @@ from .camera import CameraConfig
 from .lights import Light
 from .materials import Material
 from .mirrors import MirrorConfig
+from .names import NAME_PATTERN
 from .objects import ObjectConfig
 from .output import OutputConfig
 
 
 class SceneSection(Strict):
-    name: str = Field(pattern=r"^[A-Za-z0-9._-]+$")
+    name: str = Field(pattern=NAME_PATTERN)
     shading: Literal["unlit", "lambert"] = "unlit"
     background: Color = (0.0, 0.0, 0.0)
     ambient: float = Field(default=0.0, ge=0.0, description="lambert: ambient fraction of albedo")

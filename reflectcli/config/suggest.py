@@ -11,6 +11,8 @@ from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 from pydantic import BaseModel
 
+from .names import NAME_PATTERN
+
 _TAGS = ("shape", "kind", "name")
 
 
@@ -123,6 +125,8 @@ def plain_message(err: dict, root: type[BaseModel] | None, loc: tuple, data: Any
         return f"needs {word} {limit} item(s)"
     if kind == "literal_error":
         return "must be " + str(ctx.get("expected", "")).replace("'", '"')
+    if kind == "string_pattern_mismatch" and ctx.get("pattern") == NAME_PATTERN:
+        return "must be ASCII letters, digits, '.', '_' or '-' (it names a folder)"
     if kind in _PLAIN:
         return _PLAIN[kind]
     msg = err.get("msg", "")

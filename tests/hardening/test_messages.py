@@ -137,6 +137,9 @@ def test_a_section_file_says_it_cannot_be_rendered_by_itself(tmp_path):
      "s.toml: materials.red.kindd: unknown key (did you mean kind?)"),
     # neither member of the union: not also three lines for the array's missing items
     (("reflectance = 0.5", "reflectance = []"), "s.toml: mirrors.0.reflectance: must be"),
+    # pydantic's own words: "String should match pattern '^[A-Za-z0-9._-]+$'"
+    (('name = "tiny"', 'name = "my scene"'), "s.toml: scene.name: must be ASCII letters, "
+                                             "digits, '.', '_' or '-' (it names a folder)"),
     # a side past 16384 was also a second line, "width x height must be <= 67108864 pixels"
     (("width = 16\nheight = 12", "width = 100000\nheight = 1000"),
      "s.toml: camera.width: must be <= 16384"),
