@@ -65,6 +65,38 @@ def write_image_at(tmp: str, path: str, spec, data: np.ndarray) -> None:
     ok = out.close() and ok
     if not ok:
         raise image_failure(path, oiio.geterror())
+    if not _whole(tmp, spec):
+        raise image_failure(path, "the file is shorter than what was written")
+
+
+PNG_END = b"\x00\x00\x00\x00IEND\xaeB`\x82"
+
+
+def _whole(tmp: str, spec) -> bool:
+    """Whether `tmp` holds all OpenImageIO wrote: the disk filling up during the last flush
+    at close lost the file's tail with every call reporting success (an EXR of 18,372 bytes
+    kept as 16,384 and logged as a finished frame). An EXR's last scanline must read (one
+    chunk decoded); a PNG must end with its IEND chunk."""
+    import OpenImageIO as oiio
+
+    if tmp.lower().endswith(".png"):
+        with open(tmp, "rb") as f:
+            f.seek(0, 2)
+            if f.tell() < len(PNG_END):
+                return False
+            f.seek(-len(PNG_END), 2)
+            return f.read() == PNG_END
+    inp = oiio.ImageInput.open(tmp)
+    if inp is None:
+        oiio.geterror()
+        return False
+    try:
+        last = inp.read_scanline(spec.y + spec.height - 1, 0, oiio.FLOAT)
+        if last is None:
+            inp.geterror()
+        return last is not None
+    finally:
+        inp.close()
 
 
 def read_exr_attributes(path: str) -> dict[str, str] | None:

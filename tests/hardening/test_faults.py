@@ -12,6 +12,7 @@ import subprocess
 import sys
 import uuid
 
+import numpy as np
 import pytest
 
 from reflectcli.output import log as logmod
@@ -160,3 +161,36 @@ def test_cache_temp_file_vanishing_mid_write_is_survived(tmp_path, monkeypatch, 
     parts = [("face", {"R": np.zeros((2, 2), np.float32)})]
     assert store.store("envmap", "ab" * 16, parts, {}) is None
     assert "could not be stored" in caplog.text
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="mounting a tiny filesystem needs root")
+def test_an_image_whose_tail_the_full_disk_lost_is_a_failed_write(tmp_path):
+    # the disk filling up in the last flush, at close, lost the file's tail with every
+    # OpenImageIO call reporting success: a frame of 18,372 bytes was kept as 16,384, logged
+    # as finished (its header reads, so --resume skipped it) and could not be read
+    from reflectcli.output.exr import write_exr
+    from reflectcli.output.failures import WriteFailed
+
+    noise = np.random.default_rng(0).random((64, 64), np.float32)  # 17,439 bytes zipped
+    with tiny_filesystem(tmp_path / f"tiny-{uuid.uuid4().hex[:6]}", "1m") as tiny:
+        stat = os.statvfs(tiny)
+        with open(tiny / "filler", "wb") as f:  # 16 KiB left: one buffer's flush, not two
+            f.write(b"\0" * (stat.f_bavail * stat.f_frsize - 16384))
+        with pytest.raises(WriteFailed, match="No space left on device"):
+            write_exr(str(tiny / "a.exr"), {c: noise for c in "RGB"}, {})
+        assert sorted(os.listdir(tiny)) == ["filler"]
+
+
+def test_a_short_image_file_is_not_whole(tmp_path):
+    from reflectcli.output import exr
+    from reflectcli.output.png import write_png
+
+    noise = np.random.default_rng(0).random((40, 40), np.float32)
+    exr.write_exr(str(tmp_path / "a.exr"), {c: noise for c in "RGB"}, {})
+    write_png(str(tmp_path / "a.png"), np.stack([noise] * 3, axis=-1))
+    for name in ("a.exr", "a.png"):
+        whole = (tmp_path / name).read_bytes()
+        spec = type("Spec", (), {"y": 0, "height": 40})
+        assert exr._whole(str(tmp_path / name), spec)
+        (tmp_path / f"cut-{name}").write_bytes(whole[: len(whole) * 3 // 4])
+        assert not exr._whole(str(tmp_path / f"cut-{name}"), spec)
