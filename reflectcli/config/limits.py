@@ -260,12 +260,8 @@ def limit_problems(cfg, prov: dict, display: str, source: str | None = None,
     problems: list = []
 
     def add(loc: tuple, message: str) -> None:
-        file = display
-        for n in range(len(loc), -1, -1):
-            if loc[:n] in prov:
-                file = prov[loc[:n]]
-                break
-        problems.append(Problem(file, ".".join(str(p) for p in loc), message))
+        problems.append(Problem(origin(prov, loc, display), ".".join(str(p) for p in loc),
+                                message))
 
     check_config(cfg, add)
     if not problems and source is not None and memory is not None:
@@ -273,3 +269,17 @@ def limit_problems(cfg, prov: dict, display: str, source: str | None = None,
         if found is not None:
             add(*found)
     return problems
+
+
+def origin(prov: dict, loc: tuple, default: str) -> str:
+    """Where the value at `loc` came from. A table's own error (a check across its fields)
+    is blamed on `--set` when an override changed anything in it: the table as a whole may
+    come from the file or `--technique`, but the override is what made it wrong (so an
+    array's `camera.eye.0=1e7` is blamed on --set, not on the file that holds camera.eye)."""
+    if any(source == "--set" and len(k) > len(loc) and k[: len(loc)] == loc
+           for k, source in prov.items()):
+        return "--set"
+    for n in range(len(loc), -1, -1):
+        if loc[:n] in prov:
+            return prov[loc[:n]]
+    return default

@@ -19,7 +19,7 @@ from pydantic import BaseModel, ValidationError
 
 from ..errors import Problem, Problems
 from .files import file_problem, read_toml_file
-from .limits import MAX_INCLUDE_DEPTH, MAX_TOML_BYTES, limit_problems
+from .limits import MAX_INCLUDE_DEPTH, MAX_TOML_BYTES, limit_problems, origin
 from .memory import memory_problem
 from .suggest import by_name, note_dropped_parameters, plain_message, tag_name
 
@@ -221,19 +221,6 @@ def _message(err: dict, root=None, loc: tuple = (), data: Any = None) -> str:
         return "required"
     msg = err["msg"]
     return msg[len("Value error, ") :] if msg.startswith("Value error, ") else msg
-
-
-def origin(prov: Provenance, loc: tuple, default: str) -> str:
-    """Where the value at `loc` came from. A table's own error (a check across its fields)
-    is blamed on `--set` when an override changed anything in it: the table as a whole may
-    come from the file or `--technique`, but the override is what made it wrong."""
-    if any(source == "--set" and len(k) > len(loc) and k[: len(loc)] == loc
-           for k, source in prov.items()):
-        return "--set"
-    for n in range(len(loc), -1, -1):
-        if loc[:n] in prov:
-            return prov[loc[:n]]
-    return default
 
 
 def validation_problems(e: ValidationError, data: dict, prov: Provenance, default: str,

@@ -56,6 +56,7 @@ def test_bench_file_with_a_bad_run_is_one_line(tmp_path):
     # a check across fields was blamed on the file when the field it names was the file's
     ("camera.eye=[0.0, 0.5, 0.0]", "--set: camera.target: must differ from camera.eye"),
     ("camera.eye=[0.0, 5.0, 0.0]", "--set: camera.up: must not be parallel"),
+    ("camera.eye.0=1e7", "--set: camera.eye: coordinates must be within +-1e+06"),
     ('objects.ball.shape="sphre"', "--set: objects.ball.shape: unknown shape 'sphre' "
                                    "(did you mean sphere?)"),
     ("camera.eye=[1, 2]", "--set: camera.eye"),
