@@ -158,14 +158,27 @@ def prepare_output(folder: str, source: str, field: str) -> None:
         ) from None
 
 
-def write_missing_preview(exr: str) -> None:
-    """--resume --preview: the PNG of a kept frame, from its EXR."""
+def write_missing_preview(exr: str, width: int, height: int) -> bool:
+    """--resume --preview: the PNG of a kept frame, from its EXR; False (nothing written)
+    when the EXR is not readable as a `width` x `height` frame, which is then rendered
+    again as any damaged frame is. Its header is checked before any pixel is read
+    (output/exr.frame_problem: a planted header claiming 60000 x 60000 pixels was read), and
+    its values must be finite (Z may be +inf), as every frame reflect writes is (OpenEXR
+    reads a damaged zip chunk without an error: a preview was made of NaN pixels)."""
     import numpy as np
 
-    from .output.exr import read_exr
+    from .output.exr import frame_problem, read_exr
 
-    channels, _ = read_exr(exr)
+    try:
+        channels, _ = read_exr(exr, fits=lambda spec: frame_problem(spec, width, height))
+    except OSError:
+        return False
+    try:
+        check_finite(channels, exr, 0)  # what a frame's writer held it to (Z may be +inf)
+    except Problems:
+        return False
     write_png(exr[:-4] + ".png", np.stack([channels[c] for c in "RGB"], axis=-1))
+    return True
 
 
 def frame_channels(frame: Frame) -> dict:
@@ -535,15 +548,16 @@ class OpenedScene:
             wants_preview = self.config.output.preview if preview is None else preview
             params = json.loads(self.params.model_dump_json())
             defaults = json.loads(type(self.params)().model_dump_json())
+            size = (self.config.camera.width, self.config.camera.height)  # a kept frame's
             for frame_index in frame_indices:
                 interrupts.check()  # between frames, even if the interrupt was swallowed
                 exr = os.path.join(result.folder, f"frame_{frame_index:04d}.exr")
                 row = stored.get(os.path.basename(exr))
                 if (resume and os.path.exists(exr)
                         and matches(row, self.scene_hash, params, defaults)
-                        and file_matches(exr, row, defaults)):
-                    if wants_preview and not os.path.exists(exr[:-4] + ".png"):
-                        write_missing_preview(exr)
+                        and file_matches(exr, row, defaults, size)
+                        and (not wants_preview or os.path.exists(exr[:-4] + ".png")
+                             or write_missing_preview(exr, *size))):
                     result.skipped.append(frame_index)
                     continue
 

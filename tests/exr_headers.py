@@ -10,11 +10,12 @@ import numpy as np
 
 
 def header_only_exr(path, width: int, height: int, channels: int = 3, parts: int = 1,
-                    tile: int = 64) -> None:
+                    tile: int = 64, attributes: dict[str, str] | None = None) -> None:
     """A tiled EXR (`tile` x `tile` tiles) of `parts` parts, each `width` x `height` pixels of
     `channels` half channels, and no tile written: the headers alone claim the size.
     OpenImageIO 3.2 refuses to open a file whose claim is too many times its size (2 GB from
-    133 kB): smaller tiles make a longer table of tile offsets, a larger file."""
+    133 kB): smaller tiles make a longer table of tile offsets, a larger file. `attributes`:
+    string attributes of every part's header (a frame's reflect:scene_hash, ...)."""
     import OpenImageIO as oiio
 
     specs = []
@@ -22,6 +23,8 @@ def header_only_exr(path, width: int, height: int, channels: int = 3, parts: int
         spec = oiio.ImageSpec(width, height, channels, oiio.HALF)
         spec.tile_width = spec.tile_height = tile
         spec.attribute("oiio:subimagename", f"part{index}")
+        for key, value in (attributes or {}).items():
+            spec.attribute(key, value)
         specs.append(spec)
     out = oiio.ImageOutput.create(str(path))
     assert out.open(str(path), specs), oiio.geterror()
@@ -50,10 +53,10 @@ def zero_exr(path, width: int, height: int, channels: int = 3, parts: int = 1) -
 
 
 def crafted_exr(path, width: int, height: int, tile: tuple[int, int],
-                channels: str = "BGR") -> None:
+                channels: str = "BGR", attributes: dict[str, str] | None = None) -> None:
     """A one-part tiled EXR written byte by byte (float channels, no compression): its data
     window `width` x `height` in one tile of `tile` pixels (at least the image), whose chunk
-    is 16 zero bytes, which reading then finds short."""
+    is 16 zero bytes, which reading then finds short; `attributes` as string attributes."""
     def attribute(name: str, kind: str, value: bytes) -> bytes:
         return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value
 
@@ -68,7 +71,9 @@ def crafted_exr(path, width: int, height: int, tile: tuple[int, int],
               + attribute("pixelAspectRatio", "float", struct.pack("<f", 1.0))
               + attribute("screenWindowCenter", "v2f", struct.pack("<2f", 0.0, 0.0))
               + attribute("screenWindowWidth", "float", struct.pack("<f", 1.0))
-              + attribute("tiles", "tiledesc", struct.pack("<IIB", *tile, 0)))
+              + attribute("tiles", "tiledesc", struct.pack("<IIB", *tile, 0))
+              + b"".join(attribute(k, "string", v.encode())
+                         for k, v in (attributes or {}).items()))
     assert tile[0] >= width and tile[1] >= height, "one tile only"
     head = b"\x76\x2f\x31\x01" + struct.pack("<i", 2 | 0x200) + header + b"\0"
     chunk = struct.pack("<5i", 0, 0, 0, 0, 16) + bytes(16)  # tile (0, 0) level (0, 0)

@@ -19,8 +19,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ..config.limits import MAX_FRAME_CHANNELS, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE  # noqa: E402
 from ..output.atomic import atomic_path  # noqa: E402
-from ..output.exr import read_exr  # noqa: E402
+from ..output.exr import frame_problem, read_exr, size_problem  # noqa: E402
 from ..output.png import linear_to_srgb  # noqa: E402
 from .report import error_key, parameters_text, pareto_front, scene_groups  # noqa: E402
 
@@ -155,6 +156,13 @@ def _pareto_plot(rows: list[dict], path: str) -> None:
     _save(fig, path)
 
 
+def _any_frame_problem(spec) -> str | None:
+    """Why a header is no frame reflect could have written (the image limits, a frame's
+    channels), or None."""
+    problem = size_problem(spec, MAX_IMAGE_SIDE, MAX_IMAGE_PIXELS, MAX_FRAME_CHANNELS)
+    return problem or frame_problem(spec, spec.width, spec.height)
+
+
 def _contact_sheet(rows: list[dict], path: str) -> None:
     """One line per run: reference, the run's first frame, its LDR-FLIP error map (what a
     viewer of the two previews sees; FLIP's magma scale, 0..1)."""
@@ -163,8 +171,12 @@ def _contact_sheet(rows: list[dict], path: str) -> None:
 
     fig, axes = plt.subplots(len(rows), 3, figsize=(9, 2.4 * len(rows)), squeeze=False)
     for line, r in zip(axes, rows, strict=True):
-        ours, _ = read_exr(r["images"][0])
-        ref, _ = read_exr(r["reference_images"][0])
+        # rows of an earlier bench (--resume) name frames that may have changed since:
+        # headers bounded before any pixel is read, the run's frame by its reference's size
+        ref, _ = read_exr(r["reference_images"][0], fits=_any_frame_problem)
+        height, width = ref["R"].shape  # R, G and B: _any_frame_problem
+        ours, _ = read_exr(r["images"][0], fits=lambda spec, w=width, h=height:
+                           frame_problem(spec, w, h))
         a = np.stack([ours[c] for c in "RGB"], axis=-1)
         b = np.stack([ref[c] for c in "RGB"], axis=-1)
         line[0].imshow(linear_to_srgb(b))

@@ -7,6 +7,8 @@ render run for hours before its first frame or allocate more memory than a machi
 | mesh file, with the glTF buffers, OBJ materials, textures it names | 512 MiB |
 | texture file                           | 256 MiB               |
 | texture dimensions                     | 16384 x 16384 texels, 64 Mtexels |
+| texture channels (file header)         | 64; 256M texels x channels, tiles too |
+| frame `--resume` keeps (header)        | the camera's size, R G B of <= 16 channels |
 | image file `compare` reads             | 4 GiB; the image size limits (tiles too), 64 channels |
 | include chain                          | 16 files deep         |
 | nesting of tables / arrays in a file   | 24 levels             |
@@ -47,6 +49,11 @@ MAX_MESH_BYTES = 512 << 20
 MAX_TEXTURE_BYTES = 256 << 20
 MAX_TEXTURE_SIDE = 16384
 MAX_TEXTURE_TEXELS = 64 << 20
+# what a texture file's header may claim (the texels read are then at most 1 GiB as float:
+# a 1 MB TIFF claiming 1024 x 1024 texels of 1000 channels was a MemoryError)
+MAX_TEXTURE_CHANNELS = 64
+MAX_TEXTURE_VALUES = MAX_TEXTURE_TEXELS * 4  # texels x channels, in the image and in a tile
+MAX_FRAME_CHANNELS = 16  # a frame reflect writes: R G B A Z mirror and at most 5 of its own
 MAX_INCLUDE_DEPTH = 16
 MAX_NESTING = 24
 MAX_IMAGE_SIDE = 16384

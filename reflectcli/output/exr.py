@@ -99,8 +99,9 @@ def _whole(tmp: str, spec) -> bool:
         inp.close()
 
 
-def read_exr_attributes(path: str) -> dict[str, str] | None:
-    """The string attributes of an EXR's header, its pixels not read (None: unreadable)."""
+def read_exr_header(path: str):
+    """An image's header (OpenImageIO's ImageSpec of its first part), its pixels not read
+    (None: unreadable)."""
     import OpenImageIO as oiio
 
     inp = oiio.ImageInput.open(path)
@@ -108,17 +109,24 @@ def read_exr_attributes(path: str) -> dict[str, str] | None:
         oiio.geterror()  # read, so that it does not linger into a later error
         return None
     try:
-        return _attributes(inp.spec())
+        return inp.spec()
     finally:
         inp.close()
 
 
-def _attributes(spec) -> dict[str, str]:
+def header_attributes(spec) -> dict[str, str]:
+    """A header's attributes by name (the string ones reflect writes, and the others)."""
     return {a.name: a.value for a in spec.extra_attribs}
 
 
-def read_exr(path: str) -> tuple[dict[str, np.ndarray], dict[str, str]]:
-    """(channels by name as (H, W) float32, string attributes). OIIO may reorder channels."""
+def read_exr(path: str, fits: Callable[[object], str | None] | None = None,
+             ) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """(channels by name as (H, W) float32, string attributes). OIIO may reorder channels.
+    Raises OSError if unreadable.
+
+    `fits(spec)` sees the header before any pixel is read and says why the file is refused
+    (raised as an OSError `<path>: <why>`), or None: what the caller expects bounds what the
+    read allocates (size_problem, frame_problem)."""
     import OpenImageIO as oiio
 
     inp = oiio.ImageInput.open(path)
@@ -126,14 +134,18 @@ def read_exr(path: str) -> tuple[dict[str, np.ndarray], dict[str, str]]:
         raise OSError(f"cannot read {path}: {oiio.geterror()}")
     try:
         spec = inp.spec()
+        problem = fits(spec) if fits is not None else None
+        if problem is not None:
+            raise OSError(f"{path}: {problem}")
         data = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
         if data is None:  # a truncated or damaged file: a header, but not its pixels
-            raise OSError(f"cannot read {path}: {inp.geterror() or oiio.geterror()}")
+            raise OSError(f"cannot read {path}: "
+                          f"{inp.geterror() or oiio.geterror() or 'pixels unreadable'}")
     finally:
         inp.close()
     data = np.asarray(data, np.float32).reshape(spec.height, spec.width, spec.nchannels)
     channels = {name: data[:, :, spec.channelindex(name)] for name in spec.channelnames}
-    return channels, _attributes(spec)
+    return channels, header_attributes(spec)
 
 
 def write_exr_parts(
@@ -173,19 +185,51 @@ def write_exr_parts(
             raise image_failure(path, oiio.geterror())
 
 
-def size_problem(spec, side: int, pixels: int, channels: int) -> str | None:
+def size_problem(spec, side: int, pixels: int, channels: int,
+                 values: int | None = None) -> str | None:
     """Why an image header claims more than `side` pixels a side, `pixels` pixels or
-    `channels` channels, in the image or in one tile, or None. The header alone: checked
-    before any pixel is read, a file's claims bound what reading it allocates (a 7 MB tiled
-    EXR claiming 60000 x 60000 pixels was a MemoryError in `compare`; a 385-byte one claiming
-    64 x 64 pixels in tiles of 20000 x 20000 another)."""
+    `channels` channels, in the image or in one tile, more than `values` values (pixels
+    times channels) in the image or in one tile, or deep data, or None. The header alone
+    (any OpenImageIO ImageSpec): checked before any pixel is read, a file's claims bound
+    what reading it allocates (a 7 MB tiled EXR claiming 60000 x 60000 pixels was a
+    MemoryError in `compare`; a 385-byte one claiming 64 x 64 pixels in tiles of
+    20000 x 20000 another; a 1 MB TIFF of 1024 x 1024 pixels in 1000 channels a third, as
+    a texture)."""
+    if spec.deep:
+        return "deep data (per-pixel samples), which reflect does not read"
     if (max(spec.width, spec.height) > side or spec.width * spec.height > pixels
             or spec.nchannels > channels):
         return (f"{spec.width}x{spec.height} pixels of {spec.nchannels} channels; the limit is "
                 f"{side} a side, {pixels} pixels, {channels} channels")
+    if values is not None and spec.width * spec.height * spec.nchannels > values:
+        return (f"{spec.width}x{spec.height} pixels of {spec.nchannels} channels, "
+                f"{spec.width * spec.height * spec.nchannels} values; the limit is {values} "
+                f"values (pixels times channels)")
     if max(spec.tile_width, spec.tile_height) > side or spec.tile_width * spec.tile_height > pixels:
         return (f"tiles of {spec.tile_width}x{spec.tile_height} pixels; the limit is {side} a "
                 f"side, {pixels} pixels")
+    if values is not None and spec.tile_width * spec.tile_height * spec.nchannels > values:
+        return (f"tiles of {spec.tile_width}x{spec.tile_height} pixels of {spec.nchannels} "
+                f"channels; the limit is {values} values (pixels times channels)")
+    return None
+
+
+def frame_problem(spec, width: int, height: int) -> str | None:
+    """Why a header is not that of a frame `width` x `height` reflect wrote, or None:
+    that size, R, G and B among at most MAX_FRAME_CHANNELS channels, tiles (if any) within
+    the frame, no deep data. A frame's own pixels are then all a read of it allocates
+    (--resume --preview reads a kept frame; a planted one claiming 60000 x 60000 pixels
+    was read whole)."""
+    from ..config.limits import MAX_FRAME_CHANNELS
+
+    problem = size_problem(spec, max(width, height), width * height, MAX_FRAME_CHANNELS)
+    if problem is not None:
+        return problem
+    if (spec.width, spec.height) != (width, height):
+        return f"{spec.width}x{spec.height} pixels where the frame is {width}x{height}"
+    missing = [c for c in "RGB" if c not in spec.channelnames]
+    if missing:
+        return f"no channel {', '.join(missing)}"
     return None
 
 

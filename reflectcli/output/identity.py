@@ -15,7 +15,7 @@ import os
 import uuid
 
 from ..errors import Problem, Problems
-from .exr import read_exr_attributes
+from .exr import frame_problem, header_attributes, read_exr_header
 from .log import read_jsonl
 
 
@@ -82,20 +82,24 @@ def _with_defaults(stored: dict, defaults: dict) -> dict:
     return out
 
 
-def file_matches(exr: str, row: dict, defaults: dict | None = None) -> bool:
+def file_matches(exr: str, row: dict, defaults: dict | None = None,
+                 size: tuple[int, int] | None = None) -> bool:
     """Whether the EXR at `exr` is the frame its log row describes: the size the row
     logged, and the scene hash, frame and parameters in its header (a parameter one of them
-    does not name counts as its default, as in `matches`). A frame whose file was
-    replaced after its row was written (a run killed between the two, a copy, a truncated
-    file) is rendered again by --resume, not kept."""
+    does not name counts as its default, as in `matches`), and with `size` (width, height)
+    a header of a frame that size (output/exr.frame_problem: a header claiming more is
+    never read). A frame whose file was replaced after its row was written (a run killed
+    between the two, a copy, a truncated file, a damaged header) is rendered again by
+    --resume, not kept."""
     try:
         if "exr_bytes" in row and os.path.getsize(exr) != row["exr_bytes"]:
             return False
     except OSError:
         return False
-    header = read_exr_attributes(exr)
-    if header is None:
+    spec = read_exr_header(exr)
+    if spec is None or (size is not None and frame_problem(spec, *size) is not None):
         return False
+    header = header_attributes(spec)
     try:
         parameters = json.loads(header.get("reflect:parameters", ""))
     except ValueError:
