@@ -29,7 +29,8 @@ class Primary:
 def render_primary(scene: Scene, frame_index: int, camera: Camera,
                    workspace: RasterWorkspace | None = None) -> Primary:
     """`workspace`: the rasterizer's scratch kept across frames (outputs stay fresh: the
-    frame keeps the depth buffer)."""
+    frame keeps the depth buffer; a workspace made with `ids=True` keeps the triangle ids
+    and barycentrics too, the returned buffers' then valid until its next pass)."""
     t0 = time.perf_counter()
     geometry = scene.geometry(frame_index)
     tris = geometry.all_triangles()

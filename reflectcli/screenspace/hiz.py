@@ -18,14 +18,18 @@ import numpy as np
 from numba import njit, prange
 
 from ..parallel import claim_rows, counter
-from .march import _store_march
+from ..raster.rasterize.buffers import scratch
+from .march import NO_HIT, _store_march
 from .rays import distance_at
 
 MAX_LEVELS = 16
+PYRAMID = "hiz_pyramid"  # build_pyramid's array in a workspace
 
 
-def build_pyramid(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(flat float32 pyramid, (L, 3) int64 rows of offset, width, height)."""
+def build_pyramid(depth: np.ndarray, workspace=None) -> tuple[np.ndarray, np.ndarray]:
+    """(flat float32 pyramid, (L, 3) int64 rows of offset, width, height). `workspace`:
+    the pyramid is its array, kept from frame to frame (valid until the next call); _build
+    writes every cell of every level, so nothing an earlier frame left is read."""
     h, w = depth.shape
     dims = [(w, h)]
     while (dims[-1][0] > 1 or dims[-1][1] > 1) and len(dims) < MAX_LEVELS:
@@ -36,7 +40,7 @@ def build_pyramid(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     for i, (lw, lh) in enumerate(dims):
         table[i] = offset, lw, lh
         offset += lw * lh
-    flat = np.empty(offset, np.float32)
+    flat = scratch(workspace, PYRAMID, (offset,), np.float32)
     _build(np.ascontiguousarray(depth, np.float32), flat, table)
     return flat, table
 
@@ -155,7 +159,8 @@ def march_hiz(r, flat, table, surface_ids, own, thickness, max_steps):
 
 def march_hiz_all(rays, valid, flat, table, surface_ids, thickness, max_steps,
                   hit, hx, hy, dist, gap, lookups) -> None:
-    """march_hiz for every valid pixel, into the output arrays (in place)."""
+    """march_hiz for every valid pixel, into the output arrays (in place); the other
+    pixels get NO_HIT (every pixel written: march.outputs)."""
     _march_hiz_all(rays, valid, flat, table, surface_ids, thickness, max_steps,
                    hit, hx, hy, dist, gap, lookups, numba.get_num_threads())
 
@@ -176,4 +181,6 @@ def _march_hiz_all(rays, valid, flat, table, surface_ids, thickness, max_steps,
                         _store_march(march_hiz(rays[y, x], flat, table, surface_ids,
                                               surface_ids[y, x], thickness, max_steps),
                                     y, x, hit, hx, hy, dist, gap, lookups)
+                    else:  # every pixel written (march.outputs)
+                        _store_march(NO_HIT, y, x, hit, hx, hy, dist, gap, lookups)
             y0, y1 = claim_rows(claimed, h)

@@ -24,10 +24,28 @@ from .rays import distance_at, to_screen
 LINEAR, DDA, HIZ = 0, 1, 2
 
 
+# a march's result where no ray is marched: what new_outputs holds
+NO_HIT = (0, -1, -1, 0.0, 0.0, 0)
+# the output arrays' names in a workspace kept across frames (outputs)
+OUTPUTS = (("march_hit", np.uint8), ("march_hx", np.int32), ("march_hy", np.int32),
+           ("march_dist", np.float32), ("march_gap", np.float32), ("march_lookups", np.int32))
+
+
 def new_outputs(h: int, w: int):
     return (np.zeros((h, w), np.uint8), np.full((h, w), -1, np.int32),
             np.full((h, w), -1, np.int32), np.zeros((h, w), np.float32),
             np.zeros((h, w), np.float32), np.zeros((h, w), np.int32))
+
+
+def outputs(h: int, w: int, workspace=None):
+    """(hit, hx, hy, dist, gap, lookups) (H, W): new_outputs without a workspace, else the
+    workspace's arrays, kept from frame to frame (valid until the next call) and holding
+    what an earlier frame left: march_all, march_hiz_all and ppr's decode write every
+    pixel of those they are given (NO_HIT where no ray is marched or no source reached),
+    so after them the arrays hold exactly what fresh new_outputs would."""
+    if workspace is None:
+        return new_outputs(h, w)
+    return tuple(workspace.get(name, (h, w), dtype) for name, dtype in OUTPUTS)
 
 
 @njit(cache=True)
@@ -175,7 +193,8 @@ def march_dda(r, depth, surface_ids, own, thickness, stride, jitter, max_steps):
 
 def march_all(kind, rays, valid, depth, surface_ids, thickness, stride, jitter, max_steps,
               p00, p11, hit, hx, hy, dist, gap, lookups) -> None:
-    """Run the `kind` march (LINEAR or DDA) for every valid pixel, into the output arrays."""
+    """Run the `kind` march (LINEAR or DDA) for every valid pixel, into the output arrays;
+    the other pixels get NO_HIT (every pixel written: `outputs`)."""
     _march_all(kind, rays, valid, depth, surface_ids, thickness, stride, jitter, max_steps,
                p00, p11, hit, hx, hy, dist, gap, lookups, numba.get_num_threads())
 
@@ -192,7 +211,8 @@ def _march_all(kind, rays, valid, depth, surface_ids, thickness, stride, jitter,
         while y0 < y1:
             for y in range(y0, y1):
                 for x in range(w):
-                    if not valid[y, x]:
+                    if not valid[y, x]:  # every pixel written (outputs)
+                        _store_march(NO_HIT, y, x, hit, hx, hy, dist, gap, lookups)
                         continue
                     own = surface_ids[y, x]
                     if kind == LINEAR:

@@ -113,13 +113,19 @@ def fill_holes(buffer, surface_ids, n_objects, w, out, filled):
 
 @njit(cache=True, parallel=True)
 def decode(buffer, w, rays, tri, b1, b2, corners, hit, hx, hy, dist):
-    """Per target: hit, source pixel and the distance from the mirror point to the source."""
+    """Per target: hit, source pixel and the distance from the mirror point to the source.
+    Every pixel written: one no source reached gets march.NO_HIT's (0, -1, -1, 0.0), what
+    fresh new_outputs hold (march.outputs)."""
     h = hit.shape[0]
     mask = np.uint64(0xFFFFFFFF)
     for y in prange(h):
         for x in range(w):
             v = buffer[y * w + x]
             if v == EMPTY:
+                hit[y, x] = 0
+                hx[y, x] = -1
+                hy[y, x] = -1
+                dist[y, x] = 0.0
                 continue
             src = int(v & mask)
             sy = src // w

@@ -53,15 +53,15 @@ def rasterize(
     corners = np.ascontiguousarray(corners, dtype=np.float32)
     flags = read_only(flags)  # (one signature of the kernels: `read_only`)
     m = np.ascontiguousarray(clip_from_world, dtype=np.float64)
-    if ws.outputs:
+    if ws.outputs or ws.ids:  # (ids: the depth buffer alone fresh)
         tri = ws.get("tri", (height, width), np.int32)
-        depth = ws.get("depth", (height, width), np.float32)
         out = (ws.get("b1", (height, width), np.float32),
                ws.get("b2", (height, width), np.float32))
     else:
         tri = np.empty((height, width), np.int32)
-        depth = np.empty((height, width), np.float32)
         out = None
+    depth = (ws.get("depth", (height, width), np.float32) if ws.outputs
+             else np.empty((height, width), np.float32))
     if mask is None:
         stencil = ws.constant("stencil", (1, 1), np.uint8, 1)
         x0, x1, y0, y1 = 0, width, 0, height

@@ -67,10 +67,15 @@ class RasterWorkspace:
     """Scratch arrays of `rasterize` kept from call to call (grown, never shrunk): fresh
     arrays of tens of megabytes a frame cost more in page faults than the work in them.
     With `outputs=True` the returned buffers are the workspace's too (valid until the next
-    call): for passes whose buffers are consumed at once."""
+    call): for passes whose buffers are consumed at once. With `ids=True` (and outputs
+    False) the triangle ids and the recovered barycentrics are the workspace's (valid until
+    the next call) while the depth buffer stays fresh: for a primary pass whose frame keeps
+    its depth but whose ids and barycentrics are read only while the frame renders (ssr,
+    ppr)."""
 
-    def __init__(self, outputs: bool = False) -> None:
+    def __init__(self, outputs: bool = False, ids: bool = False) -> None:
         self.outputs = outputs
+        self.ids = ids
         self._arrays: dict[str, np.ndarray] = {}
 
     def get(self, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:

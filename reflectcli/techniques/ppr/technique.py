@@ -11,8 +11,9 @@ from ...camera import Camera
 from ...frame import Frame
 from ...raster.primary import render_primary
 from ...raster.rasterize import RasterWorkspace
+from ...raster.rasterize.buffers import scratch
 from ...scene.types import PLANAR, Scene
-from ...screenspace.march import new_outputs
+from ...screenspace.march import outputs
 from ...screenspace.project import EMPTY, decode, fill_holes, project_sources, scatter_min
 from ...screenspace.rays import mirror_rays
 from ...screenspace.resolve import resolve_hits
@@ -24,17 +25,22 @@ from . import PprParams
 def project_frame(primary, scene: Scene, camera: Camera, fill: bool,
                   workspace: RasterWorkspace | None = None) -> dict:
     """The projection and reflection passes over the primary frame: per-pixel arrays.
-    `workspace`: where the ray table is kept across frames (mirror_rays; "rays" is then
-    valid until the next call)."""
+    `workspace`: where the ray table (mirror_rays), the decoded outputs (march.outputs:
+    decode writes every pixel) and the scatter's arrays are kept across frames; the arrays
+    returned are then valid until the next call. What an earlier frame left in them is
+    never read: the key buffer is set to EMPTY here, project_sources writes every source's
+    target and key, fill_holes every pixel of its `out` and `filled` (`filled` is cleared
+    here without a fill)."""
     frame = primary.frame
     h, w = frame.depth.shape
     t0 = time.perf_counter()
     buf = primary.buffers
     tris = primary.triangles
     clip_from_world = camera.projection_matrix() @ camera.view_matrix()
-    buffer = np.full(h * w, EMPTY, np.uint64)
-    targets = np.empty(h * w, np.int32)
-    keys = np.empty(h * w, np.uint64)
+    buffer = scratch(workspace, "ppr_keys_min", (h * w,), np.uint64)
+    buffer.fill(EMPTY)  # scatter_min's targets and decode read it: EMPTY where no key lands
+    targets = scratch(workspace, "ppr_targets", (h * w,), np.int32)
+    keys = scratch(workspace, "ppr_keys", (h * w,), np.uint64)
     mirrors = scene.mirrors
     eye = np.asarray(camera.eye, np.float64)
     projected = 0
@@ -51,14 +57,16 @@ def project_frame(primary, scene: Scene, camera: Camera, fill: bool,
         scatter_min(targets, keys, buffer)
         projected += int((targets >= 0).sum())
     t1 = time.perf_counter()
-    filled = np.zeros((h, w), np.bool_)
+    filled = scratch(workspace, "ppr_filled", (h, w), np.bool_)
     if fill:
-        out = np.empty_like(buffer)
+        out = scratch(workspace, "ppr_keys_filled", (h * w,), np.uint64)
         fill_holes(buffer, frame.surface, scene.n_objects, w, out, filled)
         buffer = out
+    else:
+        filled.fill(False)  # (read for the `filled` count)
     rays, _ = mirror_rays(buf, frame.surface, scene.n_objects, tris, mirrors, camera,
                           camera.far, workspace)
-    hit, hx, hy, dist, _, _ = new_outputs(h, w)
+    hit, hx, hy, dist, _, _ = outputs(h, w, workspace)
     decode(buffer, w, rays, buf.triangle, buf.b1, buf.b2, tris.corners, hit, hx, hy, dist)
     t2 = time.perf_counter()
     return {"rays": rays, "hit": hit, "hx": hx, "hy": hy, "dist": dist, "filled": filled,
@@ -74,17 +82,22 @@ class Ppr(Technique):
         warn_non_planar(scene, "ppr")
         fallback = Fallback(self.params.fallback, self.threads, self.cache_dir)
         fallback.prepare(scene)
-        # the ray table, kept across frames (mirror_rays)
-        return {"scene": scene, "fallback": fallback, "rays": RasterWorkspace()}
+        # scratch kept across frames (None: fresh arrays every frame): the primary pass's
+        # (its triangle ids and barycentrics too: read only while the frame renders) and
+        # the screen-space stages' (project_frame; the colour copy sources are read from)
+        return {"scene": scene, "fallback": fallback, "primary": RasterWorkspace(ids=True),
+                "screen": RasterWorkspace()}
 
     def render(self, state: dict, frame_index: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]
         params = self.params
-        primary = render_primary(scene, frame_index, camera)
+        primary = render_primary(scene, frame_index, camera, state["primary"])
         result = primary.frame
-        p = project_frame(primary, scene, camera, params.fill, state["rays"])
+        p = project_frame(primary, scene, camera, params.fill, state["screen"])
         t0 = time.perf_counter()
-        colors = result.rgb.copy()
+        # the colour buffer sources are read from (mirrors: (1 - r) * base): written whole
+        colors = scratch(state["screen"], "colors", result.rgb.shape, np.float32)
+        np.copyto(colors, result.rgb)
         tris = primary.triangles
         mats = scene.materials
         resolve_hits(params.resolve == "surface", p["hit"], p["hx"], p["hy"], p["dist"],
@@ -98,7 +111,8 @@ class Ppr(Technique):
         source = state["fallback"].apply(scene, primary, camera, hit, result.rgb,
                                          result.timings)
         result.extra["ppr_hit"] = hit.astype(np.float32)
-        result.extra["ppr_distance"] = np.where(hit != 0, p["dist"], 0.0).astype(np.float32)
+        result.extra["ppr_distance"] = np.where(hit != 0, p["dist"], 0.0).astype(
+            np.float32, copy=False)
         result.extra["source"] = source
         result.extra["holes"] = (source == BASE).astype(np.float32)  # base only
         mirror_pixels = int(result.mirror_mask.sum())

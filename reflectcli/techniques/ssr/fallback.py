@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...raster.rasterize import RasterWorkspace
+from ...raster.rasterize.buffers import scratch
 from ...scene.types import PLANAR, Scene
 
 NOT_MIRROR, SCREEN, RERENDER, ENVMAP, BASE = 0, 1, 2, 3, 4
@@ -20,6 +22,8 @@ class Fallback:
         self.cache_dir = cache_dir
         self.helper = None
         self.state = None
+        # scratch kept across frames (None: fresh every frame): the envmap lookups' ids
+        self.workspace: RasterWorkspace | None = RasterWorkspace()
 
     def prepare(self, scene: Scene) -> None:
         if self.kind == "envmap":
@@ -44,8 +48,9 @@ class Fallback:
         surface = primary.frame.surface
         mirror = primary.frame.mirror_mask
         miss = mirror & (hit == 0)
-        source = np.where(mirror, np.where(hit != 0, SCREEN, BASE), NOT_MIRROR).astype(
-            np.float32)
+        # the channel, fresh (the frame keeps it): made in float32 (were int64 temporaries)
+        source = np.where(hit != 0, np.float32(SCREEN), np.float32(BASE))
+        source[~mirror] = NOT_MIRROR
         start = time.perf_counter()
         if self.kind == "rerender" and miss.any():
             stats = {"passes": 0, "triangles_rasterized": 0, "pass_seconds": []}
@@ -59,8 +64,11 @@ class Fallback:
             from ...maps.lookup import CUBE, add_reflections
 
             # missed pixels hold (1 - r) * base and lookups add r * map, in place; the
-            # lookups run on the missed pixels only (their surface ids, -1 elsewhere)
-            missed_ids = np.where(miss, surface, -1).astype(surface.dtype, copy=False)
+            # lookups run on the missed pixels only (their surface ids, -1 elsewhere: every
+            # pixel written, so an earlier frame's ids are never read)
+            missed_ids = scratch(self.workspace, "missed_ids", surface.shape, surface.dtype)
+            missed_ids.fill(-1)
+            np.copyto(missed_ids, surface, where=miss)
             dummy = np.zeros((1, 1, 3), np.float32)
             box = self.state.box
             for k, record in enumerate(self.state.maps):

@@ -11,9 +11,10 @@ from ...camera import Camera
 from ...frame import Frame
 from ...raster.primary import render_primary
 from ...raster.rasterize import RasterWorkspace
+from ...raster.rasterize.buffers import scratch
 from ...scene.types import Scene
 from ...screenspace.hiz import build_pyramid, march_hiz_all
-from ...screenspace.march import DDA, LINEAR, march_all, new_outputs
+from ...screenspace.march import DDA, LINEAR, march_all, outputs
 from ...screenspace.rays import mirror_rays
 from ...screenspace.resolve import confidence, resolve_hits
 from ..base import Technique
@@ -25,20 +26,21 @@ def march_frame(primary, scene: Scene, camera: Camera, params,
                 workspace: RasterWorkspace | None = None) -> dict:
     """Rays of every mirror pixel marched over the primary frame: per-pixel arrays and the
     cells (depth lookups) per ray. Used by the technique and by tests. `workspace`: where
-    the ray table is kept across frames (mirror_rays; "rays" and "valid" are then valid
-    until the next call)."""
+    the ray table (mirror_rays), the march's outputs (march.outputs: every pixel written)
+    and the hiz pyramid (build_pyramid: every cell written) are kept across frames; the
+    arrays returned are then valid until the next call."""
     frame = primary.frame
     h, w = frame.depth.shape
     t0 = time.perf_counter()
     rays, valid = mirror_rays(primary.buffers, frame.surface, scene.n_objects,
                               primary.triangles, scene.mirrors, camera, params.max_distance,
                               workspace)
-    hit, hx, hy, dist, gap, lookups = new_outputs(h, w)
+    hit, hx, hy, dist, gap, lookups = outputs(h, w, workspace)
     depth = np.ascontiguousarray(frame.depth, np.float32)
     t1 = time.perf_counter()
     pyramid_seconds = 0.0
     if params.march == "hiz":
-        flat, table = build_pyramid(depth)
+        flat, table = build_pyramid(depth, workspace)
         pyramid_seconds = time.perf_counter() - t1
         march_hiz_all(rays, valid, flat, table, frame.surface, float(params.thickness),
                       int(params.max_steps), hit, hx, hy, dist, gap, lookups)
@@ -63,17 +65,22 @@ class Ssr(Technique):
     def prepare(self, scene: Scene) -> dict:
         fallback = Fallback(self.params.fallback, self.threads, self.cache_dir)
         fallback.prepare(scene)
-        # the ray table, kept across frames (mirror_rays)
-        return {"scene": scene, "fallback": fallback, "rays": RasterWorkspace()}
+        # scratch kept across frames (None: fresh arrays every frame): the primary pass's
+        # (its triangle ids and barycentrics too: read only while the frame renders) and
+        # the screen-space stages' (march_frame; the colour copy rays sample)
+        return {"scene": scene, "fallback": fallback, "primary": RasterWorkspace(ids=True),
+                "screen": RasterWorkspace()}
 
     def render(self, state: dict, frame_index: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]
         params = self.params
-        primary = render_primary(scene, frame_index, camera)
+        primary = render_primary(scene, frame_index, camera, state["primary"])
         result = primary.frame
-        marched = march_frame(primary, scene, camera, params, state["rays"])
+        marched = march_frame(primary, scene, camera, params, state["screen"])
         t0 = time.perf_counter()
-        colors = result.rgb.copy()  # the colour buffer rays sample (mirrors: (1 - r) * base)
+        # the colour buffer rays sample (mirrors: (1 - r) * base): written whole here
+        colors = scratch(state["screen"], "colors", result.rgb.shape, np.float32)
+        np.copyto(colors, result.rgb)
         tris = primary.triangles
         mats = scene.materials
         resolve_hits(params.resolve == "surface", marched["hit"], marched["hx"], marched["hy"],
@@ -91,7 +98,7 @@ class Ssr(Technique):
         hit = marched["hit"]
         result.extra["ssr_hit"] = hit.astype(np.float32)
         result.extra["ssr_distance"] = np.where(hit != 0, marched["dist"], 0.0).astype(
-            np.float32)
+            np.float32, copy=False)
         result.extra["confidence"] = conf
         result.extra["source"] = source
         result.extra["holes"] = (source == BASE).astype(np.float32)  # base only
