@@ -254,11 +254,14 @@ def check(scene_path: str, out: str, cache: str, render: bool = True) -> dict:
     holds ("traceback", "disagree", "wrote", "message" otherwise)."""
     from . import api
     from .errors import Problems
-    from .validate import validate_file
+    from .validate import RenderOptions, validate_file
 
     result: dict = {"failure": None}
+    # validated with the options it is rendered with: the output folder, frame and cache
+    # render uses (validate's defaults would judge ./out, every frame and the scene's cache)
+    options = RenderOptions(out=out, frames="0", threads=1, cache=cache) if render else None
     try:
-        kind = validate_file(scene_path).kind
+        kind = validate_file(scene_path, options).kind
         result["validate"] = "ok"
     except Problems as e:
         kind = None

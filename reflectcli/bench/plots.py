@@ -19,9 +19,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..config.limits import MAX_FRAME_CHANNELS, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE  # noqa: E402
+from ..config.limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE  # noqa: E402
 from ..output.atomic import atomic_path  # noqa: E402
-from ..output.exr import frame_problem, read_exr, size_problem  # noqa: E402
+from ..output.exr import MAX_FRAME_CHANNELS, frame_problem, read_exr, size_problem  # noqa: E402
 from ..output.png import linear_to_srgb  # noqa: E402
 from .report import error_key, parameters_text, pareto_front, scene_groups  # noqa: E402
 

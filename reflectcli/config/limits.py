@@ -53,7 +53,6 @@ MAX_TEXTURE_TEXELS = 64 << 20
 # a 1 MB TIFF claiming 1024 x 1024 texels of 1000 channels was a MemoryError)
 MAX_TEXTURE_CHANNELS = 64
 MAX_TEXTURE_VALUES = MAX_TEXTURE_TEXELS * 4  # texels x channels, in the image and in a tile
-MAX_FRAME_CHANNELS = 16  # a frame reflect writes: R G B A Z mirror and at most 5 of its own
 MAX_INCLUDE_DEPTH = 16
 MAX_NESTING = 24
 MAX_IMAGE_SIDE = 16384

@@ -56,8 +56,8 @@ def input_problem(path: str) -> str | None:
 
 
 def _read(path: str, mask_channel: str | None) -> tuple[dict, dict]:
+    from ..c_stderr import c_stderr
     from ..output.exr import read_exr
-    from ..scene.textures import c_stderr
 
     said: list[str] = []  # libpng's own "libpng error: ..." line: OpenImageIO's error says it
     with c_stderr(said):

@@ -16,6 +16,8 @@ from .failures import image_failure
 FIXED_DATETIME = "2000:01:01 00:00:00"
 
 
+MAX_FRAME_CHANNELS = 16  # a frame reflect writes: R G B A Z mirror and at most 5 of its own
+
 def pack_channels(channels: dict[str, np.ndarray]) -> tuple[list[str], np.ndarray]:
     """(names, (H, W, C) float32 array): a fresh copy of the channels, ready to write."""
     names = list(channels)
@@ -220,7 +222,6 @@ def frame_problem(spec, width: int, height: int) -> str | None:
     the frame, no deep data. A frame's own pixels are then all a read of it allocates
     (--resume --preview reads a kept frame; a planted one claiming 60000 x 60000 pixels
     was read whole)."""
-    from ..config.limits import MAX_FRAME_CHANNELS
 
     problem = size_problem(spec, max(width, height), width * height, MAX_FRAME_CHANNELS)
     if problem is not None:

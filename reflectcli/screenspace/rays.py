@@ -43,7 +43,8 @@ def mirror_rays(buffers, surface_ids, n_objects, tris, mirrors, camera, max_dist
     zeros where no ray starts: what a fresh table held); the rows of other pixels keep what
     an earlier frame (or the allocator) left, and nothing reads them: ssr's marches,
     `confidence` and `resolve_hits` read the rows of `valid` pixels only (a hit is a valid
-    pixel's: the hit array is fresh each frame and only marches write it), ppr's `decode`
+    pixel's: the hit array is kept too (`march.outputs`), and the marches and ppr's `decode`
+    write NO_HIT at every pixel without a ray or a source), ppr's `decode`
     and `resolve_hits` the rows of pixels holding a source (mirror pixels: scatter_min
     targets only pixels of the mirror, fill_holes fills only mirror pixels). Without a
     workspace the arrays are fresh (zeros where not written).
