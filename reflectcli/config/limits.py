@@ -95,11 +95,13 @@ def check_config(cfg, add) -> None:
     for key in too_wide:
         add(("camera", key), f"must be <= {MAX_IMAGE_SIDE}")
     if not too_wide and cam.width * cam.height > MAX_IMAGE_PIXELS:  # one line per mistake
-        add(("camera", "width"), f"width x height must be <= {MAX_IMAGE_PIXELS} pixels")
+        add(("camera", "width"), f"width x height must be <= {MAX_IMAGE_PIXELS} pixels",
+            (("camera", "height"),))
     if cam.near < MIN_NEAR:
         add(("camera", "near"), f"must be >= {MIN_NEAR:g}")
     elif cam.far / cam.near > MAX_DEPTH_RATIO:
-        add(("camera", "far"), f"far / near must be <= {MAX_DEPTH_RATIO:g}")
+        add(("camera", "far"), f"far / near must be <= {MAX_DEPTH_RATIO:g}",
+            (("camera", "near"),))
     _fov(add, ("camera", "fov_y"), cam.fov_y)
     _points(add, ("camera", "eye"), [cam.eye])
     _points(add, ("camera", "target"), [cam.target])
@@ -185,7 +187,8 @@ def _proxy_box(add, technique) -> None:
         missing = "proxy_max" if hi is None else "proxy_min"
         add(("technique", missing), "required with the other corner of the proxy box")
     elif lo is not None and any(a > b for a, b in zip(lo, hi, strict=True)):
-        add(("technique", "proxy_min"), "must be <= proxy_max on every axis")
+        add(("technique", "proxy_min"), "must be <= proxy_max on every axis",
+            (("technique", "proxy_max"),))
 
 
 def _finite_small(values) -> bool:
@@ -265,9 +268,13 @@ def limit_problems(cfg, prov: dict, display: str, source: str | None = None,
 
     problems: list = []
 
-    def add(loc: tuple, message: str) -> None:
-        problems.append(Problem(origin(prov, loc, display), ".".join(str(p) for p in loc),
-                                message))
+    def add(loc: tuple, message: str, related: tuple = ()) -> None:
+        """`related`: the other fields a check across fields reads; one that `--set` gave
+        blames it (the file's value at `loc` is not what made the pair wrong)."""
+        file = origin(prov, loc, display)
+        if any(origin(prov, other, display) == "--set" for other in related):
+            file = "--set"
+        problems.append(Problem(file, ".".join(str(p) for p in loc), message))
 
     check_config(cfg, add)
     if not problems and source is not None and memory is not None:

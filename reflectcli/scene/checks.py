@@ -80,7 +80,8 @@ def semantic_problems(cfg: SceneConfig, source: str, prov: dict, display: str) -
                 add(("mirrors", j, "normal"), "must not be zero")
                 continue
             if np.linalg.norm(np.cross(n, up)) <= 1e-9 * np.linalg.norm(n) * np.linalg.norm(up):
-                add(("mirrors", j, "up"), "must not be parallel to the normal")
+                add(("mirrors", j, "up"), "must not be parallel to the normal",
+                    (("mirrors", j, "normal"),))
                 continue
         if not m.planar:
             continue

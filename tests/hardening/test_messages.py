@@ -207,3 +207,11 @@ def test_a_check_across_fields_blames_the_set_that_broke_it(tmp_path, override, 
         assert_one_line(invoke("render", scene, "--out", tmp_path / "o", "--set", override),
                         expected)
     assert not (tmp_path / "o").exists()
+
+
+def test_far_near_ratio_is_blamed_on_the_set_near(tmp_path):
+    # far from the file, near from --set: the ratio is the --set's doing
+    scene = write(tmp_path, "s.toml", TINY.replace("height = 12", "height = 12\nfar = 10000.0"))
+    with chdir(tmp_path):
+        assert_one_line(invoke("validate", scene, "--set", "camera.near=1e-6"),
+                        "--set: camera.far: far / near must be <= 1e+09")
