@@ -19,6 +19,7 @@ from ...screenspace.rays import mirror_rays
 from ...screenspace.resolve import resolve_hits
 from ..base import Technique, warn_non_planar
 from ..ssr.fallback import BASE, Fallback
+from ..ssr.workspaces import color_copy, screen_state
 from . import PprParams
 
 
@@ -82,11 +83,7 @@ class Ppr(Technique):
         warn_non_planar(scene, "ppr")
         fallback = Fallback(self.params.fallback, self.threads, self.cache_dir)
         fallback.prepare(scene)
-        # scratch kept across frames (None: fresh arrays every frame): the primary pass's
-        # (its triangle ids and barycentrics too: read only while the frame renders) and
-        # the screen-space stages' (project_frame; the colour copy sources are read from)
-        return {"scene": scene, "fallback": fallback, "primary": RasterWorkspace(ids=True),
-                "screen": RasterWorkspace()}
+        return screen_state(scene, fallback)
 
     def render(self, state: dict, frame_index: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]
@@ -95,9 +92,7 @@ class Ppr(Technique):
         result = primary.frame
         p = project_frame(primary, scene, camera, params.fill, state["screen"])
         t0 = time.perf_counter()
-        # the colour buffer sources are read from (mirrors: (1 - r) * base): written whole
-        colors = scratch(state["screen"], "colors", result.rgb.shape, np.float32)
-        np.copyto(colors, result.rgb)
+        colors = color_copy(state["screen"], result.rgb)
         tris = primary.triangles
         mats = scene.materials
         resolve_hits(params.resolve == "surface", p["hit"], p["hx"], p["hy"], p["dist"],

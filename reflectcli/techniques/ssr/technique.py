@@ -11,7 +11,6 @@ from ...camera import Camera
 from ...frame import Frame
 from ...raster.primary import render_primary
 from ...raster.rasterize import RasterWorkspace
-from ...raster.rasterize.buffers import scratch
 from ...scene.types import Scene
 from ...screenspace.hiz import build_pyramid, march_hiz_all
 from ...screenspace.march import DDA, LINEAR, march_all, outputs
@@ -20,6 +19,7 @@ from ...screenspace.resolve import confidence, resolve_hits
 from ..base import Technique
 from . import SsrParams
 from .fallback import BASE, Fallback
+from .workspaces import color_copy, screen_state
 
 
 def march_frame(primary, scene: Scene, camera: Camera, params,
@@ -65,11 +65,7 @@ class Ssr(Technique):
     def prepare(self, scene: Scene) -> dict:
         fallback = Fallback(self.params.fallback, self.threads, self.cache_dir)
         fallback.prepare(scene)
-        # scratch kept across frames (None: fresh arrays every frame): the primary pass's
-        # (its triangle ids and barycentrics too: read only while the frame renders) and
-        # the screen-space stages' (march_frame; the colour copy rays sample)
-        return {"scene": scene, "fallback": fallback, "primary": RasterWorkspace(ids=True),
-                "screen": RasterWorkspace()}
+        return screen_state(scene, fallback)
 
     def render(self, state: dict, frame_index: int, camera: Camera) -> Frame:
         scene: Scene = state["scene"]
@@ -78,9 +74,7 @@ class Ssr(Technique):
         result = primary.frame
         marched = march_frame(primary, scene, camera, params, state["screen"])
         t0 = time.perf_counter()
-        # the colour buffer rays sample (mirrors: (1 - r) * base): written whole here
-        colors = scratch(state["screen"], "colors", result.rgb.shape, np.float32)
-        np.copyto(colors, result.rgb)
+        colors = color_copy(state["screen"], result.rgb)
         tris = primary.triangles
         mats = scene.materials
         resolve_hits(params.resolve == "surface", marched["hit"], marched["hx"], marched["hy"],
