@@ -66,7 +66,7 @@ def rasterize(
         stencil = ws.constant("stencil", (1, 1), np.uint8, 1)
         x0, x1, y0, y1 = 0, width, 0, height
     else:
-        stencil = np.ascontiguousarray(mask, dtype=np.uint8)
+        stencil = stencil_bytes(mask)
         x0, x1, y0, y1 = stencil_box(stencil)
     floor = (ws.constant("floor", (1, 1), np.float32, 0.0) if depth_floor is None
              else np.ascontiguousarray(depth_floor, dtype=np.float32))
@@ -97,4 +97,14 @@ def rasterize(
     _resolve(flags, x0, x1, y0, y1, own_tri, own_key, drew, tri, depth,
              clear_outside or mask is None)
     return RasterBuffers(tri, None, None, depth, corners, m, out)
+
+
+def stencil_bytes(mask: np.ndarray) -> np.ndarray:
+    """`mask` (H, W) as the uint8 stencil the kernels read: a writable C-contiguous bool
+    mask is viewed as its bytes (True is 1; the same values its uint8 copy held), not copied
+    (an image-sized array a masked pass); anything else converted. (A read-only view would
+    compile the kernels again: `read_only`.)"""
+    if mask.dtype == np.bool_ and mask.flags.c_contiguous and mask.flags.writeable:
+        return mask.view(np.uint8)
+    return np.ascontiguousarray(mask, dtype=np.uint8)
 
