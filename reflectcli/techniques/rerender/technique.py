@@ -28,18 +28,22 @@ class Rerender(Technique):
 
     def prepare(self, scene: Scene) -> Scene:
         warn_non_planar(scene, "rerender")
-        # rasterizer scratch kept across frames; reflection passes' buffers are shaded at once
-        self._primary_ws = RasterWorkspace()
+        # rasterizer scratch kept across frames (the primary pass's triangle ids too: read
+        # only while the frame renders); reflection passes' buffers are shaded at once
+        self._primary_ws = RasterWorkspace(ids=True)
         self._pass_ws = RasterWorkspace(outputs=True)
         self._levels = {}
         return scene
 
-    def _shade_out(self, level: int, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-        """rgb and surface arrays of a reflection level's passes, kept across frames (a
-        level's passes run one after another; deeper levels have their own)."""
+    def _level_arrays(self, level: int,
+                      shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """rgb, surface and stencil arrays of a reflection level's passes, kept across frames
+        (a level's passes run one after another; deeper levels, which read this level's
+        stencil as their mask, have their own)."""
         kept = self._levels.get(level)
         if kept is None or kept[1].shape != shape:
-            kept = (np.empty((*shape, 3), np.float32), np.empty(shape, np.int32))
+            kept = (np.empty((*shape, 3), np.float32), np.empty(shape, np.int32),
+                    np.empty(shape, np.bool_))
             self._levels[level] = kept
         return kept
 
@@ -50,25 +54,29 @@ class Rerender(Technique):
         result = primary.frame
         stats = {"passes": 1, "triangles_rasterized": primary.triangles.count,
                  "pass_seconds": []}
-        mask = np.ones(result.surface.shape, bool)
         self._reflect(scene, primary.geometry, primary.flags, camera, 1, np.eye(4),
-                      camera.eye, result.surface, mask, result.rgb, stats)
+                      camera.eye, result.surface, None, result.rgb, stats)
         result.timings["reflections"] = sum(stats["pass_seconds"])
         result.stats.update(stats)
         return result
 
     def _reflect(self, scene, geometry: Geometry, flags, camera, level, chain, eye, surface,
                  mask, rgb, stats) -> None:
-        """Fill the mirror pixels of `rgb` (inside `mask`) seen from `eye` at this level."""
+        """Fill the mirror pixels of `rgb` (inside `mask`; None: everywhere) seen from `eye`
+        at this level."""
         if level > self.params.max_depth:
             return
         tris = geometry.all_triangles()
         mirrors = scene.mirrors
+        out_rgb, out_surface, stencil = self._level_arrays(level, surface.shape)
         for k in range(mirrors.count):
             if mirrors.kind[k] != PLANAR:
                 continue
             sid = scene.n_objects + k
-            stencil = mask & (surface == sid)
+            # written whole for each mirror (the level's kept array)
+            np.equal(surface, sid, out=stencil)
+            if mask is not None:
+                stencil &= mask
             if not stencil.any():
                 continue
             start = time.perf_counter()
@@ -95,7 +103,7 @@ class Rerender(Technique):
             # buffers is never looked at
             reflected, reflected_surface = shade_buffers(
                 buffers, tris, scene, new_eye, stencil=stencil,
-                out=self._shade_out(level, stencil.shape))
+                out=(out_rgb, out_surface))
             stats["passes"] += 1
             stats["triangles_rasterized"] += tris.count
             stats["pass_seconds"].append(time.perf_counter() - start)
