@@ -17,22 +17,28 @@ import numpy as np
 from numba import njit, prange
 
 from ..camera import Camera
-from ..raster.rasterize import RasterBuffers
+from ..raster.rasterize import RasterBuffers, RasterWorkspace
+from ..raster.rasterize.buffers import scratch
 from ..raster.shade import shade_buffers
 from ..scene.types import Scene, Triangles
 
 
 def surface_colors(triangle: np.ndarray, camera: Camera, reflection: np.ndarray,
                    mirrored_eye: np.ndarray, plane: tuple[np.ndarray, float],
-                   triangles: Triangles, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+                   triangles: Triangles, scene: Scene,
+                   workspace: RasterWorkspace | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(rgb (H, W, 3) float32, shaded (H, W) bool) for the pixels whose `triangle` (H, W,
     index into `triangles`, -1: none) their reflected ray meets in front of the mirror
-    (`plane` = (unit normal, d), world); rgb is set only where shaded."""
+    (`plane` = (unit normal, d), world); rgb is set only where shaded. `workspace`: where
+    the arrays are kept across calls (the returned ones then valid until the next call);
+    none is read where this call did not write it (b1, b2 and depth are written, and read,
+    only where a hit is kept)."""
     h, w = triangle.shape
-    b1 = np.zeros((h, w), np.float32)
-    b2 = np.zeros((h, w), np.float32)
-    depth = np.full((h, w), np.inf, np.float32)
-    hit = triangle.copy()
+    b1 = scratch(workspace, "surface_b1", (h, w), np.float32)
+    b2 = scratch(workspace, "surface_b2", (h, w), np.float32)
+    depth = scratch(workspace, "surface_depth", (h, w), np.float32)
+    hit = scratch(workspace, "surface_hit", (h, w), np.int32)
+    np.copyto(hit, triangle)
     right, up, back = camera.basis()
     t = math.tan(math.radians(camera.fov_y) / 2.0)
     # the camera's pixel-center rays (world), reflected: d = x_ndc * X + y_ndc * Y - Z
@@ -41,11 +47,13 @@ def surface_colors(triangle: np.ndarray, camera: Camera, reflection: np.ndarray,
     n, d = plane
     _intersect(triangle, axes, np.asarray(mirrored_eye, np.float64), triangles.corners,
                np.asarray(n, np.float64), float(d), hit, b1, b2, depth)
-    ok = hit >= 0
+    ok = np.greater_equal(hit, 0, out=scratch(workspace, "surface_ok", (h, w), np.bool_))
     # only the pixels that found their point are shaded (the rest of rgb is left unset)
     rgb, _ = shade_buffers(RasterBuffers(hit, b1, b2, depth), triangles, scene, mirrored_eye,
-                           stencil=ok, out=(np.empty((h, w, 3), np.float32),
-                                            np.empty((h, w), np.int32)))
+                           stencil=ok, out=(scratch(workspace, "surface_rgb", (h, w, 3),
+                                                    np.float32),
+                                            scratch(workspace, "surface_ids", (h, w),
+                                                    np.int32)))
     return rgb, ok
 
 

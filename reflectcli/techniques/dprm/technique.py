@@ -27,6 +27,7 @@ from ...maps.zexel import (
 )
 from ...raster.primary import render_primary
 from ...raster.rasterize import RasterWorkspace
+from ...raster.rasterize.buffers import scratch
 from ...scene.types import PLANAR, Scene, Triangles, scene_extent
 from ..base import MapRecord, MapTechnique, precompute_logged, warn_non_planar, warn_stale
 from . import DprmMaps, DprmParams
@@ -58,7 +59,9 @@ class DprmState:
     # per mirror index: (reflected colors, filled pixels) of the previous frame
     previous: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     buffers: FrameBuffers | None = None  # per-frame arrays kept across frames
-    buffers_raster: RasterWorkspace = field(default_factory=RasterWorkspace)
+    # the primary pass's scratch, its triangle ids too (read only while the frame renders)
+    buffers_raster: RasterWorkspace = field(
+        default_factory=lambda: RasterWorkspace(ids=True))
 
 
 class FrameBuffers:
@@ -72,6 +75,9 @@ class FrameBuffers:
         # fill_blend never reads
         self.payloads: dict[int, np.ndarray] = {}
         self.spare: tuple[np.ndarray, np.ndarray] | None = None  # a free temporal pair
+        # a mirror's stencil and the surface reconstruction's arrays (`_warp`,
+        # `surface_colors`): each written where it is read, for each mirror
+        self.workspace = RasterWorkspace()
 
     def payload(self, channels: int) -> np.ndarray:
         if channels not in self.payloads:
@@ -183,7 +189,9 @@ class Dprm(MapTechnique):
         used, warped = 0, 0
         for record in state.mirrors:
             k = record.index
-            stencil = result.surface == scene.n_objects + k
+            # the kept stencil, written whole for each mirror
+            stencil = np.equal(result.surface, scene.n_objects + k,
+                               out=scratch(state.buffers.workspace, "stencil", (h, w), np.bool_))
             _, box = stencil_box(stencil)
             if box is None:
                 continue
@@ -212,7 +220,7 @@ class Dprm(MapTechnique):
             warp_s += t1 - t0
             used += n_maps
             warped += n_zexels
-        mirror_pixels = int(np.count_nonzero(result.surface >= scene.n_objects))
+        mirror_pixels = int(np.count_nonzero(result.mirror_mask))  # surface >= n_objects
         hole_count = int(np.count_nonzero(holes))
         result.extra["holes"] = holes
         result.timings.update({"warp": warp_s, "fill": fill_s, "capture": t_capture})
@@ -280,12 +288,14 @@ class Dprm(MapTechnique):
         reflected = out[:, :, :3]
         if surface and box is not None:
             x0, x1, y0, y1 = box
-            tri = np.full((h, w), -1, np.int32)
+            ws = buffers.workspace if buffers is not None else None
+            tri = scratch(ws, "surface_triangle", (h, w), np.int32)
+            tri.fill(-1)  # (kept: cleared whole, as surface_colors reads every pixel)
             # the reached pixels' triangles (exact in float32), -1 elsewhere
             np.copyto(tri[y0:y1, x0:x1], out[y0:y1, x0:x1, 3], casting="unsafe",
                       where=best_id[y0:y1, x0:x1] >= 0)
             shaded, ok = surface_colors(tri, camera, reflect, mirrored_eye, (n, d), triangles,
-                                        scene)
+                                        scene, ws)
             # ok: pixels a zexel reached, inside the box
             np.copyto(reflected[y0:y1, x0:x1], shaded[y0:y1, x0:x1],
                       where=ok[y0:y1, x0:x1, None])
