@@ -14,6 +14,7 @@ from ..camera import Camera
 from ..geometry import reflect_point
 from ..raster.primary import Primary
 from ..raster.rasterize import RasterWorkspace
+from ..raster.rasterize.buffers import scratch
 from ..raster.rasterize.passes import MAX_PASSES
 from ..scene.types import CYLINDER, PLANAR, SPHERE, Mirrors, Scene
 from .circle import cylinder_virtual_vertices, sphere_virtual_vertices
@@ -73,15 +74,23 @@ def facing_plane(mirrors: Mirrors, k: int, eye: np.ndarray) -> tuple[np.ndarray,
 
 
 def reflector_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, camera: Camera,
-                    scene_points: np.ndarray, shapes: ShapeCache,
-                    views: ViewCache) -> Iterator[tuple[np.ndarray, VertexFn]]:
+                    scene_points: np.ndarray, shapes: ShapeCache, views: ViewCache,
+                    ws: RasterWorkspace | None = None) -> Iterator[tuple[np.ndarray, VertexFn]]:
     """(stencil (H, W) screen, vertex function) for each part of reflector k seen in
-    `primary`. Explosion parts build their maps when reached (this is a generator)."""
+    `primary`. Explosion parts build their maps when reached (this is a generator).
+    `ws`: where the stencils are kept across calls (each written whole; valid until the
+    next call)."""
     sid = scene.n_objects + k
     kind = int(scene.mirrors.kind[k])
     eye = np.asarray(camera.eye, np.float64)
     method = choose_method(rule.method, kind, k in scene.mirror_profiles)
-    stencil_all = primary.frame.surface == sid
+    if method == "explosion":
+        yield from explosion_parts(rule, scene, primary, k, camera, scene_points, shapes,
+                                   views, ws)
+        return
+    surface = primary.frame.surface
+    stencil_all = np.equal(surface, sid,
+                           out=scratch(ws, "reflector_stencil", surface.shape, np.bool_))
     if method == "planar":
         n, d = facing_plane(scene.mirrors, k, eye)
         # points on or behind the plane (a wall the mirror hangs on) are not reflected:
@@ -101,23 +110,24 @@ def reflector_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, ca
         profile, normals, world_from_local, _ = scene.mirror_profiles[k]
         yield stencil_all, lambda pts, _=None: profile_virtual_vertices(
             pts, eye, profile, normals, world_from_local)
-        return
-    yield from explosion_parts(rule, scene, primary, k, camera, scene_points, shapes, views)
 
 
 def explosion_parts(rule: MethodRule, scene: Scene, primary: Primary, k: int, camera: Camera,
                     scene_points: np.ndarray, shapes: ShapeCache,
-                    views: ViewCache) -> Iterator[tuple[np.ndarray, ExplosionPart]]:
+                    views: ViewCache, ws: RasterWorkspace | None = None
+                    ) -> Iterator[tuple[np.ndarray, ExplosionPart]]:
     """Mesh reflector k split into parts (unless `decompose` says no), each with its
-    explosion maps, stencil restricted to the part's faces."""
+    explosion maps, stencil restricted to the part's faces. `ws`: where each part's stencil
+    is kept across calls (one array a part: a caller may hold them all at once)."""
     sid = scene.n_objects + k
     reflector = _explosion_reflector(rule, scene, primary, k, camera, shapes, views)
     first, count, shape, view = reflector[:4]
-    for part, part_view in zip(shape.parts, view.parts, strict=True):
+    for p, (part, part_view) in enumerate(zip(shape.parts, view.parts, strict=True)):
         # the part's pixels: the reflector's, with a face of the part under them
         in_part = np.zeros(count + 1, bool)
         in_part[part.faces] = True
-        stencil = np.empty(primary.frame.surface.shape, np.bool_)
+        # (part_stencil writes every pixel)
+        stencil = scratch(ws, f"explosion_stencil_{p}", primary.frame.surface.shape, np.bool_)
         part_stencil(primary.buffers.triangle, primary.frame.surface, sid, first, in_part,
                      stencil)
         if not stencil.any():

@@ -13,7 +13,8 @@ import numpy as np
 from numba import njit, prange
 
 from ..camera import Camera
-from ..raster.rasterize import rasterize
+from ..raster.rasterize import RasterWorkspace, rasterize
+from ..raster.rasterize.buffers import scratch
 from .refine import reflector_rays
 from .screen import screen_from_world
 from .shape import ReflectorShape
@@ -96,26 +97,37 @@ class ReflectorView:
     # spans), unwritten elsewhere (every reader tests the owner plane first)
     grid: tuple[np.ndarray, np.ndarray] | None
     parts: tuple[PartView, ...]  # as shape.parts
+    # where depth, the item buffer, the owner plane and the grid are held (None: arrays of
+    # their own): a dropped view's serves the next view (ViewCache)
+    workspace: RasterWorkspace | None = None
 
 
 def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorShape,
-                   camera: Camera, clip_from_world: np.ndarray, refine: bool) -> ReflectorView:
-    """From the reflector's triangle soup (T, 3, 3) corners and normals (world space)."""
+                   camera: Camera, clip_from_world: np.ndarray, refine: bool,
+                   workspace: RasterWorkspace | None = None) -> ReflectorView:
+    """From the reflector's triangle soup (T, 3, 3) corners and normals (world space).
+    `workspace` (outputs=True): where the view's screen arrays are made, and the
+    rasterizer's scratch (the view then holds it; valid while the view is in use). The
+    item buffer and depth (no stencil: every pixel) and the owner plane are written whole;
+    the grid where a part owns a pixel, the only pixels read (`ReflectorView.grid`)."""
+    assert workspace is None or workspace.outputs
     count = len(corners)
     alone = rasterize(corners, np.zeros(count, np.uint8), clip_from_world, camera.width,
-                      camera.height)
+                      camera.height, workspace=workspace)
     h, w = alone.triangle.shape
     parts = len(shape.parts)
     # face -> part face, face -> part (the parts split the faces)
     assert count == len(shape.mesh.faces)
     local, part_of = shape.face_parts
-    owner = np.empty((h, w), part_of.dtype)
+    owner = scratch(workspace, "view_owner", (h, w), part_of.dtype)
     marks = np.zeros((parts, h // TILE + 1, w // TILE + 1), np.bool_)
     spans = np.empty((h, 2), np.int64)
     part_views(alone.triangle, part_of, TILE, owner, marks, spans)
     grid = None
     if refine:  # Q and R where a part owns a pixel (the rows' spans of them)
-        grid = reflector_rays(alone, corners, normals, camera.eye, spans)
+        grid = reflector_rays(alone, corners, normals, camera.eye, spans,
+                              (scratch(workspace, "view_q", (h, w, 3), np.float64),
+                               scratch(workspace, "view_r", (h, w, 3), np.float64)))
     views = []
     on_screen = PointsOnScreen()
     tiles = [None] * parts
@@ -125,7 +137,7 @@ def reflector_view(corners: np.ndarray, normals: np.ndarray, shape: ReflectorSha
     for p in range(parts):
         views.append(PartView(owner, p, alone.triangle, local[p], tiles[p], on_screen,
                               local))
-    return ReflectorView(alone.depth, grid, tuple(views))
+    return ReflectorView(alone.depth, grid, tuple(views), workspace)
 
 
 TILE = 12  # pixels a side of the refinement's tiles (tiles.PartTiles)
@@ -157,9 +169,14 @@ def part_views(triangle, part_of, size, owner, marks, spans):
 
 @dataclass
 class ViewCache:
-    """ReflectorViews by (shape key, view)."""
+    """ReflectorViews by (shape key, view). Each view's screen arrays (item buffer,
+    depth, owner plane, ray grid: 14 MB at 512 x 512) live in a workspace of its own; the
+    workspaces of dropped views (the cache started over, or `forget`) serve the new views
+    that follow, so that a moving camera (or the bench's repeats) does not make them anew
+    each frame. A view's arrays are read only while its frame renders."""
 
     entries: dict = field(default_factory=dict)
+    spare: list[RasterWorkspace] = field(default_factory=list)  # dropped views' workspaces
 
     def get(self, shape_key: tuple, corners: np.ndarray, normals: np.ndarray,
             shape: ReflectorShape, camera: Camera, clip_from_world: np.ndarray,
@@ -168,7 +185,15 @@ class ViewCache:
                camera.width, camera.height, refine)
         if key not in self.entries:
             if len(self.entries) > CACHE_SIZE:
-                self.entries.clear()
+                self.forget()
+            workspace = self.spare.pop() if self.spare else RasterWorkspace(outputs=True)
             self.entries[key] = reflector_view(corners, normals, shape, camera,
-                                               clip_from_world, refine)
+                                               clip_from_world, refine, workspace)
         return self.entries[key]
+
+    def forget(self) -> None:
+        """Drop every view (a new view of each reflector is made when next asked for);
+        their workspaces are kept for the views to come."""
+        self.spare.extend(view.workspace for view in self.entries.values()
+                          if view.workspace is not None)
+        self.entries.clear()

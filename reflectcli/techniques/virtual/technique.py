@@ -159,7 +159,7 @@ class Virtual(Technique):
                 and self._method(scene, k) == "sphere")
 
     def forget_view(self, state: VirtualState) -> None:
-        state.views.entries.clear()  # hidden maps, ray grids and tiles belong to one view
+        state.views.forget()  # hidden maps, ray grids and tiles belong to one view
 
     def render(self, state: VirtualState, frame_index: int, camera: Camera) -> Frame:
         """Stages (seconds in the frame's timings): the primary pass (`rasterize`, `shade`),
@@ -258,7 +258,7 @@ class Virtual(Technique):
             # a reflector's parts, each with its vertex function (an explosion part's maps
             # are built when its points are known, in the vertex functions)
             parts = list(reflector_parts(self.params, scene, primary, k, camera,
-                                         state.scene_points, state.shapes, state.views))
+                                         state.scene_points, state.shapes, state.views, ws))
             seconds["maps"] += time.perf_counter() - t_start
             for stencil, vertices_of in parts:
                 t0 = time.perf_counter()
