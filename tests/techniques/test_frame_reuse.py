@@ -1,12 +1,13 @@
-"""rerender's, dprm's and virtual's scratch arrays are kept across frames: the primary
-pass's triangle ids (`RasterWorkspace(ids=True)`), rerender's per-level stencils, dprm's
-stencil and surface reconstruction (`maps/surface.py`), virtual's reflector stencils and the
-screen arrays of its dropped views (`ViewCache`), besides the rasterizer scratch they kept
-before. What an earlier frame left in them never reaches a frame: before each frame every
-kept array is filled with garbage (reuse_util.poison_all: NaN, True, in-range wrong
-integers), and the frames are held to frames of a scene opened anew (every array fresh, as
-a first frame has them), channel for channel and in their stats. The frame's own arrays lie
-in no kept one."""
+"""The raster techniques' scratch arrays are kept across frames: the primary pass's
+triangle ids (`RasterWorkspace(ids=True)`; envmap's and distmap's barycentrics too),
+rerender's per-level stencils, dprm's stencil and surface reconstruction
+(`maps/surface.py`), distmap's step counts, virtual's reflector stencils and the screen
+arrays of its dropped views (`ViewCache`), besides the rasterizer scratch kept before (ssr's
+and ppr's: test_screenspace_reuse.py). What an earlier frame left in them never reaches a
+frame: before each frame every kept array is filled with garbage (reuse_util.poison_all:
+NaN, True, in-range wrong integers), and the frames are held to frames of a scene opened
+anew (every array fresh, as a first frame has them), channel for channel and in their
+stats. The frame's own arrays lie in no kept one."""
 
 from __future__ import annotations
 
@@ -127,3 +128,26 @@ def test_a_new_view_reuses_a_dropped_views_arrays():
     for a, b in ((new.depth, old.depth), (new.grid[1], old.grid[1]),
                  (new.parts[0].triangle, old.parts[0].triangle)):
         assert np.shares_memory(a, b)
+
+
+def _raster_kept(opened, state):
+    return [opened.technique._primary_ws], []
+
+
+def _maps_kept(opened, state):
+    return [state.primary], []
+
+
+@pytest.mark.parametrize(("technique", "overrides", "kept_of", "expected"), [
+    ("raster", (), _raster_kept, PRIMARY),
+    # barycentrics recovered for the lookups and the search (RasterBuffers.b1, b2)
+    ("envmap", ("technique.resolution=32",), _maps_kept, PRIMARY | {"b1", "b2"}),
+    ("distmap", ("technique.resolution=32",), _maps_kept,
+     PRIMARY | {"b1", "b2", "steps_taken"}),
+])
+def test_primary_pass_frames_through_poisoned_kept_arrays_equal_fresh_ones(
+        technique, overrides, kept_of, expected):
+    """raster's, envmap's and distmap's primary pass keeps its triangle ids (and
+    barycentrics); distmap its search's step counts."""
+    names = _frames_through_poison("teapot-box", technique, overrides, (40, 0, 20), kept_of)
+    assert names >= expected

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -16,7 +16,8 @@ from ...maps.distance import capture_distance_faces, inverse_depth
 from ...maps.distance_search import search_reflections, search_texels
 from ...maps.update import face_capture_frames
 from ...raster.primary import render_primary
-from ...raster.rasterize import FLAG_MIRROR
+from ...raster.rasterize import FLAG_MIRROR, RasterWorkspace
+from ...raster.rasterize.buffers import scratch
 from ...scene.types import Scene, scene_extent
 from ..base import MapRecord, MapTechnique, precompute_logged, warn_stale
 from ..envmap.technique import capture_point
@@ -47,6 +48,9 @@ class DistmapState:
     near: float
     far: float
     cache: MapCache
+    # the primary pass's scratch, triangle ids and barycentrics (read only while the frame
+    # renders) and the search's step counts, kept across frames
+    primary: RasterWorkspace = field(default_factory=lambda: RasterWorkspace(ids=True))
 
 
 class Distmap(MapTechnique):
@@ -180,11 +184,12 @@ class Distmap(MapTechnique):
         t0 = time.perf_counter()
         faces = self._update(state, frame_index)
         t1 = time.perf_counter()
-        primary = render_primary(scene, frame_index, camera)
+        primary = render_primary(scene, frame_index, camera, state.primary)
         result = primary.frame
         h, w = result.surface.shape
-        holes = np.zeros((h, w), np.float32)
-        taken = np.zeros((h, w), np.int32)
+        holes = np.zeros((h, w), np.float32)  # a channel of the frame: its own
+        taken = scratch(state.primary, "steps_taken", (h, w), np.int32)
+        taken.fill(0)  # (kept: written only on the pixels of mirrors with maps)
         bases = face_bases()
         a_min = 1e-3 * state.far
         t2 = time.perf_counter()
@@ -197,7 +202,7 @@ class Distmap(MapTechnique):
                 record.q, record.ids, record.color, bases, p.steps, p.refine_steps,
                 p.filter == "bilinear", scene.background)
         t3 = time.perf_counter()
-        mirror = result.surface >= scene.n_objects
+        mirror = result.mirror_mask  # surface >= n_objects
         n_mirror = int(mirror.sum())
         result.extra["holes"] = holes
         result.timings.update({"capture": t1 - t0, "search": t3 - t2})

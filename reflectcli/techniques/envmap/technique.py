@@ -16,7 +16,7 @@ from ...maps.lookup import CUBE, SPHERE_MAP, add_reflections
 from ...maps.sphere import sphere_from_cube
 from ...maps.update import face_capture_frames, map_capture_frame
 from ...raster.primary import render_primary
-from ...raster.rasterize import FLAG_MIRROR
+from ...raster.rasterize import FLAG_MIRROR, RasterWorkspace
 from ...scene.types import CYLINDER, PLANAR, SPHERE, Scene, scene_extent
 from ..base import MapRecord, MapTechnique, precompute_logged, warn_stale
 from . import EnvmapParams
@@ -42,6 +42,9 @@ class EnvmapState:
     precompute_seconds: float
     maps_captured: int
     cache: MapCache | None = None
+    # the primary pass's scratch, triangle ids and barycentrics (read only while the frame
+    # renders), kept across frames
+    primary: RasterWorkspace = field(default_factory=lambda: RasterWorkspace(ids=True))
 
 
 def capture_point(scene: Scene, k: int, params: EnvmapParams) -> np.ndarray:
@@ -198,7 +201,7 @@ class Envmap(MapTechnique):
         t_capture = time.perf_counter()
         updated = self._update(state, frame_index)
         t_capture = time.perf_counter() - t_capture
-        primary = render_primary(scene, frame_index, camera)
+        primary = render_primary(scene, frame_index, camera, state.primary)
         result = primary.frame
         t0 = time.perf_counter()
         bases = face_bases()
