@@ -46,7 +46,14 @@ from .output.identity import (
 )
 from .output.lock import frame_folder_lock
 from .output.names import SUMMARY_NAME
-from .output.paths import check_links, check_writable, inside, remove_stale_temps
+from .output.paths import (
+    check_links,
+    check_writable,
+    inside,
+    make_folder,
+    prove_writable,
+    remove_stale_temps,
+)
 from .output.png import write_png
 from .output.summary import write_summary
 from .provenance import cpu_name, versions
@@ -379,16 +386,22 @@ class OpenedScene:
         return self.technique.render(state, frame_index, camera)
 
     def check_output(self, out: str | None = None,
-                     frames: range | list[int] | None = None) -> str:
+                     frames: range | list[int] | None = None,
+                     hold: contextlib.ExitStack | None = None) -> str:
         """Every check render makes before it writes anything, after the scene file and
-        --frames are read (open_render), in render's order and writing nothing: --threads,
-        the scene build, the output root (--out or output.dir: empty, too long for the file
-        system), the frame folder's path, the map cache folder, links and non-files at the
-        names a render writes (`frames`: the frames to be written; paths.check_links),
-        whether the frame folder can be made and written into (a folder is made and removed
-        where it would go: paths.check_writable), and frames of other --set overrides in it.
-        `reflect validate` runs this; render runs it, then makes the folder. The folder:
-        <out or output.dir>/<scene>/<technique>/."""
+        --frames are read (open_render), in render's order: --threads, the scene build, the
+        output root (--out or output.dir: empty, too long for the file system), the frame
+        folder's path, the map cache folder, links and non-files at the names a render
+        writes (`frames`: the frames to be written; paths.check_links), whether the frame
+        folder can be made and written into, and frames of other --set overrides in it. The
+        folder: <out or output.dir>/<scene>/<technique>/.
+
+        Without `hold` (`reflect validate`) nothing is written: a folder is made and removed
+        where the frame folder would go (paths.check_writable). With it (render), the frame
+        folder is made, its lock entered into `hold`, and only then is it proven writable (a
+        probe file, removed at once) and cleared of killed runs' temporary files: nothing
+        lands in a folder another render is writing, and a render refused here leaves
+        nothing but the folders it made for the lock."""
         check_threads(self.threads)  # before the build and the folder, as any bad argument
         self.build()  # the scene may still reject input before any folder is looked at
         root = out if out is not None else self.config.output.dir
@@ -399,7 +412,13 @@ class OpenedScene:
         self.check_cache()
         check_links(root, folder, self.config.output.log, source, field,
                     self.source_of("output", "log"), frames)
-        check_writable(folder, source, field)
+        if hold is None:
+            check_writable(folder, source, field)
+        else:
+            make_folder(folder, source, field)
+            hold.enter_context(frame_folder_lock(folder, source, field))
+            prove_writable(folder, source, field)
+            remove_stale_temps(folder)
         self.check_overrides(folder)
         return folder
 
@@ -407,15 +426,6 @@ class OpenedScene:
         """Where the output folder came from, as messages name it: `--out`, or the file
         `output.dir` came from and the field."""
         return ("--out", "") if out is not None else (self.dir_source, "output.dir")
-
-    def output_folder(self, out: str | None = None, frames: range | list[int] | None = None
-                      ) -> str:
-        """<out or output.dir>/<scene>/<technique>/, checked (check_output), then created and
-        proven writable; `frames`: the frames to be written."""
-        folder = self.check_output(out, frames)
-        prepare_output(folder, *self.folder_source(out))
-        remove_stale_temps(folder)
-        return folder
 
     def check_overrides(self, folder: str) -> dict[str, dict]:
         """The last log row of each frame in `folder`'s log, refused in one line if frames
@@ -524,8 +534,8 @@ class OpenedScene:
         frame renders (`reflect render` does; the bench does not, and repeats never do, so
         that their times are the render's alone). Rows rendered so are marked
         `writes_overlapped`."""
-        result = RenderResult(self.output_folder(out, frame_indices))
-        with frame_folder_lock(result.folder, *self.folder_source(out)):
+        with contextlib.ExitStack() as held:  # the frame folder's lock, taken by check_output
+            result = RenderResult(self.check_output(out, frame_indices, hold=held))
             return self._write_frames_locked(result, frame_indices, preview=preview,
                                              resume=resume, on_frame=on_frame,
                                              repeats=repeats, overlap_writes=overlap_writes)
@@ -536,9 +546,9 @@ class OpenedScene:
                              overlap_writes: bool) -> RenderResult:
         """write_frames' work, with the frame folder held by this process alone."""
         result.log = self.log_path(result.folder)
-        # checked before the folder was made (check_output), and again now that it is held:
-        # a render that ended in between may have left frames of other overrides
-        stored = self.check_overrides(result.folder)
+        # the frames already there (check_output refused them if of other overrides, with the
+        # folder held: no render can have added any since)
+        stored = logged_rows(result.log)
         rows: list[dict] = []  # this call's log rows: the timings summary
         writer = FrameWriter(overlap=overlap_writes and repeats == 1)
         try:

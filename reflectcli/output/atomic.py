@@ -8,7 +8,7 @@ import threading
 from collections.abc import Iterator
 
 
-def _temporary_name(path: str, tag: str = "") -> str:
+def temporary_name(path: str, tag: str = "") -> str:
     """A hidden name beside `path`, unique per process and thread (bench jobs on a Dask
     worker share a process), with its extension: a killed run's leftovers are found by it
     (paths.TEMP)."""
@@ -21,7 +21,7 @@ def _temporary_name(path: str, tag: str = "") -> str:
 def temporary_path(path: str) -> Iterator[str]:
     """Yield a temporary name for `path` that the caller renames into place; whatever is
     left at it afterwards is removed."""
-    tmp = _temporary_name(path)
+    tmp = temporary_name(path)
     try:
         # a link left at the name (it is predictable) would be written through
         with contextlib.suppress(FileNotFoundError):
@@ -38,7 +38,7 @@ def set_aside(path: str) -> str | None:
     hard links (the earlier file is then not restorable)."""
     if not os.path.lexists(path):
         return None
-    aside = _temporary_name(path, "-earlier")
+    aside = temporary_name(path, "-earlier")
     with contextlib.suppress(FileNotFoundError):
         os.unlink(aside)
     try:

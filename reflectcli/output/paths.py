@@ -11,6 +11,7 @@ import tempfile
 from collections.abc import Iterable
 
 from ..errors import Problem, Problems
+from .atomic import temporary_name
 from .names import FRAME, SUMMARY_NAME, taken_by
 
 # exactly what atomic.py names its temporary files, .<stem>.tmp<pid>-<thread id><ext>, with
@@ -97,14 +98,25 @@ def _check_log_hard_links(log: str, log_source: str) -> None:
                                 "(copy it, or remove it)")])
 
 
+def _nearest_existing(folder: str) -> str:
+    """`folder` or its nearest ancestor that exists (absolute)."""
+    existing = os.path.abspath(folder)
+    while not os.path.lexists(existing) and os.path.dirname(existing) != existing:
+        existing = os.path.dirname(existing)
+    return existing
+
+
+def _unwritable(folder: str, source: str, field: str, reason: str) -> Problems:
+    return Problems([Problem(source, field, f"cannot write to '{folder}': {reason}")])
+
+
 def check_writable(folder: str, source: str, field: str) -> None:
     """Refuse in one line a folder that a render could not create or write into, leaving
     nothing behind (`validate`): its nearest existing ancestor must be a directory in which
     a directory can be made (one is made and removed at once: permission bits alone pass
-    /proc for root, where render's makedirs then fails)."""
-    existing = os.path.abspath(folder)
-    while not os.path.lexists(existing) and os.path.dirname(existing) != existing:
-        existing = os.path.dirname(existing)
+    /proc for root, where render's makedirs then fails). Render itself makes no such probe:
+    it makes the folder (make_folder), locks it, then proves it (prove_writable)."""
+    existing = _nearest_existing(folder)
     if not os.path.isdir(existing):
         reason = "Not a directory"
     else:  # the OS's own reason (os.access said "Permission denied" on a read-only mount)
@@ -116,7 +128,38 @@ def check_writable(folder: str, source: str, field: str) -> None:
             with contextlib.suppress(OSError):
                 os.rmdir(made)
             return
-    raise Problems([Problem(source, field, f"cannot write to '{folder}': {reason}")])
+    raise _unwritable(folder, source, field, reason)
+
+
+def make_folder(folder: str, source: str, field: str) -> None:
+    """Create `folder` and its parents for a render (which must exist to be locked), refused
+    in check_writable's line when that fails; nothing else is written."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as e:
+        # a file in the way is "Not a directory" whether it is the folder or an ancestor
+        # (makedirs says "File exists" for the one), as validate says
+        reason = ("Not a directory" if not os.path.isdir(_nearest_existing(folder))
+                  else e.strerror or str(e))
+        raise _unwritable(folder, source, field, reason) from None
+
+
+def prove_writable(folder: str, source: str, field: str) -> None:
+    """Refuse in one line a `folder` no file can be made in, as check_writable would: a
+    render calls it with the folder locked, so that its probe (a temporary name,
+    atomic.py's) never lands in a folder another render is writing; the probe is removed at
+    once, and a killed run's is a stale temporary file the next run removes."""
+    probe = temporary_name(os.path.join(folder, "write-test.json"))
+    try:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(probe)  # a killed run's (a read-only folder refuses even this: EROFS)
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o666)
+    except OSError as e:
+        raise _unwritable(folder, source, field, e.strerror or str(e)) from None
+    try:
+        os.close(fd)
+    finally:
+        os.unlink(probe)
 
 
 def _alive(pid: int) -> bool:

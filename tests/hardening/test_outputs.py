@@ -4,8 +4,10 @@ are recaptured, never trusted."""
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+import subprocess
 
 import numpy as np
 import pytest
@@ -310,3 +312,38 @@ def test_validate_refuses_a_folder_of_other_overrides_frames_as_render_does(tmp_
         line = assert_one_line(invoke("render", scene), "holds frames rendered with other "
                                "overrides (camera.width=8)")
         assert assert_one_line(invoke("validate", scene)) == line
+
+
+@contextlib.contextmanager
+def read_only_view(folder):
+    """`folder` seen through a read-only bind mount (root ignores permission bits: a mount
+    is what refuses it a write), unmounted afterwards."""
+    view = folder.parent / f"{folder.name}-ro"
+    view.mkdir()
+    done = subprocess.run(["mount", "--bind", str(folder), str(view)], capture_output=True)
+    if done.returncode != 0:
+        pytest.skip("cannot bind-mount here (not root)")
+    try:
+        if subprocess.run(["mount", "-o", "remount,ro,bind", str(view)],
+                          capture_output=True).returncode != 0:
+            pytest.skip("cannot remount read-only here")
+        yield view
+    finally:
+        subprocess.run(["umount", "-l", str(view)], check=False)
+
+
+@pytest.mark.parametrize("resume", [False, True])
+def test_a_read_only_frame_folder_is_refused_in_one_line(tmp_path, resume):
+    # held now that render probes its folder once it holds the lock: clearing a killed
+    # run's probe there meets EROFS even where no file is (a first version of that probe
+    # ended `render --resume` into a finished read-only folder in an "[Errno 30]" line)
+    scene = write(tmp_path, "s.toml", TINY + '\n[technique]\nname = "raster"\n')
+    with chdir(tmp_path):
+        assert invoke("render", scene, "--out", tmp_path / "o").exit_code == 0
+        with read_only_view(tmp_path / "o") as view:
+            before = files_under(view)
+            args = ("--out", view, *(("--resume",) if resume else ()))
+            line = assert_one_line(invoke("render", scene, *args), "--out: cannot write to",
+                                   "tiny/raster': Read-only file system")
+            assert assert_one_line(invoke("validate", scene, *args)) == line
+            assert files_under(view) == before
