@@ -1,10 +1,13 @@
 """A folder of precomputed maps keyed by a hash of everything that determines them.
 
-One EXR per map, named <kind>-<key>.exr, written atomically. A file that cannot be read, or
-whose parts or recorded key do not match, is reported in one line, deleted and recaptured:
-a damaged cache never stops a render. Its headers are checked against the map looked up
-(MapShape) before any pixel is read: a file at a map's name whose header claims more parts,
-texels or channels than that map has would otherwise allocate what it claims.
+One EXR per map, named <kind>-<key>.exr, written atomically (its tail read back before the
+rename: a full disk loses it with every call reporting success, output/exr._whole; a failed
+store is one line naming the map, exit 1). A file that cannot be read (a truncated one
+among them), or whose parts or recorded key do not match, is reported in one line, deleted
+and recaptured: a damaged cache never stops a render. Its headers are checked against the
+map looked up (MapShape) before any pixel is read: a file at a map's name whose header
+claims more parts, texels or channels than that map has would otherwise allocate what it
+claims.
 """
 
 from __future__ import annotations

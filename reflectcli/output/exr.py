@@ -78,7 +78,9 @@ def _whole(tmp: str, spec) -> bool:
     """Whether `tmp` holds all OpenImageIO wrote: the disk filling up during the last flush
     at close lost the file's tail with every call reporting success (an EXR of 18,372 bytes
     kept as 16,384 and logged as a finished frame). An EXR's last scanline must read (one
-    chunk decoded); a PNG must end with its IEND chunk."""
+    chunk decoded), in every part when `spec` is a list of the parts' specs (a multi-part
+    map: its parts' chunks follow one another, the file's tail is the last part's); a PNG
+    must end with its IEND chunk."""
     import OpenImageIO as oiio
 
     if tmp.lower().endswith(".png"):
@@ -93,10 +95,15 @@ def _whole(tmp: str, spec) -> bool:
         oiio.geterror()
         return False
     try:
-        last = inp.read_scanline(spec.y + spec.height - 1, 0, oiio.FLOAT)
-        if last is None:
-            inp.geterror()
-        return last is not None
+        for index, part in enumerate(spec if isinstance(spec, list) else [spec]):
+            if not inp.seek_subimage(index, 0):
+                inp.geterror()
+                return False
+            last = inp.read_scanline(part.y + part.height - 1, 0, oiio.FLOAT)
+            if last is None:
+                inp.geterror()
+                return False
+        return True
     finally:
         inp.close()
 
@@ -154,7 +161,9 @@ def write_exr_parts(
     path: str, parts: list[tuple[str, dict[str, np.ndarray]]], attributes: dict[str, str],
     part_attributes: list[dict[str, str]] | None = None,
 ) -> None:
-    """A multi-part EXR, one named part per entry (e.g. cube faces), written atomically.
+    """A multi-part EXR, one named part per entry (e.g. cube faces), written atomically and,
+    as a frame is, checked whole before it is renamed into place (_whole: every part's last
+    scanline reads); a failure is a WriteFailed naming `path`.
 
     EXR cannot append a part later: open with every part's spec, then each further part in
     "AppendSubimage" mode (STACK-NOTES.md). All parts share the display window."""
@@ -185,6 +194,8 @@ def write_exr_parts(
         ok = out.close() and ok
         if not ok:
             raise image_failure(path, oiio.geterror())
+        if not _whole(tmp, specs):  # a full disk at the last flush: see _whole
+            raise image_failure(path, "the file is shorter than what was written")
 
 
 def size_problem(spec, side: int, pixels: int, channels: int,

@@ -194,3 +194,21 @@ def test_a_short_image_file_is_not_whole(tmp_path):
         assert exr._whole(str(tmp_path / name), spec)
         (tmp_path / f"cut-{name}").write_bytes(whole[: len(whole) * 3 // 4])
         assert not exr._whole(str(tmp_path / f"cut-{name}"), spec)
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="mounting a tiny filesystem needs root")
+def test_a_map_whose_tail_the_full_disk_lost_is_a_failed_store(tmp_path):
+    # as for a frame: a 6-part map of 19,221 bytes was kept in the cache as 16,384 (every
+    # OpenImageIO call reporting success), `precompute-maps` said "captured" and exited 0
+    from reflectcli.maps.cache import MapCache
+    from reflectcli.output.failures import WriteFailed
+
+    noise = np.random.default_rng(0).random((24, 24), np.float32)
+    parts = [(f"p{i}", {c: noise + i for c in "RGB"}) for i in range(6)]  # 18 kB zipped
+    with tiny_filesystem(tmp_path / f"tiny-{uuid.uuid4().hex[:6]}", "1m") as tiny:
+        stat = os.statvfs(tiny)
+        with open(tiny / "filler", "wb") as f:  # 16 KiB left: one buffer's flush, not two
+            f.write(b"\0" * (stat.f_bavail * stat.f_frsize - 16384))
+        with pytest.raises(WriteFailed, match="No space left on device"):
+            MapCache(str(tiny / "cache")).store("envmap", "ab" * 16, parts, {})
+        assert os.listdir(tiny / "cache") == []

@@ -9,6 +9,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 from exr_headers import crafted_exr, header_only_exr, zero_exr
@@ -118,3 +119,59 @@ def test_a_header_claiming_more_than_the_map_is_refused_before_its_pixels(tmp_pa
     assert int(grown) < 64, f"the refused load grew the process by {grown} MiB"
     assert done.stderr == f"cache: {path} is damaged ({reason}); recapturing\n"
     assert reloaded == str(shape.parts)
+
+
+def _noise_parts(parts: int, side: int) -> list:
+    noise = np.random.default_rng(0).random((side, side), np.float32)  # zip keeps its size
+    return [(f"p{i}", {c: noise + i for c in "RGB"}) for i in range(parts)]
+
+
+def test_a_map_file_cut_short_after_every_write_reported_success_is_a_failed_store(
+        tmp_path, monkeypatch):
+    # the single-part writer checks the file's tail after close (a full disk at the last
+    # flush lost it with every call reporting success); the map writer did not: the cache
+    # kept a map that read back truncated. Here the tail is lost after a successful close.
+    import OpenImageIO as oiio
+
+    from reflectcli.output.failures import WriteFailed
+
+    real = oiio.ImageOutput
+
+    class ShortTail:
+        def __init__(self, out):
+            self.out = out
+
+        def __getattr__(self, name):
+            return getattr(self.out, name)
+
+        def close(self):
+            ok = self.out.close()
+            with open(self.path, "r+b") as f:  # the tail the disk did not take
+                f.truncate(os.path.getsize(self.path) * 3 // 4)
+            return ok
+
+    class LosingTail:
+        @staticmethod
+        def create(path):
+            out = ShortTail(real.create(path))
+            out.path = path
+            return out
+
+    cache = MapCache(str(tmp_path / "cache"))
+    monkeypatch.setattr(oiio, "ImageOutput", LosingTail)
+    with pytest.raises(WriteFailed, match="the file is shorter than what was written"):
+        cache.store("envmap", KEY, _noise_parts(6, 24), {})
+    assert os.listdir(tmp_path / "cache") == []  # neither the map nor its temporary file
+
+
+def test_a_truncated_map_is_a_miss_recaptured_not_an_error(tmp_path, caplog):
+    cache = MapCache(str(tmp_path))
+    path = cache.store("envmap", KEY, _noise_parts(6, 24), {})
+    with open(path, "r+b") as f:
+        f.truncate(os.path.getsize(path) * 3 // 4)
+    with caplog.at_level("WARNING", logger="reflect"):
+        assert cache.load("envmap", KEY, MapShape(6, 24, 3), lambda p: True) is None
+    assert f"cache: {path} is damaged (" in caplog.text and "recapturing" in caplog.text
+    assert not os.path.lexists(path)  # the recapture's store takes the name
+    cache.store("envmap", KEY, _noise_parts(6, 24), {})
+    assert len(cache.load("envmap", KEY, MapShape(6, 24, 3), lambda p: True)) == 6
