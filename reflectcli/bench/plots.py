@@ -9,6 +9,7 @@ scenes are never joined.
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 from collections import defaultdict
@@ -163,20 +164,52 @@ def _any_frame_problem(spec) -> str | None:
     return problem or frame_problem(spec, spec.width, spec.height)
 
 
+def _read_frames(r: dict, sheet: str, told: set[str]) -> tuple[dict, dict] | None:
+    """A run's reference and first frame (channels), or None with a warning naming the
+    first that cannot be read (each file once a sheet). Rows of an earlier bench (--resume)
+    name frames that may have been damaged since, and the row's figures were measured when
+    they were whole: a blank line on the sheet, not a bench that fails after its results
+    are written. Headers are bounded before any pixel is read, the run's frame by its
+    reference's size."""
+    path = r["reference_images"][0]
+    try:
+        ref, _ = read_exr(path, fits=_any_frame_problem)
+        height, width = ref["R"].shape  # R, G and B: _any_frame_problem
+        path = r["images"][0]
+        ours, _ = read_exr(path, fits=lambda spec, w=width, h=height:
+                           frame_problem(spec, w, h))
+    except OSError as e:
+        if path not in told:
+            told.add(path)
+            why = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            for prefix in (f"cannot read {path}: ", f"{path}: "):
+                why = why.removeprefix(prefix)
+            logging.getLogger("reflect").warning(
+                "warning: %s: %s: unreadable (%s); run %s's line left blank (the bench "
+                "without --resume renders it again)", os.path.basename(sheet), path, why,
+                r.get("run", "?"))
+        return None
+    return ref, ours
+
+
 def _contact_sheet(rows: list[dict], path: str) -> None:
     """One line per run: reference, the run's first frame, its LDR-FLIP error map (what a
-    viewer of the two previews sees; FLIP's magma scale, 0..1)."""
+    viewer of the two previews sees; FLIP's magma scale, 0..1); a line whose frames cannot
+    be read is left blank, with a warning naming the file (_read_frames)."""
     from ..metrics import flip as flip_metric
     from ..metrics import preview
 
     fig, axes = plt.subplots(len(rows), 3, figsize=(9, 2.4 * len(rows)), squeeze=False)
+    told: set[str] = set()
     for line, r in zip(axes, rows, strict=True):
-        # rows of an earlier bench (--resume) name frames that may have changed since:
-        # headers bounded before any pixel is read, the run's frame by its reference's size
-        ref, _ = read_exr(r["reference_images"][0], fits=_any_frame_problem)
-        height, width = ref["R"].shape  # R, G and B: _any_frame_problem
-        ours, _ = read_exr(r["images"][0], fits=lambda spec, w=width, h=height:
-                           frame_problem(spec, w, h))
+        for ax in line:
+            ax.axis("off")
+        frames = _read_frames(r, path, told)
+        if frames is None:
+            line[1].set_title(f"run {r.get('run', '?')}: a frame unreadable (see the "
+                              "warning)", fontsize=7)
+            continue
+        ref, ours = frames
         a = np.stack([ours[c] for c in "RGB"], axis=-1)
         b = np.stack([ref[c] for c in "RGB"], axis=-1)
         line[0].imshow(linear_to_srgb(b))
@@ -196,7 +229,5 @@ def _contact_sheet(rows: list[dict], path: str) -> None:
         line[0].set_title(f"raytrace (reference), frame {frame}", fontsize=8)
         line[1].set_title(f"{r['technique']} {parameters_text(r)}", fontsize=7)
         line[2].set_title(title, fontsize=8)
-        for ax in line:
-            ax.axis("off")
         fig.colorbar(im, ax=line[2], fraction=0.046)
     _save(fig, path)

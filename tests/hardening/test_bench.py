@@ -63,3 +63,35 @@ def test_second_bench_on_one_folder_stops(tmp_path):
         result = invoke("bench", bench, "--out", tmp_path / "o")
     assert_one_line(result, "--out:", "is being written by another bench")
 
+
+
+@pytest.mark.parametrize("damage", ["truncated", "garbage"])
+def test_an_unreadable_run_frame_blanks_its_contact_sheet_line_with_a_warning(
+        tmp_path, caplog, damage):
+    # `bench --resume` keeps the rows (measured when the frame was whole) and draws the
+    # contact sheet from the frames they name: a frame damaged since ended the bench as a
+    # write failure (exit 1, "cannot read ...") after its results and report were written,
+    # the last bench's contact sheet left in place. Now that line of the sheet is blank and
+    # one warning names the file; the bench's other outputs stand (exit 0).
+    pytest.importorskip("matplotlib")
+    import json
+
+    write(tmp_path, "s.toml", TINY)
+    bench = write(tmp_path, "b.toml", BENCH.replace("plots = false", "plots = true"))
+    out = tmp_path / "o"
+    with chdir(tmp_path):
+        assert invoke("bench", bench, "--out", out).exit_code == 0
+        (row,) = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+        frame = tmp_path / row["images"][0]
+        whole = frame.read_bytes()
+        frame.write_bytes(whole[:700] if damage == "truncated" else b"garbage")
+        (out / "contact-tiny.png").unlink()
+        with caplog.at_level("WARNING", logger="reflect"):
+            result = invoke("bench", bench, "--out", out, "--resume")
+    assert result.exit_code == 0, result.output
+    assert "Traceback" not in result.output
+    warned = [r.getMessage() for r in caplog.records if "contact-tiny.png" in r.getMessage()]
+    assert len(warned) == 1, warned
+    assert f"{row['images'][0]}: unreadable (" in warned[0]
+    assert f"run {row['run']}'s line left blank" in warned[0]
+    assert (out / "contact-tiny.png").exists() and (out / "report.md").exists()
