@@ -295,6 +295,24 @@ def _one_line_per_typo(problems: list[Problem]) -> list[Problem]:
     return [p for p in problems if not covered(p)]
 
 
+def _technique_agrees(data: dict, technique: str, prov: Provenance) -> None:
+    """--technique and a --set of the technique's name (`technique.name=...`, or a whole
+    `technique={...}`) must agree: the --set one silently won. A --set table without a
+    name takes --technique's (not the default technique's)."""
+    current = data.get("technique")
+    if not isinstance(current, dict):
+        return  # not a table: the model says what it must be
+    if "name" not in current:
+        current["name"] = technique
+        _mark(current["name"], "--technique", ("technique", "name"), prov)
+    elif current["name"] != technique:
+        name = current["name"]
+        shown = f'"{name}"' if isinstance(name, str) else str(name)
+        shown = shown if len(shown) <= 40 else shown[:37] + "..."
+        raise Problems([Problem("--set", "technique.name", (
+            f"{shown} disagrees with --technique {technique} (give the technique once)"))])
+
+
 def load_document(
     path: str,
     overrides: list[str] | tuple = (),
@@ -318,6 +336,8 @@ def load_document(
             _mark(data["technique"], "--technique", ("technique",), prov)
     for assignment in overrides:
         apply_override(data, assignment, prov)
+    if technique is not None:
+        _technique_agrees(data, technique, prov)
     current = data.get("technique")
     if isinstance(current, dict) and "name" not in current:
         current["name"] = default_technique  # a scene that names none: the default

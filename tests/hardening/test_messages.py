@@ -73,6 +73,31 @@ def test_bad_set_is_blamed_on_set(tmp_path, override, expected):
     assert "Config" not in line and "Params" not in line and "Input should" not in line
 
 
+@pytest.mark.parametrize("override", ['technique.name="raytrace"',
+                                      'technique={name = "envmap"}'])
+def test_a_set_technique_name_that_disagrees_with_technique_is_one_line(tmp_path,
+                                                                        override):
+    # `--technique raster --set technique.name="raytrace"` rendered raytrace, silently
+    scene = write(tmp_path, "s.toml", TINY)
+    args = ("--technique", "raster", "--set", override)
+    with chdir(tmp_path):
+        line = assert_one_line(invoke("validate", scene, *args), "--set: technique.name: ",
+                               "disagrees with --technique raster")
+        assert assert_one_line(invoke("render", scene, "--out", tmp_path / "o", *args)) == line
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_set_technique_that_agrees_with_technique_is_taken(tmp_path):
+    # the same name twice is one technique; a --set table without a name is --technique's
+    # (it fell back to the default technique, raytrace, which has no `resolution`)
+    scene = write(tmp_path, "s.toml", TINY)
+    with chdir(tmp_path):
+        for args in (("--technique", "raster", "--set", 'technique.name="raster"'),
+                     ("--technique", "envmap", "--set", "technique={resolution = 64}")):
+            result = invoke("validate", scene, *args)
+            assert result.output == "ok\n", result.output
+
+
 def test_unknown_key_in_an_included_file_names_that_file(tmp_path):
     (tmp_path / "parts").mkdir()
     write(tmp_path, "parts/cam.toml", "[camera]\nfov = 3\n")
