@@ -137,37 +137,43 @@ def plain_message(err: dict, root: type[BaseModel] | None, loc: tuple, data: Any
 
 
 def by_name(problems: list, overrides, data: dict) -> list:
-    """Problems about list items `--set` addressed by name name them the same way."""
+    """Problems about list items `--set` addressed by name or by an index from the end name
+    them the same way, every item of the path (`mirrors.-1.corners.-1`, not
+    `mirrors.-1.corners.3`)."""
     from ..errors import Problem
 
-    aliases: dict[str, str] = {}
+    aliases: dict[str, str] = {}  # a path as errors give it (indices from the start) -> as set
     for assignment in overrides:
         parts = assignment.split("=", 1)[0].strip().split(".")
         node: Any = data
+        canonical: list[str] = []
         for i, part in enumerate(parts):
             if isinstance(node, list):
                 if part.lstrip("-").isdigit():
                     idx = int(part)
-                    if -len(node) <= idx < 0:  # errors give its index from the start
-                        aliases[".".join([*parts[:i], str(idx % len(node))])] = \
-                            ".".join(parts[: i + 1])
+                    if not -len(node) <= idx < len(node):
+                        break
                 else:
                     idx = next((k for k, it in enumerate(node)
                                 if isinstance(it, dict) and it.get("name") == part), None)
                     if idx is None:
                         break
-                    aliases[".".join([*parts[:i], str(idx)])] = ".".join(parts[: i + 1])
-                node = node[idx] if -len(node) <= idx < len(node) else None
+                canonical.append(str(idx % len(node)))
+                if canonical[-1] != part:
+                    aliases[".".join(canonical)] = ".".join(parts[: i + 1])
+                node = node[idx]
             elif isinstance(node, dict):
+                canonical.append(part)
                 node = node.get(part)
             else:
                 break
     if not aliases:
         return problems
+    longest_first = sorted(aliases.items(), key=lambda a: -len(a[0]))
     out = []
     for p in problems:
         field = p.field
-        for index_form, name_form in aliases.items():
+        for index_form, name_form in longest_first:
             if field == index_form or field.startswith(index_form + "."):
                 field = name_form + field[len(index_form):]
                 break

@@ -53,6 +53,10 @@ def test_bench_file_with_a_bad_run_is_one_line(tmp_path):
     # an index from the end was blamed on the scene file under its index from the start
     ("objects.-1.radiu=1", "--set: objects.-1.radiu: unknown key (did you mean radius?)"),
     ("objects.-1.radius=-1", "--set: objects.-1.radius: must be > 0.0"),
+    # two in one path: the inner one was named by its index from the start (corners.3)
+    ('mirrors.-1.corners.-1="x"', "--set: mirrors.-1.corners.-1: must be an array"),
+    ('mirrors.floor.corners.-1="x"', "--set: mirrors.floor.corners.-1: must be an array"),
+    ('mirrors.-1.corners.-1.-1="x"', "--set: mirrors.-1.corners.-1.-1: must be a number"),
     # a check across fields was blamed on the file when the field it names was the file's
     ("camera.eye=[0.0, 0.5, 0.0]", "--set: camera.target: must differ from camera.eye"),
     ("camera.eye=[0.0, 5.0, 0.0]", "--set: camera.up: must not be parallel"),
