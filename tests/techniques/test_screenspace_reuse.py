@@ -14,6 +14,7 @@ import dataclasses
 import numpy as np
 import pytest
 from conftest import open_scene
+from reuse_util import poison
 from screenspace_util import primary_of
 
 from reflectcli.raster.rasterize import RasterWorkspace
@@ -102,16 +103,7 @@ def _poison_all(workspaces, n_objects: int) -> set[str]:
         for name, a in ws._arrays.items():
             if not isinstance(a, np.ndarray) or ":" in name:
                 continue
-            if a.dtype.kind == "f":
-                a.fill(np.nan)
-            elif a.dtype == np.bool_:
-                a.fill(True)
-            elif a.dtype == np.uint8:
-                a.fill(1)
-            elif a.dtype == np.uint64:
-                a.fill(0)
-            else:
-                a.fill(n_objects)
+            poison(a, n_objects)
             names.add(name)
     return names
 
